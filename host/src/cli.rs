@@ -1,0 +1,63 @@
+//! Argument parsing and dispatch for the `supine` command line.
+//!
+//! Each subcommand lives in its own module under `commands/`; this file only names them.
+//! Errors print as one line, `supine: <what>`, and exit non-zero.
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+use crate::commands;
+
+/// Predict the vibration reaching a supine patient's head from a litter-frame accelerometer.
+#[derive(Debug, Parser)]
+#[command(name = "supine", version, about, long_about = None)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands of `supine`.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Write the model's transmissibility H(f), all 27 components, as CSV.
+    Model(commands::model::Args),
+    /// Print the model's modes: frequency, damping ratio, subsystem, reachability.
+    Modes(commands::modes::Args),
+    /// Print a parameter file (TOML) for a preset or a fitted file.
+    Params(commands::params::Args),
+}
+
+/// Parses the process arguments, runs the command and maps errors to a one-line message.
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("supine: {}", one_line(&err));
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Runs one parsed command.
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Model(args) => commands::model::run(&args),
+        Command::Modes(args) => commands::modes::run(&args),
+        Command::Params(args) => commands::params::run(&args),
+    }
+}
+
+/// Joins an error and its causes into a single line.
+pub fn one_line(err: &anyhow::Error) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    for cause in err.chain() {
+        let text = cause.to_string();
+        if !parts.iter().any(|p| p.contains(&text)) {
+            parts.push(text);
+        }
+    }
+    parts.join(": ").replace('\n', " ")
+}

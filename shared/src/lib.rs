@@ -1,0 +1,14 @@
+//! supine-core: everything the host and the device both compute, once.
+//!
+//! The biodynamic model of a supine human on a litter (Wang & Rahmatalla 2013), its
+//! discretization for the device, ISO 2631-1 weighting and exposure, alerts, the wire
+//! protocol and the parameter blob. `no_std` and heap-free so the same code runs on the
+//! Cortex-M4F and on the workstation.
+//!
+//! Float functions that core lacks come from `libm` explicitly, never from an extension
+//! trait, so that host and device compute bit-identical numbers (see `README.md`).
+#![cfg_attr(not(any(test, feature = "std")), no_std)]
+#![forbid(unsafe_code)]
+
+pub mod model;
+pub mod test_vector;

@@ -1,0 +1,128 @@
+//! The biodynamic model of a supine human (Wang & Rahmatalla 2013), as
+//! `../shared/design/model.md` specifies it: 3 rigid segments, 18 DOFs, joints and contacts
+//! as spring-dampers, transmissibility, the relative-coordinate state space, modal analysis
+//! and the device's discretized realization.
+//!
+//! Analysis runs in f64 (host, build scripts); the device runs only [`DeviceRealization`].
+
+pub mod assembly;
+pub mod discrete;
+pub mod geometry;
+pub mod modal;
+pub mod params;
+pub mod response;
+pub mod state_space;
+
+use core::fmt;
+
+pub use assembly::SystemMatrices;
+pub use discrete::{
+    DEFAULT_SAMPLE_RATE_HZ, DeviceRealization, DiscreteModal, MAX_SAMPLE_RATE_HZ,
+    MIN_SAMPLE_RATE_HZ, ModalBlock, ModalState, RealizationError, Scalar,
+};
+pub use geometry::{Axis, Segment, Subject};
+pub use modal::{ModalAnalysis, ModalComponent, Subsystem};
+pub use params::{ModelParams, ParamError, ParamId, Preset};
+pub use response::{Output, Transmissibility};
+pub use state_space::StateSpace;
+
+/// Why the model could not be built or analysed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ModelError {
+    /// A parameter failed validation.
+    Params(ParamError),
+    /// A linear system had no unique solution (cannot happen for validated parameters).
+    Singular,
+    /// The eigen-decomposition of a subsystem failed its accuracy check (repeated modes).
+    DefectiveModes(Subsystem),
+    /// More reachable modes than the device realization holds.
+    TooManyModes,
+    /// The sample rate is outside 100..=2000 Hz.
+    SampleRate,
+    /// The rounded realization failed its own check.
+    Realization(RealizationError),
+}
+
+impl fmt::Display for ModelError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ModelError::Params(e) => e.fmt(f),
+            ModelError::Singular => f.write_str("the model's equations are singular"),
+            ModelError::DefectiveModes(s) => {
+                write!(
+                    f,
+                    "the {s} subsystem has repeated modes that cannot be separated"
+                )
+            }
+            ModelError::TooManyModes => f.write_str("more modes than the device realization holds"),
+            ModelError::SampleRate => {
+                write!(
+                    f,
+                    "sample rate must be {MIN_SAMPLE_RATE_HZ}..={MAX_SAMPLE_RATE_HZ} Hz"
+                )
+            }
+            ModelError::Realization(e) => write!(f, "device realization: {e}"),
+        }
+    }
+}
+
+impl core::error::Error for ModelError {}
+
+impl From<ParamError> for ModelError {
+    fn from(e: ParamError) -> Self {
+        ModelError::Params(e)
+    }
+}
+
+/// A validated model with everything derived from its parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Model {
+    /// The parameters it was built from.
+    pub params: ModelParams,
+    /// M, C, K, G, R.
+    pub matrices: SystemMatrices,
+    /// The relative-coordinate state space.
+    pub state_space: StateSpace,
+    /// Modes per subsystem.
+    pub modes: ModalAnalysis,
+}
+
+impl Model {
+    /// Validates the parameters and derives the matrices, state space and modes.
+    pub fn new(params: &ModelParams) -> Result<Self, ModelError> {
+        params.validate()?;
+        let matrices = SystemMatrices::assemble(params);
+        let state_space = StateSpace::new(&matrices);
+        let modes = ModalAnalysis::new(&state_space)?;
+        Ok(Self {
+            params: *params,
+            matrices,
+            state_space,
+            modes,
+        })
+    }
+
+    /// The realization of `outputs` at `sample_rate_hz` in f64 (the host's reference).
+    pub fn realization<const NY: usize>(
+        &self,
+        sample_rate_hz: f64,
+        outputs: &[Output; NY],
+    ) -> Result<DiscreteModal<f64, NY>, ModelError> {
+        DiscreteModal::from_modal(&self.modes, sample_rate_hz, outputs)
+    }
+
+    /// What the device runs: the head outputs in f32, checked for stability after rounding.
+    pub fn device_realization(&self, sample_rate_hz: f64) -> Result<DeviceRealization, ModelError> {
+        let device: DeviceRealization = self.realization(sample_rate_hz, &Output::HEAD)?.cast();
+        device.check().map_err(ModelError::Realization)?;
+        Ok(device)
+    }
+}
+
+/// The device realization for a parameter set at a sample rate (host and build time).
+pub fn device_realization(
+    params: &ModelParams,
+    sample_rate_hz: f64,
+) -> Result<DeviceRealization, ModelError> {
+    Model::new(params)?.device_realization(sample_rate_hz)
+}
