@@ -1,0 +1,357 @@
+//! Host tests of the weighting filters against independent references.
+
+use super::*;
+
+/// Minimal complex arithmetic for the reference formula, written apart from the module's.
+#[derive(Clone, Copy)]
+struct C(f64, f64);
+
+impl C {
+    fn mul(self, o: C) -> C {
+        C(self.0 * o.0 - self.1 * o.1, self.0 * o.1 + self.1 * o.0)
+    }
+    fn div(self, o: C) -> C {
+        let d = o.0 * o.0 + o.1 * o.1;
+        C((self.0 * o.0 + self.1 * o.1) / d, (self.1 * o.0 - self.0 * o.1) / d)
+    }
+    fn abs(self) -> f64 {
+        (self.0 * self.0 + self.1 * self.1).sqrt()
+    }
+}
+
+/// The ISO 8041 weighting straight from the parameter table in iso2631.md:
+/// (f1, f2, f3, f4, Q4, f5, Q5, f6, Q6, K), `inf` written as `f64::INFINITY`.
+fn reference_magnitude(kind: WeightingKind, f: f64) -> f64 {
+    let inf = f64::INFINITY;
+    let (f1, f2, f3, f4, q4, f5, q5, f6, q6, k) = match kind {
+        WeightingKind::Wk => (0.4, 100.0, 12.5, 12.5, 0.63, 2.37, 0.91, 3.35, 0.91, 1.0),
+        WeightingKind::Wd => (0.4, 100.0, 2.0, 2.0, 0.63, inf, 1.0, inf, 1.0, 1.0),
+        WeightingKind::Wj => (0.4, 100.0, inf, inf, 1.0, 3.75, 0.91, 5.32, 0.91, 1.0),
+    };
+    let tau = 2.0 * std::f64::consts::PI;
+    let q1 = 1.0 / 2f64.sqrt();
+    let s = C(0.0, tau * f);
+    let s2 = s.mul(s);
+    let (w1, w2, w3, w4, w5, w6) = (tau * f1, tau * f2, tau * f3, tau * f4, tau * f5, tau * f6);
+    let hh = s2.div(C(s2.0 + w1 * w1, s2.1 + s.1 * w1 / q1));
+    let hl = C(w2 * w2, 0.0).div(C(s2.0 + w2 * w2, s2.1 + s.1 * w2 / q1));
+    let ht = if f3.is_finite() {
+        C(k, k * s.1 / w3).div(C(1.0 + s2.0 / (w4 * w4), s.1 / (q4 * w4)))
+    } else {
+        C(k, 0.0)
+    };
+    let hs = if f5.is_finite() {
+        let n = C(s2.0 + w5 * w5, s.1 * w5 / q5);
+        let d = C(s2.0 + w6 * w6, s.1 * w6 / q6);
+        n.div(d)
+    } else {
+        C(1.0, 0.0)
+    };
+    hh.mul(hl).mul(ht).mul(hs).abs()
+}
+
+/// ISO 8041 tolerance (upper, lower) on a weighting's relative error at `f` Hz.
+fn iso8041_tolerance(f: f64) -> (f64, f64) {
+    if (0.631..=63.1).contains(&f) { (0.12, -0.11) } else { (0.26, -0.21) }
+}
+
+/// A log-spaced grid plus the exact one-third-octave centres, over `lo..=hi` Hz.
+fn grid(lo: f64, hi: f64) -> Vec<f64> {
+    let mut v: Vec<f64> = (0..=2000)
+        .map(|i| lo * (hi / lo).powf(i as f64 / 2000.0))
+        .collect();
+    v.extend((-10..=30).map(|n| 10f64.powf(n as f64 / 10.0)).filter(|f| (lo..=hi).contains(f)));
+    v
+}
+
+/// Largest relative deviation of the device's filter from the analog formula, and where.
+fn worst_deviation(kind: WeightingKind, fs: f32, lo: f64, hi: f64) -> (f64, f64) {
+    let w = WeightingSettings::new(kind, fs).unwrap();
+    let mut worst = (0.0f64, 0.0f64);
+    for f in grid(lo, hi) {
+        let e = w.response(f).abs() / reference_magnitude(kind, f) - 1.0;
+        if e.abs() > worst.0.abs() {
+            worst = (e, f);
+        }
+    }
+    worst
+}
+
+#[test]
+fn analog_response_agrees_with_the_table_formula_written_independently() {
+    for kind in WeightingKind::ALL {
+        for f in grid(0.1, 400.0) {
+            let a = analog_response(kind, f).abs();
+            let r = reference_magnitude(kind, f);
+            assert!((a / r - 1.0).abs() < 1e-12, "{kind} at {f} Hz: {a} vs {r}");
+        }
+    }
+}
+
+#[test]
+fn calibration_factors_at_100_rad_per_s_are_within_1_percent_of_the_standard() {
+    let f = 100.0 / (2.0 * std::f64::consts::PI);
+    for (kind, expected) in
+        [(WeightingKind::Wk, 0.7718), (WeightingKind::Wd, 0.1261), (WeightingKind::Wj, 1.019)]
+    {
+        let analog = analog_response(kind, f).abs();
+        assert!((analog / expected - 1.0).abs() < 1e-3, "{kind} analog {analog}");
+        for fs in [200.0, 500.0, 1000.0, 2000.0] {
+            let digital = WeightingSettings::new(kind, fs).unwrap().response(f).abs();
+            assert!((digital / expected - 1.0).abs() < 0.01, "{kind} at fs {fs}: {digital}");
+        }
+    }
+}
+
+#[test]
+fn analog_peaks_sit_where_the_standard_says() {
+    for (kind, f_peak, peak) in [
+        (WeightingKind::Wk, 6.17, 1.0545),
+        (WeightingKind::Wd, 1.09, 1.0126),
+        (WeightingKind::Wj, 10.15, 1.0302),
+    ] {
+        let (mut best_f, mut best) = (0.0, 0.0);
+        for f in grid(0.5, 50.0) {
+            let m = analog_response(kind, f).abs();
+            if m > best {
+                (best_f, best) = (f, m);
+            }
+        }
+        assert!((best / peak - 1.0).abs() < 1e-3, "{kind} peak {best}");
+        assert!((best_f / f_peak - 1.0).abs() < 0.02, "{kind} peak at {best_f} Hz");
+    }
+}
+
+/// ISO 2631-1 Table 3 factors (x 1000) at nominal one-third-octave frequencies, compared
+/// at the exact centres 10^(n/10). Wd at 10 Hz is printed 212 in widely copied
+/// transcriptions; the formula gives 202 (iso2631.md), so 202 is used here.
+#[test]
+fn tabulated_one_third_octave_factors_match_the_formula_within_rounding() {
+    let wk: [(i32, f64); 14] = [
+        (-3, 418.0),
+        (0, 482.0),
+        (3, 531.0),
+        (5, 804.0),
+        (6, 967.0),
+        (7, 1039.0),
+        (8, 1054.0),
+        (9, 1036.0),
+        (10, 988.0),
+        (12, 768.0),
+        (15, 405.0),
+        (17, 246.0),
+        (18, 186.0),
+        (19, 132.0),
+    ];
+    let wd: [(i32, f64); 11] = [
+        (-3, 853.0),
+        (0, 1011.0),
+        (1, 1008.0),
+        (3, 890.0),
+        (6, 512.0),
+        (9, 253.0),
+        (10, 202.0),
+        (12, 125.0),
+        (15, 63.2),
+        (18, 29.5),
+        (19, 21.1),
+    ];
+    for (kind, table) in [(WeightingKind::Wk, &wk[..]), (WeightingKind::Wd, &wd[..])] {
+        for &(n, milli) in table {
+            let f = 10f64.powf(n as f64 / 10.0);
+            let m = 1000.0 * analog_response(kind, f).abs();
+            assert!((m / milli - 1.0).abs() < 0.015, "{kind} at {f:.3} Hz: {m:.1} vs {milli}");
+        }
+    }
+    // The transcription error itself: 212 is 5 % off the formula.
+    let wd10 = 1000.0 * analog_response(WeightingKind::Wd, 10.0).abs();
+    assert!((wd10 / 212.0 - 1.0).abs() > 0.04);
+}
+
+#[test]
+fn deviation_from_analog_is_inside_iso8041_tolerance_from_0_5_to_80_hz_at_500_hz_and_1_khz() {
+    for fs in [500.0, 1000.0] {
+        for kind in WeightingKind::ALL {
+            let w = WeightingSettings::new(kind, fs).unwrap();
+            for f in grid(0.5, 80.0) {
+                let e = w.response(f).abs() / reference_magnitude(kind, f) - 1.0;
+                let (hi, lo) = iso8041_tolerance(f);
+                assert!(lo <= e && e <= hi, "{kind} fs {fs} at {f:.2} Hz: {e:+.4}");
+            }
+        }
+    }
+}
+
+#[test]
+fn deviation_at_500_hz_is_under_3_percent_and_at_1_khz_under_1_percent() {
+    for kind in WeightingKind::ALL {
+        let (e500, f500) = worst_deviation(kind, 500.0, 0.5, 80.0);
+        let (e1k, f1k) = worst_deviation(kind, 1000.0, 0.5, 80.0);
+        println!("{kind}: fs 500 worst {e500:+.4} at {f500:.1} Hz; fs 1000 worst {e1k:+.4} at {f1k:.1} Hz");
+        assert!(e500.abs() < 0.03 && e1k.abs() < 0.01);
+    }
+}
+
+/// At 200 Hz the whole 0.5-80 Hz band is within ISO 8041, with the largest error near
+/// 80 Hz (about -14 %) inside the wider +26/-21 % tolerance above 63.1 Hz; up to 40 Hz
+/// the error stays under 5 %.
+#[test]
+fn deviation_at_200_hz_meets_iso8041_over_0_5_to_80_hz_and_is_under_5_percent_to_40_hz() {
+    for kind in WeightingKind::ALL {
+        let w = WeightingSettings::new(kind, 200.0).unwrap();
+        for f in grid(0.5, 80.0) {
+            let e = w.response(f).abs() / reference_magnitude(kind, f) - 1.0;
+            let (hi, lo) = iso8041_tolerance(f);
+            assert!(lo <= e && e <= hi, "{kind} at {f:.2} Hz: {e:+.4}");
+            if f <= 40.0 {
+                assert!(e.abs() < 0.05, "{kind} at {f:.2} Hz: {e:+.4}");
+            }
+        }
+        let (e, f) = worst_deviation(kind, 200.0, 0.5, 80.0);
+        println!("{kind}: fs 200 worst {e:+.4} at {f:.1} Hz");
+    }
+}
+
+#[test]
+fn every_sample_rate_from_100_to_2000_hz_designs_a_stable_filter() {
+    for kind in WeightingKind::ALL {
+        for fs in (100..=2000).step_by(7).chain([2000]) {
+            let w = WeightingSettings::new(kind, fs as f32);
+            assert!(w.is_ok(), "{kind} at {fs} Hz: {w:?}");
+            assert!(w.unwrap().validate().is_ok());
+        }
+    }
+}
+
+#[test]
+fn below_200_hz_the_filter_follows_the_analog_magnitude_up_to_nyquist() {
+    for kind in WeightingKind::ALL {
+        for fs in [100.0f32, 150.0] {
+            let w = WeightingSettings::new(kind, fs).unwrap();
+            for f in grid(0.5, 0.999 * fs as f64 / 2.0) {
+                let e = w.response(f).abs() / reference_magnitude(kind, f) - 1.0;
+                let (hi, lo) = iso8041_tolerance(f);
+                // Meets the wide tolerance everywhere; the narrow one up to fs/4.
+                assert!((-0.21..=0.26).contains(&e), "{kind} fs {fs} at {f:.2}: {e:+.4}");
+                if f < fs as f64 / 4.0 {
+                    assert!(lo <= e && e <= hi, "{kind} fs {fs} at {f:.2}: {e:+.4}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn sample_rates_outside_100_to_2000_hz_or_not_finite_are_refused() {
+    for fs in [99.9, 2000.1, 0.0, -500.0, f32::NAN, f32::INFINITY] {
+        assert_eq!(
+            WeightingSettings::new(WeightingKind::Wk, fs),
+            Err(WeightingError::SampleRateOutOfRange)
+        );
+    }
+}
+
+#[test]
+fn stored_settings_with_an_unstable_or_non_finite_section_are_refused() {
+    let good = WeightingSettings::new(WeightingKind::Wd, 500.0).unwrap();
+    let mut bad = good;
+    bad.biquads[1].a = [-2.0, 1.0];
+    assert_eq!(bad.validate(), Err(WeightingError::Unstable));
+    let mut bad = good;
+    bad.biquads[0].b[2] = f32::NAN;
+    assert_eq!(bad.validate(), Err(WeightingError::NonFiniteCoefficient));
+    let mut bad = good;
+    bad.high_pass.k_plus_g = 0.0;
+    assert_eq!(bad.validate(), Err(WeightingError::Unstable));
+    let mut bad = good;
+    bad.n_biquads = 4;
+    assert_eq!(bad.validate(), Err(WeightingError::TooManySections));
+}
+
+/// Runs a sine of amplitude 1 m/s^2 through the f32 filter and returns the output rms
+/// over whole periods after the high-pass has settled.
+fn measured_sine_rms(w: &WeightingSettings, f: f64) -> f64 {
+    let fs = w.sample_rate_hz as f64;
+    let mut st = WeightingState::new();
+    let settle = (20.0 * fs) as usize;
+    let periods = (20.0 * f).ceil().max(10.0);
+    let n = (periods * fs / f).round() as usize;
+    let mut acc = 0.0f64;
+    for i in 0..settle + n {
+        let x = (2.0 * std::f64::consts::PI * f * i as f64 / fs).sin() as f32;
+        let y = w.step(&mut st, x) as f64;
+        if i >= settle {
+            acc += y * y;
+        }
+    }
+    (acc / n as f64).sqrt()
+}
+
+#[test]
+fn sines_through_the_f32_filter_give_rms_of_amplitude_times_factor_over_root_two() {
+    for kind in WeightingKind::ALL {
+        for fs in [200.0f32, 500.0, 2000.0] {
+            let w = WeightingSettings::new(kind, fs).unwrap();
+            for f in [0.5, 1.0, 4.0, 15.915, 63.1] {
+                if f >= fs as f64 / 2.0 {
+                    continue;
+                }
+                let rms = measured_sine_rms(&w, f);
+                // The device's own response: the f32 arithmetic must not add error.
+                let own = w.response(f).abs() / 2f64.sqrt();
+                assert!((rms / own - 1.0).abs() < 2e-3, "{kind} fs {fs} f {f}: {rms} vs {own}");
+                // And the analog factor, within ISO 8041.
+                let analog = reference_magnitude(kind, f) / 2f64.sqrt();
+                let (hi, lo) = iso8041_tolerance(f);
+                let e = rms / analog - 1.0;
+                assert!(lo <= e && e <= hi, "{kind} fs {fs} f {f}: {e:+.4}");
+            }
+        }
+    }
+}
+
+/// Why the high-pass is an SVF: the same 0.4 Hz high-pass as a direct-form biquad with
+/// f32 coefficients is visibly off at 2 kHz, while the SVF's stored values are not.
+#[test]
+fn a_direct_form_high_pass_with_f32_coefficients_would_be_off_at_2_khz_while_the_svf_is_not() {
+    let fs = 2000.0f64;
+    let w1 = 2.0 * std::f64::consts::PI * 0.4;
+    let c = w1 / (w1 / (2.0 * fs)).tan();
+    let q1 = 1.0 / 2f64.sqrt();
+    let a0 = c * c + c * w1 / q1 + w1 * w1;
+    let direct = Biquad {
+        b: [(c * c / a0) as f32, (-2.0 * c * c / a0) as f32, (c * c / a0) as f32],
+        a: [((2.0 * w1 * w1 - 2.0 * c * c) / a0) as f32, ((c * c - c * w1 / q1 + w1 * w1) / a0) as f32],
+    };
+    let svf = HighPassSvf::design(0.4, q1, fs);
+    let mut worst_direct = 0.0f64;
+    let mut worst_svf = 0.0f64;
+    for f in grid(0.25, 2.0) {
+        let z = Complex64::from_angle(2.0 * std::f64::consts::PI * f / fs);
+        let s = C(0.0, 2.0 * std::f64::consts::PI * f);
+        let s2 = s.mul(s);
+        let exact = s2.div(C(s2.0 + w1 * w1, s.1 * w1 / q1)).abs();
+        worst_direct = worst_direct.max((direct.response_at(z).abs() / exact - 1.0).abs());
+        worst_svf = worst_svf.max((svf.response_at(z).abs() / exact - 1.0).abs());
+    }
+    println!("0.4 Hz high-pass at 2 kHz, 0.25-2 Hz: direct form {worst_direct:.4}, SVF {worst_svf:.2e}");
+    assert!(worst_svf < 1e-4);
+    assert!(worst_direct > 10.0 * worst_svf);
+}
+
+#[test]
+fn settings_survive_a_postcard_round_trip_bit_for_bit() {
+    let w = WeightingSettings::new(WeightingKind::Wj, 500.0).unwrap();
+    let mut buf = [0u8; 128];
+    let bytes = postcard::to_slice(&w, &mut buf).unwrap();
+    let back: WeightingSettings = postcard::from_bytes(bytes).unwrap();
+    assert_eq!(back, w);
+}
+
+#[test]
+fn scaling_multiplies_the_response_by_k() {
+    let w = WeightingSettings::new(WeightingKind::Wk, 500.0).unwrap();
+    let k = 1.4f32;
+    let ratio = w.scaled(k).response(5.0).abs() / w.response(5.0).abs();
+    assert!((ratio - k as f64).abs() < 1e-6);
+}
