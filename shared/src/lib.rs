@@ -11,4 +11,7 @@
 #![forbid(unsafe_code)]
 
 pub mod model;
+pub mod weighting;
+pub mod exposure;
+pub mod alerts;
 pub mod test_vector;

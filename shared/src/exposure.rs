@@ -1,0 +1,494 @@
+//! Streaming ISO 2631-1 evaluation of the predicted head acceleration: per axis and as the
+//! vector sum, the running rms (exponential, tau = 1 s), its maximum (MTVV), the vibration
+//! dose value (VDV), the overall weighted rms, the peak and the crest factor, in constant
+//! memory and f32 on the per-sample path.
+//!
+//! # Quantities (all in the weighted domain, `a(t)` in m/s^2, `T` the evaluated time)
+//! - running mean square `ms[n] = ms[n-1] + (1 - alpha)(a^2[n] - ms[n-1])`,
+//!   `alpha = exp(-1/(fs tau))`; running rms `= sqrt(ms)`; MTVV `= max_n sqrt(ms[n])`.
+//! - overall rms `a_w = sqrt(sum a^2 / N)`; VDV `= (sum a^4 / fs)^(1/4)` in m/s^1.75, not
+//!   divided by time; peak `= max |a|`; crest factor `= peak / a_w`.
+//! - vector sum `a_v(t)^2 = sum_i (k_i a_i(t))^2`, and every vector quantity above is
+//!   taken on that time history. Its mean square, overall rms and running ms are the sums
+//!   of the axes' (the averages are linear). Its VDV is `(integral a_v^4 dt)^(1/4)`,
+//!   which is at least the root-sum-of-fourth-powers of the axis VDVs: the conservative
+//!   choice for a patient alert.
+//! - The basic (rms) method is not enough when the crest factor exceeds 9, when
+//!   `MTVV / a_w > 1.5` or when `VDV / (a_w T^(1/4)) > 1.75` ([`AdditionalMethods`]).
+//!
+//! # Validity
+//! The 0.4 Hz band-limiting high-pass rings for seconds after the filter starts from rest
+//! (time constant `1/(zeta w1)` = 0.56 s; 1 % after about 2.6 s), so the first
+//! `warmup_s` seconds (default 5 s) only prime the filters and the running rms: MTVV,
+//! VDV, overall rms, peak and crest factor count from the end of the warm-up, and every
+//! reported value says whether it is [`valid`](ExposureValues::valid) yet.
+//!
+//! # Cost
+//! Per sample: the three weighting filters, one multiply-add per running mean square,
+//! and f32 sums that fold into f64 totals every [`BLOCK_SAMPLES`] samples (so an
+//! 8-hour dose keeps full precision without f64 arithmetic per sample). No division, no
+//! transcendental function and no square root per sample: the alert stage compares the
+//! mean square and the fourth-power dose with squared thresholds. Square and fourth
+//! roots are taken only in [`ExposureSettings::values`], when values are reported.
+
+use core::fmt;
+
+use serde::{Deserialize, Serialize};
+
+use crate::weighting::{WeightingError, WeightingKind, WeightingSettings, WeightingState};
+
+/// Crest factor above which ISO 2631-1 says the basic rms method may underestimate.
+pub const CREST_FACTOR_LIMIT: f32 = 9.0;
+/// `MTVV / a_w` above which the running-rms method is to be used as well (ISO 2631-1 6.3.3).
+pub const MTVV_RATIO_LIMIT: f32 = 1.5;
+/// `VDV / (a_w T^(1/4))` above which the fourth-power method is to be used as well.
+pub const VDV_RATIO_LIMIT: f32 = 1.75;
+/// Samples summed in f32 before the partial sums fold into the f64 totals.
+pub const BLOCK_SAMPLES: u32 = 256;
+/// Longest accepted warm-up, s (a typo of 5000 s should not silence a monitor for an hour).
+pub const MAX_WARMUP_S: f32 = 120.0;
+
+/// The weighting and vector-sum factor `k` applied to one head axis.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct AxisWeighting {
+    /// Frequency weighting for this axis.
+    pub kind: WeightingKind,
+    /// Multiplying factor `k` in the vector sum (1 for recumbent persons), dimensionless.
+    pub k: f32,
+}
+
+/// Which weighting goes on which predicted head axis (litter/body axes of the head).
+///
+/// Axes: `x` longitudinal toward the head, `y` lateral, `z` vertical up. For a supine
+/// patient the vehicle's vertical is the body's x axis (back to chest), and ISO 2631-1
+/// weights a recumbent person's vertical under the head with Wj and both horizontal axes
+/// with Wd, all with `k = 1`. Applying Wj to the *predicted head* acceleration (rather
+/// than to a measurement on the support under the head) is this product's choice:
+/// [`AxisMapping::SUPINE_HEAD`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct AxisMapping {
+    /// Head x: longitudinal (along the litter, toward the head).
+    pub x: AxisWeighting,
+    /// Head y: lateral.
+    pub y: AxisWeighting,
+    /// Head z: vertical up (the supine body's back-to-chest axis).
+    pub z: AxisWeighting,
+}
+
+impl AxisMapping {
+    /// The default for a supine patient's head: Wd, Wd, Wj on x, y, z; `k = 1` everywhere.
+    pub const SUPINE_HEAD: AxisMapping = AxisMapping {
+        x: AxisWeighting { kind: WeightingKind::Wd, k: 1.0 },
+        y: AxisWeighting { kind: WeightingKind::Wd, k: 1.0 },
+        z: AxisWeighting { kind: WeightingKind::Wj, k: 1.0 },
+    };
+
+    /// The three axes in x, y, z order.
+    pub const fn axes(&self) -> [AxisWeighting; 3] {
+        [self.x, self.y, self.z]
+    }
+}
+
+impl Default for AxisMapping {
+    fn default() -> Self {
+        Self::SUPINE_HEAD
+    }
+}
+
+/// The evaluation's configuration as carried in the parameter blob (SI units).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ExposureConfig {
+    /// Weighting and `k` per head axis.
+    pub axes: AxisMapping,
+    /// Running-rms integration time constant, s (ISO 2631-1: 1 s).
+    pub running_tau_s: f32,
+    /// Time after start during which values are not yet valid, s (0..=120).
+    pub warmup_s: f32,
+}
+
+impl ExposureConfig {
+    /// Supine head mapping, tau = 1 s, 5 s warm-up.
+    pub const DEFAULT: ExposureConfig =
+        ExposureConfig { axes: AxisMapping::SUPINE_HEAD, running_tau_s: 1.0, warmup_s: 5.0 };
+}
+
+impl Default for ExposureConfig {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// Why an exposure configuration was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ExposureError {
+    /// A weighting could not be built (bad sample rate or coefficients).
+    Weighting(WeightingError),
+    /// A vector-sum factor `k` is not finite and positive.
+    AxisFactor,
+    /// The running-rms time constant is not finite and positive, or under two samples.
+    TimeConstant,
+    /// The warm-up is not finite or outside 0..=120 s.
+    Warmup,
+}
+
+impl fmt::Display for ExposureError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ExposureError::Weighting(e) => write!(f, "exposure: {e}"),
+            ExposureError::AxisFactor => {
+                f.write_str("exposure: axis factor k must be finite and positive")
+            }
+            ExposureError::TimeConstant => f.write_str(
+                "exposure: running-rms time constant must be finite and at least two samples",
+            ),
+            ExposureError::Warmup => f.write_str("exposure: warm-up must be within 0..=120 s"),
+        }
+    }
+}
+
+impl core::error::Error for ExposureError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            ExposureError::Weighting(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
+impl From<WeightingError> for ExposureError {
+    fn from(e: WeightingError) -> Self {
+        ExposureError::Weighting(e)
+    }
+}
+
+/// Everything the per-sample evaluation needs, precomputed for one sample rate.
+///
+/// Each axis filter carries its `k` in its gain, so the per-sample path never multiplies
+/// by `k`; per-axis reports divide it out again.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ExposureSettings {
+    /// The configuration these settings were built from.
+    pub config: ExposureConfig,
+    /// Sample rate, Hz.
+    pub sample_rate_hz: f32,
+    /// Weighting per axis (x, y, z), gain multiplied by that axis' `k`.
+    pub weighting: [WeightingSettings; 3],
+    /// `1 - alpha = 1 - exp(-1/(fs tau))`, the running mean square's update gain.
+    pub running_gain: f32,
+    /// Sample period `1/fs`, s.
+    pub sample_period_s: f32,
+    /// Warm-up length in samples.
+    pub warmup_samples: u32,
+}
+
+/// Per-sample output of the evaluation: what the alert stage compares with its thresholds.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ExposureSample {
+    /// Running mean square of the vector sum, (m/s^2)^2 (its square root is the running rms).
+    pub running_ms_m2_s4: f32,
+    /// Fourth-power dose of the vector sum so far, `integral a_v^4 dt` in m^4/s^7 (VDV^4).
+    pub vdv4_m4_s7: f32,
+    /// The warm-up is over and both numbers mean what they say.
+    pub valid: bool,
+}
+
+/// Running memory of the evaluation: constant size, no heap.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ExposureState {
+    weighting: [WeightingState; 3],
+    /// Running mean square per axis, of `k a_w`.
+    ms: [f32; 3],
+    /// Largest running mean square, per axis and for the vector sum.
+    max_ms: [f32; 4],
+    /// Largest squared sample, per axis and for the vector sum.
+    peak_sq: [f32; 4],
+    /// f32 partial sums of `a^2` per axis, since the last fold.
+    block_sq: [f32; 3],
+    /// f32 partial sums of `a^4` per axis and of `a_v^4`, since the last fold.
+    block_q: [f32; 4],
+    block_n: u32,
+    total_sq: [f64; 3],
+    total_q: [f64; 4],
+    /// `total_q[3]` as f32, for the per-sample dose given to the alerts.
+    total_q_v: f32,
+    /// Warm-up samples seen (stops at the warm-up length).
+    samples: u32,
+    /// Samples counted in the totals (after the warm-up).
+    evaluated: u32,
+    /// Sample index of the last sample.
+    last_index: u32,
+}
+
+impl ExposureState {
+    /// A fresh evaluation: filters at rest, all sums zero.
+    pub const fn new() -> Self {
+        Self {
+            weighting: [WeightingState::new(); 3],
+            ms: [0.0; 3],
+            max_ms: [0.0; 4],
+            peak_sq: [0.0; 4],
+            block_sq: [0.0; 3],
+            block_q: [0.0; 4],
+            block_n: 0,
+            total_sq: [0.0; 3],
+            total_q: [0.0; 4],
+            total_q_v: 0.0,
+            samples: 0,
+            evaluated: 0,
+            last_index: 0,
+        }
+    }
+}
+
+/// Which ISO 2631-1 criteria call for methods beyond the basic rms.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct AdditionalMethods {
+    /// Crest factor above 9.
+    pub crest_factor: bool,
+    /// `MTVV / a_w` above 1.5.
+    pub mtvv_ratio: bool,
+    /// `VDV / (a_w T^(1/4))` above 1.75.
+    pub vdv_ratio: bool,
+}
+
+impl AdditionalMethods {
+    /// Any of the three criteria is met.
+    pub const fn any(&self) -> bool {
+        self.crest_factor || self.mtvv_ratio || self.vdv_ratio
+    }
+}
+
+/// The evaluation of one axis (or of the vector sum), weighted, SI units.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct AxisValues {
+    /// Current running rms (tau = `running_tau_s`), m/s^2.
+    pub running_rms_m_s2: f32,
+    /// Maximum transient vibration value: the largest running rms so far, m/s^2.
+    pub mtvv_m_s2: f32,
+    /// Vibration dose value `(integral a^4 dt)^(1/4)`, m/s^1.75.
+    pub vdv_m_s175: f32,
+    /// Overall weighted rms since the warm-up ended, m/s^2.
+    pub rms_m_s2: f32,
+    /// Largest |weighted acceleration| since the warm-up ended, m/s^2.
+    pub peak_m_s2: f32,
+    /// `peak / rms` (0 while the rms is 0).
+    pub crest_factor: f32,
+    /// `MTVV / rms` (0 while the rms is 0).
+    pub mtvv_ratio: f32,
+    /// `VDV / (rms T^(1/4))` (0 while the rms or T is 0).
+    pub vdv_ratio: f32,
+    /// Which criteria call for the additional methods.
+    pub additional: AdditionalMethods,
+}
+
+/// A report of the whole evaluation.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ExposureValues {
+    /// Head x, y, z.
+    pub axes: [AxisValues; 3],
+    /// The vector sum `a_v`.
+    pub vector: AxisValues,
+    /// Evaluated time `T` (after the warm-up), s.
+    pub duration_s: f32,
+    /// Sample index of the last sample evaluated.
+    pub at_sample: u32,
+    /// The warm-up is over: every value above means what it says.
+    pub valid: bool,
+}
+
+impl ExposureSettings {
+    /// Builds the evaluation for `sample_rate_hz` (100..=2000 Hz); validates `config`.
+    pub fn new(config: ExposureConfig, sample_rate_hz: f32) -> Result<Self, ExposureError> {
+        let axes = config.axes.axes();
+        if !axes.iter().all(|a| a.k.is_finite() && a.k > 0.0) {
+            return Err(ExposureError::AxisFactor);
+        }
+        let mut weighting = [WeightingSettings::new(axes[0].kind, sample_rate_hz)?; 3];
+        for (w, a) in weighting.iter_mut().zip(axes.iter()) {
+            *w = WeightingSettings::new(a.kind, sample_rate_hz)?.scaled(a.k);
+        }
+        let fs = sample_rate_hz as f64;
+        let tau = config.running_tau_s as f64;
+        if !(tau.is_finite() && tau * fs >= 2.0) {
+            return Err(ExposureError::TimeConstant);
+        }
+        if !(config.warmup_s.is_finite() && (0.0..=MAX_WARMUP_S).contains(&config.warmup_s)) {
+            return Err(ExposureError::Warmup);
+        }
+        let running_gain = -libm::expm1(-1.0 / (fs * tau)) as f32;
+        let warmup_samples = libm::round(config.warmup_s as f64 * fs) as u32;
+        let sample_period_s = (1.0 / fs) as f32;
+        Ok(Self { config, sample_rate_hz, weighting, running_gain, sample_period_s, warmup_samples })
+    }
+
+    /// Checks stored settings (from a parameter blob) before use.
+    pub fn validate(&self) -> Result<(), ExposureError> {
+        let rebuilt = Self::new(self.config, self.sample_rate_hz)?;
+        for w in &self.weighting {
+            w.validate()?;
+        }
+        if !(self.running_gain > 0.0 && self.running_gain < 1.0) {
+            return Err(ExposureError::TimeConstant);
+        }
+        if self.warmup_samples != rebuilt.warmup_samples
+            || self.sample_period_s != rebuilt.sample_period_s
+        {
+            return Err(ExposureError::Warmup);
+        }
+        Ok(())
+    }
+
+    /// One sample of predicted head acceleration (m/s^2, head x, y, z, at `sample_rate_hz`).
+    ///
+    /// Never fails: a non-finite input propagates into the values (the sensor check in
+    /// [`crate::alerts`] reports it); call [`ExposureState::new`] to restart afterwards.
+    #[inline]
+    pub fn step(
+        &self,
+        state: &mut ExposureState,
+        head_acc_m_s2: [f32; 3],
+        sample_index: u32,
+    ) -> ExposureSample {
+        let mut a2 = [0.0f32; 3];
+        for i in 0..3 {
+            let a = self.weighting[i].step(&mut state.weighting[i], head_acc_m_s2[i]);
+            a2[i] = a * a;
+            state.ms[i] += self.running_gain * (a2[i] - state.ms[i]);
+        }
+        let ms_v = state.ms[0] + state.ms[1] + state.ms[2];
+        state.last_index = sample_index;
+        if state.samples < self.warmup_samples {
+            state.samples += 1;
+            return ExposureSample { running_ms_m2_s4: ms_v, vdv4_m4_s7: 0.0, valid: false };
+        }
+        let av2 = a2[0] + a2[1] + a2[2];
+        for i in 0..3 {
+            state.block_sq[i] += a2[i];
+            state.block_q[i] += a2[i] * a2[i];
+            if state.ms[i] > state.max_ms[i] {
+                state.max_ms[i] = state.ms[i];
+            }
+            if a2[i] > state.peak_sq[i] {
+                state.peak_sq[i] = a2[i];
+            }
+        }
+        state.block_q[3] += av2 * av2;
+        if ms_v > state.max_ms[3] {
+            state.max_ms[3] = ms_v;
+        }
+        if av2 > state.peak_sq[3] {
+            state.peak_sq[3] = av2;
+        }
+        state.evaluated = state.evaluated.saturating_add(1);
+        state.block_n += 1;
+        if state.block_n >= BLOCK_SAMPLES {
+            fold(state);
+        }
+        ExposureSample {
+            running_ms_m2_s4: ms_v,
+            vdv4_m4_s7: (state.total_q_v + state.block_q[3]) * self.sample_period_s,
+            valid: true,
+        }
+    }
+
+    /// The current values, per axis and for the vector sum (square and fourth roots here).
+    pub fn values(&self, state: &ExposureState) -> ExposureValues {
+        let dt = 1.0 / self.sample_rate_hz as f64;
+        let n = state.evaluated as f64;
+        let duration = n * dt;
+        let sq = |i: usize| state.total_sq[i] + state.block_sq[i] as f64;
+        let q = |i: usize| state.total_q[i] + state.block_q[i] as f64;
+        let axes = self.config.axes.axes();
+        let mut out = ExposureValues {
+            duration_s: duration as f32,
+            at_sample: state.last_index,
+            valid: state.samples >= self.warmup_samples && state.evaluated > 0,
+            ..ExposureValues::default()
+        };
+        for i in 0..3 {
+            let k = axes[i].k as f64;
+            out.axes[i] = axis_values(
+                state.ms[i] as f64 / (k * k),
+                state.max_ms[i] as f64 / (k * k),
+                sq(i) / (k * k),
+                q(i) / (k * k * k * k),
+                state.peak_sq[i] as f64 / (k * k),
+                n,
+                dt,
+            );
+        }
+        let ms_v = state.ms.iter().map(|&m| m as f64).sum::<f64>();
+        out.vector = axis_values(
+            ms_v,
+            state.max_ms[3] as f64,
+            sq(0) + sq(1) + sq(2),
+            q(3),
+            state.peak_sq[3] as f64,
+            n,
+            dt,
+        );
+        out
+    }
+}
+
+/// Moves the f32 block sums into the f64 totals (every [`BLOCK_SAMPLES`] samples).
+#[inline(never)]
+fn fold(state: &mut ExposureState) {
+    for i in 0..3 {
+        state.total_sq[i] += state.block_sq[i] as f64;
+        state.block_sq[i] = 0.0;
+    }
+    for i in 0..4 {
+        state.total_q[i] += state.block_q[i] as f64;
+        state.block_q[i] = 0.0;
+    }
+    state.total_q_v = state.total_q[3] as f32;
+    state.block_n = 0;
+}
+
+/// Derived values from the sums: `ms` running mean square, `sum_sq = sum a^2`,
+/// `sum_q = sum a^4`, `n` samples of `dt` seconds.
+fn axis_values(
+    ms: f64,
+    max_ms: f64,
+    sum_sq: f64,
+    sum_q: f64,
+    peak_sq: f64,
+    n: f64,
+    dt: f64,
+) -> AxisValues {
+    let rms = if n > 0.0 { libm::sqrt(sum_sq / n) } else { 0.0 };
+    let vdv = libm::sqrt(libm::sqrt(sum_q * dt));
+    let mtvv = libm::sqrt(max_ms);
+    let peak = libm::sqrt(peak_sq);
+    let t = n * dt;
+    let ratio = |num: f64, den: f64| if den > 0.0 { num / den } else { 0.0 };
+    let crest = ratio(peak, rms);
+    let mtvv_ratio = ratio(mtvv, rms);
+    let vdv_ratio = ratio(vdv, rms * libm::sqrt(libm::sqrt(t)));
+    AxisValues {
+        running_rms_m_s2: libm::sqrt(ms) as f32,
+        mtvv_m_s2: mtvv as f32,
+        vdv_m_s175: vdv as f32,
+        rms_m_s2: rms as f32,
+        peak_m_s2: peak as f32,
+        crest_factor: crest as f32,
+        mtvv_ratio: mtvv_ratio as f32,
+        vdv_ratio: vdv_ratio as f32,
+        additional: AdditionalMethods {
+            crest_factor: crest > CREST_FACTOR_LIMIT as f64,
+            mtvv_ratio: mtvv_ratio > MTVV_RATIO_LIMIT as f64,
+            vdv_ratio: vdv_ratio > VDV_RATIO_LIMIT as f64,
+        },
+    }
+}
+
+#[cfg(test)]
+mod tests;
