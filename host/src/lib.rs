@@ -5,4 +5,6 @@
 
 pub mod cli;
 pub mod commands;
+pub mod h_csv;
+pub mod output;
 pub mod params_file;

@@ -1,0 +1,75 @@
+//! The transmissibility CSV: `freq_hz,output,input,magnitude,phase_rad[,coherence]`, one row
+//! per frequency, output and input, frequency-major. Shared by `supine model` and
+//! `supine transmissibility` so that measured and modelled files line up.
+
+use std::path::Path;
+
+use anyhow::Result;
+use nalgebra::Complex;
+use supine_core::model::{Axis, Output};
+
+use crate::output::write_atomically;
+
+/// One component of H at one frequency.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HRow {
+    /// Frequency, Hz.
+    pub freq_hz: f64,
+    /// The sensor channel.
+    pub output: Output,
+    /// The support axis.
+    pub input: Axis,
+    /// H (dimensionless: m/s^2 per m/s^2).
+    pub value: Complex<f64>,
+    /// Multiple coherence of the output, for a single subject's estimate.
+    pub coherence: Option<f64>,
+}
+
+/// The header without the coherence column.
+pub const HEADER: &str = "freq_hz,output,input,magnitude,phase_rad";
+
+/// Writes the rows; adds the `coherence` column when every row has one.
+pub fn write(path: &Path, rows: &[HRow]) -> Result<()> {
+    let with_coherence = !rows.is_empty() && rows.iter().all(|r| r.coherence.is_some());
+    write_atomically(path, |w| {
+        let mut csv = csv::Writer::from_writer(w);
+        let mut header: Vec<&str> = HEADER.split(',').collect();
+        if with_coherence {
+            header.push("coherence");
+        }
+        csv.write_record(&header)?;
+        for row in rows {
+            let mut record = vec![
+                format!("{}", row.freq_hz),
+                row.output.name().to_string(),
+                row.input.name().to_string(),
+                format!("{}", row.value.norm()),
+                format!("{}", row.value.arg()),
+            ];
+            if with_coherence {
+                record.push(format!("{}", row.coherence.unwrap_or(f64::NAN)));
+            }
+            csv.write_record(&record)?;
+        }
+        csv.flush()?;
+        Ok(())
+    })
+}
+
+/// `count` frequencies from `fmin_hz` in steps of `df_hz` up to `fmax_hz` (inclusive within
+/// a millionth of a step).
+pub fn frequency_grid(fmin_hz: f64, fmax_hz: f64, df_hz: f64) -> Result<Vec<f64>> {
+    let valid = fmin_hz.is_finite() && fmax_hz.is_finite() && df_hz.is_finite();
+    if !valid || fmin_hz < 0.0 || fmax_hz < fmin_hz || df_hz <= 0.0 {
+        anyhow::bail!(
+            "frequency grid: expected 0 <= --fmin <= --fmax and --df > 0, got fmin {fmin_hz}, fmax {fmax_hz}, df {df_hz}"
+        );
+    }
+    let steps = ((fmax_hz - fmin_hz) / df_hz + 1e-6).floor();
+    if steps > 1e6 {
+        anyhow::bail!("frequency grid: more than a million frequencies; raise --df");
+    }
+    Ok((0..=steps as usize)
+        .map(|i| fmin_hz + i as f64 * df_hz)
+        .collect())
+}

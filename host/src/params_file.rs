@@ -1,0 +1,194 @@
+//! The parameter file: the TOML form of [`ModelParams`] plus an optional `[fit]` table of
+//! provenance, read by every command that takes `--params` and written by `supine fit`.
+//!
+//! Errors name the file, the line and column, and the field, in one line.
+
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, anyhow};
+use clap::{Args, ValueEnum};
+use serde::{Deserialize, Serialize};
+use supine_core::model::params::{Contacts, Joints, SensorOffsets};
+use supine_core::model::{ModelParams, ParamError, Preset, Subject};
+
+use crate::output::write_atomically;
+
+/// A parameter set and where it came from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParamFile {
+    /// The model's parameters.
+    pub params: ModelParams,
+    /// Free-form provenance written by `supine fit` (case, dataset, cost, ...).
+    pub fit: Option<toml::Table>,
+}
+
+/// The on-disk layout: ModelParams' tables at top level, then `[fit]`.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileRepr {
+    subject: Subject,
+    joints: Joints,
+    contacts: Contacts,
+    #[serde(default = "paper_sensors")]
+    sensors: SensorOffsets,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    fit: Option<toml::Table>,
+}
+
+fn paper_sensors() -> SensorOffsets {
+    SensorOffsets::PAPER
+}
+
+const HEADER: &str = "\
+# supine parameter file: the supine-human model of Wang & Rahmatalla (2013).
+# Units are in the key names: stiffness_n_per_m (N/m), damping_n_s_per_m (N s/m),
+# stiffness_nm_per_rad (N m/rad), damping_nm_s_per_rad (N m s/rad), offsets in m.
+# Axes: x longitudinal (toward the head), y lateral, z vertical (up).
+# joints.head_torso is J1 (head-neck to torso-arms), joints.torso_pelvis is J2.
+# contacts.* couple each segment's centre to the support (board, litter or platform).
+# sensors.*_m place the forehead, sternum and pelvis sensors relative to segment centres.
+";
+
+impl ParamFile {
+    /// A preset with no provenance.
+    pub fn preset(preset: Preset) -> Self {
+        Self {
+            params: ModelParams::preset(preset),
+            fit: None,
+        }
+    }
+
+    /// Renders the file's text.
+    pub fn to_toml(&self) -> Result<String> {
+        let repr = FileRepr {
+            subject: self.params.subject,
+            joints: self.params.joints,
+            contacts: self.params.contacts,
+            sensors: self.params.sensors,
+            fit: self.fit.clone(),
+        };
+        let body = toml::to_string_pretty(&repr).context("rendering the parameter file")?;
+        Ok(format!("{HEADER}\n{body}"))
+    }
+
+    /// Parses and validates a file's text; `path` only names it in errors.
+    pub fn from_toml(text: &str, path: &Path) -> Result<Self> {
+        let repr: FileRepr = toml::from_str(text).map_err(|e| {
+            let (line, column) = e.span().map_or((1, 1), |s| line_column(text, s.start));
+            anyhow!(
+                "{}: line {line}, column {column}: {}",
+                path.display(),
+                e.message().trim()
+            )
+        })?;
+        let params = ModelParams {
+            subject: repr.subject,
+            joints: repr.joints,
+            contacts: repr.contacts,
+            sensors: repr.sensors,
+        };
+        params
+            .validate()
+            .map_err(|e| validation_error(text, path, &e))?;
+        Ok(Self {
+            params,
+            fit: repr.fit,
+        })
+    }
+}
+
+/// Reads and validates a parameter file.
+pub fn load(path: &Path) -> Result<ParamFile> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| anyhow!("{}: cannot read the parameter file: {e}", path.display()))?;
+    ParamFile::from_toml(&text, path)
+}
+
+/// Writes a parameter file, complete or not at all.
+pub fn save(path: &Path, file: &ParamFile) -> Result<()> {
+    let text = file.to_toml()?;
+    write_atomically(path, |w| Ok(w.write_all(text.as_bytes())?))
+}
+
+fn line_column(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+    (line, column)
+}
+
+/// Names the line of the offending key: the table header, then the key under it.
+fn validation_error(text: &str, path: &Path, err: &ParamError) -> anyhow::Error {
+    let field = err.field.to_string();
+    let parts: Vec<&str> = field.split('.').collect();
+    let mut line_no = None;
+    // e.g. joints.head_torso.translational.stiffness_n_per_m.x: header is all but 2 parts.
+    for header_len in (1..parts.len()).rev() {
+        let header = format!("[{}]", parts[..header_len].join("."));
+        if let Some(start) = text.lines().position(|l| l.trim() == header) {
+            let key = parts[header_len];
+            line_no = text
+                .lines()
+                .enumerate()
+                .skip(start + 1)
+                .take_while(|(_, l)| !l.trim_start().starts_with('['))
+                .find(|(_, l)| l.trim_start().starts_with(key))
+                .map(|(i, _)| i + 1)
+                .or(Some(start + 1));
+            break;
+        }
+    }
+    let mut msg = format!("{}: ", path.display());
+    if let Some(line) = line_no {
+        let _ = write!(msg, "line {line}: ");
+    }
+    let _ = write!(msg, "{err}");
+    anyhow!(msg)
+}
+
+/// The model presets, as the command line spells them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PresetArg {
+    /// Subjects directly on the rigid platform (paper Tables 3-4, rigid case).
+    PaperRigid,
+    /// Subjects on a spinal board on a litter (paper Tables 3-4, litter-board case).
+    PaperLitter,
+}
+
+impl From<PresetArg> for Preset {
+    fn from(p: PresetArg) -> Self {
+        match p {
+            PresetArg::PaperRigid => Preset::PaperRigid,
+            PresetArg::PaperLitter => Preset::PaperLitter,
+        }
+    }
+}
+
+/// `--preset NAME | --params FILE`: where a command's model parameters come from.
+#[derive(Clone, Debug, Args)]
+pub struct ModelSource {
+    /// One of the paper's parameter sets.
+    #[arg(
+        long,
+        value_enum,
+        conflicts_with = "params",
+        required_unless_present = "params"
+    )]
+    pub preset: Option<PresetArg>,
+    /// A parameter file (TOML), as `supine params` prints and `supine fit` writes.
+    #[arg(long, value_name = "FILE")]
+    pub params: Option<PathBuf>,
+}
+
+impl ModelSource {
+    /// Loads the parameters the user named.
+    pub fn load(&self) -> Result<ParamFile> {
+        match (&self.params, self.preset) {
+            (Some(path), _) => load(path),
+            (None, Some(preset)) => Ok(ParamFile::preset(preset.into())),
+            (None, None) => Err(anyhow!("give --preset NAME or --params FILE")),
+        }
+    }
+}
