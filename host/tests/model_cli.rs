@@ -1,0 +1,173 @@
+//! `supine model`, `supine modes` and `supine params`, run in-process.
+
+use clap::Parser;
+use supine_core::model::{ModelParams, Preset, SystemMatrices};
+use supine_host::cli::{Cli, one_line, run};
+use supine_host::params_file::{self, ParamFile};
+
+fn supine(args: &[&str]) -> anyhow::Result<()> {
+    let mut argv = vec!["supine"];
+    argv.extend_from_slice(args);
+    run(Cli::try_parse_from(argv)?)
+}
+
+#[test]
+fn model_writes_all_27_components_with_the_exact_header() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("H.csv");
+    supine(&[
+        "model",
+        "--preset",
+        "paper-rigid",
+        "--out",
+        out.to_str().unwrap(),
+    ])
+    .unwrap();
+    let text = std::fs::read_to_string(&out).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next(),
+        Some("freq_hz,output,input,magnitude,phase_rad")
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    // 0.5..=16 Hz in 0.05 Hz steps: 311 frequencies.
+    assert_eq!(rows.len(), 311 * 27);
+    let matrices = SystemMatrices::assemble(&ModelParams::preset(Preset::PaperRigid));
+    let h = matrices.transmissibility(5.0).unwrap();
+    let row = rows
+        .iter()
+        .find(|r| r[0].parse::<f64>().unwrap() == 5.0 && r[1] == "head_z" && r[2] == "z")
+        .unwrap();
+    assert!((row[3].parse::<f64>().unwrap() - h[(2, 2)].norm()).abs() < 1e-12);
+    assert!((row[4].parse::<f64>().unwrap() - h[(2, 2)].arg()).abs() < 1e-12);
+    let outputs: std::collections::BTreeSet<&str> = rows.iter().map(|r| r[1]).collect();
+    assert_eq!(outputs.len(), 9);
+}
+
+#[test]
+fn model_applies_height_and_mass_overrides() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a.csv"), dir.path().join("b.csv"));
+    let common = [
+        "--preset",
+        "paper-litter",
+        "--fmin",
+        "5",
+        "--fmax",
+        "5",
+        "--df",
+        "1",
+    ];
+    let mut args_a = vec!["model"];
+    args_a.extend_from_slice(&common);
+    args_a.extend_from_slice(&["--out", a.to_str().unwrap()]);
+    supine(&args_a).unwrap();
+    let mut args_b = args_a.clone();
+    let last = args_b.len() - 1;
+    args_b[last] = b.to_str().unwrap();
+    args_b.extend_from_slice(&["--mass-kg", "60"]);
+    supine(&args_b).unwrap();
+    assert_ne!(
+        std::fs::read_to_string(a).unwrap(),
+        std::fs::read_to_string(b).unwrap()
+    );
+}
+
+#[test]
+fn model_refuses_a_bad_frequency_grid_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("H.csv");
+    let err = supine(&[
+        "model",
+        "--preset",
+        "paper-rigid",
+        "--fmin",
+        "5",
+        "--fmax",
+        "1",
+        "--out",
+        out.to_str().unwrap(),
+    ])
+    .unwrap_err();
+    assert!(one_line(&err).contains("--fmin"), "{err}");
+    assert!(!out.exists());
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        0,
+        "no partial file left"
+    );
+}
+
+#[test]
+fn a_printed_parameter_file_reads_back_to_the_same_parameters() {
+    for preset in Preset::ALL {
+        let file = ParamFile::preset(preset);
+        let text = file.to_toml().unwrap();
+        let back = ParamFile::from_toml(&text, std::path::Path::new("p.toml")).unwrap();
+        assert_eq!(back, file);
+    }
+}
+
+#[test]
+fn a_bad_parameter_file_names_the_file_line_and_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("p.toml");
+    let text = ParamFile::preset(Preset::PaperLitter).to_toml().unwrap();
+    // Make the litter torso contact's vertical damping negative.
+    let lines: Vec<String> = text.lines().map(str::to_owned).collect();
+    let header = lines
+        .iter()
+        .position(|l| l == "[contacts.torso.damping_n_s_per_m]")
+        .unwrap();
+    let z = header
+        + lines[header..]
+            .iter()
+            .position(|l| l.starts_with("z ="))
+            .unwrap();
+    let mut edited = lines.clone();
+    edited[z] = "z = -5.0".into();
+    std::fs::write(&path, edited.join("\n")).unwrap();
+    let msg = one_line(&params_file::load(&path).unwrap_err());
+    assert_eq!(
+        msg,
+        format!(
+            "{}: line {}: contacts.torso.damping_n_s_per_m.z: must be greater than zero",
+            path.display(),
+            z + 1
+        )
+    );
+
+    std::fs::write(&path, text.replace("mass_kg = 81.0", "mass_kg = \"heavy\"")).unwrap();
+    let msg = one_line(&params_file::load(&path).unwrap_err());
+    assert!(
+        msg.starts_with(&format!("{}: line 11, column", path.display())),
+        "{msg}"
+    );
+    assert!(!msg.contains('\n'));
+
+    std::fs::write(
+        &path,
+        text.replace("[subject]", "[subject]\nage_years = 23"),
+    )
+    .unwrap();
+    let msg = one_line(&params_file::load(&path).unwrap_err());
+    assert!(msg.contains("age_years"), "{msg}");
+
+    let missing = dir.path().join("nope.toml");
+    let msg = one_line(&params_file::load(&missing).unwrap_err());
+    assert!(
+        msg.starts_with(&format!("{}: cannot read", missing.display())),
+        "{msg}"
+    );
+}
+
+#[test]
+fn modes_and_params_accept_a_parameter_file_wherever_a_preset_is_accepted() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("litter.toml");
+    params_file::save(&path, &ParamFile::preset(Preset::PaperLitter)).unwrap();
+    supine(&["modes", "--params", path.to_str().unwrap()]).unwrap();
+    supine(&["params", "--params", path.to_str().unwrap()]).unwrap();
+    assert!(supine(&["modes", "--preset", "paper-litter", "--params", "x.toml"]).is_err());
+    assert!(supine(&["modes"]).is_err());
+}
