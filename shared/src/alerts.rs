@@ -1,1 +1,558 @@
-//! placeholder
+//! Alerts: exposure levels (advisory, warning, alarm) from the running rms and the VDV of
+//! the head's vector sum, with hysteresis and dwell; and sensor faults (non-finite
+//! sample, saturation, stuck sensor, gap in sample indices). Both report time-stamped
+//! raise and clear events ([`AlertEvent`]), stamped with the sample index.
+//!
+//! # Default thresholds, and what they rest on
+//! ISO 2631-1 gives **no** health or comfort method for recumbent persons. The defaults
+//! below borrow the seated scales and apply them to the predicted head acceleration of a
+//! supine patient: they are extrapolations, a starting point to be set per mission in the
+//! parameter blob, not limits established for patients.
+//! - Running rms (1 s, vector sum), from the comfort scale of ISO 2631-1 Annex C, each at
+//!   the lower edge of a band: advisory 0.5 m/s^2 ("fairly uncomfortable"), warning
+//!   0.8 m/s^2 ("uncomfortable"), alarm 1.25 m/s^2 ("very uncomfortable").
+//! - VDV (vector sum, since start), from the health guidance caution zone of ISO 2631-1
+//!   Annex B: advisory 8.5 m/s^1.75 (entering the zone), warning 17 m/s^1.75 (leaving it:
+//!   health risks likely); alarm 21 m/s^1.75, the daily exposure limit value of Directive
+//!   2002/44/EC for the crew, as a ceiling no patient should exceed either.
+//! - A running-rms level clears when the running rms falls below `(1 - hysteresis)` of
+//!   its threshold (default 20 %); it is raised after the condition held `raise_dwell_s`
+//!   (0.5 s) and lowered after `clear_dwell_s` (5 s). The VDV never decreases, so a
+//!   VDV level lasts until the evaluation restarts.
+//!
+//! # Cost
+//! Per sample, the level check is a few f32 comparisons with precomputed squared (rms)
+//! and fourth-power (VDV) thresholds; no square roots.
+
+use core::fmt;
+
+use serde::{Deserialize, Serialize};
+
+use crate::exposure::ExposureSample;
+use crate::weighting::{MAX_SAMPLE_RATE_HZ, MIN_SAMPLE_RATE_HZ};
+
+/// Standard gravity, m/s^2 (for full scales quoted in g).
+pub const STANDARD_GRAVITY_M_S2: f32 = 9.806_65;
+/// Longest accepted dwell or stuck time, s.
+pub const MAX_DWELL_S: f32 = 600.0;
+
+/// Exposure alert level, ordered from `Normal` to `Alarm`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Level {
+    /// Below every threshold.
+    #[default]
+    Normal = 0,
+    /// First threshold crossed.
+    Advisory = 1,
+    /// Second threshold crossed.
+    Warning = 2,
+    /// Third threshold crossed.
+    Alarm = 3,
+}
+
+impl Level {
+    /// The levels above `Normal`, in rising order (index `i` uses thresholds `[i]`).
+    pub const RAISED: [Level; 3] = [Level::Advisory, Level::Warning, Level::Alarm];
+
+    const fn from_index(i: usize) -> Level {
+        match i {
+            0 => Level::Normal,
+            1 => Level::Advisory,
+            2 => Level::Warning,
+            _ => Level::Alarm,
+        }
+    }
+
+    /// Lower-case name (`normal`, `advisory`, `warning`, `alarm`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Level::Normal => "normal",
+            Level::Advisory => "advisory",
+            Level::Warning => "warning",
+            Level::Alarm => "alarm",
+        }
+    }
+}
+
+impl fmt::Display for Level {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A fault of the accelerometer stream.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SensorFault {
+    /// A sample is NaN or infinite.
+    NonFinite,
+    /// A sample's magnitude reached the configured full scale.
+    Saturated,
+    /// An axis repeated exactly the same value for `stuck_after_s`.
+    Stuck,
+    /// A sample index did not follow the previous one (lost, repeated or reordered samples).
+    IndexGap,
+}
+
+impl SensorFault {
+    /// All faults, in bit order.
+    pub const ALL: [SensorFault; 4] =
+        [SensorFault::NonFinite, SensorFault::Saturated, SensorFault::Stuck, SensorFault::IndexGap];
+
+    const fn bit(self) -> u8 {
+        1 << (self as u8)
+    }
+
+    /// Lower-case name (`non-finite`, `saturated`, `stuck`, `index-gap`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            SensorFault::NonFinite => "non-finite",
+            SensorFault::Saturated => "saturated",
+            SensorFault::Stuck => "stuck",
+            SensorFault::IndexGap => "index-gap",
+        }
+    }
+}
+
+impl fmt::Display for SensorFault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A time-stamped alert edge.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum AlertEvent {
+    /// The exposure level changed (raised when `to > from`, cleared otherwise).
+    Level {
+        /// Level before.
+        from: Level,
+        /// Level after.
+        to: Level,
+        /// Sample index at which the change took effect (after the dwell).
+        at_sample: u32,
+    },
+    /// A sensor fault started (`active`) or ended.
+    Fault {
+        /// Which fault.
+        fault: SensorFault,
+        /// `true` when raised, `false` when cleared.
+        active: bool,
+        /// Sample index at which the fault was detected (raise) or cleared.
+        at_sample: u32,
+    },
+}
+
+impl AlertEvent {
+    /// The sample index the event is stamped with.
+    pub const fn at_sample(&self) -> u32 {
+        match *self {
+            AlertEvent::Level { at_sample, .. } | AlertEvent::Fault { at_sample, .. } => at_sample,
+        }
+    }
+
+    /// The event raises (rather than clears) an alert.
+    pub fn is_raise(&self) -> bool {
+        match *self {
+            AlertEvent::Level { from, to, .. } => to > from,
+            AlertEvent::Fault { active, .. } => active,
+        }
+    }
+
+    /// Time of the event in seconds from sample 0, at `sample_rate_hz`.
+    pub fn at_s(&self, sample_rate_hz: f32) -> f64 {
+        self.at_sample() as f64 / sample_rate_hz as f64
+    }
+}
+
+/// Why an alert or sensor-check configuration was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum AlertError {
+    /// A threshold is not finite and positive, or the three are not strictly increasing.
+    Thresholds,
+    /// The hysteresis fraction is not within 0..=0.9.
+    Hysteresis,
+    /// A dwell, stuck or clear time is not finite or outside 0..=600 s.
+    Time,
+    /// The full scale is not finite and positive.
+    FullScale,
+    /// The sample rate is not finite or outside 100..=2000 Hz.
+    SampleRate,
+}
+
+impl fmt::Display for AlertError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            AlertError::Thresholds => {
+                "alert thresholds must be finite, positive and strictly increasing"
+            }
+            AlertError::Hysteresis => "alert hysteresis must be within 0..=0.9",
+            AlertError::Time => "alert dwell and sensor times must be within 0..=600 s",
+            AlertError::FullScale => "sensor full scale must be finite and positive",
+            AlertError::SampleRate => "alert sample rate must be within 100..=2000 Hz",
+        })
+    }
+}
+
+impl core::error::Error for AlertError {}
+
+/// Exposure alert configuration as carried in the parameter blob (SI units).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct AlertConfig {
+    /// Running-rms thresholds of the vector sum for advisory, warning, alarm, m/s^2.
+    pub running_rms_m_s2: [f32; 3],
+    /// VDV thresholds of the vector sum for advisory, warning, alarm, m/s^1.75.
+    pub vdv_m_s175: [f32; 3],
+    /// A running-rms level clears below `(1 - hysteresis)` times its threshold (0..=0.9).
+    pub hysteresis: f32,
+    /// How long a higher level must be called for before it is raised, s.
+    pub raise_dwell_s: f32,
+    /// How long a lower level must be called for before the level drops, s.
+    pub clear_dwell_s: f32,
+}
+
+impl AlertConfig {
+    /// Extrapolated defaults for a recumbent patient (see the module documentation).
+    pub const DEFAULT: AlertConfig = AlertConfig {
+        running_rms_m_s2: [0.5, 0.8, 1.25],
+        vdv_m_s175: [8.5, 17.0, 21.0],
+        hysteresis: 0.2,
+        raise_dwell_s: 0.5,
+        clear_dwell_s: 5.0,
+    };
+}
+
+impl Default for AlertConfig {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+fn check_rate(sample_rate_hz: f32) -> Result<f64, AlertError> {
+    if sample_rate_hz.is_finite()
+        && (MIN_SAMPLE_RATE_HZ..=MAX_SAMPLE_RATE_HZ).contains(&sample_rate_hz)
+    {
+        Ok(sample_rate_hz as f64)
+    } else {
+        Err(AlertError::SampleRate)
+    }
+}
+
+fn samples_of(t_s: f32, fs: f64) -> Result<u32, AlertError> {
+    if t_s.is_finite() && (0.0..=MAX_DWELL_S).contains(&t_s) {
+        Ok((libm::round(t_s as f64 * fs) as u32).max(1))
+    } else {
+        Err(AlertError::Time)
+    }
+}
+
+fn increasing_positive(t: &[f32; 3]) -> bool {
+    t.iter().all(|x| x.is_finite() && *x > 0.0) && t[0] < t[1] && t[1] < t[2]
+}
+
+/// The exposure-level state machine's precomputed thresholds, for one sample rate.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AlertSettings {
+    /// The configuration these settings were built from.
+    pub config: AlertConfig,
+    /// Sample rate, Hz.
+    pub sample_rate_hz: f32,
+    /// Squared running-rms raise thresholds, (m/s^2)^2.
+    pub raise_ms_m2_s4: [f32; 3],
+    /// Squared running-rms clear thresholds `((1 - h) threshold)^2`, (m/s^2)^2.
+    pub clear_ms_m2_s4: [f32; 3],
+    /// Fourth powers of the VDV thresholds, m^4/s^7.
+    pub vdv4_m4_s7: [f32; 3],
+    /// Raise dwell, samples (at least 1).
+    pub raise_dwell_samples: u32,
+    /// Clear dwell, samples (at least 1).
+    pub clear_dwell_samples: u32,
+}
+
+/// Running state of the exposure-level state machine.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct AlertState {
+    level: Level,
+    /// Direction of the pending change: +1 up, -1 down, 0 none.
+    pending_dir: i8,
+    /// Consecutive samples the pending change has been called for.
+    pending_samples: u32,
+}
+
+impl AlertState {
+    /// Level `Normal`, nothing pending.
+    pub const fn new() -> Self {
+        Self { level: Level::Normal, pending_dir: 0, pending_samples: 0 }
+    }
+
+    /// The current level.
+    pub const fn level(&self) -> Level {
+        self.level
+    }
+}
+
+impl AlertSettings {
+    /// Validates `config` and precomputes thresholds for `sample_rate_hz`.
+    pub fn new(config: AlertConfig, sample_rate_hz: f32) -> Result<Self, AlertError> {
+        let fs = check_rate(sample_rate_hz)?;
+        if !(increasing_positive(&config.running_rms_m_s2) && increasing_positive(&config.vdv_m_s175))
+        {
+            return Err(AlertError::Thresholds);
+        }
+        if !(config.hysteresis.is_finite() && (0.0..=0.9).contains(&config.hysteresis)) {
+            return Err(AlertError::Hysteresis);
+        }
+        let raise_dwell_samples = samples_of(config.raise_dwell_s, fs)?;
+        let clear_dwell_samples = samples_of(config.clear_dwell_s, fs)?;
+        let h = 1.0 - config.hysteresis as f64;
+        let rms = config.running_rms_m_s2.map(|t| t as f64);
+        Ok(Self {
+            config,
+            sample_rate_hz,
+            raise_ms_m2_s4: rms.map(|t| (t * t) as f32),
+            clear_ms_m2_s4: rms.map(|t| (h * h * t * t) as f32),
+            vdv4_m4_s7: config.vdv_m_s175.map(|t| {
+                let t = t as f64;
+                (t * t * t * t) as f32
+            }),
+            raise_dwell_samples,
+            clear_dwell_samples,
+        })
+    }
+
+    /// Checks stored settings (from a parameter blob) by rebuilding them from their config.
+    pub fn validate(&self) -> Result<(), AlertError> {
+        if Self::new(self.config, self.sample_rate_hz)? == *self {
+            Ok(())
+        } else {
+            Err(AlertError::Thresholds)
+        }
+    }
+
+    /// Highest level whose threshold `ms` or `vdv4` reaches (rms thresholds from `ms_table`).
+    #[inline(always)]
+    fn level_for(&self, ms_table: &[f32; 3], ms: f32, vdv4: f32) -> Level {
+        let mut i = 3;
+        while i > 0 {
+            if ms >= ms_table[i - 1] || vdv4 >= self.vdv4_m4_s7[i - 1] {
+                break;
+            }
+            i -= 1;
+        }
+        Level::from_index(i)
+    }
+
+    /// One sample of the exposure stage's output; returns the level change, if any.
+    ///
+    /// While the exposure is not valid (warm-up) the level holds and nothing is pending.
+    #[inline]
+    pub fn step(
+        &self,
+        state: &mut AlertState,
+        exposure: &ExposureSample,
+        sample_index: u32,
+    ) -> Option<AlertEvent> {
+        if !exposure.valid {
+            state.pending_dir = 0;
+            state.pending_samples = 0;
+            return None;
+        }
+        let (ms, vdv4) = (exposure.running_ms_m2_s4, exposure.vdv4_m4_s7);
+        let up = self.level_for(&self.raise_ms_m2_s4, ms, vdv4);
+        let target = if up > state.level {
+            up
+        } else {
+            let hold = self.level_for(&self.clear_ms_m2_s4, ms, vdv4);
+            if hold < state.level { hold } else { state.level }
+        };
+        if target == state.level {
+            state.pending_dir = 0;
+            state.pending_samples = 0;
+            return None;
+        }
+        let dir: i8 = if target > state.level { 1 } else { -1 };
+        if dir != state.pending_dir {
+            state.pending_dir = dir;
+            state.pending_samples = 0;
+        }
+        state.pending_samples += 1;
+        let need = if dir > 0 { self.raise_dwell_samples } else { self.clear_dwell_samples };
+        if state.pending_samples < need {
+            return None;
+        }
+        let from = state.level;
+        state.level = target;
+        state.pending_dir = 0;
+        state.pending_samples = 0;
+        Some(AlertEvent::Level { from, to: target, at_sample: sample_index })
+    }
+}
+
+/// Sensor-fault check configuration (SI units), for the litter accelerometer's samples.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SensorCheckConfig {
+    /// |sample| at or above this is saturation, m/s^2 (set a little below the range).
+    pub full_scale_m_s2: f32,
+    /// An axis repeating exactly the same value this long is stuck, s.
+    pub stuck_after_s: f32,
+    /// A fault clears after this long without it, s.
+    pub clear_after_s: f32,
+}
+
+impl SensorCheckConfig {
+    /// Full scale 16 g, stuck after 1 s of identical values, clear after 1 s fault-free.
+    pub const DEFAULT: SensorCheckConfig = SensorCheckConfig {
+        full_scale_m_s2: 16.0 * STANDARD_GRAVITY_M_S2,
+        stuck_after_s: 1.0,
+        clear_after_s: 1.0,
+    };
+}
+
+impl Default for SensorCheckConfig {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// The sensor-fault check's precomputed limits, for one sample rate.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SensorCheckSettings {
+    /// The configuration these settings were built from.
+    pub config: SensorCheckConfig,
+    /// Sample rate, Hz.
+    pub sample_rate_hz: f32,
+    /// Identical samples (per axis) after which the axis is stuck.
+    pub stuck_after_samples: u32,
+    /// Fault-free samples after which a fault clears.
+    pub clear_after_samples: u32,
+}
+
+/// Running state of the sensor-fault check.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SensorCheckState {
+    /// Active faults, one bit per [`SensorFault`].
+    active: u8,
+    /// Fault-free samples since each fault was last seen.
+    good_run: [u32; 4],
+    last_bits: [u32; 3],
+    unchanged: [u32; 3],
+    last_index: u32,
+    started: bool,
+}
+
+impl SensorCheckState {
+    /// No fault active, no sample seen.
+    pub const fn new() -> Self {
+        Self {
+            active: 0,
+            good_run: [0; 4],
+            last_bits: [0; 3],
+            unchanged: [0; 3],
+            last_index: 0,
+            started: false,
+        }
+    }
+
+    /// Whether `fault` is active.
+    pub const fn is_active(&self, fault: SensorFault) -> bool {
+        self.active & fault.bit() != 0
+    }
+
+    /// Whether any fault is active.
+    pub const fn any_active(&self) -> bool {
+        self.active != 0
+    }
+}
+
+/// Up to one raise or clear per fault kind, from one sample.
+pub type SensorEvents = heapless::Vec<AlertEvent, 4>;
+
+impl SensorCheckSettings {
+    /// Validates `config` and converts its times to samples at `sample_rate_hz`.
+    pub fn new(config: SensorCheckConfig, sample_rate_hz: f32) -> Result<Self, AlertError> {
+        let fs = check_rate(sample_rate_hz)?;
+        if !(config.full_scale_m_s2.is_finite() && config.full_scale_m_s2 > 0.0) {
+            return Err(AlertError::FullScale);
+        }
+        Ok(Self {
+            config,
+            sample_rate_hz,
+            stuck_after_samples: samples_of(config.stuck_after_s, fs)?,
+            clear_after_samples: samples_of(config.clear_after_s, fs)?,
+        })
+    }
+
+    /// Checks stored settings (from a parameter blob) by rebuilding them from their config.
+    pub fn validate(&self) -> Result<(), AlertError> {
+        if Self::new(self.config, self.sample_rate_hz)? == *self {
+            Ok(())
+        } else {
+            Err(AlertError::Time)
+        }
+    }
+
+    /// One raw sample (m/s^2, three axes) with its index; returns the fault edges it causes.
+    #[inline]
+    pub fn step(
+        &self,
+        state: &mut SensorCheckState,
+        sample_m_s2: [f32; 3],
+        sample_index: u32,
+    ) -> SensorEvents {
+        let mut bad = 0u8;
+        for (i, &x) in sample_m_s2.iter().enumerate() {
+            // One comparison catches NaN, infinities and saturation.
+            if !(x.abs() < self.config.full_scale_m_s2) {
+                bad |= if x.is_finite() {
+                    SensorFault::Saturated.bit()
+                } else {
+                    SensorFault::NonFinite.bit()
+                };
+            }
+            let bits = x.to_bits();
+            if bits == state.last_bits[i] && state.started {
+                state.unchanged[i] = state.unchanged[i].saturating_add(1);
+                if state.unchanged[i] >= self.stuck_after_samples {
+                    bad |= SensorFault::Stuck.bit();
+                }
+            } else {
+                state.unchanged[i] = 0;
+                state.last_bits[i] = bits;
+            }
+        }
+        if state.started && sample_index != state.last_index.wrapping_add(1) {
+            bad |= SensorFault::IndexGap.bit();
+        }
+        state.last_index = sample_index;
+        state.started = true;
+        let mut events = SensorEvents::new();
+        if bad == 0 && state.active == 0 {
+            return events;
+        }
+        for fault in SensorFault::ALL {
+            let (b, k) = (fault.bit(), fault as usize);
+            if bad & b != 0 {
+                state.good_run[k] = 0;
+                if state.active & b == 0 {
+                    state.active |= b;
+                    let _ = events.push(AlertEvent::Fault { fault, active: true, at_sample: sample_index });
+                }
+            } else if state.active & b != 0 {
+                state.good_run[k] += 1;
+                if state.good_run[k] >= self.clear_after_samples {
+                    state.active &= !b;
+                    let _ = events.push(AlertEvent::Fault { fault, active: false, at_sample: sample_index });
+                }
+            }
+        }
+        events
+    }
+}
+
+#[cfg(test)]
+mod tests;
