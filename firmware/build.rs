@@ -1,0 +1,71 @@
+//! Build script of the device image.
+//!
+//! 1. Links with the repository's one `memory.x` (copied to `OUT_DIR`, which is put on the
+//!    linker search path) and cortex-m-rt's `link.x`. The link arguments live here, not in a
+//!    `.cargo/config.toml`, so they apply however cargo is invoked (`cargo fw` from the root).
+//! 2. Bakes the default model realization into the image: the paper's litter-board preset,
+//!    discretized on the build machine in f64 by `supine-core` (the same code the host runs)
+//!    and stored as postcard bytes that the firmware decodes and validates at boot.
+
+use std::env;
+use std::fs;
+use std::path::PathBuf;
+
+use supine_core::model::{ModelParams, Preset, device_realization};
+
+/// Sample rate of the built-in realization, Hz. The accelerometer is read at this rate.
+const SAMPLE_RATE_HZ: f64 = 500.0;
+
+/// Upper bound of the encoded realization; it must also fit the 64 KiB parameter region.
+const MAX_ENCODED_BYTES: usize = 64 * 1024;
+
+fn main() {
+    let out_dir = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
+    let manifest_dir =
+        PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
+
+    link_with_root_memory_map(&manifest_dir, &out_dir);
+    write_builtin_realization(&out_dir);
+
+    println!("cargo:rerun-if-changed=build.rs");
+}
+
+/// Copies `<root>/memory.x` next to the build outputs and adds the link arguments.
+fn link_with_root_memory_map(manifest_dir: &std::path::Path, out_dir: &std::path::Path) {
+    let memory_x = manifest_dir.join("..").join("memory.x");
+    fs::copy(&memory_x, out_dir.join("memory.x"))
+        .unwrap_or_else(|err| panic!("cannot copy {}: {err}", memory_x.display()));
+    println!("cargo:rerun-if-changed={}", memory_x.display());
+    println!("cargo:rustc-link-search={}", out_dir.display());
+
+    // Only the bare-metal target links with cortex-m-rt's script.
+    if env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none") {
+        println!("cargo:rustc-link-arg=--nmagic");
+        println!("cargo:rustc-link-arg=-Tlink.x");
+    }
+}
+
+/// Computes the default realization and writes `realization.postcard` and
+/// `realization.rs` (its sample rate as a constant) to `OUT_DIR`.
+fn write_builtin_realization(out_dir: &std::path::Path) {
+    let params = ModelParams::preset(Preset::PaperLitter);
+    let realization = device_realization(&params, SAMPLE_RATE_HZ)
+        .unwrap_or_else(|err| panic!("the paper-litter preset does not discretize: {err}"));
+
+    let mut buf = vec![0u8; MAX_ENCODED_BYTES];
+    let used = postcard::to_slice(&realization, &mut buf)
+        .unwrap_or_else(|err| {
+            panic!("the realization does not encode in {MAX_ENCODED_BYTES} bytes: {err}")
+        })
+        .len();
+    fs::write(out_dir.join("realization.postcard"), &buf[..used])
+        .expect("cannot write realization.postcard to OUT_DIR");
+    fs::write(
+        out_dir.join("realization.rs"),
+        format!(
+            "/// Sample rate the built-in realization was discretized for, Hz.\n\
+             pub const SAMPLE_RATE_HZ: f64 = {SAMPLE_RATE_HZ:?};\n"
+        ),
+    )
+    .expect("cannot write realization.rs to OUT_DIR");
+}

@@ -1,0 +1,174 @@
+//! The self-test image: runs the model core on the built-in test vector under QEMU.
+//!
+//! It decodes the built-in realization, runs [`SAMPLES`] samples of
+//! `TestVector::new(SEED)` through it and prints every output's f32 bits, then measures
+//! the instructions per model step and the stack high-water mark. The host test
+//! (`tests/tests/selftest.rs`) recomputes the same samples and compares bit for bit.
+//!
+//! Output (semihosting stdout), one item per line:
+//! ```text
+//! selftest: supine-firmware <version>
+//! realization_bytes: <n>
+//! realization_crc32: <8 hex digits>
+//! sample_rate_hz: <f64>
+//! seed: <u32>
+//! samples: <n>
+//! y <index> <x bits> <y bits> <z bits>      (f32 bits, 8 hex digits each)
+//! multiply_adds_per_sample: <n>
+//! timed_steps: <n>
+//! step_ticks: <n>
+//! baseline_ticks: <n>
+//! instructions_per_step: <n>
+//! stack_high_water_bytes: <n>
+//! stack_size_bytes: <n>
+//! selftest: ok
+//! ```
+//! Exit status 0 when every output is finite and every line was written; otherwise a
+//! line `selftest: failed: <why>` on stderr and status 1 (101 on a panic).
+#![no_std]
+#![no_main]
+
+use core::fmt::{self, Write};
+use core::hint::black_box;
+
+use cortex_m_rt::entry;
+use cortex_m_semihosting::hio;
+use supine_core::model::{DeviceRealization, ModalState};
+use supine_core::test_vector::TestVector;
+use supine_firmware::board::Board;
+use supine_firmware::console::Console;
+use supine_firmware::cycles::{INSTRUCTIONS_PER_TICK, InstructionCounter};
+use supine_firmware::{VERSION, exit, params, stack};
+
+/// Seed of the test vector; the host test reads it from the output.
+const SEED: u32 = 1;
+/// Samples run and printed (4 s at 500 Hz).
+const SAMPLES: usize = 2_000;
+/// Inputs held in memory for the timing loop, so it times the model and not the generator.
+const TIMING_INPUTS: usize = 64;
+/// Passes over the timing inputs: 64 x 64 = 4,096 timed steps.
+const TIMING_ROUNDS: usize = 64;
+
+/// What made the self-test fail.
+#[derive(Debug, Clone, Copy)]
+enum Failure {
+    Peripherals,
+    Console,
+    Params(params::ParamsError),
+    NotFinite { index: usize },
+    Output,
+}
+
+impl fmt::Display for Failure {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Peripherals => f.write_str("the peripherals were already taken"),
+            Self::Console => f.write_str("semihosting stdout is not available"),
+            Self::Params(err) => write!(f, "built-in realization: {err}"),
+            Self::NotFinite { index } => write!(f, "output {index} is not finite"),
+            Self::Output => f.write_str("writing to semihosting stdout failed"),
+        }
+    }
+}
+
+impl From<fmt::Error> for Failure {
+    fn from(_: fmt::Error) -> Self {
+        Self::Output
+    }
+}
+
+#[entry]
+fn main() -> ! {
+    match run() {
+        Ok(()) => exit::exit(exit::SUCCESS),
+        Err(failure) => {
+            if let Ok(mut stderr) = hio::hstderr() {
+                let _ = writeln!(stderr, "selftest: failed: {failure}");
+            }
+            exit::exit(exit::FAILURE)
+        }
+    }
+}
+
+fn run() -> Result<(), Failure> {
+    let board = Board::take().ok_or(Failure::Peripherals)?;
+    let counter = InstructionCounter::new(board.syst);
+    let mut out = Console::stdout().map_err(|_| Failure::Console)?;
+
+    writeln!(out, "selftest: supine-firmware {VERSION}")?;
+    let bytes = params::builtin_bytes();
+    writeln!(out, "realization_bytes: {}", bytes.len())?;
+    writeln!(out, "realization_crc32: {:08x}", params::identity(bytes))?;
+    writeln!(out, "sample_rate_hz: {:?}", params::SAMPLE_RATE_HZ)?;
+    let realization = params::decode(bytes).map_err(Failure::Params)?;
+
+    run_test_vector(&realization, &mut out)?;
+
+    writeln!(
+        out,
+        "multiply_adds_per_sample: {}",
+        realization.multiply_adds_per_sample()
+    )?;
+    let (step_ticks, baseline_ticks) = time_steps(&realization, &counter);
+    let timed = TIMING_INPUTS * TIMING_ROUNDS;
+    writeln!(out, "timed_steps: {timed}")?;
+    writeln!(out, "step_ticks: {step_ticks}")?;
+    writeln!(out, "baseline_ticks: {baseline_ticks}")?;
+    let net_instructions =
+        u64::from(step_ticks.saturating_sub(baseline_ticks)) * u64::from(INSTRUCTIONS_PER_TICK);
+    // Rounded to the nearest whole instruction.
+    let per_step = (net_instructions + timed as u64 / 2) / timed as u64;
+    writeln!(out, "instructions_per_step: {per_step}")?;
+
+    writeln!(out, "stack_high_water_bytes: {}", stack::high_water_bytes())?;
+    writeln!(out, "stack_size_bytes: {}", stack::size_bytes())?;
+    writeln!(out, "selftest: ok")?;
+    Ok(())
+}
+
+/// Runs the test vector through the realization and prints every output's bits.
+fn run_test_vector(realization: &DeviceRealization, out: &mut Console) -> Result<(), Failure> {
+    writeln!(out, "seed: {SEED}")?;
+    writeln!(out, "samples: {SAMPLES}")?;
+    let mut state = ModalState::<f32>::default();
+    for (index, input) in TestVector::new(SEED).take(SAMPLES).enumerate() {
+        let y = realization.step(&mut state, input);
+        writeln!(
+            out,
+            "y {index} {:08x} {:08x} {:08x}",
+            y[0].to_bits(),
+            y[1].to_bits(),
+            y[2].to_bits()
+        )?;
+        if !y.iter().all(|v| v.is_finite()) {
+            return Err(Failure::NotFinite { index });
+        }
+    }
+    Ok(())
+}
+
+/// SysTick ticks for `TIMING_ROUNDS` passes over `TIMING_INPUTS` inputs, with the model
+/// step and with the step replaced by a pass-through (the loop's own cost).
+fn time_steps(realization: &DeviceRealization, counter: &InstructionCounter) -> (u32, u32) {
+    let mut inputs = [[0.0_f32; 3]; TIMING_INPUTS];
+    for (slot, input) in inputs.iter_mut().zip(TestVector::new(SEED.wrapping_add(1))) {
+        *slot = input;
+    }
+    let mut state = ModalState::<f32>::default();
+    let (step_ticks, ()) = counter.ticks(|| {
+        for _ in 0..TIMING_ROUNDS {
+            for input in &inputs {
+                let y = black_box(realization).step(black_box(&mut state), black_box(*input));
+                black_box(y);
+            }
+        }
+    });
+    let (baseline_ticks, ()) = counter.ticks(|| {
+        for _ in 0..TIMING_ROUNDS {
+            for input in &inputs {
+                black_box(black_box(*input));
+            }
+        }
+    });
+    (step_ticks, baseline_ticks)
+}

@@ -1,0 +1,56 @@
+//! Counting instructions with SysTick.
+//!
+//! Under QEMU with `-icount shift=0,align=off,sleep=off` every guest instruction takes
+//! 1 ns of virtual time and the mps2 SysTick (25 MHz core clock) advances exactly one tick
+//! per [`INSTRUCTIONS_PER_TICK`] instructions, identically from run to run. These are
+//! instruction counts, not Cortex-M cycles. Without `-icount` the counts follow the host's
+//! wall clock and mean nothing.
+
+use cortex_m::peripheral::SYST;
+use cortex_m::peripheral::syst::SystClkSource;
+
+/// Instructions per SysTick tick under `-icount shift=0` (1 ns each, 40 ns per tick).
+pub const INSTRUCTIONS_PER_TICK: u32 = 40;
+
+/// SysTick is a 24-bit down-counter.
+const RELOAD: u32 = 0x00FF_FFFF;
+
+/// A free-running SysTick. One measured span must stay under 2^24 ticks (about 671
+/// million instructions), or it wraps.
+pub struct InstructionCounter {
+    _syst: SYST,
+}
+
+impl InstructionCounter {
+    /// Starts SysTick free-running from the core clock, without interrupts.
+    pub fn new(mut syst: SYST) -> Self {
+        syst.disable_interrupt();
+        syst.set_clock_source(SystClkSource::Core);
+        syst.set_reload(RELOAD);
+        syst.clear_current();
+        syst.enable_counter();
+        Self { _syst: syst }
+    }
+
+    /// The counter now, to pass to [`Self::ticks_since`].
+    pub fn now(&self) -> u32 {
+        SYST::get_current()
+    }
+
+    /// Ticks elapsed since `start` (a value of [`Self::now`]).
+    pub fn ticks_since(&self, start: u32) -> u32 {
+        start.wrapping_sub(SYST::get_current()) & RELOAD
+    }
+
+    /// Ticks that `f` takes.
+    pub fn ticks<R>(&self, f: impl FnOnce() -> R) -> (u32, R) {
+        let start = self.now();
+        let result = f();
+        (self.ticks_since(start), result)
+    }
+}
+
+/// Instructions in `ticks` ticks.
+pub fn instructions(ticks: u32) -> u64 {
+    u64::from(ticks) * u64::from(INSTRUCTIONS_PER_TICK)
+}

@@ -1,0 +1,24 @@
+//! supine-firmware: the device side of supine on QEMU's mps2-an386 (Cortex-M4F).
+//!
+//! The library holds what every image shares; the images themselves are thin:
+//! `src/main.rs` is the product, `src/bin/selftest.rs` runs the model core on the
+//! built-in test vector for the QEMU tests, and `src/bin/panics.rs` proves that a panic
+//! ends a run with a failing status.
+//!
+//! Each module has one job: [`board`] names the board's types, [`cmsdk_uart`] drives its
+//! UART, [`console`] writes lines to the debugger's stdout (semihosting), [`exit`] ends a
+//! run with a status, [`cycles`] counts instructions, [`stack`] measures the stack's
+//! high-water mark and [`params`] loads the model parameters.
+#![no_std]
+
+pub mod board;
+pub mod cmsdk_uart;
+pub mod console;
+pub mod cycles;
+pub mod exit;
+mod fault;
+pub mod params;
+pub mod stack;
+
+/// The firmware's version, reported in its greeting and in the self-test output.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");
