@@ -10,8 +10,11 @@
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![forbid(unsafe_code)]
 
-pub mod model;
-pub mod weighting;
-pub mod exposure;
 pub mod alerts;
+pub mod blob;
+pub mod exposure;
+pub mod model;
+pub mod mounting;
+pub mod protocol;
 pub mod test_vector;
+pub mod weighting;

@@ -1,0 +1,297 @@
+//! The parameter blob: everything the device needs to run, as it sits in flash or travels
+//! in an upload, and its validation.
+//!
+//! Layout (little-endian): magic `SUPB` (4 bytes), format version (u16), reserved (u16,
+//! zero), payload length (u32), CRC-32/ISO-HDLC of the payload (u32), then the payload:
+//! [`DeviceParams`] in postcard. A blob is validated once, when it loads or arrives;
+//! after that the hot path cannot fail.
+//!
+//! Versioning: any change to the header or to the payload's encoding bumps
+//! [`BLOB_FORMAT_VERSION`]; the device refuses versions it does not know and falls back
+//! to its built-in parameters, so an old device never misreads a new blob.
+
+use core::fmt;
+
+use crc::{CRC_32_ISO_HDLC, Crc};
+use serde::{Deserialize, Serialize};
+
+use crate::alerts::{AlertConfig, AlertSettings, SensorCheckConfig, SensorCheckSettings};
+use crate::exposure::{ExposureConfig, ExposureError, ExposureSettings};
+use crate::model::{DeviceRealization, RealizationError};
+use crate::mounting::Mounting;
+use crate::protocol::ParamsIdentity;
+use crate::weighting::WeightingError;
+
+/// First four bytes of every blob.
+pub const BLOB_MAGIC: [u8; 4] = *b"SUPB";
+/// Version of the header and payload encoding.
+pub const BLOB_FORMAT_VERSION: u16 = 1;
+/// Header length, bytes.
+pub const BLOB_HEADER_LEN: usize = 16;
+/// Largest blob the device accepts (header and payload), bytes.
+pub const MAX_BLOB_LEN: usize = 4096;
+
+const CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
+
+/// CRC-32/ISO-HDLC (the zlib/Ethernet CRC) of `bytes`.
+pub fn crc32(bytes: &[u8]) -> u32 {
+    CRC32.checksum(bytes)
+}
+
+/// How often the device reports, in samples.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TelemetryConfig {
+    /// Send telemetry every this many samples (1 = every sample).
+    pub decimation: u16,
+}
+
+impl TelemetryConfig {
+    /// Every sample: what replay and the tests want.
+    pub const EVERY_SAMPLE: Self = Self { decimation: 1 };
+}
+
+/// Everything the device runs, for one sample rate.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DeviceParams {
+    /// Identity of the parameter file these came from (start of its SHA-256).
+    pub identity: ParamsIdentity,
+    /// The model's discretized head-output realization.
+    pub realization: DeviceRealization,
+    /// Weighting and exposure evaluation, with the axis mapping.
+    pub exposure: ExposureSettings,
+    /// Exposure alert thresholds, hysteresis and dwell.
+    pub alerts: AlertSettings,
+    /// Sensor fault checks.
+    pub sensor_checks: SensorCheckSettings,
+    /// Sensor-to-litter rotation and gravity.
+    pub mounting: Mounting,
+    /// Reporting rate.
+    pub telemetry: TelemetryConfig,
+}
+
+impl DeviceParams {
+    /// Builds the settings of every stage at the realization's sample rate.
+    pub fn new(
+        identity: ParamsIdentity,
+        realization: DeviceRealization,
+        exposure: ExposureConfig,
+        alerts: AlertConfig,
+        sensor_checks: SensorCheckConfig,
+        mounting: Mounting,
+        telemetry: TelemetryConfig,
+    ) -> Result<Self, BlobError> {
+        let fs = realization.sample_rate_hz;
+        let params = Self {
+            identity,
+            realization,
+            exposure: ExposureSettings::new(exposure, fs).map_err(BlobError::from_exposure)?,
+            alerts: AlertSettings::new(alerts, fs).map_err(|_| BlobError::BadConfig)?,
+            sensor_checks: SensorCheckSettings::new(sensor_checks, fs)
+                .map_err(|_| BlobError::BadConfig)?,
+            mounting,
+            telemetry,
+        };
+        params.validate()?;
+        Ok(params)
+    }
+
+    /// The sample rate every stage was built for, Hz.
+    pub fn sample_rate_hz(&self) -> f32 {
+        self.realization.sample_rate_hz
+    }
+
+    /// Checks what must hold before the device runs these parameters.
+    pub fn validate(&self) -> Result<(), BlobError> {
+        self.realization.check().map_err(|e| match e {
+            RealizationError::NotFinite => BlobError::NonFinite,
+            RealizationError::Unstable => BlobError::Unstable,
+            RealizationError::SampleRate => BlobError::SampleRate,
+            RealizationError::TooManyBlocks => BlobError::Malformed,
+        })?;
+        let fs = self.sample_rate_hz();
+        let rates = [
+            self.exposure.sample_rate_hz,
+            self.alerts.sample_rate_hz,
+            self.sensor_checks.sample_rate_hz,
+        ];
+        if rates.iter().any(|r| *r != fs) {
+            return Err(BlobError::SampleRate);
+        }
+        self.exposure.validate().map_err(BlobError::from_exposure)?;
+        let alert_numbers = self
+            .alerts
+            .raise_ms_m2_s4
+            .iter()
+            .chain(&self.alerts.clear_ms_m2_s4);
+        if !alert_numbers
+            .chain(&self.alerts.vdv4_m4_s7)
+            .all(|v| v.is_finite())
+        {
+            return Err(BlobError::NonFinite);
+        }
+        self.alerts.validate().map_err(|_| BlobError::BadConfig)?;
+        self.sensor_checks
+            .validate()
+            .map_err(|_| BlobError::BadConfig)?;
+        self.mounting.validate().map_err(|e| match e {
+            crate::mounting::MountingError::NotFinite => BlobError::NonFinite,
+            _ => BlobError::BadConfig,
+        })?;
+        if self.telemetry.decimation == 0 {
+            return Err(BlobError::BadConfig);
+        }
+        Ok(())
+    }
+
+    /// Writes header and payload into `buf`; returns the blob's length.
+    pub fn encode(&self, buf: &mut [u8]) -> Result<usize, BlobError> {
+        if buf.len() < BLOB_HEADER_LEN {
+            return Err(BlobError::TooLong);
+        }
+        let (header, rest) = buf.split_at_mut(BLOB_HEADER_LEN);
+        let payload_len = postcard::to_slice(self, rest)
+            .map_err(|_| BlobError::TooLong)?
+            .len();
+        let total = BLOB_HEADER_LEN + payload_len;
+        if total > MAX_BLOB_LEN {
+            return Err(BlobError::TooLong);
+        }
+        let crc = crc32(&rest[..payload_len]);
+        header[0..4].copy_from_slice(&BLOB_MAGIC);
+        header[4..6].copy_from_slice(&BLOB_FORMAT_VERSION.to_le_bytes());
+        header[6..8].copy_from_slice(&0u16.to_le_bytes());
+        header[8..12].copy_from_slice(&(payload_len as u32).to_le_bytes());
+        header[12..16].copy_from_slice(&crc.to_le_bytes());
+        Ok(total)
+    }
+
+    /// Reads and validates a blob; `bytes` may extend past its end (a flash slot).
+    pub fn decode(bytes: &[u8]) -> Result<Self, BlobError> {
+        let payload = blob_payload(bytes)?;
+        let params: Self = match postcard::take_from_bytes(payload) {
+            Ok((params, [])) => params,
+            _ => return Err(BlobError::Malformed),
+        };
+        params.validate()?;
+        Ok(params)
+    }
+}
+
+/// Checks the header and CRC; returns the payload.
+pub fn blob_payload(bytes: &[u8]) -> Result<&[u8], BlobError> {
+    let Some(header) = bytes.get(..BLOB_HEADER_LEN) else {
+        return Err(BlobError::Truncated);
+    };
+    if header.iter().all(|b| *b == 0xFF) || header.iter().all(|b| *b == 0) {
+        return Err(BlobError::Empty);
+    }
+    if header[0..4] != BLOB_MAGIC {
+        return Err(BlobError::BadMagic);
+    }
+    let word16 = |i: usize| u16::from_le_bytes([header[i], header[i + 1]]);
+    let word32 =
+        |i: usize| u32::from_le_bytes([header[i], header[i + 1], header[i + 2], header[i + 3]]);
+    if word16(4) != BLOB_FORMAT_VERSION || word16(6) != 0 {
+        return Err(BlobError::UnsupportedVersion);
+    }
+    let payload_len = word32(8) as usize;
+    if payload_len == 0 || payload_len > MAX_BLOB_LEN - BLOB_HEADER_LEN {
+        return Err(BlobError::BadLength);
+    }
+    let Some(payload) = bytes.get(BLOB_HEADER_LEN..BLOB_HEADER_LEN + payload_len) else {
+        return Err(BlobError::Truncated);
+    };
+    if crc32(payload) != word32(12) {
+        return Err(BlobError::BadCrc);
+    }
+    Ok(payload)
+}
+
+/// Total length (header and payload) the header announces, if the header is sane.
+pub fn announced_len(bytes: &[u8]) -> Option<usize> {
+    let header = bytes.get(..BLOB_HEADER_LEN)?;
+    let len = u32::from_le_bytes([header[8], header[9], header[10], header[11]]) as usize;
+    (len <= MAX_BLOB_LEN - BLOB_HEADER_LEN).then_some(BLOB_HEADER_LEN + len)
+}
+
+/// Why a blob was refused; each has its own code.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum BlobError {
+    /// The slot is erased (all 0xFF) or blank.
+    Empty,
+    /// The first four bytes are not `SUPB`.
+    BadMagic,
+    /// A format version this firmware does not know.
+    UnsupportedVersion,
+    /// The announced payload length is zero or larger than a blob can be.
+    BadLength,
+    /// Fewer bytes than the header announces.
+    Truncated,
+    /// The payload's CRC-32 does not match.
+    BadCrc,
+    /// The payload does not decode exactly (postcard error or trailing bytes).
+    Malformed,
+    /// A number in the payload is NaN or infinite.
+    NonFinite,
+    /// The model realization or a weighting filter has a pole on or outside |z| = 1.
+    Unstable,
+    /// The sample rate is outside 100..=2000 Hz, or differs between stages.
+    SampleRate,
+    /// A configuration value is out of its range (thresholds, times, mounting, decimation).
+    BadConfig,
+    /// The blob does not fit the buffer or the device's limit.
+    TooLong,
+}
+
+impl BlobError {
+    /// A stable numeric code, distinct per error.
+    pub const fn code(self) -> u8 {
+        match self {
+            BlobError::Empty => 1,
+            BlobError::BadMagic => 2,
+            BlobError::UnsupportedVersion => 3,
+            BlobError::BadLength => 4,
+            BlobError::Truncated => 5,
+            BlobError::BadCrc => 6,
+            BlobError::Malformed => 7,
+            BlobError::NonFinite => 8,
+            BlobError::Unstable => 9,
+            BlobError::SampleRate => 10,
+            BlobError::BadConfig => 11,
+            BlobError::TooLong => 12,
+        }
+    }
+
+    fn from_exposure(e: ExposureError) -> Self {
+        match e {
+            ExposureError::Weighting(WeightingError::NonFiniteCoefficient) => BlobError::NonFinite,
+            ExposureError::Weighting(WeightingError::Unstable) => BlobError::Unstable,
+            ExposureError::Weighting(WeightingError::SampleRateOutOfRange) => BlobError::SampleRate,
+            _ => BlobError::BadConfig,
+        }
+    }
+}
+
+impl fmt::Display for BlobError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let what = match self {
+            BlobError::Empty => "no parameter blob (erased slot)",
+            BlobError::BadMagic => "not a parameter blob (bad magic)",
+            BlobError::UnsupportedVersion => "unsupported blob format version",
+            BlobError::BadLength => "bad payload length",
+            BlobError::Truncated => "blob truncated",
+            BlobError::BadCrc => "CRC-32 mismatch",
+            BlobError::Malformed => "payload does not decode",
+            BlobError::NonFinite => "a number is not finite",
+            BlobError::Unstable => "unstable filter or model realization",
+            BlobError::SampleRate => "sample rate out of range or inconsistent",
+            BlobError::BadConfig => "a configuration value is out of range",
+            BlobError::TooLong => "blob too long",
+        };
+        write!(f, "{what} (blob error {})", self.code())
+    }
+}
+
+impl core::error::Error for BlobError {}

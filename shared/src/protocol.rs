@@ -1,0 +1,276 @@
+//! The wire protocol between the device and the host: postcard messages in COBS frames
+//! (each frame ends with a zero byte).
+//!
+//! Types are named by direction. The device speaks first ([`Greeting`]) and numbers every
+//! frame it sends ([`DeviceFrame::seq`]) so the host can count lost frames. Units are in
+//! field names. Changing any encoding requires bumping [`PROTOCOL_VERSION`]; the
+//! golden-bytes table in [`golden`] fails otherwise.
+
+pub mod framing;
+pub mod golden;
+
+use heapless::{String, Vec};
+use serde::{Deserialize, Serialize};
+
+use crate::alerts::{AlertEvent, Level, SensorFault};
+use crate::blob::BlobError;
+
+pub use framing::{FrameAccumulator, FrameError, FrameEvent, encode_frame};
+
+/// Version of this module's encodings; the host refuses a device that speaks another.
+pub const PROTOCOL_VERSION: u16 = 1;
+/// Largest encoded frame, including COBS overhead and the terminating zero, bytes.
+pub const MAX_FRAME_LEN: usize = 256;
+/// Samples carried by one [`HostToDevice::Samples`] frame at most.
+pub const MAX_SAMPLES_PER_FRAME: usize = 8;
+/// Parameter-blob bytes carried by one upload chunk at most.
+pub const PARAM_CHUNK_LEN: usize = 128;
+/// Longest firmware version string, bytes.
+pub const VERSION_LEN: usize = 24;
+/// Longest panic message kept for the next greeting, bytes.
+pub const PANIC_MESSAGE_LEN: usize = 96;
+/// Bytes of the parameter identity (the start of the SHA-256 of the parameter file).
+pub const IDENTITY_LEN: usize = 16;
+
+/// Identity of a parameter set: the first 16 bytes of the SHA-256 of its parameter file.
+pub type ParamsIdentity = [u8; IDENTITY_LEN];
+
+/// Messages from the host to the device.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum HostToDevice {
+    /// Ask the device to greet again (it also greets unasked when it starts).
+    Hello,
+    /// Support acceleration samples for replay, in litter axes with gravity removed.
+    Samples(SampleBatch),
+    /// Ask for the status counters.
+    GetStatus,
+    /// Start a parameter upload.
+    ParamBegin(ParamBegin),
+    /// A piece of the parameter blob being uploaded.
+    ParamChunk(ParamChunk),
+    /// Verify the uploaded blob and switch to it.
+    ParamCommit,
+}
+
+/// Consecutive samples starting at one sample index.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SampleBatch {
+    /// Index of the first sample in the batch; the next ones follow without gaps.
+    pub first_sample_index: u32,
+    /// Litter-frame acceleration x, y, z per sample, m/s^2.
+    pub accel_m_s2: Vec<[f32; 3], MAX_SAMPLES_PER_FRAME>,
+}
+
+/// Opens an authenticated upload of a parameter blob.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ParamBegin {
+    /// Length of the whole blob, bytes.
+    pub length_bytes: u32,
+    /// Monotonic update counter; the device refuses one not above its last accepted.
+    pub counter: u32,
+    /// HMAC-SHA256 over the counter (little-endian) and the blob, with the device's key.
+    pub hmac_sha256: [u8; 32],
+}
+
+/// A piece of the blob at a byte offset.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ParamChunk {
+    /// Offset of the first byte in the blob.
+    pub offset_bytes: u32,
+    /// The bytes.
+    pub bytes: Vec<u8, PARAM_CHUNK_LEN>,
+}
+
+/// A numbered frame from the device.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DeviceFrame {
+    /// Increases by one with every frame the device sends, from 0 at start.
+    pub seq: u32,
+    /// The message.
+    pub message: DeviceToHost,
+}
+
+/// Messages from the device to the host.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum DeviceToHost {
+    /// Who the device is and what it runs; sent first.
+    Greeting(Greeting),
+    /// The prediction and exposure at one sample (every `decimation`-th sample).
+    Telemetry(Telemetry),
+    /// An alert was raised or cleared; sent at once.
+    Alert(AlertEvent),
+    /// Counters, on request and periodically.
+    Status(Status),
+    /// A parameter upload step was accepted.
+    ParamAck(ParamAck),
+    /// A parameter upload was refused; nothing changed.
+    ParamNack(UploadError),
+}
+
+/// The device introduces itself.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Greeting {
+    /// [`PROTOCOL_VERSION`] of the firmware.
+    pub protocol_version: u16,
+    /// Firmware version and build, e.g. `0.1.0+qemu`.
+    pub firmware_version: String<VERSION_LEN>,
+    /// Identity of the parameters in use.
+    pub params_identity: ParamsIdentity,
+    /// Where those parameters came from.
+    pub params_source: ParamsSource,
+    /// Sample rate the parameters were built for, Hz.
+    pub sample_rate_hz: f32,
+    /// How the device last stopped.
+    pub reset_cause: ResetCause,
+    /// The last panic's message, if the last stop was a panic.
+    pub last_panic: String<PANIC_MESSAGE_LEN>,
+}
+
+/// Where the running parameters came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ParamsSource {
+    /// A valid blob in flash slot A or B (0 or 1).
+    Flash {
+        /// The slot.
+        slot: u8,
+    },
+    /// The built-in paper litter-board preset, because flash held no valid blob.
+    BuiltInDefault {
+        /// Why the flash blob was refused.
+        reason: BlobError,
+    },
+}
+
+/// How the device last stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ResetCause {
+    /// Power applied (or no record).
+    PowerOn,
+    /// A panic; the message is in the greeting.
+    Panic,
+    /// The watchdog fired.
+    Watchdog,
+    /// Requested, e.g. after switching parameters.
+    Software,
+}
+
+/// One telemetry record.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Telemetry {
+    /// Index of the input sample this describes.
+    pub sample_index: u32,
+    /// Predicted head acceleration x, y, z (litter axes), m/s^2.
+    pub head_acc_m_s2: [f32; 3],
+    /// Frequency-weighted running rms (tau = 1 s) per axis, m/s^2.
+    pub running_rms_m_s2: [f32; 3],
+    /// Vector sum of the weighted running rms, m/s^2.
+    pub vector_running_rms_m_s2: f32,
+    /// Vibration dose value of the vector sum so far, m/s^1.75.
+    pub vdv_m_s175: f32,
+    /// Current exposure alert level.
+    pub alert_level: Level,
+    /// Active sensor faults, one bit per [`SensorFault`] in `SensorFault::ALL` order.
+    pub fault_flags: u8,
+    /// Whether the weighting has settled and the exposure values mean something yet.
+    pub valid: bool,
+}
+
+impl Telemetry {
+    /// Whether `fault` is among the active faults.
+    pub fn has_fault(&self, fault: SensorFault) -> bool {
+        let bit = SensorFault::ALL
+            .iter()
+            .position(|f| *f == fault)
+            .unwrap_or(7);
+        self.fault_flags & (1 << bit) != 0
+    }
+}
+
+/// The device's counters.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Status {
+    /// Valid frames received.
+    pub frames_received: u32,
+    /// Frames dropped because COBS, postcard or a length check failed.
+    pub bad_frames: u32,
+    /// Samples run through the pipeline.
+    pub samples_processed: u32,
+    /// Samples lost: missing indices, or samples that arrived when the device was busy.
+    pub samples_dropped: u32,
+    /// Telemetry frames sent.
+    pub telemetry_sent: u32,
+    /// Parameter uploads refused.
+    pub uploads_rejected: u32,
+}
+
+/// A step of a parameter upload that the device accepted.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ParamAck {
+    /// Ready for chunks.
+    Begun,
+    /// Bytes received so far.
+    Received {
+        /// Contiguous bytes from offset 0, bytes.
+        bytes: u32,
+    },
+    /// Verified, stored and now running.
+    Committed {
+        /// The new parameters' identity.
+        identity: ParamsIdentity,
+        /// The flash slot it went to.
+        slot: u8,
+    },
+}
+
+/// Why an upload was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum UploadError {
+    /// A chunk or commit arrived without a begin.
+    NotStarted,
+    /// The announced length is zero or larger than a slot.
+    BadLength,
+    /// A chunk did not continue where the last one ended.
+    OutOfOrder,
+    /// Commit before all bytes arrived.
+    Incomplete,
+    /// The counter is not above the last accepted one (a replayed update).
+    Replayed,
+    /// The HMAC does not match: not from a holder of the device key, or altered.
+    BadSignature,
+    /// The blob itself is invalid.
+    Blob(BlobError),
+    /// Writing or verifying flash failed.
+    Flash,
+}
+
+impl UploadError {
+    /// A stable numeric code for logs and the host's messages.
+    pub const fn code(self) -> u8 {
+        match self {
+            UploadError::NotStarted => 1,
+            UploadError::BadLength => 2,
+            UploadError::OutOfOrder => 3,
+            UploadError::Incomplete => 4,
+            UploadError::Replayed => 5,
+            UploadError::BadSignature => 6,
+            UploadError::Blob(e) => 0x40 | e.code(),
+            UploadError::Flash => 7,
+        }
+    }
+}
+
+impl core::fmt::Display for UploadError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            UploadError::NotStarted => f.write_str("upload not started"),
+            UploadError::BadLength => f.write_str("announced length is zero or too large"),
+            UploadError::OutOfOrder => f.write_str("chunk out of order"),
+            UploadError::Incomplete => f.write_str("commit before all bytes arrived"),
+            UploadError::Replayed => f.write_str("update counter not above the last accepted one"),
+            UploadError::BadSignature => f.write_str("HMAC does not match"),
+            UploadError::Blob(e) => write!(f, "invalid blob: {e}"),
+            UploadError::Flash => f.write_str("flash write or verify failed"),
+        }?;
+        write!(f, " (code {})", self.code())
+    }
+}

@@ -1,0 +1,160 @@
+//! Bad blobs and bad frames are refused with a distinct error, never a panic.
+
+use supine_core::blob::{BLOB_HEADER_LEN, BlobError, DeviceParams, MAX_BLOB_LEN, crc32};
+use supine_core::model::{ModelParams, Preset, device_realization};
+use supine_core::protocol::golden::{BLOB, HOST_TO_DEVICE, blob_example};
+use supine_core::protocol::{
+    FrameAccumulator, FrameError, FrameEvent, HostToDevice, MAX_FRAME_LEN,
+};
+
+/// Re-seals a payload edit with a correct CRC so the check behind the CRC is reached.
+fn reseal(mut blob: Vec<u8>) -> Vec<u8> {
+    let crc = crc32(&blob[BLOB_HEADER_LEN..]);
+    blob[12..16].copy_from_slice(&crc.to_le_bytes());
+    blob
+}
+
+fn encoded(params: &DeviceParams) -> Vec<u8> {
+    let mut buf = vec![0u8; MAX_BLOB_LEN];
+    let len = params.encode(&mut buf).unwrap();
+    buf.truncate(len);
+    buf
+}
+
+#[test]
+fn a_blob_of_the_paper_litter_model_round_trips() {
+    let realization = device_realization(&ModelParams::preset(Preset::PaperLitter), 500.0).unwrap();
+    let mut params = blob_example().unwrap();
+    params.realization = realization;
+    let bytes = encoded(&params);
+    assert!(bytes.len() < 2048, "{} bytes", bytes.len());
+    assert_eq!(DeviceParams::decode(&bytes).unwrap(), params);
+    // A flash slot holds more than the blob: trailing bytes after the payload are ignored.
+    let mut slot = bytes.clone();
+    slot.resize(8192, 0xFF);
+    assert_eq!(DeviceParams::decode(&slot).unwrap(), params);
+}
+
+#[test]
+fn each_kind_of_bad_blob_gets_its_own_error() {
+    let good = BLOB.to_vec();
+    let mut cases: Vec<(&str, Vec<u8>, BlobError)> = Vec::new();
+    cases.push(("erased", vec![0xFF; 64], BlobError::Empty));
+    let mut magic = good.clone();
+    magic[0] = b'X';
+    cases.push(("magic", magic, BlobError::BadMagic));
+    let mut version = good.clone();
+    version[4] = 2;
+    cases.push(("version", version, BlobError::UnsupportedVersion));
+    let mut length = good.clone();
+    length[8..12].copy_from_slice(&(MAX_BLOB_LEN as u32).to_le_bytes());
+    cases.push(("length", length, BlobError::BadLength));
+    cases.push((
+        "truncated",
+        good[..good.len() - 3].to_vec(),
+        BlobError::Truncated,
+    ));
+    cases.push(("header only", good[..10].to_vec(), BlobError::Truncated));
+    let mut flipped = good.clone();
+    flipped[BLOB_HEADER_LEN + 40] ^= 0x04;
+    cases.push(("flipped bit", flipped, BlobError::BadCrc));
+    for (name, bytes, expected) in &cases {
+        assert_eq!(
+            DeviceParams::decode(bytes).unwrap_err(),
+            *expected,
+            "{name}"
+        );
+    }
+    let codes: std::collections::BTreeSet<u8> = cases.iter().map(|c| c.2.code()).collect();
+    assert_eq!(
+        codes.len(),
+        cases.len() - 1,
+        "truncations share a code, the rest differ"
+    );
+}
+
+#[test]
+fn a_sealed_blob_with_a_nan_or_an_unstable_pole_is_refused_behind_the_crc() {
+    let example = blob_example().unwrap();
+    let mut nan = example;
+    nan.realization.blocks[0].output[0][0] = f32::NAN;
+    let mut unstable = example;
+    unstable.realization.blocks[0].transition_minus_identity[0][0] = 0.5;
+    let mut bad_rate = example;
+    bad_rate.alerts.sample_rate_hz = 1000.0;
+    let mut bad_decimation = example;
+    bad_decimation.telemetry.decimation = 0;
+    for (params, expected) in [
+        (nan, BlobError::NonFinite),
+        (unstable, BlobError::Unstable),
+        (bad_rate, BlobError::SampleRate),
+        (bad_decimation, BlobError::BadConfig),
+    ] {
+        // Encode bypasses validation on purpose: the validator must catch it on load.
+        let mut buf = vec![0u8; MAX_BLOB_LEN];
+        let len = params.encode(&mut buf).unwrap();
+        assert_eq!(
+            DeviceParams::decode(&reseal(buf[..len].to_vec())).unwrap_err(),
+            expected
+        );
+    }
+    let mut trailing = BLOB.to_vec();
+    trailing.push(0);
+    let payload_len = (trailing.len() - BLOB_HEADER_LEN) as u32;
+    trailing[8..12].copy_from_slice(&payload_len.to_le_bytes());
+    assert_eq!(
+        DeviceParams::decode(&reseal(trailing)).unwrap_err(),
+        BlobError::Malformed
+    );
+}
+
+fn feed(acc: &mut FrameAccumulator, bytes: &[u8]) -> (Vec<HostToDevice>, Vec<FrameError>) {
+    let (mut ok, mut bad) = (Vec::new(), Vec::new());
+    for b in bytes {
+        match acc.push::<HostToDevice>(*b) {
+            FrameEvent::Message(m) => ok.push(m),
+            FrameEvent::Dropped(e) => bad.push(e),
+            FrameEvent::Pending => {}
+        }
+    }
+    (ok, bad)
+}
+
+#[test]
+fn garbage_and_oversize_frames_are_counted_once_and_later_frames_still_decode() {
+    let mut acc = FrameAccumulator::new();
+    let mut stream = Vec::new();
+    stream.extend_from_slice(&[0x13, 0x37, 0xFF, 0x00]); // garbage
+    stream.extend(std::iter::repeat_n(0x42, 3 * MAX_FRAME_LEN));
+    stream.push(0); // one oversize frame
+    stream.extend_from_slice(&[0, 0]); // idle zeros
+    stream.extend_from_slice(HOST_TO_DEVICE[1]);
+    let mut trailing = HOST_TO_DEVICE[0].to_vec();
+    trailing.pop();
+    trailing.extend_from_slice(&[0x01, 0x00]); // a valid message plus an extra byte
+    let (ok, bad) = feed(&mut acc, &stream);
+    assert_eq!(bad, vec![FrameError::Malformed, FrameError::Oversize]);
+    assert_eq!(ok.len(), 1);
+    assert!(matches!(ok[0], HostToDevice::Samples(_)));
+    let (ok, bad) = feed(&mut acc, &trailing);
+    assert!(ok.is_empty());
+    assert_eq!(bad.len(), 1);
+}
+
+#[test]
+fn random_bytes_never_panic_the_decoders() {
+    let mut state = 0x2545_F491_4F6C_DD1Du64;
+    let mut acc = FrameAccumulator::new();
+    let mut bytes = vec![0u8; 200_000];
+    for b in bytes.iter_mut() {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        *b = if state % 17 == 0 { 0 } else { state as u8 };
+    }
+    let (_, bad) = feed(&mut acc, &bytes);
+    assert!(!bad.is_empty());
+    for window in bytes.chunks(300) {
+        let _ = DeviceParams::decode(window);
+    }
+}
