@@ -37,7 +37,9 @@ pub const STANDARD_GRAVITY_M_S2: f32 = 9.806_65;
 pub const MAX_DWELL_S: f32 = 600.0;
 
 /// Exposure alert level, ordered from `Normal` to `Alarm`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Level {
     /// Below every threshold.
@@ -97,8 +99,12 @@ pub enum SensorFault {
 
 impl SensorFault {
     /// All faults, in bit order.
-    pub const ALL: [SensorFault; 4] =
-        [SensorFault::NonFinite, SensorFault::Saturated, SensorFault::Stuck, SensorFault::IndexGap];
+    pub const ALL: [SensorFault; 4] = [
+        SensorFault::NonFinite,
+        SensorFault::Saturated,
+        SensorFault::Stuck,
+        SensorFault::IndexGap,
+    ];
 
     const fn bit(self) -> u8 {
         1 << (self as u8)
@@ -286,7 +292,11 @@ pub struct AlertState {
 impl AlertState {
     /// Level `Normal`, nothing pending.
     pub const fn new() -> Self {
-        Self { level: Level::Normal, pending_dir: 0, pending_samples: 0 }
+        Self {
+            level: Level::Normal,
+            pending_dir: 0,
+            pending_samples: 0,
+        }
     }
 
     /// The current level.
@@ -299,7 +309,8 @@ impl AlertSettings {
     /// Validates `config` and precomputes thresholds for `sample_rate_hz`.
     pub fn new(config: AlertConfig, sample_rate_hz: f32) -> Result<Self, AlertError> {
         let fs = check_rate(sample_rate_hz)?;
-        if !(increasing_positive(&config.running_rms_m_s2) && increasing_positive(&config.vdv_m_s175))
+        if !(increasing_positive(&config.running_rms_m_s2)
+            && increasing_positive(&config.vdv_m_s175))
         {
             return Err(AlertError::Thresholds);
         }
@@ -362,12 +373,27 @@ impl AlertSettings {
             return None;
         }
         let (ms, vdv4) = (exposure.running_ms_m2_s4, exposure.vdv4_m4_s7);
+        // Fast path, the usual case: neither the next level up nor the clear threshold
+        // of the current level is reached (thresholds increase with the level).
+        let lvl = state.level as usize;
+        let up_called = lvl < 3 && (ms >= self.raise_ms_m2_s4[lvl] || vdv4 >= self.vdv4_m4_s7[lvl]);
+        let down_called =
+            lvl > 0 && ms < self.clear_ms_m2_s4[lvl - 1] && vdv4 < self.vdv4_m4_s7[lvl - 1];
+        if !up_called && !down_called {
+            state.pending_dir = 0;
+            state.pending_samples = 0;
+            return None;
+        }
         let up = self.level_for(&self.raise_ms_m2_s4, ms, vdv4);
         let target = if up > state.level {
             up
         } else {
             let hold = self.level_for(&self.clear_ms_m2_s4, ms, vdv4);
-            if hold < state.level { hold } else { state.level }
+            if hold < state.level {
+                hold
+            } else {
+                state.level
+            }
         };
         if target == state.level {
             state.pending_dir = 0;
@@ -380,7 +406,11 @@ impl AlertSettings {
             state.pending_samples = 0;
         }
         state.pending_samples += 1;
-        let need = if dir > 0 { self.raise_dwell_samples } else { self.clear_dwell_samples };
+        let need = if dir > 0 {
+            self.raise_dwell_samples
+        } else {
+            self.clear_dwell_samples
+        };
         if state.pending_samples < need {
             return None;
         }
@@ -388,7 +418,11 @@ impl AlertSettings {
         state.level = target;
         state.pending_dir = 0;
         state.pending_samples = 0;
-        Some(AlertEvent::Level { from, to: target, at_sample: sample_index })
+        Some(AlertEvent::Level {
+            from,
+            to: target,
+            at_sample: sample_index,
+        })
     }
 }
 
@@ -506,7 +540,8 @@ impl SensorCheckSettings {
     ) -> SensorEvents {
         let mut bad = 0u8;
         for (i, &x) in sample_m_s2.iter().enumerate() {
-            // One comparison catches NaN, infinities and saturation.
+            // One comparison catches NaN, infinities and saturation: NaN compares false.
+            #[allow(clippy::neg_cmp_op_on_partial_ord)]
             if !(x.abs() < self.config.full_scale_m_s2) {
                 bad |= if x.is_finite() {
                     SensorFault::Saturated.bit()
@@ -540,13 +575,21 @@ impl SensorCheckSettings {
                 state.good_run[k] = 0;
                 if state.active & b == 0 {
                     state.active |= b;
-                    let _ = events.push(AlertEvent::Fault { fault, active: true, at_sample: sample_index });
+                    let _ = events.push(AlertEvent::Fault {
+                        fault,
+                        active: true,
+                        at_sample: sample_index,
+                    });
                 }
             } else if state.active & b != 0 {
                 state.good_run[k] += 1;
                 if state.good_run[k] >= self.clear_after_samples {
                     state.active &= !b;
-                    let _ = events.push(AlertEvent::Fault { fault, active: false, at_sample: sample_index });
+                    let _ = events.push(AlertEvent::Fault {
+                        fault,
+                        active: false,
+                        at_sample: sample_index,
+                    });
                 }
             }
         }

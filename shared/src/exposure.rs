@@ -80,9 +80,18 @@ pub struct AxisMapping {
 impl AxisMapping {
     /// The default for a supine patient's head: Wd, Wd, Wj on x, y, z; `k = 1` everywhere.
     pub const SUPINE_HEAD: AxisMapping = AxisMapping {
-        x: AxisWeighting { kind: WeightingKind::Wd, k: 1.0 },
-        y: AxisWeighting { kind: WeightingKind::Wd, k: 1.0 },
-        z: AxisWeighting { kind: WeightingKind::Wj, k: 1.0 },
+        x: AxisWeighting {
+            kind: WeightingKind::Wd,
+            k: 1.0,
+        },
+        y: AxisWeighting {
+            kind: WeightingKind::Wd,
+            k: 1.0,
+        },
+        z: AxisWeighting {
+            kind: WeightingKind::Wj,
+            k: 1.0,
+        },
     };
 
     /// The three axes in x, y, z order.
@@ -111,8 +120,11 @@ pub struct ExposureConfig {
 
 impl ExposureConfig {
     /// Supine head mapping, tau = 1 s, 5 s warm-up.
-    pub const DEFAULT: ExposureConfig =
-        ExposureConfig { axes: AxisMapping::SUPINE_HEAD, running_tau_s: 1.0, warmup_s: 5.0 };
+    pub const DEFAULT: ExposureConfig = ExposureConfig {
+        axes: AxisMapping::SUPINE_HEAD,
+        running_tau_s: 1.0,
+        warmup_s: 5.0,
+    };
 }
 
 impl Default for ExposureConfig {
@@ -133,6 +145,8 @@ pub enum ExposureError {
     TimeConstant,
     /// The warm-up is not finite or outside 0..=120 s.
     Warmup,
+    /// Stored settings differ from what their own config and sample rate give.
+    Mismatch,
 }
 
 impl fmt::Display for ExposureError {
@@ -146,6 +160,9 @@ impl fmt::Display for ExposureError {
                 "exposure: running-rms time constant must be finite and at least two samples",
             ),
             ExposureError::Warmup => f.write_str("exposure: warm-up must be within 0..=120 s"),
+            ExposureError::Mismatch => f.write_str(
+                "exposure: stored settings do not match their configuration; rebuild them",
+            ),
         }
     }
 }
@@ -217,8 +234,8 @@ pub struct ExposureState {
     total_q_v: f32,
     /// Warm-up samples seen (stops at the warm-up length).
     samples: u32,
-    /// Samples counted in the totals (after the warm-up).
-    evaluated: u32,
+    /// Full blocks folded into the totals (after the warm-up).
+    blocks: u32,
     /// Sample index of the last sample.
     last_index: u32,
 }
@@ -238,7 +255,7 @@ impl ExposureState {
             total_q: [0.0; 4],
             total_q_v: 0.0,
             samples: 0,
-            evaluated: 0,
+            blocks: 0,
             last_index: 0,
         }
     }
@@ -325,30 +342,37 @@ impl ExposureSettings {
         let running_gain = -libm::expm1(-1.0 / (fs * tau)) as f32;
         let warmup_samples = libm::round(config.warmup_s as f64 * fs) as u32;
         let sample_period_s = (1.0 / fs) as f32;
-        Ok(Self { config, sample_rate_hz, weighting, running_gain, sample_period_s, warmup_samples })
+        Ok(Self {
+            config,
+            sample_rate_hz,
+            weighting,
+            running_gain,
+            sample_period_s,
+            warmup_samples,
+        })
     }
 
-    /// Checks stored settings (from a parameter blob) before use.
+    /// Checks stored settings (from a parameter blob) before use: they must be exactly
+    /// what [`ExposureSettings::new`] builds from their own config and sample rate
+    /// (the design is deterministic, the same bits on host and device).
     pub fn validate(&self) -> Result<(), ExposureError> {
         let rebuilt = Self::new(self.config, self.sample_rate_hz)?;
         for w in &self.weighting {
             w.validate()?;
         }
-        if !(self.running_gain > 0.0 && self.running_gain < 1.0) {
-            return Err(ExposureError::TimeConstant);
+        if rebuilt == *self {
+            Ok(())
+        } else {
+            Err(ExposureError::Mismatch)
         }
-        if self.warmup_samples != rebuilt.warmup_samples
-            || self.sample_period_s != rebuilt.sample_period_s
-        {
-            return Err(ExposureError::Warmup);
-        }
-        Ok(())
     }
 
     /// One sample of predicted head acceleration (m/s^2, head x, y, z, at `sample_rate_hz`).
     ///
     /// Never fails: a non-finite input propagates into the values (the sensor check in
     /// [`crate::alerts`] reports it); call [`ExposureState::new`] to restart afterwards.
+    // Three parallel arrays indexed by axis read more plainly than zipped iterators.
+    #[allow(clippy::needless_range_loop)]
     #[inline]
     pub fn step(
         &self,
@@ -357,8 +381,12 @@ impl ExposureSettings {
         sample_index: u32,
     ) -> ExposureSample {
         let mut a2 = [0.0f32; 3];
+        // All three weightings share their band limiting at one rate (checked on
+        // construction and by `validate`): one copy of those coefficients serves all axes.
+        let band = &self.weighting[0].band;
         for i in 0..3 {
-            let a = self.weighting[i].step(&mut state.weighting[i], head_acc_m_s2[i]);
+            let a =
+                self.weighting[i].step_with_band(band, &mut state.weighting[i], head_acc_m_s2[i]);
             a2[i] = a * a;
             state.ms[i] += self.running_gain * (a2[i] - state.ms[i]);
         }
@@ -366,7 +394,11 @@ impl ExposureSettings {
         state.last_index = sample_index;
         if state.samples < self.warmup_samples {
             state.samples += 1;
-            return ExposureSample { running_ms_m2_s4: ms_v, vdv4_m4_s7: 0.0, valid: false };
+            return ExposureSample {
+                running_ms_m2_s4: ms_v,
+                vdv4_m4_s7: 0.0,
+                valid: false,
+            };
         }
         let av2 = a2[0] + a2[1] + a2[2];
         for i in 0..3 {
@@ -386,7 +418,6 @@ impl ExposureSettings {
         if av2 > state.peak_sq[3] {
             state.peak_sq[3] = av2;
         }
-        state.evaluated = state.evaluated.saturating_add(1);
         state.block_n += 1;
         if state.block_n >= BLOCK_SAMPLES {
             fold(state);
@@ -399,9 +430,10 @@ impl ExposureSettings {
     }
 
     /// The current values, per axis and for the vector sum (square and fourth roots here).
+    #[allow(clippy::needless_range_loop)]
     pub fn values(&self, state: &ExposureState) -> ExposureValues {
         let dt = 1.0 / self.sample_rate_hz as f64;
-        let n = state.evaluated as f64;
+        let n = state.blocks as f64 * BLOCK_SAMPLES as f64 + state.block_n as f64;
         let duration = n * dt;
         let sq = |i: usize| state.total_sq[i] + state.block_sq[i] as f64;
         let q = |i: usize| state.total_q[i] + state.block_q[i] as f64;
@@ -409,7 +441,7 @@ impl ExposureSettings {
         let mut out = ExposureValues {
             duration_s: duration as f32,
             at_sample: state.last_index,
-            valid: state.samples >= self.warmup_samples && state.evaluated > 0,
+            valid: state.samples >= self.warmup_samples && n > 0.0,
             ..ExposureValues::default()
         };
         for i in 0..3 {
@@ -451,6 +483,7 @@ fn fold(state: &mut ExposureState) {
     }
     state.total_q_v = state.total_q[3] as f32;
     state.block_n = 0;
+    state.blocks = state.blocks.saturating_add(1);
 }
 
 /// Derived values from the sums: `ms` running mean square, `sum_sq = sum a^2`,

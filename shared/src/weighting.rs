@@ -40,6 +40,7 @@
 //! analog magnitude up to fs/2 (exactly at DC, fs/3 and fs/2), and everything above
 //! fs/2 must be removed by the sensor's anti-alias filter before sampling.
 
+use core::cmp::Ordering;
 use core::fmt;
 
 use serde::{Deserialize, Serialize};
@@ -48,8 +49,6 @@ use serde::{Deserialize, Serialize};
 pub const MIN_SAMPLE_RATE_HZ: f32 = 100.0;
 /// Highest supported sample rate, Hz.
 pub const MAX_SAMPLE_RATE_HZ: f32 = 2000.0;
-/// Most sections in one weighting after the high-pass (Wk: low-pass, transition, step).
-pub const MAX_BIQUADS: usize = 3;
 
 const TAU: f64 = 2.0 * core::f64::consts::PI;
 const Q_BAND: f64 = core::f64::consts::FRAC_1_SQRT_2;
@@ -76,14 +75,27 @@ impl WeightingKind {
             WeightingKind::Wk => AnalogParams {
                 f1_hz: 0.4,
                 f2_hz: 100.0,
-                transition: Some(Transition { f3_hz: 12.5, f4_hz: 12.5, q4: 0.63 }),
-                step: Some(UpwardStep { f5_hz: 2.37, q5: 0.91, f6_hz: 3.35, q6: 0.91 }),
+                transition: Some(Transition {
+                    f3_hz: 12.5,
+                    f4_hz: 12.5,
+                    q4: 0.63,
+                }),
+                step: Some(UpwardStep {
+                    f5_hz: 2.37,
+                    q5: 0.91,
+                    f6_hz: 3.35,
+                    q6: 0.91,
+                }),
                 gain: 1.0,
             },
             WeightingKind::Wd => AnalogParams {
                 f1_hz: 0.4,
                 f2_hz: 100.0,
-                transition: Some(Transition { f3_hz: 2.0, f4_hz: 2.0, q4: 0.63 }),
+                transition: Some(Transition {
+                    f3_hz: 2.0,
+                    f4_hz: 2.0,
+                    q4: 0.63,
+                }),
                 step: None,
                 gain: 1.0,
             },
@@ -91,7 +103,12 @@ impl WeightingKind {
                 f1_hz: 0.4,
                 f2_hz: 100.0,
                 transition: None,
-                step: Some(UpwardStep { f5_hz: 3.75, q5: 0.91, f6_hz: 5.32, q6: 0.91 }),
+                step: Some(UpwardStep {
+                    f5_hz: 3.75,
+                    q5: 0.91,
+                    f6_hz: 5.32,
+                    q6: 0.91,
+                }),
                 gain: 1.0,
             },
         }
@@ -181,11 +198,17 @@ impl Complex64 {
         Self::new(libm::cos(theta_rad), libm::sin(theta_rad))
     }
     fn mul(self, o: Self) -> Self {
-        Self::new(self.re * o.re - self.im * o.im, self.re * o.im + self.im * o.re)
+        Self::new(
+            self.re * o.re - self.im * o.im,
+            self.re * o.im + self.im * o.re,
+        )
     }
     fn div(self, o: Self) -> Self {
         let d = o.re * o.re + o.im * o.im;
-        Self::new((self.re * o.re + self.im * o.im) / d, (self.im * o.re - self.re * o.im) / d)
+        Self::new(
+            (self.re * o.re + self.im * o.im) / d,
+            (self.im * o.re - self.re * o.im) / d,
+        )
     }
     fn add(self, o: Self) -> Self {
         Self::new(self.re + o.re, self.im + o.im)
@@ -234,7 +257,7 @@ impl AnalogSection {
 
 impl AnalogParams {
     /// The sections after the high-pass: low-pass, then transition and upward step when present.
-    fn sections(&self) -> ([Option<AnalogSection>; MAX_BIQUADS], AnalogSection) {
+    fn sections(&self) -> ([Option<AnalogSection>; 3], AnalogSection) {
         let w1 = TAU * self.f1_hz;
         let hp = AnalogSection {
             num: [1.0, 0.0, 0.0],
@@ -300,7 +323,9 @@ impl fmt::Display for WeightingError {
                 "weighting sample rate must be finite and within 100..=2000 Hz"
             }
             WeightingError::NonFiniteCoefficient => "weighting coefficient is not finite",
-            WeightingError::Unstable => "weighting section is unstable (pole on or outside |z| = 1)",
+            WeightingError::Unstable => {
+                "weighting section is unstable (pole on or outside |z| = 1)"
+            }
             WeightingError::DesignFailed => "weighting section design has no real solution",
             WeightingError::TooManySections => "weighting holds more sections than it can",
         })
@@ -329,7 +354,11 @@ impl HighPassSvf {
     fn design(f1_hz: f64, q: f64, fs_hz: f64) -> Self {
         let g = libm::tan(core::f64::consts::PI * f1_hz / fs_hz);
         let k = 1.0 / q;
-        Self { g: g as f32, k_plus_g: (k + g) as f32, d: (1.0 / (1.0 + g * k + g * g)) as f32 }
+        Self {
+            g: g as f32,
+            k_plus_g: (k + g) as f32,
+            d: (1.0 / (1.0 + g * k + g * g)) as f32,
+        }
     }
 
     /// One sample through the high-pass; `state` holds the two integrator memories.
@@ -383,7 +412,10 @@ pub struct Biquad {
 
 impl Biquad {
     /// The section that passes its input unchanged.
-    pub const IDENTITY: Biquad = Biquad { b: [1.0, 0.0, 0.0], a: [0.0, 0.0] };
+    pub const IDENTITY: Biquad = Biquad {
+        b: [1.0, 0.0, 0.0],
+        a: [0.0, 0.0],
+    };
 
     /// One sample through the section; `state` is `[s1, s2]`.
     #[inline(always)]
@@ -401,7 +433,9 @@ impl Biquad {
         let num = Complex64::new(self.b[0] as f64, 0.0)
             .add(zi.scale(self.b[1] as f64))
             .add(zi2.scale(self.b[2] as f64));
-        let den = Complex64::ONE.add(zi.scale(self.a[0] as f64)).add(zi2.scale(self.a[1] as f64));
+        let den = Complex64::ONE
+            .add(zi.scale(self.a[0] as f64))
+            .add(zi2.scale(self.a[1] as f64));
         num / den
     }
 
@@ -445,7 +479,12 @@ impl Biquad {
             let p1 = (-d1 + sq) / (2.0 * d2);
             let p2 = (-d1 - sq) / (2.0 * d2);
             let (z1, z2) = (libm::exp(p1 * t), libm::exp(p2 * t));
-            (-(z1 + z2), z1 * z2, -libm::expm1(p1 * t) * -libm::expm1(p2 * t), (1.0 + z1) * (1.0 + z2))
+            (
+                -(z1 + z2),
+                z1 * z2,
+                -libm::expm1(p1 * t) * -libm::expm1(p2 * t),
+                (1.0 + z1) * (1.0 + z2),
+            )
         };
         let big_a0 = one_minus * one_minus;
         let big_a1 = one_plus * one_plus;
@@ -464,16 +503,32 @@ impl Biquad {
         let (r0, r1) = (libm::sqrt(big_b0), libm::sqrt(big_b1));
         let w = 0.5 * (r0 + r1);
         let under = w * w + big_b2;
-        if !(under >= 0.0) || !(w > 0.0) {
+        // Written so that a NaN fails the test as well.
+        if under.partial_cmp(&0.0).is_none_or(|o| o.is_lt())
+            || w.partial_cmp(&0.0) != Some(Ordering::Greater)
+        {
             return Err(WeightingError::DesignFailed);
         }
         let b0 = 0.5 * (w + libm::sqrt(under));
         let b1 = 0.5 * (r0 - r1);
         let b2 = -big_b2 / (4.0 * b0);
-        let q = Biquad { b: [b0 as f32, b1 as f32, b2 as f32], a: [a1 as f32, a2 as f32] };
+        let q = Biquad {
+            b: [b0 as f32, b1 as f32, b2 as f32],
+            a: [a1 as f32, a2 as f32],
+        };
         q.validate()?;
         Ok(q)
     }
+}
+
+/// The band-limiting high-pass (0.4 Hz) and low-pass (100 Hz), identical for Wk, Wd and
+/// Wj at one sample rate.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BandLimit {
+    /// The 0.4 Hz band-limiting high-pass.
+    pub high_pass: HighPassSvf,
+    /// The 100 Hz band-limiting low-pass.
+    pub low_pass: Biquad,
 }
 
 /// A frequency weighting ready to run: f32 coefficients designed for one sample rate.
@@ -486,25 +541,33 @@ pub struct WeightingSettings {
     pub kind: WeightingKind,
     /// The sample rate they were designed for, Hz.
     pub sample_rate_hz: f32,
-    /// The 0.4 Hz band-limiting high-pass.
-    pub high_pass: HighPassSvf,
-    /// Low-pass, then transition and/or upward step; only the first `n_biquads` run.
-    pub biquads: [Biquad; MAX_BIQUADS],
-    /// How many of `biquads` are active (2 or 3).
-    pub n_biquads: u8,
+    /// Band limiting, shared by all weightings at this rate.
+    pub band: BandLimit,
+    /// Transition and/or upward step; only the first `n_shaping` run.
+    pub shaping: [Biquad; MAX_SHAPING],
+    /// How many of `shaping` are active (1 or 2).
+    pub n_shaping: u8,
 }
+
+/// Most frequency-shaping sections of one weighting (Wk: transition and upward step).
+pub const MAX_SHAPING: usize = 2;
 
 /// Running memory of one weighting filter (two f32 per section).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct WeightingState {
     high_pass: [f32; 2],
-    biquads: [[f32; 2]; MAX_BIQUADS],
+    low_pass: [f32; 2],
+    shaping: [[f32; 2]; MAX_SHAPING],
 }
 
 impl WeightingState {
     /// The state of a filter at rest (all memories zero).
     pub const fn new() -> Self {
-        Self { high_pass: [0.0; 2], biquads: [[0.0; 2]; MAX_BIQUADS] }
+        Self {
+            high_pass: [0.0; 2],
+            low_pass: [0.0; 2],
+            shaping: [[0.0; 2]; MAX_SHAPING],
+        }
     }
 }
 
@@ -518,21 +581,28 @@ impl WeightingSettings {
         }
         let fs = sample_rate_hz as f64;
         let params = kind.params();
-        let (rest, hp) = params.sections();
+        let ([lp, tr, st], hp) = params.sections();
         let high_pass = HighPassSvf::design(hp.f_char_hz, Q_BAND, fs);
-        let mut biquads = [Biquad::IDENTITY; MAX_BIQUADS];
+        // The low-pass sits at or above fs/2 at low rates: match it at fs/3 at most; the
+        // shaping sections at their own frequency, at most fs/4.
+        let lp = lp.ok_or(WeightingError::DesignFailed)?;
+        let low_pass = Biquad::design_matched(&lp, fs, lp.f_char_hz.min(fs / 3.0))?;
+        let mut shaping = [Biquad::IDENTITY; MAX_SHAPING];
         let mut n = 0usize;
-        for (i, s) in rest.iter().enumerate() {
-            if let Some(s) = s {
-                // The low-pass (index 0) sits at or above fs/2 at low rates: match it at
-                // fs/3; the others at their own frequency, at most fs/4.
-                let cap = if i == 0 { fs / 3.0 } else { fs / 4.0 };
-                let fm = if s.f_char_hz < cap { s.f_char_hz } else { cap };
-                biquads[n] = Biquad::design_matched(s, fs, fm)?;
-                n += 1;
-            }
+        for s in [tr, st].iter().flatten() {
+            shaping[n] = Biquad::design_matched(s, fs, s.f_char_hz.min(fs / 4.0))?;
+            n += 1;
         }
-        let settings = Self { kind, sample_rate_hz, high_pass, biquads, n_biquads: n as u8 };
+        let settings = Self {
+            kind,
+            sample_rate_hz,
+            band: BandLimit {
+                high_pass,
+                low_pass,
+            },
+            shaping,
+            n_shaping: n as u8,
+        };
         settings.validate()?;
         Ok(settings)
     }
@@ -544,28 +614,39 @@ impl WeightingSettings {
         {
             return Err(WeightingError::SampleRateOutOfRange);
         }
-        if self.n_biquads as usize > MAX_BIQUADS {
+        if !(1..=MAX_SHAPING).contains(&(self.n_shaping as usize)) {
             return Err(WeightingError::TooManySections);
         }
-        self.high_pass.validate()?;
-        self.biquads.iter().try_for_each(Biquad::validate)
+        self.band.high_pass.validate()?;
+        self.band.low_pass.validate()?;
+        self.shaping.iter().try_for_each(Biquad::validate)
     }
 
     /// One acceleration sample (m/s^2, at `sample_rate_hz`) in, the weighted sample (m/s^2) out.
     #[inline]
     pub fn step(&self, state: &mut WeightingState, x_m_s2: f32) -> f32 {
-        let mut y = self.high_pass.step(&mut state.high_pass, x_m_s2);
-        let n = (self.n_biquads as usize).min(MAX_BIQUADS);
-        for (q, s) in self.biquads[..n].iter().zip(state.biquads.iter_mut()) {
-            y = q.step(s, y);
+        self.step_with_band(&self.band, state, x_m_s2)
+    }
+
+    /// As [`step`](Self::step), with the band limiting taken from `band`, which must equal
+    /// `self.band` (it does for every weighting at the same rate). A caller running three
+    /// axes passes one copy, so its coefficients are loaded once per sample, not three times.
+    #[inline(always)]
+    pub fn step_with_band(&self, band: &BandLimit, state: &mut WeightingState, x_m_s2: f32) -> f32 {
+        let y = band.high_pass.step(&mut state.high_pass, x_m_s2);
+        let y = band.low_pass.step(&mut state.low_pass, y);
+        let y = self.shaping[0].step(&mut state.shaping[0], y);
+        if self.n_shaping >= 2 {
+            self.shaping[1].step(&mut state.shaping[1], y)
+        } else {
+            y
         }
-        y
     }
 
     /// Multiplies the filter's gain by `k` (folds a vector-sum factor into the last section).
     pub fn scaled(mut self, k: f32) -> Self {
-        let last = (self.n_biquads as usize).clamp(1, MAX_BIQUADS) - 1;
-        for b in self.biquads[last].b.iter_mut() {
+        let last = (self.n_shaping as usize).clamp(1, MAX_SHAPING) - 1;
+        for b in self.shaping[last].b.iter_mut() {
             *b *= k;
         }
         self
@@ -574,10 +655,11 @@ impl WeightingSettings {
     /// Frequency response at `f_hz` of the filter the device runs (its f32 coefficients).
     pub fn response(&self, f_hz: f64) -> Complex64 {
         let z = Complex64::from_angle(TAU * f_hz / self.sample_rate_hz as f64);
-        let n = (self.n_biquads as usize).min(MAX_BIQUADS);
-        self.biquads[..n]
+        let n = (self.n_shaping as usize).min(MAX_SHAPING);
+        let band = self.band.high_pass.response_at(z) * self.band.low_pass.response_at(z);
+        self.shaping[..n]
             .iter()
-            .fold(self.high_pass.response_at(z), |h, q| h * q.response_at(z))
+            .fold(band, |h, q| h * q.response_at(z))
     }
 }
 

@@ -42,24 +42,56 @@ fn a_sine_on_each_axis_gives_rms_of_amplitude_times_factor_over_root_two() {
         aw[a] = amp[a] * analog_response(kinds[a], f[a]).abs();
         let rms = aw[a] / 2f64.sqrt();
         let x = v.axes[a];
-        assert!(close(x.rms_m_s2, rms, 0.01), "axis {a}: rms {} vs {rms}", x.rms_m_s2);
-        assert!(close(x.running_rms_m_s2, rms, 0.03), "axis {a}: running {}", x.running_rms_m_s2);
+        assert!(
+            close(x.rms_m_s2, rms, 0.01),
+            "axis {a}: rms {} vs {rms}",
+            x.rms_m_s2
+        );
+        assert!(
+            close(x.running_rms_m_s2, rms, 0.03),
+            "axis {a}: running {}",
+            x.running_rms_m_s2
+        );
         assert!(x.mtvv_m_s2 as f64 >= 0.99 * rms && close(x.mtvv_m_s2, rms, 0.04));
         // VDV of a sine: (3/8 A^4 T)^(1/4).
         let vdv = (0.375 * aw[a].powi(4) * secs).powf(0.25);
-        assert!(close(x.vdv_m_s175, vdv, 0.02), "axis {a}: vdv {} vs {vdv}", x.vdv_m_s175);
-        assert!(close(x.peak_m_s2, aw[a], 0.02), "axis {a}: peak {}", x.peak_m_s2);
+        assert!(
+            close(x.vdv_m_s175, vdv, 0.02),
+            "axis {a}: vdv {} vs {vdv}",
+            x.vdv_m_s175
+        );
+        assert!(
+            close(x.peak_m_s2, aw[a], 0.02),
+            "axis {a}: peak {}",
+            x.peak_m_s2
+        );
         assert!(close(x.crest_factor, 2f64.sqrt(), 0.03));
         assert!(!x.additional.any());
     }
     // Vector sum: mean square adds; the fourth-power dose of (sum a_i^2)^2 for sines of
     // unrelated frequencies is T (3/8 sum A_i^4 + 2 sum_{i<j} A_i^2 A_j^2 / 4).
     let rms_v = (aw.iter().map(|a| a * a / 2.0).sum::<f64>()).sqrt();
-    assert!(close(v.vector.rms_m_s2, rms_v, 0.01), "vector rms {}", v.vector.rms_m_s2);
-    let cross: f64 = (0..3).flat_map(|i| (i + 1..3).map(move |j| (i, j))).map(|(i, j)| aw[i] * aw[i] * aw[j] * aw[j] / 2.0).sum();
+    assert!(
+        close(v.vector.rms_m_s2, rms_v, 0.01),
+        "vector rms {}",
+        v.vector.rms_m_s2
+    );
+    let cross: f64 = (0..3)
+        .flat_map(|i| (i + 1..3).map(move |j| (i, j)))
+        .map(|(i, j)| aw[i] * aw[i] * aw[j] * aw[j] / 2.0)
+        .sum();
     let vdv_v = ((0.375 * aw.iter().map(|a| a.powi(4)).sum::<f64>() + cross) * secs).powf(0.25);
-    assert!(close(v.vector.vdv_m_s175, vdv_v, 0.02), "vector vdv {} vs {vdv_v}", v.vector.vdv_m_s175);
-    let rsq = v.axes.iter().map(|x| (x.vdv_m_s175 as f64).powi(4)).sum::<f64>().powf(0.25);
+    assert!(
+        close(v.vector.vdv_m_s175, vdv_v, 0.02),
+        "vector vdv {} vs {vdv_v}",
+        v.vector.vdv_m_s175
+    );
+    let rsq = v
+        .axes
+        .iter()
+        .map(|x| (x.vdv_m_s175 as f64).powi(4))
+        .sum::<f64>()
+        .powf(0.25);
     assert!(v.vector.vdv_m_s175 as f64 >= rsq);
 }
 
@@ -93,14 +125,22 @@ fn a_single_shock_on_a_quiet_ride_raises_the_crest_factor_and_mtvv_flags() {
             let base = 0.05 * (2.0 * PI * 5.0 * t).sin();
             // A half-sine bump of 20 ms, 20 m/s^2, on the vertical.
             let k = i as isize - shock_at as isize;
-            let bump = if (0..10).contains(&k) { 20.0 * (PI * k as f64 / 10.0).sin() } else { 0.0 };
+            let bump = if (0..10).contains(&k) {
+                20.0 * (PI * k as f64 / 10.0).sin()
+            } else {
+                0.0
+            };
             [base as f32, base as f32, (base + bump) as f32]
         },
         n,
     );
     let v = s.values(&st);
     let z = v.axes[2];
-    assert!(z.crest_factor > CREST_FACTOR_LIMIT && z.additional.crest_factor, "crest {}", z.crest_factor);
+    assert!(
+        z.crest_factor > CREST_FACTOR_LIMIT && z.additional.crest_factor,
+        "crest {}",
+        z.crest_factor
+    );
     assert!(z.mtvv_ratio > MTVV_RATIO_LIMIT && z.additional.mtvv_ratio);
     assert!(z.vdv_ratio > VDV_RATIO_LIMIT && z.additional.vdv_ratio);
     assert!(v.vector.additional.any());
@@ -125,9 +165,17 @@ fn an_eight_hour_dose_keeps_its_precision() {
     let v = s.values(&st);
     let own = s.weighting[2].response(f).abs();
     let t = hours * 3600.0;
-    assert!(close(v.axes[2].rms_m_s2, own / 2f64.sqrt(), 1e-4), "rms {}", v.axes[2].rms_m_s2);
+    assert!(
+        close(v.axes[2].rms_m_s2, own / 2f64.sqrt(), 1e-4),
+        "rms {}",
+        v.axes[2].rms_m_s2
+    );
     let vdv = (0.375 * own.powi(4) * t).powf(0.25);
-    assert!(close(v.axes[2].vdv_m_s175, vdv, 1e-4), "vdv {} vs {vdv}", v.axes[2].vdv_m_s175);
+    assert!(
+        close(v.axes[2].vdv_m_s175, vdv, 1e-4),
+        "vdv {} vs {vdv}",
+        v.axes[2].vdv_m_s175
+    );
 }
 
 #[test]
@@ -143,8 +191,16 @@ fn the_vector_factor_k_scales_only_the_vector_sum() {
     let n = (20.0 * FS) as usize;
     let (v1, v2) = (s1.values(&run(&s1, sig, n)), s2.values(&run(&s2, sig, n)));
     assert!(close(v2.axes[2].rms_m_s2, v1.axes[2].rms_m_s2 as f64, 1e-5));
-    assert!(close(v2.axes[2].vdv_m_s175, v1.axes[2].vdv_m_s175 as f64, 1e-5));
-    assert!(close(v2.vector.rms_m_s2, 1.4 * v1.vector.rms_m_s2 as f64, 1e-5));
+    assert!(close(
+        v2.axes[2].vdv_m_s175,
+        v1.axes[2].vdv_m_s175 as f64,
+        1e-5
+    ));
+    assert!(close(
+        v2.vector.rms_m_s2,
+        1.4 * v1.vector.rms_m_s2 as f64,
+        1e-5
+    ));
 }
 
 #[test]
@@ -156,7 +212,10 @@ fn invalid_configurations_are_refused_with_the_reason() {
     assert_eq!(ExposureSettings::new(c, FS), Err(ExposureError::AxisFactor));
     let mut c = ExposureConfig::DEFAULT;
     c.running_tau_s = 0.0;
-    assert_eq!(ExposureSettings::new(c, FS), Err(ExposureError::TimeConstant));
+    assert_eq!(
+        ExposureSettings::new(c, FS),
+        Err(ExposureError::TimeConstant)
+    );
     let mut c = ExposureConfig::DEFAULT;
     c.warmup_s = -1.0;
     assert_eq!(ExposureSettings::new(c, FS), Err(ExposureError::Warmup));
@@ -164,12 +223,17 @@ fn invalid_configurations_are_refused_with_the_reason() {
     assert_eq!(ExposureSettings::new(c, FS), Err(ExposureError::Warmup));
     assert_eq!(
         ExposureSettings::new(ExposureConfig::DEFAULT, 50.0),
-        Err(ExposureError::Weighting(WeightingError::SampleRateOutOfRange))
+        Err(ExposureError::Weighting(
+            WeightingError::SampleRateOutOfRange
+        ))
     );
     let mut s = ExposureSettings::new(ExposureConfig::DEFAULT, FS).unwrap();
     assert_eq!(s.validate(), Ok(()));
     s.running_gain = 2.0;
-    assert_eq!(s.validate(), Err(ExposureError::TimeConstant));
+    assert_eq!(s.validate(), Err(ExposureError::Mismatch));
+    let mut s = ExposureSettings::new(ExposureConfig::DEFAULT, FS).unwrap();
+    s.weighting[1].band.high_pass.g *= 1.01;
+    assert_eq!(s.validate(), Err(ExposureError::Mismatch));
 }
 
 #[test]
@@ -180,7 +244,10 @@ fn config_and_settings_survive_a_postcard_round_trip() {
     let back: ExposureSettings = postcard::from_bytes(bytes).unwrap();
     assert_eq!(back, s);
     let bytes = postcard::to_slice(&ExposureConfig::DEFAULT, &mut buf).unwrap();
-    assert_eq!(postcard::from_bytes::<ExposureConfig>(bytes).unwrap(), ExposureConfig::DEFAULT);
+    assert_eq!(
+        postcard::from_bytes::<ExposureConfig>(bytes).unwrap(),
+        ExposureConfig::DEFAULT
+    );
 }
 
 // ---- The ISO 8041 saw-tooth burst signals, with an independent frequency-domain reference ----
@@ -228,7 +295,9 @@ fn fft(buf: &mut [Cx], inverse: bool) {
 /// The analog weighting applied to a sampled signal in the frequency domain.
 fn weighted_reference(kind: WeightingKind, x: &[f64], fs: f64) -> Vec<f64> {
     let n = (x.len() * 4).next_power_of_two();
-    let mut buf: Vec<Cx> = (0..n).map(|i| Cx(x.get(i).copied().unwrap_or(0.0), 0.0)).collect();
+    let mut buf: Vec<Cx> = (0..n)
+        .map(|i| Cx(x.get(i).copied().unwrap_or(0.0), 0.0))
+        .collect();
     fft(&mut buf, false);
     for k in 0..=n / 2 {
         let w = analog_response(kind, k as f64 * fs / n as f64);
@@ -252,7 +321,11 @@ fn sawtooth_burst(cycles: Option<u32>, start_s: f64, total_s: f64, fs: f64) -> V
             let t = i as f64 / fs - start_s;
             let phase = t * f0;
             let inside = t >= 0.0 && cycles.is_none_or(|c| phase < c as f64);
-            if inside { 2.0 * (phase + 0.5).fract() - 1.0 } else { 0.0 }
+            if inside {
+                2.0 * (phase + 0.5).fract() - 1.0
+            } else {
+                0.0
+            }
         })
         .collect()
 }
@@ -277,7 +350,12 @@ fn reference_values(a: &[f64], fs: f64, warmup: usize) -> Reference {
         }
     }
     let n = (a.len() - warmup) as f64;
-    Reference { mtvv: mtvv_sq.sqrt(), vdv: (q / fs).powf(0.25), peak, rms: (sq / n).sqrt() }
+    Reference {
+        mtvv: mtvv_sq.sqrt(),
+        vdv: (q / fs).powf(0.25),
+        peak,
+        rms: (sq / n).sqrt(),
+    }
 }
 
 #[test]
@@ -285,9 +363,18 @@ fn sawtooth_bursts_of_1_to_16_cycles_and_continuous_match_a_frequency_domain_ref
     let fs = FS as f64;
     let cfg = ExposureConfig {
         axes: AxisMapping {
-            x: AxisWeighting { kind: WeightingKind::Wk, k: 1.0 },
-            y: AxisWeighting { kind: WeightingKind::Wd, k: 1.0 },
-            z: AxisWeighting { kind: WeightingKind::Wj, k: 1.0 },
+            x: AxisWeighting {
+                kind: WeightingKind::Wk,
+                k: 1.0,
+            },
+            y: AxisWeighting {
+                kind: WeightingKind::Wd,
+                k: 1.0,
+            },
+            z: AxisWeighting {
+                kind: WeightingKind::Wj,
+                k: 1.0,
+            },
         },
         ..ExposureConfig::DEFAULT
     };
@@ -297,14 +384,25 @@ fn sawtooth_bursts_of_1_to_16_cycles_and_continuous_match_a_frequency_domain_ref
         let x = sawtooth_burst(cycles, 10.0, 30.0, fs);
         let st = run(&s, |i| [x[i] as f32; 3], x.len());
         let v = s.values(&st);
-        let weighted: Vec<Vec<f64>> = kinds.iter().map(|&k| weighted_reference(k, &x, fs)).collect();
+        let weighted: Vec<Vec<f64>> = kinds
+            .iter()
+            .map(|&k| weighted_reference(k, &x, fs))
+            .collect();
         for a in 0..3 {
             let r = reference_values(&weighted[a], fs, s.warmup_samples as usize);
             let got = v.axes[a];
             let msg = format!(
                 "{:?} cycles, {}: mtvv {} vs {:.4}, vdv {} vs {:.4}, peak {} vs {:.4}, rms {} vs {:.4}",
-                cycles, kinds[a], got.mtvv_m_s2, r.mtvv, got.vdv_m_s175, r.vdv, got.peak_m_s2, r.peak,
-                got.rms_m_s2, r.rms
+                cycles,
+                kinds[a],
+                got.mtvv_m_s2,
+                r.mtvv,
+                got.vdv_m_s175,
+                r.vdv,
+                got.peak_m_s2,
+                r.peak,
+                got.rms_m_s2,
+                r.rms
             );
             println!("{msg}");
             // The digital filter departs from the analog one by under 3 % in magnitude up
@@ -319,8 +417,18 @@ fn sawtooth_bursts_of_1_to_16_cycles_and_continuous_match_a_frequency_domain_ref
             .map(|i| (0..3).map(|a| weighted[a][i].powi(2)).sum::<f64>().sqrt())
             .collect();
         let r = reference_values(&av, fs, s.warmup_samples as usize);
-        assert!(close(v.vector.mtvv_m_s2, r.mtvv, 0.005), "vector mtvv {} vs {}", v.vector.mtvv_m_s2, r.mtvv);
-        assert!(close(v.vector.vdv_m_s175, r.vdv, 0.01), "vector vdv {} vs {}", v.vector.vdv_m_s175, r.vdv);
+        assert!(
+            close(v.vector.mtvv_m_s2, r.mtvv, 0.005),
+            "vector mtvv {} vs {}",
+            v.vector.mtvv_m_s2,
+            r.mtvv
+        );
+        assert!(
+            close(v.vector.vdv_m_s175, r.vdv, 0.01),
+            "vector vdv {} vs {}",
+            v.vector.vdv_m_s175,
+            r.vdv
+        );
         assert!(close(v.vector.rms_m_s2, r.rms, 0.005));
         assert!(close(v.vector.peak_m_s2, r.peak, 0.03));
     }
@@ -337,6 +445,14 @@ fn the_per_sample_output_carries_the_vector_mean_square_and_dose_for_the_alerts(
         last = s.step(&mut st, [x, 0.5 * x, 2.0 * x], i as u32);
     }
     let v = s.values(&st);
-    assert!(close(last.running_ms_m2_s4.sqrt(), v.vector.running_rms_m_s2 as f64, 1e-5));
-    assert!(close(last.vdv4_m4_s7.sqrt().sqrt(), v.vector.vdv_m_s175 as f64, 1e-4));
+    assert!(close(
+        last.running_ms_m2_s4.sqrt(),
+        v.vector.running_rms_m_s2 as f64,
+        1e-5
+    ));
+    assert!(close(
+        last.vdv4_m4_s7.sqrt().sqrt(),
+        v.vector.vdv_m_s175 as f64,
+        1e-4
+    ));
 }

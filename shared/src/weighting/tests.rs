@@ -12,7 +12,10 @@ impl C {
     }
     fn div(self, o: C) -> C {
         let d = o.0 * o.0 + o.1 * o.1;
-        C((self.0 * o.0 + self.1 * o.1) / d, (self.1 * o.0 - self.0 * o.1) / d)
+        C(
+            (self.0 * o.0 + self.1 * o.1) / d,
+            (self.1 * o.0 - self.0 * o.1) / d,
+        )
     }
     fn abs(self) -> f64 {
         (self.0 * self.0 + self.1 * self.1).sqrt()
@@ -52,7 +55,11 @@ fn reference_magnitude(kind: WeightingKind, f: f64) -> f64 {
 
 /// ISO 8041 tolerance (upper, lower) on a weighting's relative error at `f` Hz.
 fn iso8041_tolerance(f: f64) -> (f64, f64) {
-    if (0.631..=63.1).contains(&f) { (0.12, -0.11) } else { (0.26, -0.21) }
+    if (0.631..=63.1).contains(&f) {
+        (0.12, -0.11)
+    } else {
+        (0.26, -0.21)
+    }
 }
 
 /// A log-spaced grid plus the exact one-third-octave centres, over `lo..=hi` Hz.
@@ -60,7 +67,11 @@ fn grid(lo: f64, hi: f64) -> Vec<f64> {
     let mut v: Vec<f64> = (0..=2000)
         .map(|i| lo * (hi / lo).powf(i as f64 / 2000.0))
         .collect();
-    v.extend((-10..=30).map(|n| 10f64.powf(n as f64 / 10.0)).filter(|f| (lo..=hi).contains(f)));
+    v.extend(
+        (-10..=30)
+            .map(|n| 10f64.powf(n as f64 / 10.0))
+            .filter(|f| (lo..=hi).contains(f)),
+    );
     v
 }
 
@@ -91,14 +102,22 @@ fn analog_response_agrees_with_the_table_formula_written_independently() {
 #[test]
 fn calibration_factors_at_100_rad_per_s_are_within_1_percent_of_the_standard() {
     let f = 100.0 / (2.0 * std::f64::consts::PI);
-    for (kind, expected) in
-        [(WeightingKind::Wk, 0.7718), (WeightingKind::Wd, 0.1261), (WeightingKind::Wj, 1.019)]
-    {
+    for (kind, expected) in [
+        (WeightingKind::Wk, 0.7718),
+        (WeightingKind::Wd, 0.1261),
+        (WeightingKind::Wj, 1.019),
+    ] {
         let analog = analog_response(kind, f).abs();
-        assert!((analog / expected - 1.0).abs() < 1e-3, "{kind} analog {analog}");
+        assert!(
+            (analog / expected - 1.0).abs() < 1e-3,
+            "{kind} analog {analog}"
+        );
         for fs in [200.0, 500.0, 1000.0, 2000.0] {
             let digital = WeightingSettings::new(kind, fs).unwrap().response(f).abs();
-            assert!((digital / expected - 1.0).abs() < 0.01, "{kind} at fs {fs}: {digital}");
+            assert!(
+                (digital / expected - 1.0).abs() < 0.01,
+                "{kind} at fs {fs}: {digital}"
+            );
         }
     }
 }
@@ -118,7 +137,10 @@ fn analog_peaks_sit_where_the_standard_says() {
             }
         }
         assert!((best / peak - 1.0).abs() < 1e-3, "{kind} peak {best}");
-        assert!((best_f / f_peak - 1.0).abs() < 0.02, "{kind} peak at {best_f} Hz");
+        assert!(
+            (best_f / f_peak - 1.0).abs() < 0.02,
+            "{kind} peak at {best_f} Hz"
+        );
     }
 }
 
@@ -160,7 +182,10 @@ fn tabulated_one_third_octave_factors_match_the_formula_within_rounding() {
         for &(n, milli) in table {
             let f = 10f64.powf(n as f64 / 10.0);
             let m = 1000.0 * analog_response(kind, f).abs();
-            assert!((m / milli - 1.0).abs() < 0.015, "{kind} at {f:.3} Hz: {m:.1} vs {milli}");
+            assert!(
+                (m / milli - 1.0).abs() < 0.015,
+                "{kind} at {f:.3} Hz: {m:.1} vs {milli}"
+            );
         }
     }
     // The transcription error itself: 212 is 5 % off the formula.
@@ -187,7 +212,9 @@ fn deviation_at_500_hz_is_under_3_percent_and_at_1_khz_under_1_percent() {
     for kind in WeightingKind::ALL {
         let (e500, f500) = worst_deviation(kind, 500.0, 0.5, 80.0);
         let (e1k, f1k) = worst_deviation(kind, 1000.0, 0.5, 80.0);
-        println!("{kind}: fs 500 worst {e500:+.4} at {f500:.1} Hz; fs 1000 worst {e1k:+.4} at {f1k:.1} Hz");
+        println!(
+            "{kind}: fs 500 worst {e500:+.4} at {f500:.1} Hz; fs 1000 worst {e1k:+.4} at {f1k:.1} Hz"
+        );
         assert!(e500.abs() < 0.03 && e1k.abs() < 0.01);
     }
 }
@@ -232,7 +259,10 @@ fn below_200_hz_the_filter_follows_the_analog_magnitude_up_to_nyquist() {
                 let e = w.response(f).abs() / reference_magnitude(kind, f) - 1.0;
                 let (hi, lo) = iso8041_tolerance(f);
                 // Meets the wide tolerance everywhere; the narrow one up to fs/4.
-                assert!((-0.21..=0.26).contains(&e), "{kind} fs {fs} at {f:.2}: {e:+.4}");
+                assert!(
+                    (-0.21..=0.26).contains(&e),
+                    "{kind} fs {fs} at {f:.2}: {e:+.4}"
+                );
                 if f < fs as f64 / 4.0 {
                     assert!(lo <= e && e <= hi, "{kind} fs {fs} at {f:.2}: {e:+.4}");
                 }
@@ -255,16 +285,16 @@ fn sample_rates_outside_100_to_2000_hz_or_not_finite_are_refused() {
 fn stored_settings_with_an_unstable_or_non_finite_section_are_refused() {
     let good = WeightingSettings::new(WeightingKind::Wd, 500.0).unwrap();
     let mut bad = good;
-    bad.biquads[1].a = [-2.0, 1.0];
+    bad.shaping[0].a = [-2.0, 1.0];
     assert_eq!(bad.validate(), Err(WeightingError::Unstable));
     let mut bad = good;
-    bad.biquads[0].b[2] = f32::NAN;
+    bad.band.low_pass.b[2] = f32::NAN;
     assert_eq!(bad.validate(), Err(WeightingError::NonFiniteCoefficient));
     let mut bad = good;
-    bad.high_pass.k_plus_g = 0.0;
+    bad.band.high_pass.k_plus_g = 0.0;
     assert_eq!(bad.validate(), Err(WeightingError::Unstable));
     let mut bad = good;
-    bad.n_biquads = 4;
+    bad.n_shaping = 3;
     assert_eq!(bad.validate(), Err(WeightingError::TooManySections));
 }
 
@@ -299,7 +329,10 @@ fn sines_through_the_f32_filter_give_rms_of_amplitude_times_factor_over_root_two
                 let rms = measured_sine_rms(&w, f);
                 // The device's own response: the f32 arithmetic must not add error.
                 let own = w.response(f).abs() / 2f64.sqrt();
-                assert!((rms / own - 1.0).abs() < 2e-3, "{kind} fs {fs} f {f}: {rms} vs {own}");
+                assert!(
+                    (rms / own - 1.0).abs() < 2e-3,
+                    "{kind} fs {fs} f {f}: {rms} vs {own}"
+                );
                 // And the analog factor, within ISO 8041.
                 let analog = reference_magnitude(kind, f) / 2f64.sqrt();
                 let (hi, lo) = iso8041_tolerance(f);
@@ -320,8 +353,15 @@ fn a_direct_form_high_pass_with_f32_coefficients_would_be_off_at_2_khz_while_the
     let q1 = 1.0 / 2f64.sqrt();
     let a0 = c * c + c * w1 / q1 + w1 * w1;
     let direct = Biquad {
-        b: [(c * c / a0) as f32, (-2.0 * c * c / a0) as f32, (c * c / a0) as f32],
-        a: [((2.0 * w1 * w1 - 2.0 * c * c) / a0) as f32, ((c * c - c * w1 / q1 + w1 * w1) / a0) as f32],
+        b: [
+            (c * c / a0) as f32,
+            (-2.0 * c * c / a0) as f32,
+            (c * c / a0) as f32,
+        ],
+        a: [
+            ((2.0 * w1 * w1 - 2.0 * c * c) / a0) as f32,
+            ((c * c - c * w1 / q1 + w1 * w1) / a0) as f32,
+        ],
     };
     let svf = HighPassSvf::design(0.4, q1, fs);
     let mut worst_direct = 0.0f64;
@@ -334,7 +374,9 @@ fn a_direct_form_high_pass_with_f32_coefficients_would_be_off_at_2_khz_while_the
         worst_direct = worst_direct.max((direct.response_at(z).abs() / exact - 1.0).abs());
         worst_svf = worst_svf.max((svf.response_at(z).abs() / exact - 1.0).abs());
     }
-    println!("0.4 Hz high-pass at 2 kHz, 0.25-2 Hz: direct form {worst_direct:.4}, SVF {worst_svf:.2e}");
+    println!(
+        "0.4 Hz high-pass at 2 kHz, 0.25-2 Hz: direct form {worst_direct:.4}, SVF {worst_svf:.2e}"
+    );
     assert!(worst_svf < 1e-4);
     assert!(worst_direct > 10.0 * worst_svf);
 }
