@@ -5,6 +5,17 @@
 
 pub mod cli;
 pub mod commands;
+pub mod dataset;
+pub mod firmware;
+pub mod fit;
+pub mod geomean;
 pub mod h_csv;
+pub mod link;
 pub mod output;
 pub mod params_file;
+pub mod plot;
+pub mod qemu;
+pub mod recording;
+pub mod spectral;
+pub mod synth;
+pub mod validate;
