@@ -27,6 +27,16 @@ pub enum Command {
     Modes(commands::modes::Args),
     /// Print a parameter file (TOML) for a preset or a fitted file.
     Params(commands::params::Args),
+    /// Write a synthetic dataset (recordings and true parameters) from the model.
+    Synth(commands::synth::Args),
+    /// Estimate a dataset's transmissibility (H1, Welch) per subject or as a geometric mean.
+    Transmissibility(commands::transmissibility::Args),
+    /// Fit the model's parameters to a dataset (rigid: all 42; litter: the 18 contacts).
+    Fit(commands::fit::Args),
+    /// Predict the sensor accelerations for a recording's support acceleration.
+    Predict(commands::predict::Args),
+    /// Compare predicted and measured sensor accelerations of a recording (rms, R^2).
+    Validate(commands::validate::Args),
 }
 
 /// Parses the process arguments, runs the command and maps errors to a one-line message.
@@ -47,6 +57,11 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Model(args) => commands::model::run(&args),
         Command::Modes(args) => commands::modes::run(&args),
         Command::Params(args) => commands::params::run(&args),
+        Command::Synth(args) => commands::synth::run(&args),
+        Command::Transmissibility(args) => commands::transmissibility::run(&args),
+        Command::Fit(args) => commands::fit::run(&args),
+        Command::Predict(args) => commands::predict::run(&args),
+        Command::Validate(args) => commands::validate::run(&args),
     }
 }
 

@@ -1,5 +1,10 @@
 //! One module per `supine` subcommand.
 
+pub mod fit;
 pub mod model;
 pub mod modes;
 pub mod params;
+pub mod predict;
+pub mod synth;
+pub mod transmissibility;
+pub mod validate;

@@ -1,0 +1,207 @@
+//! `supine fit`: identifies the model's parameters from a dataset (see `fit` for the
+//! method) and writes the parameter file that `--params` reads everywhere.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use crate::commands::transmissibility::estimate;
+use crate::dataset::{Case, Dataset};
+use crate::fit::objective::Target;
+use crate::fit::report;
+use crate::fit::solver::SolverSettings;
+use crate::fit::{self, Determination, FitSettings};
+use crate::params_file::{self, ParamFile};
+use crate::spectral::DEFAULT_RESOLUTION_HZ;
+use anyhow::{Result, bail};
+
+/// Arguments of `supine fit`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The dataset folder (with dataset.toml).
+    #[arg(long)]
+    pub dataset: PathBuf,
+    /// `rigid` fits all 42 parameters; `litter` fits the 18 contacts with --joints fixed.
+    #[arg(long, value_enum)]
+    pub case: Case,
+    /// The rigid fit (parameter file) whose joints the litter-board fit keeps.
+    #[arg(long, value_name = "FILE")]
+    pub joints: Option<PathBuf>,
+    /// Subjects to hold out, comma-separated (e.g. s8).
+    #[arg(long, value_delimiter = ',')]
+    pub exclude: Vec<String>,
+    /// Seed of the random starts.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Number of starts (the paper's start, the paper's values, then random ones).
+    #[arg(long, default_value_t = 4)]
+    pub starts: usize,
+    /// Stop when an accepted step lowers the cost by less than this fraction.
+    #[arg(long, default_value_t = 1e-8)]
+    pub ftol: f64,
+    /// Stop when a step in ln p is shorter than this (relative).
+    #[arg(long, default_value_t = 1e-8)]
+    pub xtol: f64,
+    /// Most solver iterations per start.
+    #[arg(long, default_value_t = 1000)]
+    pub max_iterations: usize,
+    /// Frequency resolution of the measured H, Hz.
+    #[arg(long, default_value_t = DEFAULT_RESOLUTION_HZ)]
+    pub resolution_hz: f64,
+    /// Where to write the fitted parameter file.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// A folder for the SVG plots and the summary table.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+}
+
+/// Fits and writes the parameter file (and the report).
+pub fn run(args: &Args) -> Result<()> {
+    let started = Instant::now();
+    let dataset = Dataset::load(&args.dataset)?;
+    let joints = match (args.case, &args.joints) {
+        (Case::Litter, Some(path)) => Some(params_file::load(path)?),
+        (Case::Litter, None) => bail!("--case litter: expected --joints FILE (the rigid fit)"),
+        (Case::Rigid, Some(_)) => {
+            bail!("--joints: only the litter-board fit takes the rigid fit's joints")
+        }
+        (Case::Rigid, None) => None,
+    };
+    let est = estimate(
+        &dataset,
+        args.case,
+        None,
+        &args.exclude,
+        args.resolution_hz,
+        0.5,
+        16.0,
+    )?;
+    let settings = FitSettings {
+        starts: args.starts,
+        seed: args.seed,
+        solver: SolverSettings {
+            ftol: args.ftol,
+            xtol: args.xtol,
+            max_iterations: args.max_iterations,
+            ..SolverSettings::default()
+        },
+    };
+    let target = Target {
+        freqs_hz: est.freqs_hz.clone(),
+        h: est.geomean.clone(),
+    };
+    let subject = est.mean_subject();
+    let setup = match &joints {
+        Some(rigid) => fit::litter_setup(target, subject, &rigid.params, &settings)?,
+        None => fit::rigid_setup(target, subject, &settings)?,
+    };
+    let bar = indicatif::ProgressBar::new_spinner();
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{spinner} fit {elapsed} {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+    );
+    let total = setup.starts.len();
+    let result = fit::run(&setup, &settings, &mut |start, iteration, cost| {
+        bar.set_message(format!(
+            "start {}/{total}: iteration {iteration}, cost {cost:.6}",
+            start + 1
+        ));
+        bar.tick();
+    })?;
+    bar.finish_and_clear();
+    let elapsed_s = started.elapsed().as_secs_f64();
+    let ident = fit::identifiability(&setup, &result);
+    let errors = fit::component_errors(
+        &result.solution.residuals,
+        setup.objective.target.freqs_hz.len(),
+    );
+    let summary = report::summary(&setup, &result, &ident, &errors, elapsed_s);
+
+    let mut table = toml::Table::new();
+    table.insert("case".into(), args.case.name().into());
+    table.insert("dataset".into(), args.dataset.display().to_string().into());
+    let ids: Vec<toml::Value> = est.subjects.iter().map(|s| s.id.clone().into()).collect();
+    table.insert("subjects".into(), ids.into());
+    let excluded: Vec<toml::Value> = args.exclude.iter().map(|s| s.clone().into()).collect();
+    table.insert("excluded".into(), excluded.into());
+    table.insert("seed".into(), (args.seed as i64).into());
+    table.insert("starts".into(), (setup.starts.len() as i64).into());
+    table.insert(
+        "best_start".into(),
+        setup.starts[result.best].0.clone().into(),
+    );
+    table.insert("final_cost".into(), result.solution.cost.into());
+    table.insert(
+        "frequencies".into(),
+        (setup.objective.target.freqs_hz.len() as i64).into(),
+    );
+    table.insert(
+        "resolution_hz".into(),
+        est.settings.resolution_hz(est.sample_rate_hz).into(),
+    );
+    table.insert(
+        "termination".into(),
+        result.solution.termination.describe().into(),
+    );
+    if let Some(j) = &args.joints {
+        table.insert("joints_from".into(), j.display().to_string().into());
+    }
+    let list = |d: Determination| -> toml::Value {
+        let v: Vec<toml::Value> = ident
+            .params
+            .iter()
+            .filter(|p| p.determination == d)
+            .map(|p| p.id.to_string().into())
+            .collect();
+        v.into()
+    };
+    table.insert("no_effect".into(), list(Determination::NoEffect));
+    table.insert("weakly_determined".into(), list(Determination::Weak));
+    let at_bound: Vec<toml::Value> = ident
+        .params
+        .iter()
+        .filter(|p| p.at_bound.is_some())
+        .map(|p| p.id.to_string().into())
+        .collect();
+    table.insert("at_bound".into(), at_bound.into());
+    params_file::save(
+        &args.out,
+        &ParamFile {
+            params: result.params,
+            fit: Some(table),
+        },
+    )?;
+    if let Some(dir) = &args.report {
+        let model_h = setup
+            .objective
+            .model_h(&result.solution.x)
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        let subjects: Vec<_> = est.subjects.iter().map(|s| s.estimate.h.clone()).collect();
+        let svg = report::components_svg(
+            &format!(
+                "supine fit, {} case: subjects (grey), geometric mean (black), model (red)",
+                args.case.name()
+            ),
+            &est.freqs_hz,
+            &subjects,
+            &est.geomean,
+            &model_h,
+        );
+        report::write(dir, &summary, &svg)?;
+    }
+    eprintln!("{summary}");
+    let unknown: Vec<String> = ident
+        .params
+        .iter()
+        .filter(|p| p.determination == Determination::NoEffect)
+        .map(|p| p.id.to_string())
+        .collect();
+    eprintln!(
+        "wrote {} (final cost {:.6}; {} parameter(s) without effect: {})",
+        args.out.display(),
+        result.solution.cost,
+        unknown.len(),
+        unknown.join(", ")
+    );
+    Ok(())
+}

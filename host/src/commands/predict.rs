@@ -1,0 +1,47 @@
+//! `supine predict`: the sensor accelerations the model predicts for a recording's support
+//! acceleration (see `validate::predict` for how it stays faithful to the continuous model).
+
+use std::path::PathBuf;
+
+use anyhow::{Result, anyhow};
+
+use crate::params_file;
+use crate::recording::Recording;
+use crate::validate::{predict, write_prediction};
+
+/// Arguments of `supine predict`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The parameter file (as `supine fit` writes).
+    #[arg(long, value_name = "FILE")]
+    pub params: PathBuf,
+    /// The recording whose platform columns drive the model.
+    #[arg(long, value_name = "REC.csv")]
+    pub input: PathBuf,
+    /// Where to write the prediction (same columns as a recording).
+    #[arg(long, value_name = "PRED.csv")]
+    pub out: PathBuf,
+    /// Override the subject's height, m.
+    #[arg(long)]
+    pub height_m: Option<f64>,
+    /// Override the subject's mass, kg.
+    #[arg(long)]
+    pub mass_kg: Option<f64>,
+}
+
+/// Predicts and writes the CSV.
+pub fn run(args: &Args) -> Result<()> {
+    let mut params = params_file::load(&args.params)?.params;
+    if let Some(h) = args.height_m {
+        params.subject.height_m = h;
+    }
+    if let Some(m) = args.mass_kg {
+        params.subject.mass_kg = m;
+    }
+    params.validate().map_err(|e| anyhow!("{e}"))?;
+    let recording = Recording::read(&args.input)?;
+    let predicted = predict(&params, &recording)?;
+    write_prediction(&recording, predicted, &args.out)?;
+    eprintln!("wrote {} ({} samples)", args.out.display(), recording.len());
+    Ok(())
+}

@@ -1,0 +1,60 @@
+//! `supine synth`: a synthetic dataset from the model (see `synth` for how it is made).
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+
+use crate::synth::{SynthSettings, write_dataset};
+
+/// Arguments of `supine synth`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The dataset folder to write (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Number of subjects.
+    #[arg(long, default_value_t = 8)]
+    pub subjects: usize,
+    /// Seed of every random draw.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Length of each recording, s.
+    #[arg(long, default_value_t = 60.0)]
+    pub duration_s: f64,
+    /// Sample rate of the recordings, Hz.
+    #[arg(long, default_value_t = 200.0)]
+    pub fs: f64,
+    /// Standard deviation of the white noise on every channel, m/s^2.
+    #[arg(long, default_value_t = 0.01)]
+    pub noise_m_s2: f64,
+}
+
+/// Writes the dataset.
+pub fn run(args: &Args) -> Result<()> {
+    let settings = SynthSettings {
+        subjects: args.subjects,
+        seed: args.seed,
+        duration_s: args.duration_s,
+        sample_rate_hz: args.fs,
+        noise_m_s2: args.noise_m_s2,
+        ..SynthSettings::default()
+    };
+    let bar = indicatif::ProgressBar::new((2 * args.subjects) as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("synth {bar:30} {pos}/{len} recordings")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let subjects = write_dataset(&args.out, &settings, |done, _| {
+        bar.set_position(done as u64)
+    })?;
+    bar.finish_and_clear();
+    eprintln!(
+        "wrote {} subjects x 2 cases ({} s at {} Hz) to {}, true parameters in {}/truth",
+        subjects.len(),
+        args.duration_s,
+        args.fs,
+        args.out.display(),
+        args.out.display()
+    );
+    Ok(())
+}

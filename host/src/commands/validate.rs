@@ -1,0 +1,66 @@
+//! `supine validate`: measured against predicted sensor accelerations of one recording,
+//! per channel and as the paper's R^2 (see `validate`).
+
+use std::io::Write as _;
+use std::path::PathBuf;
+
+use anyhow::{Result, anyhow};
+
+use crate::output::write_atomically;
+use crate::params_file;
+use crate::recording::Recording;
+use crate::validate::{predict, psd_svg, table, validate};
+
+/// Arguments of `supine validate`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The parameter file (as `supine fit` writes).
+    #[arg(long, value_name = "FILE")]
+    pub params: PathBuf,
+    /// The recording to compare with.
+    #[arg(long, value_name = "REC.csv")]
+    pub recording: PathBuf,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// A folder for the PSD plots (psd.svg) and the JSON (validation.json).
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Override the subject's height, m.
+    #[arg(long)]
+    pub height_m: Option<f64>,
+    /// Override the subject's mass, kg.
+    #[arg(long)]
+    pub mass_kg: Option<f64>,
+}
+
+/// Predicts, compares, prints.
+pub fn run(args: &Args) -> Result<()> {
+    let mut params = params_file::load(&args.params)?.params;
+    if let Some(h) = args.height_m {
+        params.subject.height_m = h;
+    }
+    if let Some(m) = args.mass_kg {
+        params.subject.mass_kg = m;
+    }
+    params.validate().map_err(|e| anyhow!("{e}"))?;
+    let recording = Recording::read(&args.recording)?;
+    let predicted = predict(&params, &recording)?;
+    let result = validate(&recording, &predicted);
+    let json = serde_json::to_string_pretty(&result)?;
+    if let Some(dir) = &args.report {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| anyhow!("{}: cannot create: {e}", dir.display()))?;
+        let svg = psd_svg(&recording, &predicted)?;
+        write_atomically(&dir.join("psd.svg"), |w| Ok(w.write_all(svg.as_bytes())?))?;
+        write_atomically(&dir.join("validation.json"), |w| {
+            Ok(w.write_all(json.as_bytes())?)
+        })?;
+    }
+    if args.json {
+        println!("{json}");
+    } else {
+        print!("{}", table(&result));
+    }
+    Ok(())
+}

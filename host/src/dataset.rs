@@ -1,0 +1,296 @@
+//! Datasets: a folder with `dataset.toml` naming each subject's anthropometry and recordings.
+//!
+//! ```toml
+//! [[subject]]
+//! id = "s1"
+//! height_m = 1.80
+//! mass_kg = 78.0
+//! rigid = "s1_rigid.csv"     # relative to the dataset folder; either case may be absent
+//! litter = "s1_litter.csv"
+//! ```
+//!
+//! Errors name `dataset.toml`'s line (or the recording's file, line and column) in one line.
+
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Result, anyhow, bail};
+use serde::Deserialize;
+use supine_core::model::Subject;
+
+use crate::output::write_atomically;
+use crate::recording::Recording;
+
+/// The dataset description's file name inside the dataset folder.
+pub const DATASET_FILE: &str = "dataset.toml";
+
+/// Two recordings' sample rates agree when they differ by less than this fraction.
+pub const SAMPLE_RATE_TOLERANCE: f64 = 1e-4;
+
+/// Which support the subjects lay on: the paper's two experimental cases.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Case {
+    /// Directly on the rigid platform: fits all 42 parameters.
+    Rigid,
+    /// On a spinal board strapped to a litter: fits the 18 contact parameters.
+    Litter,
+}
+
+impl Case {
+    /// `rigid` or `litter`, as in `dataset.toml` and on the command line.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Case::Rigid => "rigid",
+            Case::Litter => "litter",
+        }
+    }
+}
+
+/// One subject of a dataset.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SubjectEntry {
+    /// Identifier, unique in the dataset (e.g. `s3`).
+    pub id: String,
+    /// Height and mass.
+    pub subject: Subject,
+    /// The rigid-platform recording, resolved against the dataset folder.
+    pub rigid: Option<PathBuf>,
+    /// The litter-board recording, resolved against the dataset folder.
+    pub litter: Option<PathBuf>,
+    /// The line of `dataset.toml` where this subject's table starts (1-based).
+    pub line: usize,
+}
+
+impl SubjectEntry {
+    /// The recording of one case, if the dataset has it.
+    pub fn recording(&self, case: Case) -> Option<&Path> {
+        match case {
+            Case::Rigid => self.rigid.as_deref(),
+            Case::Litter => self.litter.as_deref(),
+        }
+    }
+}
+
+/// A dataset: where it lives and its subjects in file order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Dataset {
+    /// The dataset folder.
+    pub dir: PathBuf,
+    /// The subjects, in the order of `dataset.toml`.
+    pub subjects: Vec<SubjectEntry>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DatasetRepr {
+    subject: Vec<toml::Spanned<SubjectRepr>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SubjectRepr {
+    id: String,
+    height_m: f64,
+    mass_kg: f64,
+    rigid: Option<String>,
+    litter: Option<String>,
+}
+
+/// A subject's recordings of one case, read and checked.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CaseRecording {
+    /// The subject.
+    pub entry: SubjectEntry,
+    /// The recording.
+    pub recording: Recording,
+}
+
+impl Dataset {
+    /// Reads `DIR/dataset.toml` (not the recordings: [`Dataset::read_case`] does that).
+    pub fn load(dir: &Path) -> Result<Self> {
+        let path = dir.join(DATASET_FILE);
+        let text = std::fs::read_to_string(&path).map_err(|e| {
+            anyhow!(
+                "{}: cannot read the dataset description: {e}",
+                path.display()
+            )
+        })?;
+        Self::parse(&text, dir)
+    }
+
+    /// Parses the text of `dataset.toml` of the dataset in `dir`.
+    pub fn parse(text: &str, dir: &Path) -> Result<Self> {
+        let path = dir.join(DATASET_FILE);
+        let repr: DatasetRepr = toml::from_str(text).map_err(|e| {
+            let line = e.span().map_or(1, |s| line_of(text, s.start));
+            anyhow!(
+                "{}: line {line}: {}",
+                path.display(),
+                e.message().trim().replace('\n', " ")
+            )
+        })?;
+        let mut subjects: Vec<SubjectEntry> = Vec::with_capacity(repr.subject.len());
+        for spanned in repr.subject {
+            let line = line_of(text, spanned.span().start);
+            let s = spanned.into_inner();
+            let at =
+                |field: &str| format!("{}: line {line}, subject {}, {field}", path.display(), s.id);
+            if s.id.trim().is_empty() {
+                bail!(
+                    "{}: line {line}, id: expected a non-empty subject id",
+                    path.display()
+                );
+            }
+            if let Some(first) = subjects.iter().find(|e| e.id == s.id) {
+                bail!(
+                    "{}: expected unique subject ids, found \"{}\" again (lines {} and {line})",
+                    at("id"),
+                    s.id,
+                    first.line
+                );
+            }
+            for (field, value) in [("height_m", s.height_m), ("mass_kg", s.mass_kg)] {
+                if !(value.is_finite() && value > 0.0) {
+                    bail!(
+                        "{}: expected a positive finite number, found {value}",
+                        at(field)
+                    );
+                }
+            }
+            subjects.push(SubjectEntry {
+                id: s.id.clone(),
+                subject: Subject {
+                    height_m: s.height_m,
+                    mass_kg: s.mass_kg,
+                },
+                rigid: s.rigid.map(|r| dir.join(r)),
+                litter: s.litter.map(|r| dir.join(r)),
+                line,
+            });
+        }
+        if subjects.is_empty() {
+            bail!(
+                "{}: expected at least one [[subject]] table",
+                path.display()
+            );
+        }
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            subjects,
+        })
+    }
+
+    /// The subjects a command works on: `only` if given, else all but `exclude`; each must
+    /// have a recording of `case`.
+    pub fn select(
+        &self,
+        case: Case,
+        only: Option<&str>,
+        exclude: &[String],
+    ) -> Result<Vec<&SubjectEntry>> {
+        let path = self.dir.join(DATASET_FILE);
+        let known = |id: &str| -> Result<&SubjectEntry> {
+            self.subjects.iter().find(|e| e.id == id).ok_or_else(|| {
+                let ids: Vec<&str> = self.subjects.iter().map(|e| e.id.as_str()).collect();
+                anyhow!(
+                    "{}: expected a subject id among {}, found \"{id}\"",
+                    path.display(),
+                    ids.join(", ")
+                )
+            })
+        };
+        for id in exclude {
+            known(id)?;
+        }
+        let chosen: Vec<&SubjectEntry> = match only {
+            Some(id) => vec![known(id)?],
+            None => self
+                .subjects
+                .iter()
+                .filter(|e| !exclude.contains(&e.id))
+                .collect(),
+        };
+        if chosen.is_empty() {
+            bail!(
+                "{}: expected at least one subject after excluding {}",
+                path.display(),
+                exclude.join(",")
+            );
+        }
+        for entry in &chosen {
+            if entry.recording(case).is_none() {
+                bail!(
+                    "{}: line {}, subject {}: expected a `{}` recording for --case {}, found none",
+                    path.display(),
+                    entry.line,
+                    entry.id,
+                    case.name(),
+                    case.name()
+                );
+            }
+        }
+        Ok(chosen)
+    }
+
+    /// Reads the `case` recordings of the selected subjects and checks that they share one
+    /// sample rate (within [`SAMPLE_RATE_TOLERANCE`]).
+    pub fn read_case(&self, case: Case, selected: &[&SubjectEntry]) -> Result<Vec<CaseRecording>> {
+        let mut out: Vec<CaseRecording> = Vec::with_capacity(selected.len());
+        for entry in selected {
+            let file = entry
+                .recording(case)
+                .ok_or_else(|| anyhow!("subject {}: no `{}` recording", entry.id, case.name()))?;
+            let recording = Recording::read(file)?;
+            if let Some(first) = out.first() {
+                let (f0, f1) = (first.recording.sample_rate_hz(), recording.sample_rate_hz());
+                if ((f1 - f0) / f0).abs() > SAMPLE_RATE_TOLERANCE {
+                    bail!(
+                        "{}: column time_s: expected the sample rate of {} ({f0:.6} Hz), found {f1:.6} Hz (all recordings of a case must share one rate)",
+                        file.display(),
+                        first.recording.path.display()
+                    );
+                }
+            }
+            out.push(CaseRecording {
+                entry: (*entry).clone(),
+                recording,
+            });
+        }
+        Ok(out)
+    }
+
+    /// Writes `DIR/dataset.toml` (recording paths relative to `DIR`), complete or not at all.
+    pub fn write_description(&self) -> Result<()> {
+        let mut text = String::from(
+            "# supine dataset: one [[subject]] per subject; recordings are CSV files\n\
+             # relative to this folder, with the header of model.md's recording format.\n",
+        );
+        for e in &self.subjects {
+            let _ = write!(
+                text,
+                "\n[[subject]]\nid = {}\nheight_m = {}\nmass_kg = {}\n",
+                toml_string(&e.id),
+                e.subject.height_m,
+                e.subject.mass_kg
+            );
+            for (key, file) in [("rigid", &e.rigid), ("litter", &e.litter)] {
+                if let Some(file) = file {
+                    let rel = file.strip_prefix(&self.dir).unwrap_or(file);
+                    let _ = writeln!(text, "{key} = {}", toml_string(&rel.to_string_lossy()));
+                }
+            }
+        }
+        write_atomically(&self.dir.join(DATASET_FILE), |w| {
+            Ok(w.write_all(text.as_bytes())?)
+        })
+    }
+}
+
+fn toml_string(s: &str) -> String {
+    toml::Value::String(s.to_string()).to_string()
+}
+
+fn line_of(text: &str, offset: usize) -> usize {
+    text[..offset.min(text.len())].matches('\n').count() + 1
+}

@@ -1,0 +1,226 @@
+//! The fit's report: a text summary (cost, starts, per-component error, parameters at a
+//! bound, identifiability) and, with `--report DIR`, SVG plots in the paper's Fig. 3/4
+//! layout (each fitted component's magnitude and phase: every subject in light grey, the
+//! geometric mean in black, the fitted model in red) plus `summary.md`.
+
+use std::f64::consts::PI;
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::Path;
+
+use anyhow::{Result, anyhow};
+use supine_core::model::Transmissibility;
+use supine_core::model::response::COUPLED_COMPONENTS;
+
+use super::objective::COMPONENTS;
+use super::{AtBound, FitResult, Identifiability, Setup};
+use crate::output::write_atomically;
+use crate::plot::{Panel, Series, figure_svg};
+
+/// The paper's name of a component, e.g. `H13` (output 1..9, input 1..3).
+pub fn component_name(c: usize) -> String {
+    let (output, input) = COUPLED_COMPONENTS[c];
+    format!(
+        "H{}{} ({} / {})",
+        output.index() + 1,
+        input.index() + 1,
+        output.name(),
+        input.name()
+    )
+}
+
+/// The summary as Markdown (also printed by `supine fit`).
+pub fn summary(
+    setup: &Setup,
+    result: &FitResult,
+    ident: &Identifiability,
+    errors: &[(f64, f64); COMPONENTS],
+    elapsed_s: f64,
+) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# supine fit: {} case\n", setup.case.name());
+    let _ = writeln!(
+        s,
+        "final cost 0.5 sum r^2 = {:.6} over {} residuals ({} frequencies x 12 components x magnitude, phase), {} unknowns, {:.2} s\n",
+        result.solution.cost,
+        result.solution.residuals.len(),
+        setup.objective.target.freqs_hz.len(),
+        setup.objective.free.len(),
+        elapsed_s
+    );
+    let _ = writeln!(
+        s,
+        "| start | initial cost | final cost | iterations | evaluations | stop |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|");
+    for (i, st) in result.starts.iter().enumerate() {
+        let mark = if i == result.best { " (best)" } else { "" };
+        let _ = writeln!(
+            s,
+            "| {}{mark} | {:.6} | {:.6} | {} | {} | {} |",
+            st.label,
+            st.initial_cost,
+            st.final_cost,
+            st.iterations,
+            st.evaluations,
+            st.termination.describe()
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\n| component | rms magnitude error (relative) | rms phase error (deg) |"
+    );
+    let _ = writeln!(s, "|---|---|---|");
+    for (c, (mag, phase)) in errors.iter().enumerate() {
+        let _ = writeln!(s, "| {} | {:.4} | {:.2} |", component_name(c), mag, phase);
+    }
+    let s_max = ident.singular_values.first().copied().unwrap_or(0.0);
+    let s_min_nonzero = ident
+        .singular_values
+        .iter()
+        .copied()
+        .filter(|v| *v > 1e-12 * s_max)
+        .fold(f64::INFINITY, f64::min);
+    let _ = writeln!(
+        s,
+        "\nJacobian (in ln p): largest singular value {:.3e}, smallest non-zero {:.3e}; {} of {} are below 1e-12 of the largest.\n",
+        s_max,
+        s_min_nonzero,
+        ident
+            .singular_values
+            .iter()
+            .filter(|v| **v <= 1e-12 * s_max)
+            .count(),
+        ident.singular_values.len()
+    );
+    let _ = writeln!(
+        s,
+        "| parameter | value | unit | at bound | sensitivity | weak share | determined by the data |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|");
+    for p in &ident.params {
+        let bound = match p.at_bound {
+            Some(AtBound::Lower) => "lower",
+            Some(AtBound::Upper) => "upper",
+            None => "",
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {:.6e} | {} | {bound} | {:.2e} | {:.2} | {} |",
+            p.id,
+            p.value,
+            p.id.unit(),
+            p.sensitivity,
+            p.weak_loading,
+            p.determination.name()
+        );
+    }
+    s
+}
+
+fn unwrapped_deg(values: &[f64]) -> Vec<f64> {
+    let mut out = Vec::with_capacity(values.len());
+    let mut offset = 0.0;
+    for (i, &v) in values.iter().enumerate() {
+        if i > 0 {
+            let prev = values[i - 1];
+            let jump = v - prev;
+            if jump > PI {
+                offset -= 2.0 * PI;
+            } else if jump < -PI {
+                offset += 2.0 * PI;
+            }
+        }
+        out.push((v + offset).to_degrees());
+    }
+    out
+}
+
+/// The Fig. 3/4-style figure: for each group of four components a row of magnitudes and
+/// a row of phases (degrees, unwrapped along frequency for display).
+pub fn components_svg(
+    title: &str,
+    freqs_hz: &[f64],
+    subjects: &[Vec<Transmissibility>],
+    geomean: &[Transmissibility],
+    model: &[Transmissibility],
+) -> String {
+    let mut panels = Vec::with_capacity(2 * COMPONENTS);
+    let series = |h: &[Transmissibility], c: usize, phase: bool, color: &str, width: f64, label| {
+        let (output, input) = COUPLED_COMPONENTS[c];
+        let values: Vec<f64> = h
+            .iter()
+            .map(|m| {
+                let z = m[(output.index(), input.index())];
+                if phase { z.arg() } else { z.norm() }
+            })
+            .collect();
+        let ys = if phase {
+            unwrapped_deg(&values)
+        } else {
+            values
+        };
+        Series::line(
+            freqs_hz.iter().copied().zip(ys).collect(),
+            color,
+            width,
+            label,
+        )
+    };
+    for group in 0..COMPONENTS / 4 {
+        for phase in [false, true] {
+            for c in 4 * group..4 * group + 4 {
+                let mut panel = Panel {
+                    title: format!(
+                        "{} {}",
+                        component_name(c),
+                        if phase { "phase" } else { "magnitude" }
+                    ),
+                    x_label: "frequency (Hz)".into(),
+                    y_label: if phase {
+                        "phase (deg)".into()
+                    } else {
+                        "|H|".into()
+                    },
+                    ..Panel::default()
+                };
+                for (i, s) in subjects.iter().enumerate() {
+                    let label = (i == 0).then_some("subjects");
+                    panel
+                        .series
+                        .push(series(s, c, phase, "#c8c8c8", 1.0, label));
+                }
+                panel.series.push(series(
+                    geomean,
+                    c,
+                    phase,
+                    "#000000",
+                    1.8,
+                    Some("geometric mean"),
+                ));
+                panel.series.push(series(
+                    model,
+                    c,
+                    phase,
+                    "#d62728",
+                    1.8,
+                    Some("fitted model"),
+                ));
+                panels.push(panel);
+            }
+        }
+    }
+    figure_svg(title, &panels, 4)
+}
+
+/// Writes `DIR/components.svg` and `DIR/summary.md`.
+pub fn write(dir: &Path, summary_md: &str, components: &str) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| anyhow!("{}: cannot create: {e}", dir.display()))?;
+    write_atomically(&dir.join("components.svg"), |w| {
+        Ok(w.write_all(components.as_bytes())?)
+    })?;
+    write_atomically(&dir.join("summary.md"), |w| {
+        Ok(w.write_all(summary_md.as_bytes())?)
+    })?;
+    Ok(())
+}

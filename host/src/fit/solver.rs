@@ -1,0 +1,261 @@
+//! A bounded Levenberg-Marquardt solver for small nonlinear least-squares problems:
+//! minimize 0.5 |r(x)|^2 subject to lower <= x <= upper.
+//!
+//! Each iteration solves (J_F^T J_F + lambda D_F) d = -J_F^T r over the free variables F,
+//! where a variable is held (not free) when it sits on a bound and the gradient pushes it
+//! outward; D is the diagonal of J^T J (Marquardt's scaling, floored at 1e-12 of its
+//! largest entry so that a parameter without effect gets a zero step, not a singular
+//! system). The trial point is projected onto the box; the step is accepted when the
+//! actual reduction is at least 1e-4 of the reduction the linear model predicts for the
+//! projected step, and lambda follows Nielsen's update (lambda *= max(1/3, 1 - (2 rho - 1)^3)
+//! on success, *= nu with nu doubling on failure).
+//!
+//! Stops (as scipy's `least_squares`) when an accepted step reduces the cost by less than
+//! `ftol` times the cost, when the step is shorter than `xtol (xtol + |x|)`, when the
+//! projected gradient's largest entry is below `gtol`, or after `max_iterations`.
+
+use nalgebra::{DMatrix, DVector};
+
+/// A least-squares problem: residuals and Jacobian at a point.
+pub trait Problem {
+    /// Number of residuals m.
+    fn residual_count(&self) -> usize;
+    /// Number of unknowns n.
+    fn param_count(&self) -> usize;
+    /// Fills `residuals` (m) and, if given, `jacobian` (m x n) at `x`; an error means the
+    /// point cannot be evaluated (the step is then rejected).
+    fn evaluate(
+        &self,
+        x: &[f64],
+        residuals: &mut [f64],
+        jacobian: Option<&mut DMatrix<f64>>,
+    ) -> Result<(), String>;
+}
+
+/// Tolerances and limits: plain data.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SolverSettings {
+    /// Relative cost reduction below which the solver stops.
+    pub ftol: f64,
+    /// Relative step length below which the solver stops.
+    pub xtol: f64,
+    /// Largest projected-gradient entry below which the solver stops.
+    pub gtol: f64,
+    /// Most iterations (accepted or not).
+    pub max_iterations: usize,
+}
+
+impl Default for SolverSettings {
+    fn default() -> Self {
+        Self {
+            ftol: 1e-8,
+            xtol: 1e-8,
+            gtol: 1e-8,
+            max_iterations: 1000,
+        }
+    }
+}
+
+/// Why the solver stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Termination {
+    /// Cost reduction below ftol.
+    Ftol,
+    /// Step below xtol.
+    Xtol,
+    /// Projected gradient below gtol.
+    Gtol,
+    /// No step could reduce the cost (lambda grew without bound).
+    Stalled,
+    /// The iteration limit.
+    MaxIterations,
+}
+
+impl Termination {
+    /// A short description.
+    pub const fn describe(self) -> &'static str {
+        match self {
+            Termination::Ftol => "cost reduction below ftol",
+            Termination::Xtol => "step below xtol",
+            Termination::Gtol => "projected gradient below gtol",
+            Termination::Stalled => "no step reduces the cost",
+            Termination::MaxIterations => "iteration limit",
+        }
+    }
+}
+
+/// The solver's result.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Solution {
+    /// The best point found.
+    pub x: Vec<f64>,
+    /// 0.5 |r(x)|^2.
+    pub cost: f64,
+    /// Residuals at x.
+    pub residuals: Vec<f64>,
+    /// Jacobian at x.
+    pub jacobian: DMatrix<f64>,
+    /// Iterations done.
+    pub iterations: usize,
+    /// Residual evaluations done.
+    pub evaluations: usize,
+    /// Why it stopped.
+    pub termination: Termination,
+}
+
+fn clamp(x: &mut [f64], lower: &[f64], upper: &[f64]) {
+    for ((v, lo), hi) in x.iter_mut().zip(lower).zip(upper) {
+        *v = v.clamp(*lo, *hi);
+    }
+}
+
+fn half_sum_sq(r: &[f64]) -> f64 {
+    0.5 * r.iter().map(|v| v * v).sum::<f64>()
+}
+
+/// Minimizes 0.5 |r(x)|^2 over the box from `x0` (projected into it first).
+///
+/// `progress(iteration, cost)` is called after each accepted step. Fails if the start
+/// cannot be evaluated or the bounds are inconsistent.
+pub fn solve(
+    problem: &dyn Problem,
+    x0: &[f64],
+    lower: &[f64],
+    upper: &[f64],
+    settings: &SolverSettings,
+    progress: &mut dyn FnMut(usize, f64),
+) -> Result<Solution, String> {
+    let n = problem.param_count();
+    let m = problem.residual_count();
+    if x0.len() != n || lower.len() != n || upper.len() != n {
+        return Err(format!("expected {n} unknowns and bounds"));
+    }
+    if let Some(i) = (0..n).find(|&i| lower[i] > upper[i] || lower[i].is_nan() || upper[i].is_nan())
+    {
+        return Err(format!(
+            "bound {i}: lower {} above upper {}",
+            lower[i], upper[i]
+        ));
+    }
+    let mut x = x0.to_vec();
+    clamp(&mut x, lower, upper);
+    let mut r = vec![0.0; m];
+    let mut jac = DMatrix::zeros(m, n);
+    problem.evaluate(&x, &mut r, Some(&mut jac))?;
+    let mut evaluations = 1;
+    let mut cost = half_sum_sq(&r);
+    if !cost.is_finite() {
+        return Err("the cost at the start is not finite".into());
+    }
+    let mut trial_x = vec![0.0; n];
+    let mut trial_r = vec![0.0; m];
+    let mut trial_jac = DMatrix::zeros(m, n);
+    let mut lambda = -1.0;
+    let mut nu = 2.0;
+    let mut termination = Termination::MaxIterations;
+    let mut iterations = 0;
+    'outer: while iterations < settings.max_iterations {
+        let jtj = jac.tr_mul(&jac);
+        let g = jac.tr_mul(&DVector::from_column_slice(&r));
+        // Projected gradient: how far a unit gradient step would move inside the box.
+        let pg = (0..n)
+            .map(|i| (x[i] - (x[i] - g[i]).clamp(lower[i], upper[i])).abs())
+            .fold(0.0, f64::max);
+        if pg < settings.gtol {
+            termination = Termination::Gtol;
+            break;
+        }
+        let free: Vec<usize> = (0..n)
+            .filter(|&i| {
+                let at_lower = x[i] <= lower[i] && g[i] > 0.0;
+                let at_upper = x[i] >= upper[i] && g[i] < 0.0;
+                !(at_lower || at_upper)
+            })
+            .collect();
+        let diag_max = (0..n).map(|i| jtj[(i, i)]).fold(0.0, f64::max).max(1e-300);
+        let scale: Vec<f64> = (0..n).map(|i| jtj[(i, i)].max(1e-12 * diag_max)).collect();
+        if lambda < 0.0 {
+            lambda = 1e-3;
+        }
+        loop {
+            iterations += 1;
+            if iterations > settings.max_iterations {
+                break 'outer;
+            }
+            let nf = free.len();
+            let mut system = DMatrix::zeros(nf, nf);
+            let mut rhs = DVector::zeros(nf);
+            for (a, &i) in free.iter().enumerate() {
+                rhs[a] = -g[i];
+                for (b, &j) in free.iter().enumerate() {
+                    system[(a, b)] = jtj[(i, j)];
+                }
+                system[(a, a)] += lambda * scale[i];
+            }
+            let step = match system.cholesky() {
+                Some(ch) => ch.solve(&rhs),
+                None => {
+                    lambda *= nu;
+                    nu *= 2.0;
+                    continue;
+                }
+            };
+            trial_x.copy_from_slice(&x);
+            for (a, &i) in free.iter().enumerate() {
+                trial_x[i] += step[a];
+            }
+            clamp(&mut trial_x, lower, upper);
+            let s = DVector::from_iterator(n, (0..n).map(|i| trial_x[i] - x[i]));
+            let step_norm = s.norm();
+            let x_norm = x.iter().map(|v| v * v).sum::<f64>().sqrt();
+            if step_norm < settings.xtol * (settings.xtol + x_norm) {
+                termination = Termination::Xtol;
+                break 'outer;
+            }
+            let predicted = -(g.dot(&s) + 0.5 * s.dot(&(&jtj * &s)));
+            let evaluated = problem.evaluate(&trial_x, &mut trial_r, Some(&mut trial_jac));
+            evaluations += 1;
+            let trial_cost = if evaluated.is_ok() {
+                half_sum_sq(&trial_r)
+            } else {
+                f64::INFINITY
+            };
+            let actual = cost - trial_cost;
+            let rho = if predicted > 0.0 {
+                actual / predicted
+            } else {
+                -1.0
+            };
+            if trial_cost.is_finite() && rho > 1e-4 {
+                std::mem::swap(&mut x, &mut trial_x);
+                std::mem::swap(&mut r, &mut trial_r);
+                std::mem::swap(&mut jac, &mut trial_jac);
+                let previous = cost;
+                cost = trial_cost;
+                lambda *= (1.0f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3));
+                nu = 2.0;
+                progress(iterations, cost);
+                if actual < settings.ftol * previous {
+                    termination = Termination::Ftol;
+                    break 'outer;
+                }
+                break;
+            }
+            lambda *= nu;
+            nu *= 2.0;
+            if lambda > 1e20 {
+                termination = Termination::Stalled;
+                break 'outer;
+            }
+        }
+    }
+    Ok(Solution {
+        x,
+        cost,
+        residuals: r,
+        jacobian: jac,
+        iterations: iterations.min(settings.max_iterations),
+        evaluations,
+        termination,
+    })
+}
