@@ -27,6 +27,8 @@ pub enum Command {
     Modes(commands::modes::Args),
     /// Print a parameter file (TOML) for a preset or a fitted file.
     Params(commands::params::Args),
+    /// Write the response of the device's ISO 2631-1 weighting filter (Wk, Wd, Wj) as CSV.
+    Weighting(commands::weighting::Args),
     /// Write a synthetic dataset (recordings and true parameters) from the model.
     Synth(commands::synth::Args),
     /// Estimate a dataset's transmissibility (H1, Welch) per subject or as a geometric mean.
@@ -57,6 +59,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Model(args) => commands::model::run(&args),
         Command::Modes(args) => commands::modes::run(&args),
         Command::Params(args) => commands::params::run(&args),
+        Command::Weighting(args) => commands::weighting::run(&args),
         Command::Synth(args) => commands::synth::run(&args),
         Command::Transmissibility(args) => commands::transmissibility::run(&args),
         Command::Fit(args) => commands::fit::run(&args),

@@ -8,3 +8,4 @@ pub mod predict;
 pub mod synth;
 pub mod transmissibility;
 pub mod validate;
+pub mod weighting;
