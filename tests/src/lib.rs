@@ -1,0 +1,270 @@
+//! Helpers for the QEMU tests in `tests/tests/`: build an image once, parse what the
+//! self-test prints, and compute the host's reference for the same inputs.
+//!
+//! The tests run the real device image in `qemu-system-arm -machine mps2-an386` through
+//! `supine_host::{firmware, qemu}`, so the harness that CI uses is the one the `supine`
+//! command uses.
+
+use std::path::PathBuf;
+use std::sync::Mutex;
+
+use supine_core::model::{
+    DeviceRealization, DiscreteModal, ModalState, Model, ModelParams, Output, Preset,
+};
+use supine_core::test_vector::TestVector;
+
+/// Sample rate of the firmware's built-in realization, Hz (see `firmware/build.rs`).
+pub const BUILTIN_SAMPLE_RATE_HZ: f64 = 500.0;
+
+/// One firmware build at a time: parallel tests would only queue on cargo's lock.
+static BUILD: Mutex<()> = Mutex::new(());
+
+/// Builds firmware binary `name` if stale and returns its ELF path; panics with the
+/// builder's one-line error (what to install or fix) if it cannot.
+pub fn firmware(name: &str) -> PathBuf {
+    let _guard = BUILD
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    match supine_host::firmware::build_binary(name) {
+        Ok(path) => path,
+        Err(err) => panic!("{err}"),
+    }
+}
+
+/// The realization the firmware bakes in, computed on the host the same way.
+pub fn builtin_realization() -> DeviceRealization {
+    let params = ModelParams::preset(Preset::PaperLitter);
+    supine_core::model::device_realization(&params, BUILTIN_SAMPLE_RATE_HZ)
+        .expect("the paper-litter preset discretizes")
+}
+
+/// The same realization in f64 (before rounding to f32): the accuracy reference.
+pub fn builtin_realization_f64() -> DiscreteModal<f64, 3> {
+    let params = ModelParams::preset(Preset::PaperLitter);
+    Model::new(&params)
+        .and_then(|model| model.realization(BUILTIN_SAMPLE_RATE_HZ, &Output::HEAD))
+        .expect("the paper-litter preset discretizes")
+}
+
+/// Postcard bytes and CRC-32 (ISO-HDLC) of a realization: how the firmware names it.
+pub fn identity(realization: &DeviceRealization) -> (usize, u32) {
+    let mut buf = vec![0u8; 64 * 1024];
+    let bytes = postcard::to_slice(realization, &mut buf).expect("the realization encodes");
+    let crc = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+    (bytes.len(), crc.checksum(bytes))
+}
+
+/// The host's f32 outputs for `samples` samples of `TestVector::new(seed)`.
+pub fn host_outputs_f32(
+    realization: &DeviceRealization,
+    seed: u32,
+    samples: usize,
+) -> Vec<[f32; 3]> {
+    let mut state = ModalState::<f32>::default();
+    TestVector::new(seed)
+        .take(samples)
+        .map(|input| realization.step(&mut state, input))
+        .collect()
+}
+
+/// The f64 outputs for the same inputs (each f32 input widened exactly).
+pub fn host_outputs_f64(
+    realization: &DiscreteModal<f64, 3>,
+    seed: u32,
+    samples: usize,
+) -> Vec<[f64; 3]> {
+    let mut state = ModalState::<f64>::default();
+    TestVector::new(seed)
+        .take(samples)
+        .map(|input| realization.step(&mut state, input.map(f64::from)))
+        .collect()
+}
+
+/// What the self-test image printed, parsed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SelftestReport {
+    /// Firmware version.
+    pub version: String,
+    /// Length of the built-in realization's encoding.
+    pub realization_bytes: usize,
+    /// Its CRC-32.
+    pub realization_crc32: u32,
+    /// Its sample rate, Hz.
+    pub sample_rate_hz: f64,
+    /// Test vector seed.
+    pub seed: u32,
+    /// Outputs (head x, y, z, m/s^2), in sample order.
+    pub outputs: Vec<[f32; 3]>,
+    /// Multiply-adds per sample the realization reports.
+    pub multiply_adds_per_sample: usize,
+    /// Steps in the timing loop.
+    pub timed_steps: u64,
+    /// SysTick ticks of the timing loop with the step.
+    pub step_ticks: u64,
+    /// SysTick ticks of the same loop without it.
+    pub baseline_ticks: u64,
+    /// Instructions per step (QEMU `-icount`), rounded.
+    pub instructions_per_step: u64,
+    /// Deepest stack use since reset, bytes.
+    pub stack_high_water_bytes: usize,
+    /// Stack reserved, bytes.
+    pub stack_size_bytes: usize,
+}
+
+/// Parses the self-test's stdout; any missing, repeated, out-of-order or malformed item
+/// is an error naming the line. Lines the self-test does not print (QEMU's own
+/// messages) are ignored.
+pub fn parse_selftest(stdout: &str) -> Result<SelftestReport, String> {
+    let mut version = None;
+    let mut fields: std::collections::HashMap<&str, &str> = std::collections::HashMap::new();
+    let mut outputs: Vec<[f32; 3]> = Vec::new();
+    let mut samples: Option<usize> = None;
+    let mut ok = false;
+    for (number, line) in stdout.lines().enumerate() {
+        let at = |what: &str| format!("line {}: {what}: {line:?}", number + 1);
+        if let Some(rest) = line.strip_prefix("y ") {
+            let parts: Vec<&str> = rest.split(' ').collect();
+            let [index, x, y, z] = parts[..] else {
+                return Err(at("an output line needs an index and three values"));
+            };
+            let index: usize = index.parse().map_err(|_| at("bad index"))?;
+            if index != outputs.len() {
+                return Err(at(&format!("expected output {}", outputs.len())));
+            }
+            let bits = |hex: &str| {
+                if hex.len() != 8 {
+                    return Err(at("f32 bits must be 8 hex digits"));
+                }
+                u32::from_str_radix(hex, 16)
+                    .map(f32::from_bits)
+                    .map_err(|_| at("bad hex"))
+            };
+            outputs.push([bits(x)?, bits(y)?, bits(z)?]);
+        } else if let Some(rest) = line.strip_prefix("selftest: ") {
+            match rest {
+                "ok" => ok = true,
+                _ => match rest.strip_prefix("supine-firmware ") {
+                    Some(v) => version = Some(v.to_owned()),
+                    None => return Err(at("unknown selftest line")),
+                },
+            }
+        } else if let Some((key, value)) = line.split_once(": ") {
+            if key == "samples" {
+                samples = Some(value.parse().map_err(|_| at("bad sample count"))?);
+            } else if fields.insert(key, value).is_some() {
+                return Err(at("repeated item"));
+            }
+        }
+    }
+    if !ok {
+        return Err("the self-test did not print `selftest: ok`".to_owned());
+    }
+    let samples = samples.ok_or("no `samples:` line")?;
+    if outputs.len() != samples {
+        return Err(format!("{} outputs for {samples} samples", outputs.len()));
+    }
+    let get = |key: &str| fields.get(key).copied().ok_or(format!("no `{key}:` line"));
+    let num = |key: &str| -> Result<u64, String> {
+        get(key)?
+            .parse()
+            .map_err(|_| format!("`{key}:` is not a number"))
+    };
+    let size = |key: &str| num(key).map(|n| n as usize);
+    Ok(SelftestReport {
+        version: version.ok_or("no version line")?,
+        realization_bytes: size("realization_bytes")?,
+        realization_crc32: u32::from_str_radix(get("realization_crc32")?, 16)
+            .map_err(|_| "`realization_crc32:` is not hex".to_owned())?,
+        sample_rate_hz: get("sample_rate_hz")?
+            .parse()
+            .map_err(|_| "`sample_rate_hz:` is not a number".to_owned())?,
+        seed: u32::try_from(num("seed")?).map_err(|_| "`seed:` is not a u32".to_owned())?,
+        outputs,
+        multiply_adds_per_sample: size("multiply_adds_per_sample")?,
+        timed_steps: num("timed_steps")?,
+        step_ticks: num("step_ticks")?,
+        baseline_ticks: num("baseline_ticks")?,
+        instructions_per_step: num("instructions_per_step")?,
+        stack_high_water_bytes: size("stack_high_water_bytes")?,
+        stack_size_bytes: size("stack_size_bytes")?,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = "selftest: supine-firmware 0.1.0\n\
+        realization_bytes: 825\n\
+        realization_crc32: 21a218b7\n\
+        sample_rate_hz: 500.0\n\
+        seed: 1\n\
+        samples: 2\n\
+        y 0 3f800000 bf800000 00000000\n\
+        y 1 40000000 00000001 7f800000\n\
+        multiply_adds_per_sample: 189\n\
+        timed_steps: 4096\n\
+        step_ticks: 75787\n\
+        baseline_ticks: 1034\n\
+        instructions_per_step: 730\n\
+        stack_high_water_bytes: 5548\n\
+        stack_size_bytes: 131068\n\
+        selftest: ok\n";
+
+    #[test]
+    fn a_complete_report_parses_to_exact_bits() {
+        let report = parse_selftest(GOOD).expect("parses");
+        assert_eq!(report.version, "0.1.0");
+        assert_eq!(report.realization_crc32, 0x21a2_18b7);
+        assert_eq!(report.outputs[0], [1.0, -1.0, 0.0]);
+        assert_eq!(report.outputs[1][1].to_bits(), 1);
+        assert_eq!(report.outputs[1][2], f32::INFINITY);
+        assert_eq!(report.instructions_per_step, 730);
+        assert_eq!(report.stack_high_water_bytes, 5548);
+    }
+
+    #[test]
+    fn a_report_without_ok_is_refused() {
+        let cut = GOOD.replace("selftest: ok\n", "");
+        assert!(parse_selftest(&cut).unwrap_err().contains("selftest: ok"));
+    }
+
+    #[test]
+    fn a_missing_or_reordered_output_is_refused() {
+        let missing = GOOD.replace("y 1 40000000 00000001 7f800000\n", "");
+        assert!(
+            parse_selftest(&missing)
+                .unwrap_err()
+                .contains("1 outputs for 2")
+        );
+        let swapped = GOOD.replace("y 0 ", "y 9 ");
+        assert!(
+            parse_selftest(&swapped)
+                .unwrap_err()
+                .contains("expected output 0")
+        );
+    }
+
+    #[test]
+    fn short_or_non_hex_bits_are_refused() {
+        let short = GOOD.replace("3f800000", "3f8000");
+        assert!(parse_selftest(&short).unwrap_err().contains("8 hex digits"));
+        let bad = GOOD.replace("3f800000", "3f80000g");
+        assert!(parse_selftest(&bad).unwrap_err().contains("bad hex"));
+    }
+
+    #[test]
+    fn the_host_reference_is_deterministic_and_close_to_f64() {
+        let device = builtin_realization();
+        let a = host_outputs_f32(&device, 1, 200);
+        let b = host_outputs_f32(&device, 1, 200);
+        assert_eq!(a, b);
+        let reference = host_outputs_f64(&builtin_realization_f64(), 1, 200);
+        let worst = a
+            .iter()
+            .zip(&reference)
+            .flat_map(|(y, r)| y.iter().zip(r).map(|(&y, &r)| (f64::from(y) - r).abs()))
+            .fold(0.0, f64::max);
+        assert!(worst < 1e-4, "f32 vs f64 worst {worst:e} m/s^2");
+    }
+}

@@ -1,0 +1,145 @@
+//! The self-test image in QEMU against the host's reference.
+//!
+//! The device runs the f32 realization it baked in at build time on the deterministic test
+//! vector; the host recomputes the same realization and the same inputs. Both sides
+//! execute the same IEEE-754 single-precision operations in the same order (Rust never
+//! fuses or reorders float arithmetic, and the step uses no libm), so the outputs must
+//! agree bit for bit; the f32 realization must also stay within 1e-4 m/s^2 of the
+//! unrounded f64 one.
+
+use std::sync::OnceLock;
+use std::time::Duration;
+
+use supine_host::firmware::SELFTEST_BINARY;
+use supine_host::qemu::{self, QemuConfig};
+use supine_qemu_tests::{
+    SelftestReport, builtin_realization, builtin_realization_f64, firmware, host_outputs_f32,
+    host_outputs_f64, identity, parse_selftest,
+};
+
+/// Most instructions one model step may take on the device (the project's budget).
+const MAX_INSTRUCTIONS_PER_STEP: u64 = 800;
+/// Largest stack the self-test may use: leaves most of the 128 KiB RAM to the product.
+const MAX_STACK_BYTES: usize = 16 * 1024;
+/// Largest deviation of the f32 device from the f64 realization, m/s^2.
+const MAX_F64_DEVIATION_M_S2: f64 = 1e-4;
+
+/// One QEMU run of the self-test, shared by the tests of this file.
+fn report() -> &'static SelftestReport {
+    static REPORT: OnceLock<SelftestReport> = OnceLock::new();
+    REPORT.get_or_init(|| {
+        let elf = firmware(SELFTEST_BINARY);
+        let config = QemuConfig::new(&elf)
+            .icount()
+            .timeout(Duration::from_secs(120));
+        let output = qemu::run(&config).unwrap_or_else(|err| panic!("{err}"));
+        assert_eq!(
+            output.code(),
+            Some(0),
+            "the self-test failed; stderr: {}",
+            output.stderr
+        );
+        parse_selftest(&output.stdout).unwrap_or_else(|err| panic!("{err}"))
+    })
+}
+
+#[test]
+fn the_device_runs_the_realization_the_host_computes() {
+    let report = report();
+    let (bytes, crc) = identity(&builtin_realization());
+    println!(
+        "device realization: {} bytes, crc32 {:08x}; host: {bytes} bytes, crc32 {crc:08x}",
+        report.realization_bytes, report.realization_crc32
+    );
+    assert_eq!(report.realization_bytes, bytes);
+    assert_eq!(report.realization_crc32, crc);
+    assert_eq!(
+        report.sample_rate_hz,
+        supine_qemu_tests::BUILTIN_SAMPLE_RATE_HZ
+    );
+    assert_eq!(report.version, env!("CARGO_PKG_VERSION"));
+}
+
+#[test]
+fn the_device_outputs_match_the_host_bit_for_bit() {
+    let report = report();
+    let host = host_outputs_f32(&builtin_realization(), report.seed, report.outputs.len());
+    let mismatches: Vec<usize> = (0..host.len())
+        .filter(|&i| report.outputs[i].map(f32::to_bits) != host[i].map(f32::to_bits))
+        .collect();
+    let worst = report
+        .outputs
+        .iter()
+        .zip(&host)
+        .flat_map(|(d, h)| d.iter().zip(h).map(|(&d, &h)| f64::from((d - h).abs())))
+        .fold(0.0, f64::max);
+    println!(
+        "{} samples (seed {}): {} differ in their bits, worst |device - host| {worst:e} m/s^2",
+        host.len(),
+        report.seed,
+        mismatches.len()
+    );
+    assert!(
+        report.outputs.len() >= 1000,
+        "too few samples to mean anything"
+    );
+    assert!(
+        mismatches.is_empty(),
+        "first differing sample {:?}: device {:?}, host {:?}",
+        mismatches.first(),
+        mismatches.first().map(|&i| report.outputs[i]),
+        mismatches.first().map(|&i| host[i]),
+    );
+}
+
+#[test]
+fn the_device_outputs_stay_within_1e_4_of_the_f64_realization() {
+    let report = report();
+    let reference = host_outputs_f64(
+        &builtin_realization_f64(),
+        report.seed,
+        report.outputs.len(),
+    );
+    let mut worst = 0.0_f64;
+    let mut peak = 0.0_f64;
+    for (device, exact) in report.outputs.iter().zip(&reference) {
+        for (&d, &e) in device.iter().zip(exact) {
+            worst = worst.max((f64::from(d) - e).abs());
+            peak = peak.max(e.abs());
+        }
+    }
+    println!("worst |device f32 - f64 reference| {worst:e} m/s^2 (output peak {peak:.3} m/s^2)");
+    // A reference that is all zeros would make the comparison empty.
+    assert!(peak > 0.01, "the test vector barely excites the model");
+    assert!(worst <= MAX_F64_DEVIATION_M_S2);
+}
+
+#[test]
+fn a_model_step_fits_the_instruction_budget() {
+    let report = report();
+    println!(
+        "instructions_per_step: {} (QEMU -icount instructions, not cycles; {} steps, {} ticks with the step, {} without; {} multiply-adds per sample)",
+        report.instructions_per_step,
+        report.timed_steps,
+        report.step_ticks,
+        report.baseline_ticks,
+        report.multiply_adds_per_sample
+    );
+    assert!(report.step_ticks > report.baseline_ticks);
+    // At least one instruction per multiply-add: a smaller count means the timing is broken.
+    assert!(report.instructions_per_step >= report.multiply_adds_per_sample as u64);
+    assert!(report.instructions_per_step <= MAX_INSTRUCTIONS_PER_STEP);
+}
+
+#[test]
+fn the_stack_stays_small() {
+    let report = report();
+    println!(
+        "stack_high_water_bytes: {} of {} reserved",
+        report.stack_high_water_bytes, report.stack_size_bytes
+    );
+    // Something was measured (the paint was scrubbed) and it is well inside the budget.
+    assert!(report.stack_high_water_bytes > 0);
+    assert!(report.stack_high_water_bytes <= MAX_STACK_BYTES);
+    assert!(report.stack_high_water_bytes < report.stack_size_bytes);
+}
