@@ -4,17 +4,14 @@
 //!    linker search path) and cortex-m-rt's `link.x`. The link arguments live here, not in a
 //!    `.cargo/config.toml`, so they apply however cargo is invoked (`cargo fw` from the root).
 //! 2. Bakes the default model realization into the image: the paper's litter-board preset,
-//!    discretized on the build machine in f64 by `supine-core` (the same code the host runs)
+//!    discretized at the device's default sample rate on the build machine in f64 by `supine-core` (the same code the host runs)
 //!    and stored as postcard bytes that the firmware decodes and validates at boot.
 
 use std::env;
 use std::fs;
 use std::path::PathBuf;
 
-use supine_core::model::{ModelParams, Preset, device_realization};
-
-/// Sample rate of the built-in realization, Hz. The accelerometer is read at this rate.
-const SAMPLE_RATE_HZ: f64 = 500.0;
+use supine_core::model::{DEFAULT_SAMPLE_RATE_HZ, ModelParams, Preset, device_realization};
 
 /// Upper bound of the encoded realization; it must also fit the 64 KiB parameter region.
 const MAX_ENCODED_BYTES: usize = 64 * 1024;
@@ -48,8 +45,16 @@ fn link_with_root_memory_map(manifest_dir: &std::path::Path, out_dir: &std::path
 /// Computes the default realization and writes `realization.postcard` and
 /// `realization.rs` (its sample rate as a constant) to `OUT_DIR`.
 fn write_builtin_realization(out_dir: &std::path::Path) {
+    // The device's default rate, a whole number of Hz: the firmware prints it as an
+    // integer (formatting floats would cost it some 17 KiB of flash).
+    let sample_rate_hz = DEFAULT_SAMPLE_RATE_HZ as u32;
+    assert_eq!(
+        f64::from(sample_rate_hz),
+        DEFAULT_SAMPLE_RATE_HZ,
+        "the default sample rate must be a whole number of Hz"
+    );
     let params = ModelParams::preset(Preset::PaperLitter);
-    let realization = device_realization(&params, SAMPLE_RATE_HZ)
+    let realization = device_realization(&params, f64::from(sample_rate_hz))
         .unwrap_or_else(|err| panic!("the paper-litter preset does not discretize: {err}"));
 
     let mut buf = vec![0u8; MAX_ENCODED_BYTES];
@@ -64,7 +69,7 @@ fn write_builtin_realization(out_dir: &std::path::Path) {
         out_dir.join("realization.rs"),
         format!(
             "/// Sample rate the built-in realization was discretized for, Hz.\n\
-             pub const SAMPLE_RATE_HZ: f64 = {SAMPLE_RATE_HZ:?};\n"
+             pub const SAMPLE_RATE_HZ: u32 = {sample_rate_hz};\n"
         ),
     )
     .expect("cannot write realization.rs to OUT_DIR");

@@ -13,8 +13,9 @@ use supine_core::model::{
 };
 use supine_core::test_vector::TestVector;
 
-/// Sample rate of the firmware's built-in realization, Hz (see `firmware/build.rs`).
-pub const BUILTIN_SAMPLE_RATE_HZ: f64 = 500.0;
+/// Sample rate of the firmware's built-in realization, Hz: the device default, which
+/// `firmware/build.rs` uses too.
+pub const BUILTIN_SAMPLE_RATE_HZ: f64 = supine_core::model::DEFAULT_SAMPLE_RATE_HZ;
 
 /// One firmware build at a time: parallel tests would only queue on cargo's lock.
 static BUILD: Mutex<()> = Mutex::new(());
@@ -197,7 +198,7 @@ mod tests {
     const GOOD: &str = "selftest: supine-firmware 0.1.0\n\
         realization_bytes: 825\n\
         realization_crc32: 21a218b7\n\
-        sample_rate_hz: 500.0\n\
+        sample_rate_hz: 500\n\
         seed: 1\n\
         samples: 2\n\
         y 0 3f800000 bf800000 00000000\n\

@@ -50,8 +50,9 @@ fn the_product_image_greets_on_the_uart_with_its_version_and_parameters() {
 
     let (_, crc) = identity(&builtin_realization());
     let expected = format!(
-        "supine-firmware {} params builtin crc32 {crc:08x} ok fs_hz 500\n",
-        env!("CARGO_PKG_VERSION")
+        "supine-firmware {} params builtin crc32 {crc:08x} ok fs_hz {}\n",
+        env!("CARGO_PKG_VERSION"),
+        supine_qemu_tests::BUILTIN_SAMPLE_RATE_HZ
     );
     assert_eq!(greeting, expected);
 

@@ -10,7 +10,7 @@
 //! selftest: supine-firmware <version>
 //! realization_bytes: <n>
 //! realization_crc32: <8 hex digits>
-//! sample_rate_hz: <f64>
+//! sample_rate_hz: <whole Hz>
 //! seed: <u32>
 //! samples: <n>
 //! y <index> <x bits> <y bits> <z bits>      (f32 bits, 8 hex digits each)
@@ -99,7 +99,7 @@ fn run() -> Result<(), Failure> {
     let bytes = params::builtin_bytes();
     writeln!(out, "realization_bytes: {}", bytes.len())?;
     writeln!(out, "realization_crc32: {:08x}", params::identity(bytes))?;
-    writeln!(out, "sample_rate_hz: {:?}", params::SAMPLE_RATE_HZ)?;
+    writeln!(out, "sample_rate_hz: {}", params::SAMPLE_RATE_HZ)?;
     let realization = params::decode(bytes).map_err(Failure::Params)?;
 
     run_test_vector(&realization, &mut out)?;
