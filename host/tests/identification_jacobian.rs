@@ -1,0 +1,234 @@
+//! The fit's analytic Jacobian against central finite differences, and the bounded solver
+//! on problems with known bounded solutions.
+
+use nalgebra::{Complex, DMatrix};
+use supine_core::model::{ModelParams, ParamId, Preset, SystemMatrices, Transmissibility};
+use supine_host::fit::objective::{Objective, Target};
+use supine_host::fit::solver::{Problem, SolverSettings, solve};
+
+/// A target that differs from the paper's model (so residuals are not zero) on a coarse grid.
+fn target() -> Target {
+    let mut other = ModelParams::preset(Preset::PaperRigid);
+    for (i, id) in ParamId::ALL.into_iter().enumerate() {
+        other.set(
+            id,
+            other.get(id) * (1.0 + 0.3 * ((i * 7 % 11) as f64 / 10.0 - 0.5)),
+        );
+    }
+    let m = SystemMatrices::assemble(&other);
+    let freqs_hz: Vec<f64> = (0..32).map(|k| 0.5 + 0.5 * k as f64).collect();
+    let h: Vec<Transmissibility> = freqs_hz
+        .iter()
+        .map(|&f| m.transmissibility(f).unwrap())
+        .collect();
+    Target { freqs_hz, h }
+}
+
+#[test]
+fn analytic_jacobian_matches_central_differences_for_all_42_parameters() {
+    let base = ModelParams::preset(Preset::PaperRigid);
+    let objective = Objective::new(base, ParamId::ALL.to_vec(), target());
+    let theta = objective.theta(&base);
+    let (m, n) = (objective.residual_count(), objective.param_count());
+    let mut r = vec![0.0; m];
+    let mut jac = DMatrix::zeros(m, n);
+    objective.evaluate(&theta, &mut r, Some(&mut jac)).unwrap();
+    // The residuals carry rounding noise near 1e-12 (A has entries from 1e-3 to 1e6), so
+    // tiny steps drown in it; instead Richardson-extrapolated central differences
+    // (4 D(h/2) - D(h)) / 3 with h = 2e-3 in ln p, whose truncation error is O(h^4); the
+    // rounding noise left in them is about 1e-12 / 1e-3, hence the 1e-8 absolute floor.
+    let central = |p: usize, h: f64| -> Vec<f64> {
+        let (mut rp, mut rm) = (vec![0.0; m], vec![0.0; m]);
+        let mut t = theta.clone();
+        t[p] += h;
+        objective.evaluate(&t, &mut rp, None).unwrap();
+        t[p] -= 2.0 * h;
+        objective.evaluate(&t, &mut rm, None).unwrap();
+        rp.iter()
+            .zip(&rm)
+            .map(|(a, b)| (a - b) / (2.0 * h))
+            .collect()
+    };
+    for p in 0..n {
+        let (d1, d2) = (central(p, 2e-3), central(p, 1e-3));
+        let column_scale = jac.column(p).amax().max(1e-8);
+        for i in 0..m {
+            let fd = (4.0 * d2[i] - d1[i]) / 3.0;
+            let err = (fd - jac[(i, p)]).abs();
+            assert!(
+                err < 1e-6 * column_scale + 1e-8,
+                "parameter {} residual {i}: analytic {} vs finite difference {fd}",
+                ParamId::ALL[p],
+                jac[(i, p)]
+            );
+        }
+    }
+    // The four roll parameters have no effect at all: their columns are exactly zero.
+    let zero_columns: Vec<String> = (0..n)
+        .filter(|&p| jac.column(p).amax() == 0.0)
+        .map(|p| ParamId::ALL[p].to_string())
+        .collect();
+    assert_eq!(zero_columns.len(), 4, "{zero_columns:?}");
+    assert!(
+        zero_columns
+            .iter()
+            .all(|s| s.contains("rotational") && s.ends_with(".x"))
+    );
+}
+
+#[test]
+fn residuals_are_zero_when_the_model_equals_the_target() {
+    let base = ModelParams::preset(Preset::PaperLitter);
+    let m = SystemMatrices::assemble(&base);
+    let freqs_hz = vec![1.0, 4.0, 9.5];
+    let h = freqs_hz
+        .iter()
+        .map(|&f| m.transmissibility(f).unwrap())
+        .collect();
+    let objective = Objective::new(base, ParamId::ALL.to_vec(), Target { freqs_hz, h });
+    let cost = objective.cost(&objective.theta(&base)).unwrap();
+    assert!(cost < 1e-20, "{cost}");
+    // And a phase residual is the wrapped difference over pi: conjugating the target
+    // flips the sign of every phase residual.
+    let conj = Target {
+        freqs_hz: objective.target.freqs_hz.clone(),
+        h: objective
+            .target
+            .h
+            .iter()
+            .map(|h| h.map(|z: Complex<f64>| z.conj()))
+            .collect(),
+    };
+    let flipped = Objective::new(base, ParamId::ALL.to_vec(), conj);
+    let mut r = vec![0.0; flipped.residual_count()];
+    flipped
+        .evaluate(&flipped.theta(&base), &mut r, None)
+        .unwrap();
+    let h33 = objective.target.h[1][(2, 2)];
+    let i = Objective::residual_index(1, 2) + 1;
+    let expected = supine_host::geomean::wrap_pi(2.0 * h33.arg()) / std::f64::consts::PI;
+    assert!((r[i] - expected).abs() < 1e-12, "{} vs {expected}", r[i]);
+}
+
+/// Rosenbrock as least squares: r = (10 (y - x^2), 1 - x); minimum (1, 1), cost 0.
+struct Rosenbrock;
+
+impl Problem for Rosenbrock {
+    fn residual_count(&self) -> usize {
+        2
+    }
+    fn param_count(&self) -> usize {
+        2
+    }
+    fn evaluate(
+        &self,
+        x: &[f64],
+        r: &mut [f64],
+        jac: Option<&mut DMatrix<f64>>,
+    ) -> Result<(), String> {
+        r[0] = 10.0 * (x[1] - x[0] * x[0]);
+        r[1] = 1.0 - x[0];
+        if let Some(j) = jac {
+            j[(0, 0)] = -20.0 * x[0];
+            j[(0, 1)] = 10.0;
+            j[(1, 0)] = -1.0;
+            j[(1, 1)] = 0.0;
+        }
+        Ok(())
+    }
+}
+
+#[test]
+fn solver_finds_the_rosenbrock_minimum_without_bounds() {
+    let s = solve(
+        &Rosenbrock,
+        &[-1.2, 1.0],
+        &[-10.0, -10.0],
+        &[10.0, 10.0],
+        &SolverSettings::default(),
+        &mut |_, _| {},
+    )
+    .unwrap();
+    assert!(
+        (s.x[0] - 1.0).abs() < 1e-6 && (s.x[1] - 1.0).abs() < 1e-6,
+        "{:?}",
+        s.x
+    );
+    assert!(s.cost < 1e-12);
+}
+
+#[test]
+fn solver_stops_on_an_active_bound_of_rosenbrock() {
+    // With x <= 0.5 the minimum is on the bound: x = 0.5, y = x^2 = 0.25, cost 0.125.
+    let s = solve(
+        &Rosenbrock,
+        &[-1.2, 1.0],
+        &[-2.0, -2.0],
+        &[0.5, 2.0],
+        &SolverSettings::default(),
+        &mut |_, _| {},
+    )
+    .unwrap();
+    assert!((s.x[0] - 0.5).abs() < 1e-9, "{:?}", s.x);
+    assert!((s.x[1] - 0.25).abs() < 1e-6, "{:?}", s.x);
+    assert!((s.cost - 0.125).abs() < 1e-9, "{}", s.cost);
+}
+
+/// Linear least squares r = A x - b with a known bounded solution.
+struct Linear {
+    a: DMatrix<f64>,
+    b: Vec<f64>,
+}
+
+impl Problem for Linear {
+    fn residual_count(&self) -> usize {
+        self.a.nrows()
+    }
+    fn param_count(&self) -> usize {
+        self.a.ncols()
+    }
+    fn evaluate(
+        &self,
+        x: &[f64],
+        r: &mut [f64],
+        jac: Option<&mut DMatrix<f64>>,
+    ) -> Result<(), String> {
+        for (i, ri) in r.iter_mut().enumerate() {
+            *ri = (0..x.len()).map(|j| self.a[(i, j)] * x[j]).sum::<f64>() - self.b[i];
+        }
+        if let Some(j) = jac {
+            j.copy_from(&self.a);
+        }
+        Ok(())
+    }
+}
+
+#[test]
+fn solver_solves_a_bounded_linear_least_squares_problem() {
+    // A = I (3x3) stacked on nothing else: the minimizer of |x - b|^2 over the box is b
+    // clamped to the box. b = (2, -3, 0.5), box [0, 1]^3: solution (1, 0, 0.5).
+    let problem = Linear {
+        a: DMatrix::from_row_slice(
+            4,
+            3,
+            &[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0],
+        ),
+        b: vec![2.0, -3.0, 0.5, -1.0],
+    };
+    // Fourth row couples x0 and x1: r3 = x0 + x1 + 1. The constrained optimum: with x1 at
+    // 0, minimize (x0 - 2)^2 + (x0 + 1)^2 -> x0 = 0.5; check x1's gradient pushes outward:
+    // d/dx1 = 2 (x1 + 3) + 2 (x0 + x1 + 1) = 6 + 3 > 0 at the lower bound. So (0.5, 0, 0.5).
+    let s = solve(
+        &problem,
+        &[0.9, 0.9, 0.9],
+        &[0.0; 3],
+        &[1.0; 3],
+        &SolverSettings::default(),
+        &mut |_, _| {},
+    )
+    .unwrap();
+    let want = [0.5, 0.0, 0.5];
+    for (got, want) in s.x.iter().zip(want) {
+        assert!((got - want).abs() < 1e-7, "{:?}", s.x);
+    }
+}
