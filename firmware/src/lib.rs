@@ -2,8 +2,8 @@
 //!
 //! The library holds what every image shares; the images themselves are thin:
 //! `src/main.rs` is the product, `src/bin/selftest.rs` runs the model core on the
-//! built-in test vector for the QEMU tests, and `src/bin/panics.rs` proves that a panic
-//! ends a run with a failing status.
+//! built-in test vector for the QEMU tests, and `src/bin/panics.rs` and
+//! `src/bin/hardfault.rs` prove that a panic and a fault end a run with a failing status.
 //!
 //! Each module has one job: [`board`] names the board's types, [`cmsdk_uart`] drives its
 //! UART, [`console`] writes lines to the debugger's stdout (semihosting), [`exit`] ends a

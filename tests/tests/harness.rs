@@ -31,6 +31,24 @@ fn a_panic_ends_the_run_with_status_101_and_its_message() {
 }
 
 #[test]
+fn a_hard_fault_ends_the_run_with_status_102_and_the_faulting_address() {
+    let elf = firmware("hardfault");
+    let output = qemu::run(&QemuConfig::new(&elf).timeout(Duration::from_secs(60)))
+        .unwrap_or_else(|err| panic!("{err}"));
+    println!(
+        "exit status {:?}, stderr {:?}",
+        output.code(),
+        output.stderr
+    );
+    assert_eq!(output.code(), Some(102));
+    assert!(
+        output.stderr.contains("hard fault at pc 0x"),
+        "{}",
+        output.stderr
+    );
+}
+
+#[test]
 fn the_product_image_greets_on_the_uart_with_its_version_and_parameters() {
     let elf = firmware(PRODUCT_BINARY);
     let config = QemuConfig::new(&elf)
