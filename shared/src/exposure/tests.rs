@@ -456,3 +456,29 @@ fn the_per_sample_output_carries_the_vector_mean_square_and_dose_for_the_alerts(
         1e-4
     ));
 }
+
+#[test]
+fn a_block_of_32_samples_gives_bit_for_bit_what_32_single_steps_give() {
+    let s = ExposureSettings::new(ExposureConfig::DEFAULT, FS).unwrap();
+    let (mut one, mut block) = (ExposureState::new(), ExposureState::new());
+    let sig = |i: usize| {
+        let t = i as f64 / FS as f64;
+        [
+            (0.3 * (2.0 * PI * 3.0 * t).sin()) as f32,
+            (0.2 * (2.0 * PI * 11.0 * t).cos()) as f32,
+            (9.81 + 0.7 * (2.0 * PI * 5.0 * t).sin()) as f32,
+        ]
+    };
+    // 200 blocks of 32: through the 2500-sample warm-up and 15 folds of the f64 totals.
+    for b in 0..200usize {
+        let x: [[f32; 3]; 32] = core::array::from_fn(|n| sig(32 * b + n));
+        let mut outs = [ExposureSample::default(); 32];
+        s.step_block(&mut block, &x, (32 * b) as u32, &mut outs);
+        for n in 0..32 {
+            let single = s.step(&mut one, x[n], (32 * b + n) as u32);
+            assert_eq!(single, outs[n], "sample {}", 32 * b + n);
+        }
+        assert_eq!(one, block);
+    }
+    assert_eq!(s.values(&one), s.values(&block));
+}
