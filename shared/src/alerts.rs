@@ -424,6 +424,55 @@ impl AlertSettings {
             at_sample: sample_index,
         })
     }
+
+    /// `N` consecutive outputs of [`ExposureSettings::step_block`](crate::exposure::ExposureSettings::step_block)
+    /// (indices `first_index..first_index + N`); calls `on_event` for each level change.
+    ///
+    /// Same events and state, bit for bit, as `N` calls of [`step`](Self::step): while
+    /// nothing is pending, samples that call for no change are skipped with two or three
+    /// comparisons against the current level's thresholds, held in registers.
+    #[inline]
+    pub fn step_block<const N: usize>(
+        &self,
+        state: &mut AlertState,
+        exposure: &[ExposureSample; N],
+        first_index: u32,
+        mut on_event: impl FnMut(AlertEvent),
+    ) {
+        let mut n = 0;
+        while n < N {
+            if state.pending_dir == 0 {
+                let lvl = state.level as usize;
+                let (up_ms, up_q) = if lvl < 3 {
+                    (self.raise_ms_m2_s4[lvl], self.vdv4_m4_s7[lvl])
+                } else {
+                    (f32::INFINITY, f32::INFINITY)
+                };
+                let (down_ms, down_q) = if lvl > 0 {
+                    (self.clear_ms_m2_s4[lvl - 1], self.vdv4_m4_s7[lvl - 1])
+                } else {
+                    (f32::NEG_INFINITY, f32::NEG_INFINITY)
+                };
+                while n < N {
+                    let e = &exposure[n];
+                    let (ms, q) = (e.running_ms_m2_s4, e.vdv4_m4_s7);
+                    let called = ms >= up_ms || q >= up_q || (ms < down_ms && q < down_q);
+                    if e.valid && called {
+                        break;
+                    }
+                    n += 1;
+                }
+                if n == N {
+                    break;
+                }
+            }
+            if let Some(event) = self.step(state, &exposure[n], first_index.wrapping_add(n as u32))
+            {
+                on_event(event);
+            }
+            n += 1;
+        }
+    }
 }
 
 /// Sensor-fault check configuration (SI units), for the litter accelerometer's samples.
@@ -594,6 +643,63 @@ impl SensorCheckSettings {
             }
         }
         events
+    }
+
+    /// `N` raw samples with their indices; calls `on_event` for each fault edge.
+    ///
+    /// Same events and state as `N` calls of [`step`](Self::step): while no fault is
+    /// active, healthy samples (finite, inside full scale, each index one more than the
+    /// last, no axis near the stuck limit) are handled with the check's memories in
+    /// registers; anything else goes through `step`.
+    #[inline]
+    pub fn step_block<const N: usize>(
+        &self,
+        state: &mut SensorCheckState,
+        samples_m_s2: &[[f32; 3]; N],
+        sample_indices: &[u32; N],
+        mut on_event: impl FnMut(AlertEvent),
+    ) {
+        let full_scale = self.config.full_scale_m_s2;
+        let stuck = self.stuck_after_samples;
+        let mut n = 0;
+        while n < N {
+            if state.active == 0 && state.started {
+                let (mut last, mut unchanged, mut last_index) =
+                    (state.last_bits, state.unchanged, state.last_index);
+                while n < N {
+                    let (x, index) = (samples_m_s2[n], sample_indices[n]);
+                    let bits = x.map(f32::to_bits);
+                    // Decide first, update after: a sample that needs `step` leaves the
+                    // memories as they were. `unchanged + 1 < stuck` also rules out overflow.
+                    let gap = index != last_index.wrapping_add(1);
+                    let in_range = (x[0].abs() < full_scale)
+                        & (x[1].abs() < full_scale)
+                        & (x[2].abs() < full_scale);
+                    let same = [bits[0] == last[0], bits[1] == last[1], bits[2] == last[2]];
+                    let near_stuck = (same[0] & (unchanged[0] + 1 >= stuck))
+                        | (same[1] & (unchanged[1] + 1 >= stuck))
+                        | (same[2] & (unchanged[2] + 1 >= stuck));
+                    if gap | !in_range | near_stuck {
+                        break;
+                    }
+                    for i in 0..3 {
+                        unchanged[i] = if same[i] { unchanged[i] + 1 } else { 0 };
+                    }
+                    last = bits;
+                    last_index = index;
+                    n += 1;
+                }
+                (state.last_bits, state.unchanged, state.last_index) =
+                    (last, unchanged, last_index);
+                if n == N {
+                    break;
+                }
+            }
+            for event in self.step(state, samples_m_s2[n], sample_indices[n]) {
+                on_event(event);
+            }
+            n += 1;
+        }
     }
 }
 

@@ -21,7 +21,9 @@ fn feed(
     n: u32,
     rms: impl Fn(u32) -> f32,
 ) -> Vec<AlertEvent> {
-    (start..start + n).filter_map(|i| s.step(st, &sample(rms(i), 0.0), i)).collect()
+    (start..start + n)
+        .filter_map(|i| s.step(st, &sample(rms(i), 0.0), i))
+        .collect()
 }
 
 #[test]
@@ -35,9 +37,21 @@ fn a_rising_running_rms_raises_advisory_warning_and_alarm_after_the_raise_dwell(
     assert_eq!(
         ev,
         vec![
-            AlertEvent::Level { from: Level::Normal, to: Level::Advisory, at_sample: 249 },
-            AlertEvent::Level { from: Level::Advisory, to: Level::Warning, at_sample: 1249 },
-            AlertEvent::Level { from: Level::Warning, to: Level::Alarm, at_sample: 2249 },
+            AlertEvent::Level {
+                from: Level::Normal,
+                to: Level::Advisory,
+                at_sample: 249
+            },
+            AlertEvent::Level {
+                from: Level::Advisory,
+                to: Level::Warning,
+                at_sample: 1249
+            },
+            AlertEvent::Level {
+                from: Level::Warning,
+                to: Level::Alarm,
+                at_sample: 2249
+            },
         ]
     );
     assert!(ev.iter().all(AlertEvent::is_raise));
@@ -49,14 +63,23 @@ fn a_jump_straight_to_alarm_is_one_event() {
     let s = AlertSettings::new(AlertConfig::DEFAULT, FS).unwrap();
     let mut st = AlertState::new();
     let ev = feed(&s, &mut st, 0, 500, |_| 3.0);
-    assert_eq!(ev, vec![AlertEvent::Level { from: Level::Normal, to: Level::Alarm, at_sample: 249 }]);
+    assert_eq!(
+        ev,
+        vec![AlertEvent::Level {
+            from: Level::Normal,
+            to: Level::Alarm,
+            at_sample: 249
+        }]
+    );
 }
 
 #[test]
 fn a_spike_shorter_than_the_raise_dwell_raises_nothing() {
     let s = AlertSettings::new(AlertConfig::DEFAULT, FS).unwrap();
     let mut st = AlertState::new();
-    let ev = feed(&s, &mut st, 0, 2000, |i| if (100..300).contains(&i) { 2.0 } else { 0.1 });
+    let ev = feed(&s, &mut st, 0, 2000, |i| {
+        if (100..300).contains(&i) { 2.0 } else { 0.1 }
+    });
     assert!(ev.is_empty());
     assert_eq!(st.level(), Level::Normal);
 }
@@ -66,7 +89,9 @@ fn a_running_rms_hovering_around_a_threshold_does_not_chatter() {
     let s = AlertSettings::new(AlertConfig::DEFAULT, FS).unwrap();
     let mut st = AlertState::new();
     // 0.5 m/s^2 +/- 8 %, alternating every 0.6 s: inside the 20 % hysteresis band.
-    let ev = feed(&s, &mut st, 0, 30_000, |i| if (i / 300) % 2 == 0 { 0.54 } else { 0.46 });
+    let ev = feed(&s, &mut st, 0, 30_000, |i| {
+        if (i / 300) % 2 == 0 { 0.54 } else { 0.46 }
+    });
     assert_eq!(ev.len(), 1, "{ev:?}");
     assert_eq!(st.level(), Level::Advisory);
 }
@@ -81,11 +106,25 @@ fn a_level_clears_only_below_the_hysteresis_band_and_after_the_clear_dwell() {
     assert!(feed(&s, &mut st, 1000, 10_000, |_| 0.7).is_empty());
     // 0.6 is below 0.64 and above advisory's clear (0.4): drops to advisory after 5 s.
     let ev = feed(&s, &mut st, 11_000, 3000, |_| 0.6);
-    assert_eq!(ev, vec![AlertEvent::Level { from: Level::Warning, to: Level::Advisory, at_sample: 13_499 }]);
+    assert_eq!(
+        ev,
+        vec![AlertEvent::Level {
+            from: Level::Warning,
+            to: Level::Advisory,
+            at_sample: 13_499
+        }]
+    );
     assert!(!ev[0].is_raise());
     // Quiet: back to normal after another 5 s.
     let ev = feed(&s, &mut st, 14_000, 3000, |_| 0.1);
-    assert_eq!(ev, vec![AlertEvent::Level { from: Level::Advisory, to: Level::Normal, at_sample: 16_499 }]);
+    assert_eq!(
+        ev,
+        vec![AlertEvent::Level {
+            from: Level::Advisory,
+            to: Level::Normal,
+            at_sample: 16_499
+        }]
+    );
 }
 
 #[test]
@@ -102,8 +141,16 @@ fn a_vdv_over_its_threshold_raises_a_level_that_stays() {
     assert_eq!(
         ev,
         vec![
-            AlertEvent::Level { from: Level::Normal, to: Level::Advisory, at_sample: 249 },
-            AlertEvent::Level { from: Level::Advisory, to: Level::Warning, at_sample: 2249 },
+            AlertEvent::Level {
+                from: Level::Normal,
+                to: Level::Advisory,
+                at_sample: 249
+            },
+            AlertEvent::Level {
+                from: Level::Advisory,
+                to: Level::Warning,
+                at_sample: 2249
+            },
         ]
     );
 }
@@ -112,7 +159,10 @@ fn a_vdv_over_its_threshold_raises_a_level_that_stays() {
 fn nothing_is_raised_while_the_exposure_is_still_warming_up() {
     let s = AlertSettings::new(AlertConfig::DEFAULT, FS).unwrap();
     let mut st = AlertState::new();
-    let warming = ExposureSample { valid: false, ..sample(5.0, 30.0) };
+    let warming = ExposureSample {
+        valid: false,
+        ..sample(5.0, 30.0)
+    };
     assert!((0..5000).all(|i| s.step(&mut st, &warming, i).is_none()));
     assert_eq!(st.level(), Level::Normal);
 }
@@ -131,7 +181,14 @@ fn a_five_hertz_sine_through_the_exposure_stage_raises_advisory_half_a_second_af
     }
     // Wj(5 Hz) is about 1.02: running rms about 0.72 m/s^2 -> advisory, not warning.
     assert_eq!(ev.len(), 1, "{ev:?}");
-    assert_eq!(ev[0], AlertEvent::Level { from: Level::Normal, to: Level::Advisory, at_sample: 2500 + 249 });
+    assert_eq!(
+        ev[0],
+        AlertEvent::Level {
+            from: Level::Normal,
+            to: Level::Advisory,
+            at_sample: 2500 + 249
+        }
+    );
 }
 
 #[test]
@@ -141,13 +198,19 @@ fn alert_configurations_that_make_no_sense_are_refused() {
         f(&mut c);
         AlertSettings::new(c, FS).unwrap_err()
     };
-    assert_eq!(bad(|c| c.running_rms_m_s2 = [0.8, 0.5, 1.25]), AlertError::Thresholds);
+    assert_eq!(
+        bad(|c| c.running_rms_m_s2 = [0.8, 0.5, 1.25]),
+        AlertError::Thresholds
+    );
     assert_eq!(bad(|c| c.vdv_m_s175[1] = f32::NAN), AlertError::Thresholds);
     assert_eq!(bad(|c| c.running_rms_m_s2[0] = 0.0), AlertError::Thresholds);
     assert_eq!(bad(|c| c.hysteresis = 1.0), AlertError::Hysteresis);
     assert_eq!(bad(|c| c.raise_dwell_s = -1.0), AlertError::Time);
     assert_eq!(bad(|c| c.clear_dwell_s = f32::INFINITY), AlertError::Time);
-    assert_eq!(AlertSettings::new(AlertConfig::DEFAULT, 5000.0), Err(AlertError::SampleRate));
+    assert_eq!(
+        AlertSettings::new(AlertConfig::DEFAULT, 5000.0),
+        Err(AlertError::SampleRate)
+    );
     let mut s = AlertSettings::new(AlertConfig::DEFAULT, FS).unwrap();
     assert_eq!(s.validate(), Ok(()));
     s.raise_ms_m2_s4[0] = 0.0;
@@ -165,7 +228,10 @@ fn alert_settings_survive_a_postcard_round_trip() {
     assert_eq!(postcard::from_bytes::<AlertSettings>(bytes).unwrap(), s);
     let c = SensorCheckSettings::new(SensorCheckConfig::DEFAULT, FS).unwrap();
     let bytes = postcard::to_slice(&c, &mut buf).unwrap();
-    assert_eq!(postcard::from_bytes::<SensorCheckSettings>(bytes).unwrap(), c);
+    assert_eq!(
+        postcard::from_bytes::<SensorCheckSettings>(bytes).unwrap(),
+        c
+    );
 }
 
 // ---- sensor faults ----
@@ -182,7 +248,10 @@ fn run_sensor(
     indices: impl IntoIterator<Item = u32>,
     x: impl Fn(u32) -> [f32; 3],
 ) -> Vec<AlertEvent> {
-    indices.into_iter().flat_map(|i| s.step(st, x(i), i)).collect()
+    indices
+        .into_iter()
+        .flat_map(|i| s.step(st, x(i), i))
+        .collect()
 }
 
 #[test]
@@ -206,8 +275,16 @@ fn a_nan_sample_raises_non_finite_and_clears_after_a_second_of_finite_samples() 
     assert_eq!(
         ev,
         vec![
-            AlertEvent::Fault { fault: SensorFault::NonFinite, active: true, at_sample: 100 },
-            AlertEvent::Fault { fault: SensorFault::NonFinite, active: false, at_sample: 600 },
+            AlertEvent::Fault {
+                fault: SensorFault::NonFinite,
+                active: true,
+                at_sample: 100
+            },
+            AlertEvent::Fault {
+                fault: SensorFault::NonFinite,
+                active: false,
+                at_sample: 600
+            },
         ]
     );
 }
@@ -230,8 +307,16 @@ fn an_infinite_sample_is_non_finite_and_a_full_scale_sample_is_saturation() {
     assert_eq!(
         ev,
         vec![
-            AlertEvent::Fault { fault: SensorFault::NonFinite, active: true, at_sample: 10 },
-            AlertEvent::Fault { fault: SensorFault::Saturated, active: true, at_sample: 20 },
+            AlertEvent::Fault {
+                fault: SensorFault::NonFinite,
+                active: true,
+                at_sample: 10
+            },
+            AlertEvent::Fault {
+                fault: SensorFault::Saturated,
+                active: true,
+                at_sample: 20
+            },
         ]
     );
     assert!(st.is_active(SensorFault::Saturated) && st.any_active());
@@ -252,8 +337,16 @@ fn an_axis_repeating_the_same_value_for_a_second_is_stuck_until_it_moves() {
     assert_eq!(
         ev,
         vec![
-            AlertEvent::Fault { fault: SensorFault::Stuck, active: true, at_sample: 1500 },
-            AlertEvent::Fault { fault: SensorFault::Stuck, active: false, at_sample: 2299 },
+            AlertEvent::Fault {
+                fault: SensorFault::Stuck,
+                active: true,
+                at_sample: 1500
+            },
+            AlertEvent::Fault {
+                fault: SensorFault::Stuck,
+                active: false,
+                at_sample: 2299
+            },
         ]
     );
 }
@@ -267,8 +360,16 @@ fn a_skipped_or_repeated_sample_index_raises_an_index_gap() {
     assert_eq!(
         ev,
         vec![
-            AlertEvent::Fault { fault: SensorFault::IndexGap, active: true, at_sample: 103 },
-            AlertEvent::Fault { fault: SensorFault::IndexGap, active: false, at_sample: 699 },
+            AlertEvent::Fault {
+                fault: SensorFault::IndexGap,
+                active: true,
+                at_sample: 103
+            },
+            AlertEvent::Fault {
+                fault: SensorFault::IndexGap,
+                active: false,
+                at_sample: 699
+            },
         ]
     );
 }
@@ -279,4 +380,74 @@ fn the_sample_index_wrapping_past_u32_max_is_not_a_gap() {
     let mut st = SensorCheckState::new();
     let indices = (u32::MAX - 10..=u32::MAX).chain(0..10);
     assert!(run_sensor(&s, &mut st, indices, healthy).is_empty());
+}
+
+#[test]
+fn a_block_of_32_samples_gives_the_same_events_and_state_as_32_single_steps() {
+    let mut cfg = AlertConfig::DEFAULT;
+    cfg.raise_dwell_s = 0.02;
+    cfg.clear_dwell_s = 0.1;
+    let s = AlertSettings::new(cfg, FS).unwrap();
+    // A running rms that wanders through every level, with invalid stretches and a VDV
+    // that creeps up past its thresholds.
+    let rms = |i: u32| {
+        let t = i as f32 / FS;
+        0.9 + 0.8 * (0.7 * t).sin() + 0.3 * (5.3 * t).sin()
+    };
+    let sample = |i: u32| ExposureSample {
+        running_ms_m2_s4: rms(i) * rms(i),
+        vdv4_m4_s7: (i as f32 * 0.0007).powi(4),
+        valid: !(3000..3100).contains(&i),
+    };
+    let (mut one, mut block) = (AlertState::new(), AlertState::new());
+    let (mut ev_one, mut ev_block) = (Vec::new(), Vec::new());
+    for b in 0..400u32 {
+        let xs: [ExposureSample; 32] = core::array::from_fn(|n| sample(32 * b + n as u32));
+        s.step_block(&mut block, &xs, 32 * b, |e| ev_block.push(e));
+        for (n, x) in xs.iter().enumerate() {
+            ev_one.extend(s.step(&mut one, x, 32 * b + n as u32));
+        }
+        assert_eq!(one, block, "block {b}");
+    }
+    assert!(ev_one.len() > 10, "{ev_one:?}");
+    assert_eq!(ev_one, ev_block);
+}
+
+#[test]
+fn a_sensor_block_of_32_samples_gives_the_same_events_and_state_as_32_single_steps() {
+    let s = SensorCheckSettings::new(SensorCheckConfig::DEFAULT, FS).unwrap();
+    let fs = SensorCheckConfig::DEFAULT.full_scale_m_s2;
+    // Healthy noise with a NaN, a saturation, a stuck stretch and index gaps.
+    let x = |i: u32| {
+        let mut x = healthy(i);
+        match i {
+            700 => x[0] = f32::NAN,
+            2000..=2004 => x[1] = fs * 1.1,
+            4000..=4700 => x[2] = 9.81,
+            _ => {}
+        }
+        x
+    };
+    let index = |i: u32| {
+        if i < 6000 {
+            i
+        } else if i < 9000 {
+            i + 3
+        } else {
+            i + 2
+        }
+    };
+    let (mut one, mut block) = (SensorCheckState::new(), SensorCheckState::new());
+    let (mut ev_one, mut ev_block) = (Vec::new(), Vec::new());
+    for b in 0..400u32 {
+        let xs: [[f32; 3]; 32] = core::array::from_fn(|n| x(32 * b + n as u32));
+        let ix: [u32; 32] = core::array::from_fn(|n| index(32 * b + n as u32));
+        s.step_block(&mut block, &xs, &ix, |e| ev_block.push(e));
+        for n in 0..32 {
+            ev_one.extend(s.step(&mut one, xs[n], ix[n]));
+        }
+        assert_eq!(one, block, "block {b}");
+    }
+    assert_eq!(ev_one.len(), 10, "{ev_one:?}");
+    assert_eq!(ev_one, ev_block);
 }
