@@ -33,12 +33,13 @@
 //!   because their poles are at 2 Hz or above.
 //!
 //! Measured deviation of the f32 filters from the analog magnitude over 0.5-80 Hz
-//! (tests `deviation_*`): at 500 Hz under 3 %, at 1 kHz under 1 %; at 200 Hz up to
-//! -14 % near 80 Hz, which is still inside the ISO 8041 tolerance (+26/-21 % above
-//! 63.1 Hz), so 200 Hz meets ISO 8041 over the whole 0.5-80 Hz. Below fs = 200 Hz the
-//! band-limiting low-pass lies above Nyquist: the discrete filter then follows the
-//! analog magnitude up to fs/2 (exactly at DC, fs/3 and fs/2), and everything above
-//! fs/2 must be removed by the sensor's anti-alias filter before sampling.
+//! (tests `deviation_*`): 2.8 % at 500 Hz, 0.8 % at 1 kHz, 0.2 % at 2 kHz (largest
+//! near 80 Hz). At 200 Hz: 8.6 % up to 63.1 Hz and 14 % at 80 Hz, inside the ISO 8041
+//! tolerances (+12/-11 % to 63.1 Hz, +26/-21 % above), so 200 Hz meets ISO 8041 over
+//! the whole 0.5-80 Hz. Below fs = 200 Hz the band-limiting low-pass lies above
+//! Nyquist: the discrete filter then follows the analog magnitude up to fs/2 (exactly
+//! at DC, fs/3 and fs/2), and everything above fs/2 must be removed by the sensor's
+//! anti-alias filter before sampling.
 
 use core::cmp::Ordering;
 use core::fmt;
