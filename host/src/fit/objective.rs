@@ -22,7 +22,7 @@ use std::f64::consts::PI;
 use nalgebra::{Complex, DMatrix, SMatrix};
 use supine_core::model::assembly::{DOF_COUNT, Shape, param_shape};
 use supine_core::model::geometry::Body;
-use supine_core::model::response::{COUPLED_COMPONENTS, dynamic_stiffness};
+use supine_core::model::response::COUPLED_COMPONENTS;
 use supine_core::model::{ModelParams, ParamId, SystemMatrices, Transmissibility};
 
 use crate::geomean::wrap_pi;
@@ -49,6 +49,44 @@ pub struct Objective {
     /// What to fit.
     pub target: Target,
     shapes: Vec<Shape>,
+    blocks: Vec<Vec<usize>>,
+}
+
+/// The largest uncoupled block of A this solver handles (the geometry gives 3, 6, 6, 3).
+const MAX_BLOCK: usize = 6;
+
+/// The DOFs of each uncoupled block of A = K - w^2 M + j w C: the connected components of
+/// the graph in which every element's shape vector links its DOFs (M is diagonal).
+fn uncoupled_blocks(body: &Body) -> Vec<Vec<usize>> {
+    let mut parent: Vec<usize> = (0..DOF_COUNT).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    for id in ParamId::ALL {
+        let shape = param_shape(id, body);
+        let entries = shape.entries();
+        for pair in entries.windows(2) {
+            let (a, b) = (root(&mut parent, pair[0].0), root(&mut parent, pair[1].0));
+            parent[a] = b;
+        }
+    }
+    let mut blocks: Vec<Vec<usize>> = Vec::new();
+    let mut roots: Vec<usize> = Vec::new();
+    for d in 0..DOF_COUNT {
+        let r = root(&mut parent, d);
+        match roots.iter().position(|&x| x == r) {
+            Some(i) => blocks[i].push(d),
+            None => {
+                roots.push(r);
+                blocks.push(vec![d]);
+            }
+        }
+    }
+    blocks
 }
 
 type Cplx = Complex<f64>;
@@ -58,11 +96,17 @@ impl Objective {
     pub fn new(base: ModelParams, free: Vec<ParamId>, target: Target) -> Self {
         let body = Body::dempster(&base.subject);
         let shapes = free.iter().map(|&id| param_shape(id, &body)).collect();
+        let blocks = uncoupled_blocks(&body);
+        assert!(
+            blocks.iter().all(|b| b.len() <= MAX_BLOCK),
+            "the model's geometry couples more than {MAX_BLOCK} DOFs"
+        );
         Self {
             base,
             free,
             target,
             shapes,
+            blocks,
         }
     }
 
@@ -108,30 +152,60 @@ impl Objective {
         let values: Vec<f64> = self.free.iter().map(|&id| params.get(id)).collect();
         let matrices = SystemMatrices::assemble(&params);
         let g_real = matrices.input;
-        let rt: SMatrix<Cplx, DOF_COUNT, 9> =
-            matrices.output.transpose().map(|v| Cplx::new(v, 0.0));
+        let (kg, cg) = (matrices.stiffness * g_real, matrices.damping * g_real);
+        let r_out = &matrices.output;
+        let mut x = SMatrix::<Cplx, DOF_COUNT, 3>::zeros();
+        let mut w = SMatrix::<Cplx, DOF_COUNT, 9>::zeros();
         for (f, &freq_hz) in self.target.freqs_hz.iter().enumerate() {
             let omega = 2.0 * PI * freq_hz;
-            let a = dynamic_stiffness(&matrices, omega);
-            let forcing: SMatrix<Cplx, DOF_COUNT, 3> = SMatrix::from_fn(|i, k| {
-                let mut acc = Cplx::new(0.0, 0.0);
-                for j in 0..DOF_COUNT {
-                    if g_real[(j, k)] != 0.0 {
-                        acc +=
-                            Cplx::new(matrices.stiffness[(i, j)], omega * matrices.damping[(i, j)]);
+            let want_w = jacobian.is_some();
+            // A is block diagonal over the uncoupled subsystems: solve each block alone
+            // for X = A^-1 F (F = (K + j w C) G) and W = A^-1 R^T.
+            for block in &self.blocks {
+                let mut a = SMatrix::<Cplx, MAX_BLOCK, MAX_BLOCK>::identity();
+                let mut rhs = SMatrix::<Cplx, MAX_BLOCK, 12>::zeros();
+                for (i, &di) in block.iter().enumerate() {
+                    for (j, &dj) in block.iter().enumerate() {
+                        a[(i, j)] = Cplx::new(
+                            matrices.stiffness[(di, dj)] - omega * omega * matrices.mass[(di, dj)],
+                            omega * matrices.damping[(di, dj)],
+                        );
+                    }
+                    for k in 0..3 {
+                        rhs[(i, k)] = Cplx::new(kg[(di, k)], omega * cg[(di, k)]);
+                    }
+                    if want_w {
+                        for j in 0..9 {
+                            rhs[(i, 3 + j)] = Cplx::new(r_out[(j, di)], 0.0);
+                        }
                     }
                 }
-                acc
-            });
-            let lu = a.lu();
-            let x = lu
-                .solve(&forcing)
-                .ok_or_else(|| format!("the model is singular at {freq_hz} Hz"))?;
-            let h = matrices.output.map(|v| Cplx::new(v, 0.0)) * x;
+                let sol = a
+                    .lu()
+                    .solve(&rhs)
+                    .ok_or_else(|| format!("the model is singular at {freq_hz} Hz"))?;
+                for (i, &di) in block.iter().enumerate() {
+                    for k in 0..3 {
+                        x[(di, k)] = sol[(i, k)];
+                    }
+                    for j in 0..9 {
+                        w[(di, j)] = sol[(i, 3 + j)];
+                    }
+                }
+            }
+            // Only the fitted components of H = R X.
+            let mut h = [Cplx::new(0.0, 0.0); COMPONENTS];
+            for (c, (output, input)) in COUPLED_COMPONENTS.iter().enumerate() {
+                let (j, k) = (output.index(), input.index());
+                h[c] = (0..DOF_COUNT)
+                    .filter(|&d| r_out[(j, d)] != 0.0)
+                    .map(|d| x[(d, k)] * r_out[(j, d)])
+                    .sum();
+            }
             let measured = &self.target.h[f];
             for (c, (output, input)) in COUPLED_COMPONENTS.iter().enumerate() {
                 let (j, k) = (output.index(), input.index());
-                let (hv, gv) = (h[(j, k)], measured[(j, k)]);
+                let (hv, gv) = (h[c], measured[(j, k)]);
                 let r = Self::residual_index(f, c);
                 residuals[r] = (hv.norm() - gv.norm()) / gv.norm();
                 residuals[r + 1] = wrap_pi(hv.arg() - gv.arg()) / PI;
@@ -139,10 +213,16 @@ impl Objective {
             let Some(jac) = jacobian.as_deref_mut() else {
                 continue;
             };
+            // d r_mag = Re(dh conj(h) / (|h| |g|)), d r_phase = Im(dh / (pi h)): the factors
+            // once per component, so the inner loop only multiplies.
+            let mut mag_factor = [Cplx::new(0.0, 0.0); COMPONENTS];
+            let mut phase_factor = [Cplx::new(0.0, 0.0); COMPONENTS];
+            for (c, (output, input)) in COUPLED_COMPONENTS.iter().enumerate() {
+                let (hv, gv) = (h[c], measured[(output.index(), input.index())]);
+                mag_factor[c] = hv.conj() / (hv.norm() * gv.norm());
+                phase_factor[c] = Cplx::new(1.0, 0.0) / (hv * PI);
+            }
             // W = A^-1 R^T, so (R A^-1)_(j, d) = W_(d, j) by symmetry of A.
-            let w = lu
-                .solve(&rt)
-                .ok_or_else(|| format!("the model is singular at {freq_hz} Hz"))?;
             for (p, (shape, &id)) in self.shapes.iter().zip(&self.free).enumerate() {
                 // u = R A^-1 b (9), v = b^T (G - X) (3).
                 let mut u = [Cplx::new(0.0, 0.0); 9];
@@ -160,13 +240,12 @@ impl Objective {
                 } else {
                     Cplx::new(0.0, omega * values[p])
                 };
+                let column = &mut jac.column_mut(p);
                 for (c, (output, input)) in COUPLED_COMPONENTS.iter().enumerate() {
-                    let (j, k) = (output.index(), input.index());
-                    let (hv, gv) = (h[(j, k)], measured[(j, k)]);
-                    let dh = s * u[j] * v[k];
+                    let dh = s * u[output.index()] * v[input.index()];
                     let r = Self::residual_index(f, c);
-                    jac[(r, p)] = (hv.conj() * dh).re / (hv.norm() * gv.norm());
-                    jac[(r + 1, p)] = (dh / hv).im / PI;
+                    column[r] = (dh * mag_factor[c]).re;
+                    column[r + 1] = (dh * phase_factor[c]).im;
                 }
             }
         }

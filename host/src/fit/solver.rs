@@ -155,7 +155,8 @@ pub fn solve(
     let mut termination = Termination::MaxIterations;
     let mut iterations = 0;
     'outer: while iterations < settings.max_iterations {
-        let jtj = jac.tr_mul(&jac);
+        // J^T J through the blocked matrix product (much faster than column dot products).
+        let jtj = jac.transpose() * &jac;
         let g = jac.tr_mul(&DVector::from_column_slice(&r));
         // Projected gradient: how far a unit gradient step would move inside the box.
         let pg = (0..n)
