@@ -215,6 +215,8 @@ pub struct ExposureSettings {
 pub struct ExposureSample {
     /// Running mean square of the vector sum, (m/s^2)^2 (its square root is the running rms).
     pub running_ms_m2_s4: f32,
+    /// Running mean square of each axis' weighted signal times its `k`, (m/s^2)^2.
+    pub axis_ms_m2_s4: [f32; 3],
     /// Fourth-power dose of the vector sum so far, `integral a_v^4 dt` in m^4/s^7 (VDV^4).
     pub vdv4_m4_s7: f32,
     /// The warm-up is over and both numbers mean what they say.
@@ -463,6 +465,7 @@ impl ExposureSettings {
             }
             out[n] = ExposureSample {
                 running_ms_m2_s4: ms[0] + ms[1] + ms[2],
+                axis_ms_m2_s4: ms,
                 vdv4_m4_s7: 0.0,
                 valid: false,
             };
@@ -503,6 +506,7 @@ impl ExposureSettings {
             }
             out[n] = ExposureSample {
                 running_ms_m2_s4: ms_v,
+                axis_ms_m2_s4: ms,
                 vdv4_m4_s7: (total_q_v + block_q[3]) * dt,
                 valid: true,
             };

@@ -15,6 +15,7 @@ pub mod blob;
 pub mod exposure;
 pub mod model;
 pub mod mounting;
+pub mod pipeline;
 pub mod protocol;
 pub mod test_vector;
 pub mod weighting;

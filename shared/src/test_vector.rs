@@ -49,13 +49,17 @@ impl Iterator for TestVector {
 
     fn next(&mut self) -> Option<[f32; 3]> {
         let mut out = [0.0; 3];
-        for axis in 0..3 {
+        let filters = self
+            .rng
+            .iter_mut()
+            .zip(self.stage1.iter_mut().zip(self.stage2.iter_mut()));
+        for (value, (rng, (stage1, stage2))) in out.iter_mut().zip(filters) {
             // Top 24 bits to [-1, 1): exact in f32.
-            let noise = (xorshift32(&mut self.rng[axis]) >> 8) as i32 - (1 << 23);
+            let noise = (xorshift32(rng) >> 8) as i32 - (1 << 23);
             let white = noise as f32 * (1.0 / (1 << 23) as f32);
-            self.stage1[axis] = POLE * self.stage1[axis] + (1.0 - POLE) * white;
-            self.stage2[axis] = POLE * self.stage2[axis] + (1.0 - POLE) * self.stage1[axis];
-            out[axis] = GAIN_M_S2 * 10.0 * self.stage2[axis];
+            *stage1 = POLE * *stage1 + (1.0 - POLE) * white;
+            *stage2 = POLE * *stage2 + (1.0 - POLE) * *stage1;
+            *value = GAIN_M_S2 * 10.0 * *stage2;
         }
         Some(out)
     }

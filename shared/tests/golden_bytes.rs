@@ -78,9 +78,13 @@ fn the_example_blob_encodes_to_its_golden_bytes_and_decodes_back() {
     let len = example.encode(&mut buf).unwrap();
     assert!(len > BLOB_HEADER_LEN);
     assert_eq!(DeviceParams::decode(&buf[..len]).unwrap(), example);
+    if std::env::var_os("SUPINE_RECORD_GOLDEN").is_some() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/fixtures/golden_blob.bin");
+        std::fs::write(path, &buf[..len]).unwrap();
+    }
     assert!(
         &buf[..len] == BLOB,
-        "blob encoding changed without a version bump:\n{}",
-        rust_bytes(&buf[..len])
+        "blob encoding changed without a version bump ({len} bytes now, {} golden)",
+        BLOB.len()
     );
 }

@@ -10,6 +10,7 @@ fn sample(rms_m_s2: f32, vdv_m_s175: f32) -> ExposureSample {
         running_ms_m2_s4: rms_m_s2 * rms_m_s2,
         vdv4_m4_s7: vdv_m_s175.powi(4),
         valid: true,
+        ..ExposureSample::default()
     }
 }
 
@@ -398,6 +399,7 @@ fn a_block_of_32_samples_gives_the_same_events_and_state_as_32_single_steps() {
         running_ms_m2_s4: rms(i) * rms(i),
         vdv4_m4_s7: (i as f32 * 0.0007).powi(4),
         valid: !(3000..3100).contains(&i),
+        ..ExposureSample::default()
     };
     let (mut one, mut block) = (AlertState::new(), AlertState::new());
     let (mut ev_one, mut ev_block) = (Vec::new(), Vec::new());

@@ -1,0 +1,228 @@
+//! The device's processing chain, one call per batch of samples: sensor checks, the model,
+//! weighting and exposure, alerts, and the telemetry they produce.
+//!
+//! The firmware runs this and so does the host's reference, so their numbers can only
+//! differ where the host deliberately computes in f64. Samples go through in blocks of
+//! [`BLOCK_LEN`]: the exposure and alert stages keep their memories in registers across a
+//! block, which is what meets the device's instruction budget; the results are bit for
+//! bit those of one sample at a time, so how a stream is cut into batches never matters.
+
+use heapless::Vec;
+
+use crate::alerts::{AlertEvent, AlertState, Level, SensorCheckState, SensorFault};
+use crate::blob::DeviceParams;
+use crate::exposure::{ExposureSample, ExposureState};
+use crate::model::ModalState;
+use crate::protocol::Telemetry;
+
+/// Samples per block on the device (32 ms at 500 Hz, far below the alert dwell times).
+pub const BLOCK_LEN: usize = 16;
+
+/// Events one block can raise at most: every fault edge on every sample, and a level
+/// change per sample.
+const MAX_BLOCK_EVENTS: usize = 5 * BLOCK_LEN;
+
+/// What the pipeline produces, in sample order.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PipelineOutput {
+    /// An alert edge, stamped with its sample index.
+    Alert(AlertEvent),
+    /// The telemetry of one sample (every `decimation`-th sample).
+    Telemetry(Telemetry),
+}
+
+/// The running memory of the whole chain: constant size, no heap.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PipelineState {
+    model: ModalState<f32>,
+    exposure: ExposureState,
+    alerts: AlertState,
+    sensors: SensorCheckState,
+    /// Last finite input, held in place of a non-finite one so NaN never enters a filter.
+    last_good_m_s2: [f32; 3],
+    /// Alert level and active faults as of the last processed sample.
+    level: Level,
+    faults: u8,
+    /// Samples until the next telemetry record.
+    telemetry_countdown: u16,
+    /// Samples processed since start.
+    processed: u32,
+}
+
+impl Default for PipelineState {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl PipelineState {
+    /// At rest, before the first sample.
+    pub const fn new() -> Self {
+        Self {
+            model: ModalState {
+                blocks: [[0.0; 2]; crate::model::discrete::MAX_BLOCKS],
+            },
+            exposure: ExposureState::new(),
+            alerts: AlertState::new(),
+            sensors: SensorCheckState::new(),
+            last_good_m_s2: [0.0; 3],
+            level: Level::Normal,
+            faults: 0,
+            telemetry_countdown: 0,
+            processed: 0,
+        }
+    }
+
+    /// Samples processed since start.
+    pub const fn processed(&self) -> u32 {
+        self.processed
+    }
+
+    /// The current exposure alert level.
+    pub const fn level(&self) -> Level {
+        self.level
+    }
+
+    /// The exposure state, for full reports ([`crate::exposure::ExposureSettings::values`]).
+    pub const fn exposure(&self) -> &ExposureState {
+        &self.exposure
+    }
+}
+
+impl DeviceParams {
+    /// Runs consecutive samples (litter-frame support acceleration, m/s^2, with their sample
+    /// indices; both slices the same length) and hands every output to `emit` in order.
+    pub fn process(
+        &self,
+        state: &mut PipelineState,
+        indices: &[u32],
+        input_m_s2: &[[f32; 3]],
+        mut emit: impl FnMut(PipelineOutput),
+    ) {
+        let n = indices.len().min(input_m_s2.len());
+        let (indices, input_m_s2) = (&indices[..n], &input_m_s2[..n]);
+        let mut idx_blocks = indices.chunks_exact(BLOCK_LEN);
+        let mut in_blocks = input_m_s2.chunks_exact(BLOCK_LEN);
+        for (idx, inp) in (&mut idx_blocks).zip(&mut in_blocks) {
+            if let (Ok(idx), Ok(inp)) = (idx.try_into(), inp.try_into()) {
+                self.process_block::<BLOCK_LEN>(state, idx, inp, &mut emit);
+            }
+        }
+        for (&i, &x) in idx_blocks.remainder().iter().zip(in_blocks.remainder()) {
+            self.process_block::<1>(state, &[i], &[x], &mut emit);
+        }
+    }
+
+    /// One block of exactly `N` samples (`N` at most [`BLOCK_LEN`]).
+    pub fn process_block<const N: usize>(
+        &self,
+        state: &mut PipelineState,
+        indices: &[u32; N],
+        input_m_s2: &[[f32; 3]; N],
+        emit: &mut impl FnMut(PipelineOutput),
+    ) {
+        let mut events: Vec<AlertEvent, MAX_BLOCK_EVENTS> = Vec::new();
+        self.sensor_checks
+            .step_block(&mut state.sensors, input_m_s2, indices, |e| {
+                let _ = events.push(e);
+            });
+        let mut head = [[0.0f32; 3]; N];
+        for (out, x) in head.iter_mut().zip(input_m_s2) {
+            let finite = x.iter().all(|v| v.is_finite());
+            if finite {
+                state.last_good_m_s2 = *x;
+            }
+            *out = self
+                .realization
+                .step(&mut state.model, state.last_good_m_s2);
+        }
+        let mut exposure = [ExposureSample::default(); N];
+        let first = indices[0];
+        self.exposure
+            .step_block(&mut state.exposure, &head, first, &mut exposure);
+        let fault_events = events.len();
+        self.alerts
+            .step_block(&mut state.alerts, &exposure, first, |e| {
+                // Stamp with the sample's real index (the block may span a gap in indices).
+                let e = match e {
+                    AlertEvent::Level {
+                        from,
+                        to,
+                        at_sample,
+                    } => {
+                        let n = at_sample.wrapping_sub(first) as usize;
+                        AlertEvent::Level {
+                            from,
+                            to,
+                            at_sample: indices.get(n).copied().unwrap_or(at_sample),
+                        }
+                    }
+                    other => other,
+                };
+                let _ = events.push(e);
+            });
+        // Fault edges and level changes each come in sample order; merge them by sample.
+        let (faults, levels) = events.split_at(fault_events);
+        let (mut fi, mut li) = (0, 0);
+        for (n, &index) in indices.iter().enumerate() {
+            while let Some(e) = faults.get(fi).filter(|e| e.at_sample() == index) {
+                state.faults = apply_fault(state.faults, e);
+                emit(PipelineOutput::Alert(*e));
+                fi += 1;
+            }
+            while let Some(e) = levels.get(li).filter(|e| e.at_sample() == index) {
+                if let AlertEvent::Level { to, .. } = e {
+                    state.level = *to;
+                }
+                emit(PipelineOutput::Alert(*e));
+                li += 1;
+            }
+            state.processed = state.processed.wrapping_add(1);
+            if state.telemetry_countdown == 0 {
+                state.telemetry_countdown = self.telemetry.decimation.max(1);
+                emit(PipelineOutput::Telemetry(self.telemetry_of(
+                    index,
+                    head[n],
+                    &exposure[n],
+                    state,
+                )));
+            }
+            state.telemetry_countdown -= 1;
+        }
+    }
+
+    fn telemetry_of(
+        &self,
+        sample_index: u32,
+        head_acc_m_s2: [f32; 3],
+        exposure: &ExposureSample,
+        state: &PipelineState,
+    ) -> Telemetry {
+        let k = self.exposure.config.axes.axes().map(|a| a.k);
+        let running = |i: usize| libm::sqrtf(exposure.axis_ms_m2_s4[i]) / k[i];
+        Telemetry {
+            sample_index,
+            head_acc_m_s2,
+            running_rms_m_s2: [running(0), running(1), running(2)],
+            vector_running_rms_m_s2: libm::sqrtf(exposure.running_ms_m2_s4),
+            vdv_m_s175: libm::sqrtf(libm::sqrtf(exposure.vdv4_m4_s7)),
+            alert_level: state.level,
+            fault_flags: state.faults,
+            valid: exposure.valid,
+        }
+    }
+}
+
+fn apply_fault(flags: u8, event: &AlertEvent) -> u8 {
+    match *event {
+        AlertEvent::Fault { fault, active, .. } => {
+            let bit = 1u8
+                << SensorFault::ALL
+                    .iter()
+                    .position(|f| *f == fault)
+                    .unwrap_or(7);
+            if active { flags | bit } else { flags & !bit }
+        }
+        AlertEvent::Level { .. } => flags,
+    }
+}

@@ -1,0 +1,144 @@
+//! The device pipeline: batching never changes a bit, faults are reported and contained,
+//! telemetry follows the decimation.
+
+use supine_core::alerts::{AlertEvent, SensorFault};
+use supine_core::blob::DeviceParams;
+use supine_core::model::{ModelParams, Preset, device_realization};
+use supine_core::pipeline::{PipelineOutput, PipelineState};
+use supine_core::protocol::golden::blob_example;
+use supine_core::test_vector::TestVector;
+
+fn litter_params(decimation: u16) -> DeviceParams {
+    let mut params = blob_example().unwrap();
+    params.realization =
+        device_realization(&ModelParams::preset(Preset::PaperLitter), 500.0).unwrap();
+    params.telemetry.decimation = decimation;
+    params.validate().unwrap();
+    params
+}
+
+fn run(
+    params: &DeviceParams,
+    input: &[[f32; 3]],
+    indices: &[u32],
+    batch: usize,
+) -> Vec<PipelineOutput> {
+    let mut state = PipelineState::new();
+    let mut out = Vec::new();
+    for (i, x) in indices.chunks(batch).zip(input.chunks(batch)) {
+        params.process(&mut state, i, x, |o| out.push(o));
+    }
+    out
+}
+
+fn bits(outputs: &[PipelineOutput]) -> Vec<String> {
+    // Compare through Debug of the bit patterns: NaN-safe and exact.
+    outputs
+        .iter()
+        .map(|o| match o {
+            PipelineOutput::Telemetry(t) => format!(
+                "{} {:?} {:?} {} {} {:?} {} {}",
+                t.sample_index,
+                t.head_acc_m_s2.map(f32::to_bits),
+                t.running_rms_m_s2.map(f32::to_bits),
+                t.vector_running_rms_m_s2.to_bits(),
+                t.vdv_m_s175.to_bits(),
+                t.alert_level,
+                t.fault_flags,
+                t.valid
+            ),
+            PipelineOutput::Alert(e) => format!("{e:?}"),
+        })
+        .collect()
+}
+
+#[test]
+fn cutting_the_stream_into_any_batches_gives_the_same_bits() {
+    let params = litter_params(1);
+    let input: Vec<[f32; 3]> = TestVector::new(3)
+        .take(5000)
+        .map(|x| x.map(|v| v * 6.0))
+        .collect();
+    let indices: Vec<u32> = (0..5000).collect();
+    let reference = bits(&run(&params, &input, &indices, 1));
+    assert_eq!(
+        reference.len(),
+        5000 + reference
+            .iter()
+            .filter(|l| l.starts_with("Level") || l.starts_with("Fault"))
+            .count()
+    );
+    for batch in [7, 16, 64, 333] {
+        assert_eq!(
+            bits(&run(&params, &input, &indices, batch)),
+            reference,
+            "batch {batch}"
+        );
+    }
+}
+
+#[test]
+fn a_non_finite_sample_raises_a_fault_and_never_reaches_the_filters() {
+    let params = litter_params(1);
+    let mut input: Vec<[f32; 3]> = TestVector::new(4).take(3000).collect();
+    input[1000][1] = f32::NAN;
+    input[1001][2] = f32::INFINITY;
+    let indices: Vec<u32> = (0..3000).collect();
+    let out = run(&params, &input, &indices, 16);
+    assert!(out.contains(&PipelineOutput::Alert(AlertEvent::Fault {
+        fault: SensorFault::NonFinite,
+        active: true,
+        at_sample: 1000
+    })));
+    let telemetry: Vec<_> = out
+        .iter()
+        .filter_map(|o| {
+            if let PipelineOutput::Telemetry(t) = o {
+                Some(*t)
+            } else {
+                None
+            }
+        })
+        .collect();
+    assert_eq!(telemetry.len(), 3000);
+    assert!(
+        telemetry
+            .iter()
+            .all(|t| t.head_acc_m_s2.iter().all(|v| v.is_finite()))
+    );
+    assert!(telemetry[1000].has_fault(SensorFault::NonFinite));
+    assert!(!telemetry[999].has_fault(SensorFault::NonFinite));
+    // The fault clears after a second of good samples.
+    assert!(!telemetry[2999].has_fault(SensorFault::NonFinite));
+}
+
+#[test]
+fn a_gap_in_sample_indices_is_a_fault_stamped_at_the_first_sample_after_it() {
+    let params = litter_params(1);
+    let input: Vec<[f32; 3]> = TestVector::new(5).take(100).collect();
+    let indices: Vec<u32> = (0..50).chain(60..110).collect();
+    let out = run(&params, &input, &indices, 16);
+    assert!(out.contains(&PipelineOutput::Alert(AlertEvent::Fault {
+        fault: SensorFault::IndexGap,
+        active: true,
+        at_sample: 60
+    })));
+}
+
+#[test]
+fn telemetry_comes_every_decimation_samples() {
+    let params = litter_params(10);
+    let input: Vec<[f32; 3]> = TestVector::new(6).take(1000).collect();
+    let indices: Vec<u32> = (0..1000).collect();
+    let sent: Vec<u32> = run(&params, &input, &indices, 16)
+        .iter()
+        .filter_map(|o| {
+            if let PipelineOutput::Telemetry(t) = o {
+                Some(t.sample_index)
+            } else {
+                None
+            }
+        })
+        .collect();
+    assert_eq!(sent, (0..100).map(|i| 10 * i).collect::<Vec<_>>());
+}
