@@ -201,6 +201,11 @@ pub struct Status {
     pub telemetry_sent: u32,
     /// Parameter uploads refused.
     pub uploads_rejected: u32,
+    /// SysTick ticks spent in the pipeline (model, exposure, alerts, frame encoding), not
+    /// waiting on the UART. Under QEMU `-icount shift=0` on mps2 one tick is 40 instructions.
+    pub busy_ticks: u64,
+    /// Deepest stack use since boot (painted stack), bytes.
+    pub stack_used_bytes: u32,
 }
 
 /// A step of a parameter upload that the device accepted.
