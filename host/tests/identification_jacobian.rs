@@ -232,3 +232,18 @@ fn solver_solves_a_bounded_linear_least_squares_problem() {
         assert!((got - want).abs() < 1e-7, "{:?}", s.x);
     }
 }
+
+#[test]
+fn structured_gram_equals_the_dense_normal_matrix() {
+    let base = ModelParams::preset(Preset::PaperRigid);
+    let objective = Objective::new(base, ParamId::ALL.to_vec(), target());
+    let theta = objective.theta(&base);
+    let (m, n) = (objective.residual_count(), objective.param_count());
+    let mut r = vec![0.0; m];
+    let mut jac = DMatrix::zeros(m, n);
+    objective.evaluate(&theta, &mut r, Some(&mut jac)).unwrap();
+    let dense = jac.transpose() * &jac;
+    let gram = objective.gram(&jac);
+    let scale = dense.amax();
+    assert!((dense - gram).amax() < 1e-12 * scale);
+}

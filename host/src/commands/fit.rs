@@ -76,6 +76,7 @@ pub fn run(args: &Args) -> Result<()> {
         0.5,
         16.0,
     )?;
+    let spectra_s = started.elapsed().as_secs_f64();
     let settings = FitSettings {
         starts: args.starts,
         seed: args.seed,
@@ -101,6 +102,7 @@ pub fn run(args: &Args) -> Result<()> {
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
     );
     let total = setup.starts.len();
+    let solver_started = Instant::now();
     let result = fit::run(&setup, &settings, &mut |start, iteration, cost| {
         bar.set_message(format!(
             "start {}/{total}: iteration {iteration}, cost {cost:.6}",
@@ -109,13 +111,13 @@ pub fn run(args: &Args) -> Result<()> {
         bar.tick();
     })?;
     bar.finish_and_clear();
-    let elapsed_s = started.elapsed().as_secs_f64();
+    let solver_s = solver_started.elapsed().as_secs_f64();
     let ident = fit::identifiability(&setup, &result);
     let errors = fit::component_errors(
         &result.solution.residuals,
         setup.objective.target.freqs_hz.len(),
     );
-    let summary = report::summary(&setup, &result, &ident, &errors, elapsed_s);
+    let summary = report::summary(&setup, &result, &ident, &errors, spectra_s, solver_s);
 
     let mut table = toml::Table::new();
     table.insert("case".into(), args.case.name().into());

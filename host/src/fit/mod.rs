@@ -55,6 +55,9 @@ impl Problem for Objective {
     ) -> Result<(), String> {
         Objective::evaluate(self, x, residuals, jacobian)
     }
+    fn gram(&self, jacobian: &DMatrix<f64>) -> DMatrix<f64> {
+        Objective::gram(self, jacobian)
+    }
 }
 
 /// How to fit: plain data.

@@ -49,11 +49,73 @@ pub struct Objective {
     /// What to fit.
     pub target: Target,
     shapes: Vec<Shape>,
-    blocks: Vec<Vec<usize>>,
+    blocks: Vec<Block>,
+    /// Per free parameter: the block its shape vector lies in.
+    param_block: Vec<usize>,
+}
+
+/// One uncoupled block of A and what it touches.
+#[derive(Clone, Debug)]
+struct Block {
+    /// Its DOFs.
+    dofs: Vec<usize>,
+    /// Input axes whose forcing (K + j w C) G reaches it.
+    inputs: Vec<usize>,
+    /// Outputs whose row of R sees it.
+    outputs: Vec<usize>,
+    /// The fitted components (indices into `COUPLED_COMPONENTS`) it contributes to.
+    components: Vec<usize>,
 }
 
 /// The largest uncoupled block of A this solver handles (the geometry gives 3, 6, 6, 3).
 const MAX_BLOCK: usize = 6;
+
+/// Solves A X = B in place for a small complex system (n <= 6) by Gaussian elimination
+/// with partial pivoting; `rhs` holds B's first `nrhs` columns and receives X. Returns
+/// false if A is singular.
+fn solve_small(
+    n: usize,
+    a: &mut [[Cplx; MAX_BLOCK]; MAX_BLOCK],
+    rhs: &mut [[Cplx; 12]; MAX_BLOCK],
+    nrhs: usize,
+) -> bool {
+    for col in 0..n {
+        let pivot = (col..n)
+            .max_by(|&i, &j| a[i][col].norm_sqr().total_cmp(&a[j][col].norm_sqr()))
+            .unwrap_or(col);
+        if a[pivot][col].norm_sqr() == 0.0 {
+            return false;
+        }
+        a.swap(col, pivot);
+        rhs.swap(col, pivot);
+        let inv = Cplx::new(1.0, 0.0) / a[col][col];
+        for row in col + 1..n {
+            let factor = a[row][col] * inv;
+            if factor == Cplx::new(0.0, 0.0) {
+                continue;
+            }
+            for k in col..n {
+                let v = a[col][k];
+                a[row][k] -= factor * v;
+            }
+            for k in 0..nrhs {
+                let v = rhs[col][k];
+                rhs[row][k] -= factor * v;
+            }
+        }
+    }
+    for col in (0..n).rev() {
+        let inv = Cplx::new(1.0, 0.0) / a[col][col];
+        for k in 0..nrhs {
+            let mut acc = rhs[col][k];
+            for j in col + 1..n {
+                acc -= a[col][j] * rhs[j][k];
+            }
+            rhs[col][k] = acc * inv;
+        }
+    }
+    true
+}
 
 /// The DOFs of each uncoupled block of A = K - w^2 M + j w C: the connected components of
 /// the graph in which every element's shape vector links its DOFs (M is diagonal).
@@ -95,18 +157,52 @@ impl Objective {
     /// Sets up the problem. Shapes depend on the subject only, so they are computed once.
     pub fn new(base: ModelParams, free: Vec<ParamId>, target: Target) -> Self {
         let body = Body::dempster(&base.subject);
-        let shapes = free.iter().map(|&id| param_shape(id, &body)).collect();
-        let blocks = uncoupled_blocks(&body);
+        let shapes: Vec<Shape> = free.iter().map(|&id| param_shape(id, &body)).collect();
+        let matrices = SystemMatrices::assemble(&base);
+        let blocks: Vec<Block> = uncoupled_blocks(&body)
+            .into_iter()
+            .map(|dofs| {
+                let inputs: Vec<usize> = (0..3)
+                    .filter(|&k| dofs.iter().any(|&d| matrices.input[(d, k)] != 0.0))
+                    .collect();
+                let outputs: Vec<usize> = (0..9)
+                    .filter(|&j| dofs.iter().any(|&d| matrices.output[(j, d)] != 0.0))
+                    .collect();
+                let components = (0..COMPONENTS)
+                    .filter(|&c| {
+                        let (o, i) = COUPLED_COMPONENTS[c];
+                        inputs.contains(&i.index()) && outputs.contains(&o.index())
+                    })
+                    .collect();
+                Block {
+                    dofs,
+                    inputs,
+                    outputs,
+                    components,
+                }
+            })
+            .collect();
         assert!(
-            blocks.iter().all(|b| b.len() <= MAX_BLOCK),
+            blocks.iter().all(|b| b.dofs.len() <= MAX_BLOCK),
             "the model's geometry couples more than {MAX_BLOCK} DOFs"
         );
+        let param_block = shapes
+            .iter()
+            .map(|shape: &Shape| {
+                let first = shape.entries().first().map_or(0, |e| e.0);
+                blocks
+                    .iter()
+                    .position(|b| b.dofs.contains(&first))
+                    .unwrap_or(0)
+            })
+            .collect();
         Self {
             base,
             free,
             target,
             shapes,
             blocks,
+            param_block,
         }
     }
 
@@ -141,6 +237,10 @@ impl Objective {
 
     /// Fills `residuals` (and the Jacobian d r / d theta, residuals x params, if asked).
     ///
+    /// Only the structurally non-zero entries of the Jacobian are written (a parameter
+    /// moves only the components of its own block): pass a matrix that starts zeroed and
+    /// is only ever filled by this method, as the solver does.
+    ///
     /// Fails only if A is singular at some frequency (not for positive parameters).
     pub fn evaluate(
         &self,
@@ -162,34 +262,38 @@ impl Objective {
             // A is block diagonal over the uncoupled subsystems: solve each block alone
             // for X = A^-1 F (F = (K + j w C) G) and W = A^-1 R^T.
             for block in &self.blocks {
-                let mut a = SMatrix::<Cplx, MAX_BLOCK, MAX_BLOCK>::identity();
-                let mut rhs = SMatrix::<Cplx, MAX_BLOCK, 12>::zeros();
-                for (i, &di) in block.iter().enumerate() {
-                    for (j, &dj) in block.iter().enumerate() {
-                        a[(i, j)] = Cplx::new(
+                let n = block.dofs.len();
+                let mut a = [[Cplx::new(0.0, 0.0); MAX_BLOCK]; MAX_BLOCK];
+                let mut rhs = [[Cplx::new(0.0, 0.0); 12]; MAX_BLOCK];
+                let nk = block.inputs.len();
+                let nrhs = nk + if want_w { block.outputs.len() } else { 0 };
+                for (i, &di) in block.dofs.iter().enumerate() {
+                    for (j, &dj) in block.dofs.iter().enumerate() {
+                        a[i][j] = Cplx::new(
                             matrices.stiffness[(di, dj)] - omega * omega * matrices.mass[(di, dj)],
                             omega * matrices.damping[(di, dj)],
                         );
                     }
-                    for k in 0..3 {
-                        rhs[(i, k)] = Cplx::new(kg[(di, k)], omega * cg[(di, k)]);
+                    for (col, &k) in block.inputs.iter().enumerate() {
+                        rhs[i][col] = Cplx::new(kg[(di, k)], omega * cg[(di, k)]);
                     }
                     if want_w {
-                        for j in 0..9 {
-                            rhs[(i, 3 + j)] = Cplx::new(r_out[(j, di)], 0.0);
+                        for (col, &j) in block.outputs.iter().enumerate() {
+                            rhs[i][nk + col] = Cplx::new(r_out[(j, di)], 0.0);
                         }
                     }
                 }
-                let sol = a
-                    .lu()
-                    .solve(&rhs)
-                    .ok_or_else(|| format!("the model is singular at {freq_hz} Hz"))?;
-                for (i, &di) in block.iter().enumerate() {
-                    for k in 0..3 {
-                        x[(di, k)] = sol[(i, k)];
+                if !solve_small(n, &mut a, &mut rhs, nrhs) {
+                    return Err(format!("the model is singular at {freq_hz} Hz"));
+                }
+                for (i, &di) in block.dofs.iter().enumerate() {
+                    for (col, &k) in block.inputs.iter().enumerate() {
+                        x[(di, k)] = rhs[i][col];
                     }
-                    for j in 0..9 {
-                        w[(di, j)] = sol[(i, 3 + j)];
+                    if want_w {
+                        for (col, &j) in block.outputs.iter().enumerate() {
+                            w[(di, j)] = rhs[i][nk + col];
+                        }
                     }
                 }
             }
@@ -207,8 +311,10 @@ impl Objective {
                 let (j, k) = (output.index(), input.index());
                 let (hv, gv) = (h[c], measured[(j, k)]);
                 let r = Self::residual_index(f, c);
-                residuals[r] = (hv.norm() - gv.norm()) / gv.norm();
-                residuals[r + 1] = wrap_pi(hv.arg() - gv.arg()) / PI;
+                let g_abs = gv.norm_sqr().sqrt();
+                residuals[r] = (hv.norm_sqr().sqrt() - g_abs) / g_abs;
+                // wrap(arg h - arg g) = arg(h conj(g)), in (-pi, pi].
+                residuals[r + 1] = wrap_pi((hv * gv.conj()).arg()) / PI;
             }
             let Some(jac) = jacobian.as_deref_mut() else {
                 continue;
@@ -219,20 +325,21 @@ impl Objective {
             let mut phase_factor = [Cplx::new(0.0, 0.0); COMPONENTS];
             for (c, (output, input)) in COUPLED_COMPONENTS.iter().enumerate() {
                 let (hv, gv) = (h[c], measured[(output.index(), input.index())]);
-                mag_factor[c] = hv.conj() / (hv.norm() * gv.norm());
+                mag_factor[c] = hv.conj() / (hv.norm_sqr() * gv.norm_sqr()).sqrt();
                 phase_factor[c] = Cplx::new(1.0, 0.0) / (hv * PI);
             }
             // W = A^-1 R^T, so (R A^-1)_(j, d) = W_(d, j) by symmetry of A.
             for (p, (shape, &id)) in self.shapes.iter().zip(&self.free).enumerate() {
                 // u = R A^-1 b (9), v = b^T (G - X) (3).
+                let block = &self.blocks[self.param_block[p]];
                 let mut u = [Cplx::new(0.0, 0.0); 9];
                 let mut v = [Cplx::new(0.0, 0.0); 3];
                 for &(d, wt) in shape.entries() {
-                    for (j, uj) in u.iter_mut().enumerate() {
-                        *uj += w[(d, j)] * wt;
+                    for &j in &block.outputs {
+                        u[j] += w[(d, j)] * wt;
                     }
-                    for (k, vk) in v.iter_mut().enumerate() {
-                        *vk += (Cplx::new(g_real[(d, k)], 0.0) - x[(d, k)]) * wt;
+                    for &k in &block.inputs {
+                        v[k] += (Cplx::new(g_real[(d, k)], 0.0) - x[(d, k)]) * wt;
                     }
                 }
                 let s = if id.is_stiffness() {
@@ -241,7 +348,8 @@ impl Objective {
                     Cplx::new(0.0, omega * values[p])
                 };
                 let column = &mut jac.column_mut(p);
-                for (c, (output, input)) in COUPLED_COMPONENTS.iter().enumerate() {
+                for &c in &block.components {
+                    let (output, input) = COUPLED_COMPONENTS[c];
                     let dh = s * u[output.index()] * v[input.index()];
                     let r = Self::residual_index(f, c);
                     column[r] = (dh * mag_factor[c]).re;
@@ -250,6 +358,38 @@ impl Objective {
             }
         }
         Ok(())
+    }
+
+    /// J^T J exploiting the Jacobian's structure: a parameter only moves the components of
+    /// its own block, so J^T J is block diagonal over the blocks' parameter groups.
+    pub fn gram(&self, jacobian: &DMatrix<f64>) -> DMatrix<f64> {
+        let n = self.free.len();
+        let nf = self.target.freqs_hz.len();
+        let mut out = DMatrix::zeros(n, n);
+        for (b, block) in self.blocks.iter().enumerate() {
+            let params: Vec<usize> = (0..n).filter(|&p| self.param_block[p] == b).collect();
+            if params.is_empty() || block.components.is_empty() {
+                continue;
+            }
+            let rows: Vec<usize> = (0..nf)
+                .flat_map(|f| {
+                    block.components.iter().flat_map(move |&c| {
+                        let r = Self::residual_index(f, c);
+                        [r, r + 1]
+                    })
+                })
+                .collect();
+            let sub = DMatrix::from_fn(rows.len(), params.len(), |i, j| {
+                jacobian[(rows[i], params[j])]
+            });
+            let g = sub.transpose() * &sub;
+            for (i, &p) in params.iter().enumerate() {
+                for (j, &q) in params.iter().enumerate() {
+                    out[(p, q)] = g[(i, j)];
+                }
+            }
+        }
+        out
     }
 
     /// The cost 0.5 sum r^2 at `theta`.

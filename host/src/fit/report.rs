@@ -35,18 +35,20 @@ pub fn summary(
     result: &FitResult,
     ident: &Identifiability,
     errors: &[(f64, f64); COMPONENTS],
-    elapsed_s: f64,
+    spectra_s: f64,
+    solver_s: f64,
 ) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# supine fit: {} case\n", setup.case.name());
     let _ = writeln!(
         s,
-        "final cost 0.5 sum r^2 = {:.6} over {} residuals ({} frequencies x 12 components x magnitude, phase), {} unknowns, {:.2} s\n",
+        "final cost 0.5 sum r^2 = {:.6} over {} residuals ({} frequencies x 12 components x magnitude, phase), {} unknowns; reading and spectra {:.3} s, solver {:.3} s\n",
         result.solution.cost,
         result.solution.residuals.len(),
         setup.objective.target.freqs_hz.len(),
         setup.objective.free.len(),
-        elapsed_s
+        spectra_s,
+        solver_s
     );
     let _ = writeln!(
         s,

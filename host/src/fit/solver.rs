@@ -1,11 +1,10 @@
 //! A bounded Levenberg-Marquardt solver for small nonlinear least-squares problems:
 //! minimize 0.5 |r(x)|^2 subject to lower <= x <= upper.
 //!
-//! Each iteration solves (J_F^T J_F + lambda D_F) d = -J_F^T r over the free variables F,
+//! Each iteration solves (J_F^T J_F + lambda D) d = -J_F^T r over the free variables F,
 //! where a variable is held (not free) when it sits on a bound and the gradient pushes it
-//! outward; D is the diagonal of J^T J (Marquardt's scaling, floored at 1e-12 of its
-//! largest entry so that a parameter without effect gets a zero step, not a singular
-//! system). The trial point is projected onto the box; the step is accepted when the
+//! outward; D = max(diag J^T J) I (Levenberg's damping, scaled so that lambda is
+//! dimensionless; a parameter without effect gets a zero step, not a singular system). The trial point is projected onto the box; the step is accepted when the
 //! actual reduction is at least 1e-4 of the reduction the linear model predicts for the
 //! projected step, and lambda follows Nielsen's update (lambda *= max(1/3, 1 - (2 rho - 1)^3)
 //! on success, *= nu with nu doubling on failure).
@@ -30,6 +29,11 @@ pub trait Problem {
         residuals: &mut [f64],
         jacobian: Option<&mut DMatrix<f64>>,
     ) -> Result<(), String>;
+
+    /// J^T J; a problem that knows its Jacobian's sparsity can do better than the default.
+    fn gram(&self, jacobian: &DMatrix<f64>) -> DMatrix<f64> {
+        jacobian.transpose() * jacobian
+    }
 }
 
 /// Tolerances and limits: plain data.
@@ -155,8 +159,7 @@ pub fn solve(
     let mut termination = Termination::MaxIterations;
     let mut iterations = 0;
     'outer: while iterations < settings.max_iterations {
-        // J^T J through the blocked matrix product (much faster than column dot products).
-        let jtj = jac.transpose() * &jac;
+        let jtj = problem.gram(&jac);
         let g = jac.tr_mul(&DVector::from_column_slice(&r));
         // Projected gradient: how far a unit gradient step would move inside the box.
         let pg = (0..n)
@@ -174,7 +177,10 @@ pub fn solve(
             })
             .collect();
         let diag_max = (0..n).map(|i| jtj[(i, i)]).fold(0.0, f64::max).max(1e-300);
-        let scale: Vec<f64> = (0..n).map(|i| jtj[(i, i)].max(1e-12 * diag_max)).collect();
+        // Levenberg's damping lambda max(diag J^T J) I: in ln p every parameter is on one
+        // scale already, and Marquardt's diag(J^T J) lets insensitive parameters leap
+        // (measured: worse minima and more iterations from the paper's all-ones start).
+        let scale: Vec<f64> = vec![diag_max; n];
         if lambda < 0.0 {
             lambda = 1e-3;
         }

@@ -1,0 +1,251 @@
+#!/usr/bin/env python3
+"""The identification pipeline of `supine fit --case rigid`, written with SciPy, as a
+speed and quality reference for the Rust implementation (see BENCHMARKS.md).
+
+Same data, same method: H1 per subject from scipy.signal.csd (periodic Hann, 2048-sample
+segments for 0.1 Hz at 200 Hz, 50 % overlap, constant detrend), geometric mean across
+subjects (phase on the branch nearest the circular mean), residuals
+(|Hth| - |Hg|) / |Hg| and wrap(arg Hth - arg Hg) / pi for the 12 coupled components over
+0.5-16 Hz, unknowns ln p with the bounds of model.md, scipy.optimize.least_squares with
+method='trf' and the same exact Jacobian (vectorized over frequencies with numpy), from
+the same deterministic starts (the paper's all-ones start and the paper's values).
+BLAS is pinned to one thread.
+
+Usage: scipy_fit.py --dataset DIR [--exclude s8] [--starts 2] [--ftol 1e-8] [--xtol 1e-8]
+       [--jac exact|2-point] [--json]
+"""
+
+import os
+
+for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS"):
+    os.environ[var] = "1"
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import math  # noqa: E402
+import time  # noqa: E402
+import tomllib  # noqa: E402
+
+import numpy as np  # noqa: E402
+from scipy import optimize, signal  # noqa: E402
+
+# Paper Table 2 (Dempster): head-neck, torso-arms, pelvis-legs.
+MASS = [0.081, 0.455, 0.464]
+LENGTH = [0.182, 0.288, 0.530]
+TO_HEAD = [0.0, 0.630, 0.10]
+TO_FEET = [0.118, 0.370, 0.895]
+GYRATION = [0.495, 0.496, 0.326]
+SENSORS_Z = [0.10, 0.12, 0.10]
+
+# Paper Tables 3-4 (rigid case), in ParamId::ALL order: per element (J1 translational,
+# J1 rotational, J2 translational, J2 rotational, head, torso, pelvis contact) stiffness
+# x, y, z then damping x, y, z.
+PAPER_RIGID = [
+    31967.2, 14553.6, 122987.8, 14335.5, 591.9, 8.1,
+    50005.3, 772.9, 48964.0, 1.0, 11.0, 2140.5,
+    38485.4, 22719.8, 68341.0, 273.8, 66.5, 46061.6,
+    50005.6, 18832.4, 49596.6, 1.0, 278.9, 4992.1,
+    21042.5, 24968.7, 109881.9, 6.2, 1.9, 118.4,
+    13626.3, 8756.4, 83841.3, 230.8, 425.7, 3574.1,
+    9147.7, 6042.0, 107865.1, 487.4, 319.3, 0.156,
+]
+# (output row, input column) of the 12 fitted components.
+COMPONENTS = [(0, 0), (1, 1), (2, 2), (3, 0), (4, 1), (5, 2), (6, 0), (7, 1), (8, 2),
+              (0, 2), (3, 2), (6, 2)]
+HEADER = ("time_s,platform_x,platform_y,platform_z,head_x,head_y,head_z,torso_x,torso_y,"
+          "torso_z,pelvis_x,pelvis_y,pelvis_z")
+
+
+def trans(seg, axis):
+    return 6 * seg + axis
+
+
+def rot(seg, axis):
+    return 6 * seg + 3 + axis
+
+
+def model_matrices(height_m, mass_kg):
+    """Mass matrix, shape vectors (18 x 42), which are stiffness, G and R."""
+    m = np.zeros((18, 18))
+    la, lb = [], []
+    for s in range(3):
+        ms = MASS[s] * mass_kg
+        length = LENGTH[s] * height_m
+        inertia = ms * (GYRATION[s] * length) ** 2
+        for a in range(3):
+            m[trans(s, a), trans(s, a)] = ms
+            m[rot(s, a), rot(s, a)] = inertia
+        la.append(TO_HEAD[s] * length)
+        lb.append(TO_FEET[s] * length)
+    shapes = np.zeros((18, 42))
+    stiff = np.zeros(42, dtype=bool)
+    p = 0
+    for element in range(7):
+        for quantity in range(2):
+            for a in range(3):
+                b = shapes[:, p]
+                stiff[p] = quantity == 0
+                if element >= 4:
+                    b[trans(element - 4, a)] = 1.0
+                else:
+                    joint, rotational = divmod(element, 2)
+                    s, t = joint, joint + 1
+                    if rotational:
+                        b[rot(t, a)] += 1.0
+                        b[rot(s, a)] -= 1.0
+                    else:
+                        b[trans(t, a)] += 1.0
+                        b[trans(s, a)] -= 1.0
+                        if a == 1:
+                            b[rot(t, 2)] += la[t]
+                            b[rot(s, 2)] += lb[s]
+                        elif a == 2:
+                            b[rot(t, 1)] -= la[t]
+                            b[rot(s, 1)] -= lb[s]
+                p += 1
+    g = np.zeros((18, 3))
+    r = np.zeros((9, 18))
+    for s in range(3):
+        pz = SENSORS_Z[s]
+        cross = np.array([[0.0, -pz, 0.0], [pz, 0.0, 0.0], [0.0, 0.0, 0.0]])
+        for a in range(3):
+            g[trans(s, a), a] = 1.0
+            r[3 * s + a, trans(s, a)] = 1.0
+            for b in range(3):
+                r[3 * s + a, rot(s, b)] = -cross[a, b]
+    return m, shapes, stiff, g, r
+
+
+class Objective:
+    def __init__(self, freqs_hz, target, height_m, mass_kg):
+        self.omega = 2 * np.pi * np.asarray(freqs_hz)
+        self.target = target  # (nf, 9, 3) complex
+        self.m, self.b, self.stiff, self.g, self.r = model_matrices(height_m, mass_kg)
+        self.rows = np.array([c[0] for c in COMPONENTS])
+        self.cols = np.array([c[1] for c in COMPONENTS])
+        tg = target[:, self.rows, self.cols]
+        self.g_abs = np.abs(tg)
+        self.g_arg = np.angle(tg)
+
+    def _solve(self, theta):
+        p = np.exp(theta)
+        k = (self.b[:, self.stiff] * p[self.stiff]) @ self.b[:, self.stiff].T
+        c = (self.b[:, ~self.stiff] * p[~self.stiff]) @ self.b[:, ~self.stiff].T
+        w = self.omega[:, None, None]
+        a = k[None] - w ** 2 * self.m[None] + 1j * w * c[None]
+        f = (k @ self.g)[None] + 1j * w * (c @ self.g)[None]
+        rhs = np.concatenate([f, np.broadcast_to(self.r.T, (len(self.omega), 18, 9))], axis=2)
+        sol = np.linalg.solve(a, rhs)
+        x, wr = sol[:, :, :3], sol[:, :, 3:]
+        h = np.einsum("jd,fdk->fjk", self.r, x)[:, self.rows, self.cols]
+        return p, x, wr, h
+
+    def residuals(self, theta):
+        _, _, _, h = self._solve(theta)
+        return self._res(h)
+
+    def _res(self, h):
+        mag = (np.abs(h) - self.g_abs) / self.g_abs
+        ph = np.angle(np.exp(1j * (np.angle(h) - self.g_arg))) / np.pi
+        return np.stack([mag, ph], axis=2).reshape(-1)
+
+    def jacobian(self, theta):
+        p, x, wr, h = self._solve(theta)
+        u = np.einsum("fdj,dp->fpj", wr, self.b)  # R A^-1 b
+        v = np.einsum("dp,fdk->fpk", self.b, self.g[None] - x)  # b^T (G - X)
+        s = np.where(self.stiff[None, :], 1.0 + 0j, 1j * self.omega[:, None]) * p[None, :]
+        dh = s[:, :, None] * u[:, :, self.rows] * v[:, :, self.cols]  # (nf, np, 12)
+        dmag = np.real(np.conj(h)[:, None, :] * dh) / (np.abs(h) * self.g_abs)[:, None, :]
+        dph = np.imag(dh / h[:, None, :]) / np.pi
+        jac = np.stack([dmag, dph], axis=3)  # (nf, np, 12, 2)
+        return jac.transpose(0, 2, 3, 1).reshape(-1, len(theta))
+
+
+def read_recording(path):
+    with open(path) as fh:
+        if fh.readline().strip() != HEADER:
+            raise SystemExit(f"{path}: line 1: unexpected header")
+    data = np.loadtxt(path, delimiter=",", skiprows=1)
+    return data
+
+
+def geometric_mean(values):
+    """values: (subjects, ...) complex; geometric magnitude, mean phase near the circular mean."""
+    mag = np.exp(np.mean(np.log(np.abs(values)), axis=0))
+    ref = np.angle(np.sum(values / np.abs(values), axis=0))
+    dev = np.angle(np.exp(1j * (np.angle(values) - ref[None])))
+    return mag * np.exp(1j * (ref + dev.mean(axis=0)))
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--dataset", required=True)
+    ap.add_argument("--exclude", default="")
+    ap.add_argument("--starts", type=int, default=2)
+    ap.add_argument("--ftol", type=float, default=1e-8)
+    ap.add_argument("--xtol", type=float, default=1e-8)
+    ap.add_argument("--gtol", type=float, default=1e-8)
+    ap.add_argument("--jac", choices=["exact", "2-point"], default="exact")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args()
+    exclude = set(filter(None, args.exclude.split(",")))
+    with open(os.path.join(args.dataset, "dataset.toml"), "rb") as fh:
+        desc = tomllib.load(fh)
+    subjects = [s for s in desc["subject"] if s["id"] not in exclude]
+
+    t0 = time.perf_counter()
+    hs, fs = [], None
+    for s in subjects:
+        d = read_recording(os.path.join(args.dataset, s["rigid"]))
+        fs = (len(d) - 1) / (d[-1, 0] - d[0, 0])
+        nperseg = 1 << math.ceil(math.log2(math.ceil(fs / 0.1)))
+        kw = dict(fs=fs, window="hann", nperseg=nperseg, noverlap=nperseg // 2,
+                  detrend="constant", scaling="density")
+        x, y = d[:, 1:4], d[:, 4:13]
+        f, _ = signal.csd(x[:, 0], x[:, 0], **kw)
+        sel = (f >= 0.5 - 1e-9) & (f <= 16.0 + 1e-9)
+        sxx = np.empty((sel.sum(), 3, 3), complex)
+        sxy = np.empty((sel.sum(), 3, 9), complex)
+        xy = np.concatenate([x, y], axis=1)
+        for i in range(3):
+            # S_ab = E[conj(A) B] (scipy's convention): input i against all 12 channels.
+            _, pxy = signal.csd(np.broadcast_to(x[:, i : i + 1], xy.shape), xy, axis=0, **kw)
+            sxx[:, i, :] = pxy[sel, :3]
+            sxy[:, i, :] = pxy[sel, 3:]
+        hs.append(np.linalg.solve(sxx, sxy).transpose(0, 2, 1))
+        freqs = f[sel]
+    target = geometric_mean(np.array(hs))
+    t_spectra = time.perf_counter() - t0
+
+    height = np.mean([s["height_m"] for s in subjects])
+    mass = np.mean([s["mass_kg"] for s in subjects])
+    obj = Objective(freqs, target, height, mass)
+    _, _, stiff, _, _ = model_matrices(height, mass)
+    lo = np.where(stiff, math.log(1.0), math.log(1e-3))
+    hi = np.full(42, math.log(1e6))
+    starts = [("all ones (paper)", np.zeros(42)), ("paper Tables 3-4", np.log(PAPER_RIGID))]
+    results = []
+    t1 = time.perf_counter()
+    for label, x0 in starts[: args.starts]:
+        ts = time.perf_counter()
+        jac = obj.jacobian if args.jac == "exact" else "2-point"
+        res = optimize.least_squares(obj.residuals, np.clip(x0, lo, hi), jac=jac, bounds=(lo, hi),
+                                     method="trf", ftol=args.ftol, xtol=args.xtol, gtol=args.gtol)
+        results.append(dict(start=label, cost=float(res.cost), nfev=int(res.nfev),
+                            njev=int(res.njev or 0), status=int(res.status),
+                            seconds=time.perf_counter() - ts))
+    t_fit = time.perf_counter() - t1
+    best = min(results, key=lambda r: r["cost"])
+    out = dict(spectra_s=t_spectra, fit_s=t_fit, best_cost=best["cost"], starts=results,
+               frequencies=len(freqs), subjects=[s["id"] for s in subjects])
+    if args.json:
+        print(json.dumps(out, indent=2))
+    else:
+        print(f"spectra {t_spectra:.3f} s, fit {t_fit:.3f} s, best cost {best['cost']:.6f}")
+        for r in results:
+            print(f"  {r['start']}: cost {r['cost']:.6f}, {r['nfev']} evaluations, "
+                  f"{r['njev']} Jacobians, status {r['status']}, {r['seconds']:.3f} s")
+
+
+if __name__ == "__main__":
+    main()
