@@ -1,7 +1,8 @@
 //! The supine device image.
 //!
-//! Today it boots, checks its built-in model parameters, greets the host on UART0 with its
-//! version and the parameters' identity, and then polls the UART. The protocol (replay,
+//! Today it boots, checks its built-in model parameters and the parameter blob in the
+//! PARAMS region, greets the host on UART0 with its version, the parameters' identity and
+//! the blob's state, and then polls the UART. The protocol (replay,
 //! exposure, alerts) grows from the polling loop.
 #![no_std]
 #![no_main]
@@ -26,12 +27,16 @@ fn main() -> ! {
         Err(_) => "invalid",
     };
     // Writing to the UART cannot fail (it waits for room).
-    let _ = writeln!(
+    let _ = write!(
         uart,
-        "supine-firmware {VERSION} params builtin crc32 {:08x} {status} fs_hz {}",
+        "supine-firmware {VERSION} params builtin crc32 {:08x} {status} fs_hz {} blob ",
         params::identity(bytes),
         params::SAMPLE_RATE_HZ,
     );
+    let _ = match params::stored_blob() {
+        Ok(_) => writeln!(uart, "ok"),
+        Err(err) => writeln!(uart, "refused: {err}"),
+    };
 
     loop {
         // Nothing is understood yet: take each byte so the one-deep RX never stalls the host.

@@ -2,11 +2,15 @@
 //!
 //! Today: the realization baked into the image by `firmware/build.rs` (the paper's
 //! litter-board preset, discretized at [`SAMPLE_RATE_HZ`] on the build machine and encoded
-//! with postcard). Decoding checks it once at boot, so the hot path cannot fail. Later the
-//! same step reads the full parameter blob from the PARAMS region of `memory.x`.
+//! with postcard). Decoding checks it once at boot, so the hot path cannot fail.
+//!
+//! The full parameter blob (`supine_core::blob`) lives in the PARAMS region of `memory.x`
+//! ([`region`]); [`stored_blob`] validates it. The product image reports its state in the
+//! greeting; running from it is the next step.
 
 use core::fmt;
 
+use supine_core::blob::{BlobError, DeviceParams};
 use supine_core::model::{DeviceRealization, RealizationError};
 
 include!(concat!(env!("OUT_DIR"), "/realization.rs"));
@@ -39,6 +43,33 @@ impl fmt::Display for ParamsError {
 }
 
 impl core::error::Error for ParamsError {}
+
+unsafe extern "C" {
+    /// First byte of the PARAMS region (from `memory.x`).
+    static __params_start: u8;
+    /// One past the last byte of the PARAMS region.
+    static __params_end: u8;
+}
+
+/// The PARAMS region of `memory.x`, where a parameter blob is stored (under QEMU:
+/// `-device loader,file=<blob>,addr=0x70000`). An erased or blank region reads as
+/// [`BlobError::Empty`] through [`stored_blob`].
+pub fn region() -> &'static [u8] {
+    // Only the symbols' addresses are used, never their values.
+    let start = &raw const __params_start as usize;
+    let end = &raw const __params_end as usize;
+    // SAFETY: [start, end) is the PARAMS region that memory.x reserves outside FLASH and
+    // RAM: readable memory that holds no Rust object. Nothing writes it while the firmware
+    // runs (the loader or the programmer fills it before reset), so a shared `'static`
+    // slice of it is sound. A future in-field update must not hold this slice while it
+    // writes the region.
+    unsafe { core::slice::from_raw_parts(start as *const u8, end.saturating_sub(start)) }
+}
+
+/// Reads and validates the parameter blob in the PARAMS region.
+pub fn stored_blob() -> Result<DeviceParams, BlobError> {
+    DeviceParams::decode(region())
+}
 
 /// The built-in realization's encoded bytes.
 pub fn builtin_bytes() -> &'static [u8] {
