@@ -106,8 +106,14 @@ pub struct SelftestReport {
     pub baseline_ticks: u64,
     /// Instructions per step (QEMU `-icount`), rounded.
     pub instructions_per_step: u64,
-    /// Deepest stack use since reset, bytes.
+    /// Deepest stack use after decoding the realization and running the model, bytes.
+    pub stack_model_bytes: usize,
+    /// Deepest stack use since reset (golden checks included), bytes.
     pub stack_high_water_bytes: usize,
+    /// Golden examples checked on the device: host-to-device, device-to-host messages.
+    pub golden_messages: [usize; 2],
+    /// Length of the golden blob the device encoded and matched.
+    pub golden_blob_bytes: usize,
     /// Stack reserved, bytes.
     pub stack_size_bytes: usize,
 }
@@ -171,6 +177,12 @@ pub fn parse_selftest(stdout: &str) -> Result<SelftestReport, String> {
             .map_err(|_| format!("`{key}:` is not a number"))
     };
     let size = |key: &str| num(key).map(|n| n as usize);
+    let passed = |key: &str| -> Result<usize, String> {
+        get(key)?
+            .strip_suffix(" ok")
+            .and_then(|n| n.parse().ok())
+            .ok_or(format!("`{key}:` is not `<n> ok`"))
+    };
     Ok(SelftestReport {
         version: version.ok_or("no version line")?,
         realization_bytes: size("realization_bytes")?,
@@ -186,7 +198,13 @@ pub fn parse_selftest(stdout: &str) -> Result<SelftestReport, String> {
         step_ticks: num("step_ticks")?,
         baseline_ticks: num("baseline_ticks")?,
         instructions_per_step: num("instructions_per_step")?,
+        stack_model_bytes: size("stack_model_bytes")?,
         stack_high_water_bytes: size("stack_high_water_bytes")?,
+        golden_messages: [
+            passed("golden_host_to_device")?,
+            passed("golden_device_to_host")?,
+        ],
+        golden_blob_bytes: passed("golden_blob")?,
         stack_size_bytes: size("stack_size_bytes")?,
     })
 }
@@ -203,6 +221,10 @@ mod tests {
         samples: 2\n\
         y 0 3f800000 bf800000 00000000\n\
         y 1 40000000 00000001 7f800000\n\
+        stack_model_bytes: 1200\n\
+        golden_host_to_device: 6 ok\n\
+        golden_device_to_host: 7 ok\n\
+        golden_blob: 1269 ok\n\
         multiply_adds_per_sample: 189\n\
         timed_steps: 4096\n\
         step_ticks: 75787\n\
@@ -222,6 +244,15 @@ mod tests {
         assert_eq!(report.outputs[1][2], f32::INFINITY);
         assert_eq!(report.instructions_per_step, 730);
         assert_eq!(report.stack_high_water_bytes, 5548);
+        assert_eq!(report.stack_model_bytes, 1200);
+        assert_eq!(report.golden_messages, [6, 7]);
+        assert_eq!(report.golden_blob_bytes, 1269);
+    }
+
+    #[test]
+    fn a_golden_line_without_ok_is_refused() {
+        let failed = GOOD.replace("golden_blob: 1269 ok", "golden_blob: 1269");
+        assert!(parse_selftest(&failed).unwrap_err().contains("golden_blob"));
     }
 
     #[test]

@@ -1,8 +1,10 @@
 //! The self-test image: runs the model core on the built-in test vector under QEMU.
 //!
 //! It decodes the built-in realization, runs [`SAMPLES`] samples of
-//! `TestVector::new(SEED)` through it and prints every output's f32 bits, then measures
-//! the instructions per model step and the stack high-water mark. The host test
+//! `TestVector::new(SEED)` through it and prints every output's f32 bits, checks the wire
+//! protocol's golden bytes (`supine_core::protocol::golden`: every message and the example
+//! blob must encode to exactly the bytes the host recorded, and decode back), then
+//! measures the instructions per model step and the stack high-water mark. The host test
 //! (`tests/tests/selftest.rs`) recomputes the same samples and compares bit for bit.
 //!
 //! Output (semihosting stdout), one item per line:
@@ -14,17 +16,22 @@
 //! seed: <u32>
 //! samples: <n>
 //! y <index> <x bits> <y bits> <z bits>      (f32 bits, 8 hex digits each)
+//! stack_model_bytes: <n>                  (stack high-water mark after the model run)
+//! golden_host_to_device: <n> ok
+//! golden_device_to_host: <n> ok
+//! golden_blob: <bytes> ok
 //! multiply_adds_per_sample: <n>
 //! timed_steps: <n>
 //! step_ticks: <n>
 //! baseline_ticks: <n>
 //! instructions_per_step: <n>
-//! stack_high_water_bytes: <n>
+//! stack_high_water_bytes: <n>             (after everything, golden checks included)
 //! stack_size_bytes: <n>
 //! selftest: ok
 //! ```
-//! Exit status 0 when every output is finite and every line was written; otherwise a
-//! line `selftest: failed: <why>` on stderr and status 1 (101 on a panic).
+//! Exit status 0 when every output is finite, every golden check passed and every line
+//! was written; otherwise a line `selftest: failed: <why>` on stderr and status 1 (101 on
+//! a panic).
 #![no_std]
 #![no_main]
 
@@ -33,7 +40,11 @@ use core::hint::black_box;
 
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hio;
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+use supine_core::blob::{DeviceParams, MAX_BLOB_LEN};
 use supine_core::model::{DeviceRealization, ModalState};
+use supine_core::protocol::{FrameAccumulator, FrameEvent, MAX_FRAME_LEN, encode_frame, golden};
 use supine_core::test_vector::TestVector;
 use supine_firmware::board::Board;
 use supine_firmware::console::Console;
@@ -56,6 +67,7 @@ enum Failure {
     Console,
     Params(params::ParamsError),
     NotFinite { index: usize },
+    Golden { what: &'static str, index: usize },
     Output,
 }
 
@@ -66,6 +78,9 @@ impl fmt::Display for Failure {
             Self::Console => f.write_str("semihosting stdout is not available"),
             Self::Params(err) => write!(f, "built-in realization: {err}"),
             Self::NotFinite { index } => write!(f, "output {index} is not finite"),
+            Self::Golden { what, index } => {
+                write!(f, "golden {what} example {index} does not match its bytes")
+            }
             Self::Output => f.write_str("writing to semihosting stdout failed"),
         }
     }
@@ -103,6 +118,9 @@ fn run() -> Result<(), Failure> {
     let realization = params::decode(bytes).map_err(Failure::Params)?;
 
     run_test_vector(&realization, &mut out)?;
+    // The stack so far: decoding the realization and running the model.
+    writeln!(out, "stack_model_bytes: {}", stack::high_water_bytes())?;
+    check_golden(&mut out)?;
 
     writeln!(
         out,
@@ -145,6 +163,74 @@ fn run_test_vector(realization: &DeviceRealization, out: &mut Console) -> Result
         }
     }
     Ok(())
+}
+
+/// Checks the golden bytes of every protocol message and of the example blob.
+fn check_golden(out: &mut Console) -> Result<(), Failure> {
+    let host_to_device = check_frames(
+        &golden::host_to_device_examples(),
+        &golden::HOST_TO_DEVICE,
+        "host_to_device",
+    )?;
+    writeln!(out, "golden_host_to_device: {host_to_device} ok")?;
+    let device_to_host = check_frames(
+        &golden::device_to_host_examples(),
+        &golden::DEVICE_TO_HOST,
+        "device_to_host",
+    )?;
+    writeln!(out, "golden_device_to_host: {device_to_host} ok")?;
+
+    let blob_failure = Failure::Golden {
+        what: "blob",
+        index: 0,
+    };
+    // Built on the device: its filter design runs here, so this also checks that the
+    // device computes the host's coefficients bit for bit.
+    let example = golden::blob_example().map_err(|_| blob_failure)?;
+    let mut buf = [0u8; MAX_BLOB_LEN];
+    let len = example.encode(&mut buf).map_err(|_| blob_failure)?;
+    if buf.get(..len) != Some(golden::BLOB) {
+        return Err(blob_failure);
+    }
+    if DeviceParams::decode(golden::BLOB).map_err(|_| blob_failure)? != example {
+        return Err(blob_failure);
+    }
+    writeln!(out, "golden_blob: {len} ok")?;
+    Ok(())
+}
+
+/// Each example must encode to its golden frame and decode from it to itself; returns
+/// how many were checked.
+fn check_frames<T: Serialize + DeserializeOwned + PartialEq>(
+    examples: &[T],
+    frames: &[&[u8]],
+    what: &'static str,
+) -> Result<usize, Failure> {
+    if examples.len() != frames.len() {
+        let index = examples.len().min(frames.len());
+        return Err(Failure::Golden { what, index });
+    }
+    for (index, (example, golden)) in examples.iter().zip(frames).enumerate() {
+        let failure = Failure::Golden { what, index };
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let frame = encode_frame(example, &mut buf).map_err(|_| failure)?;
+        if &*frame != *golden {
+            return Err(failure);
+        }
+        let mut accumulator = FrameAccumulator::new();
+        let mut decoded = None;
+        for &byte in *golden {
+            match accumulator.push::<T>(byte) {
+                FrameEvent::Pending => {}
+                FrameEvent::Message(message) if decoded.is_none() => decoded = Some(message),
+                FrameEvent::Message(_) | FrameEvent::Dropped(_) => return Err(failure),
+            }
+        }
+        if decoded.as_ref() != Some(example) {
+            return Err(failure);
+        }
+    }
+    Ok(examples.len())
 }
 
 /// SysTick ticks for `TIMING_ROUNDS` passes over `TIMING_INPUTS` inputs, with the model
