@@ -230,7 +230,7 @@ fn invalid_configurations_are_refused_with_the_reason() {
     let mut s = ExposureSettings::new(ExposureConfig::DEFAULT, FS).unwrap();
     assert_eq!(s.validate(), Ok(()));
     s.running_gain = 2.0;
-    assert_eq!(s.validate(), Err(ExposureError::Mismatch));
+    assert_eq!(s.validate(), Err(ExposureError::TimeConstant));
     let mut s = ExposureSettings::new(ExposureConfig::DEFAULT, FS).unwrap();
     s.weighting[1].band.high_pass.g *= 1.01;
     assert_eq!(s.validate(), Err(ExposureError::Mismatch));
