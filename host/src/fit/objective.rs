@@ -52,6 +52,8 @@ pub struct Objective {
     blocks: Vec<Block>,
     /// Per free parameter: the block its shape vector lies in.
     param_block: Vec<usize>,
+    /// The non-zero (DOF, weight) entries of each row of R (the sensors are not fitted).
+    output_rows: Vec<Vec<(usize, f64)>>,
 }
 
 /// One uncoupled block of A and what it touches.
@@ -86,8 +88,10 @@ fn solve_small(
         if a[pivot][col].norm_sqr() == 0.0 {
             return false;
         }
-        a.swap(col, pivot);
-        rhs.swap(col, pivot);
+        if pivot != col {
+            a.swap(col, pivot);
+            rhs.swap(col, pivot);
+        }
         let inv = Cplx::new(1.0, 0.0) / a[col][col];
         for row in col + 1..n {
             let factor = a[row][col] * inv;
@@ -196,6 +200,14 @@ impl Objective {
                     .unwrap_or(0)
             })
             .collect();
+        let output_rows = (0..9)
+            .map(|j| {
+                (0..DOF_COUNT)
+                    .filter(|&d| matrices.output[(j, d)] != 0.0)
+                    .map(|d| (d, matrices.output[(j, d)]))
+                    .collect()
+            })
+            .collect();
         Self {
             base,
             free,
@@ -203,6 +215,7 @@ impl Objective {
             shapes,
             blocks,
             param_block,
+            output_rows,
         }
     }
 
@@ -301,9 +314,9 @@ impl Objective {
             let mut h = [Cplx::new(0.0, 0.0); COMPONENTS];
             for (c, (output, input)) in COUPLED_COMPONENTS.iter().enumerate() {
                 let (j, k) = (output.index(), input.index());
-                h[c] = (0..DOF_COUNT)
-                    .filter(|&d| r_out[(j, d)] != 0.0)
-                    .map(|d| x[(d, k)] * r_out[(j, d)])
+                h[c] = self.output_rows[j]
+                    .iter()
+                    .map(|&(d, weight)| x[(d, k)] * weight)
                     .sum();
             }
             let measured = &self.target.h[f];
