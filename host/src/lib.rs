@@ -6,6 +6,7 @@
 pub mod cli;
 pub mod commands;
 pub mod dataset;
+pub mod device_params;
 pub mod firmware;
 pub mod fit;
 pub mod geomean;

@@ -6,8 +6,8 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Result, anyhow, bail};
 use supine_core::protocol::{
-    DeviceFrame, DeviceToHost, FrameAccumulator, FrameEvent, Greeting, HostToDevice,
-    MAX_FRAME_LEN, PROTOCOL_VERSION, encode_frame,
+    DeviceFrame, DeviceToHost, FrameAccumulator, FrameEvent, Greeting, HostToDevice, MAX_FRAME_LEN,
+    PROTOCOL_VERSION, encode_frame,
 };
 
 /// Counters of what arrived from the device.
@@ -72,7 +72,11 @@ impl<R: Read> FrameReader<R> {
             match self.stream.read(&mut self.buf) {
                 Ok(0) => bail!("the device closed the connection"),
                 Ok(n) => (self.start, self.end) = (0, n),
-                Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut) => {}
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
+                    ) => {}
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
                 Err(e) => return Err(anyhow!("reading from the device: {e}")),
             }
@@ -100,7 +104,10 @@ impl<R: Read> FrameReader<R> {
                     return Ok(g);
                 }
                 Some(_) => {}
-                None => bail!("the device did not greet within {:.0} s", timeout.as_secs_f64()),
+                None => bail!(
+                    "the device did not greet within {:.0} s",
+                    timeout.as_secs_f64()
+                ),
             }
         }
     }
@@ -131,22 +138,31 @@ pub struct FrameWriter<W> {
 impl<W: Write> FrameWriter<W> {
     /// Wraps a stream.
     pub fn new(stream: W) -> Self {
-        Self { stream, buf: [0; MAX_FRAME_LEN] }
+        Self {
+            stream,
+            buf: [0; MAX_FRAME_LEN],
+        }
     }
 
     /// Encodes and writes one message.
     pub fn send(&mut self, message: &HostToDevice) -> Result<()> {
         let frame = encode_frame(message, &mut self.buf).map_err(|e| anyhow!("encoding: {e}"))?;
-        self.stream.write_all(frame).map_err(|e| anyhow!("writing to the device: {e}"))
+        self.stream
+            .write_all(frame)
+            .map_err(|e| anyhow!("writing to the device: {e}"))
     }
 
     /// Writes raw bytes (for tests that send garbage).
     pub fn send_raw(&mut self, bytes: &[u8]) -> Result<()> {
-        self.stream.write_all(bytes).map_err(|e| anyhow!("writing to the device: {e}"))
+        self.stream
+            .write_all(bytes)
+            .map_err(|e| anyhow!("writing to the device: {e}"))
     }
 
     /// Flushes the stream.
     pub fn flush(&mut self) -> Result<()> {
-        self.stream.flush().map_err(|e| anyhow!("writing to the device: {e}"))
+        self.stream
+            .flush()
+            .map_err(|e| anyhow!("writing to the device: {e}"))
     }
 }

@@ -10,8 +10,11 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, anyhow};
 use clap::{Args, ValueEnum};
 use serde::{Deserialize, Serialize};
+use supine_core::alerts::{AlertConfig, SensorCheckConfig};
+use supine_core::exposure::ExposureConfig;
 use supine_core::model::params::{Contacts, Joints, SensorOffsets};
 use supine_core::model::{ModelParams, ParamError, Preset, Subject};
+use supine_core::mounting::Mounting;
 
 use crate::output::write_atomically;
 
@@ -22,6 +25,50 @@ pub struct ParamFile {
     pub params: ModelParams,
     /// Free-form provenance written by `supine fit` (case, dataset, cost, ...).
     pub fit: Option<toml::Table>,
+    /// Device configuration (weighting, alerts, sensor checks, mounting, telemetry);
+    /// the documented defaults where absent.
+    pub device: Option<DeviceSection>,
+}
+
+/// The optional `[device]` table: what goes into the parameter blob besides the model.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DeviceSection {
+    /// Weighting per head axis, running-rms time constant, warm-up.
+    #[serde(default)]
+    pub exposure: ExposureConfig,
+    /// Alert thresholds on running rms and VDV, hysteresis, dwell.
+    #[serde(default)]
+    pub alerts: AlertConfig,
+    /// Sensor full scale, stuck time, fault clear time.
+    #[serde(default)]
+    pub sensor_checks: SensorCheckConfig,
+    /// Sensor-to-litter rotation and gravity, from `supine calibrate` or level by default.
+    #[serde(default = "level_mounting")]
+    pub mounting: Mounting,
+    /// Telemetry every this many samples.
+    #[serde(default = "every_sample")]
+    pub telemetry_decimation: u16,
+}
+
+fn level_mounting() -> Mounting {
+    Mounting::LEVEL
+}
+
+fn every_sample() -> u16 {
+    1
+}
+
+impl Default for DeviceSection {
+    fn default() -> Self {
+        Self {
+            exposure: ExposureConfig::DEFAULT,
+            alerts: AlertConfig::DEFAULT,
+            sensor_checks: SensorCheckConfig::DEFAULT,
+            mounting: Mounting::LEVEL,
+            telemetry_decimation: 1,
+        }
+    }
 }
 
 /// The on-disk layout: ModelParams' tables at top level, then `[fit]`.
@@ -35,6 +82,8 @@ struct FileRepr {
     sensors: SensorOffsets,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     fit: Option<toml::Table>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    device: Option<DeviceSection>,
 }
 
 fn paper_sensors() -> SensorOffsets {
@@ -57,6 +106,7 @@ impl ParamFile {
         Self {
             params: ModelParams::preset(preset),
             fit: None,
+            device: None,
         }
     }
 
@@ -68,6 +118,7 @@ impl ParamFile {
             contacts: self.params.contacts,
             sensors: self.params.sensors,
             fit: self.fit.clone(),
+            device: self.device,
         };
         let body = toml::to_string_pretty(&repr).context("rendering the parameter file")?;
         Ok(format!("{HEADER}\n{body}"))
@@ -95,6 +146,7 @@ impl ParamFile {
         Ok(Self {
             params,
             fit: repr.fit,
+            device: repr.device,
         })
     }
 }

@@ -279,6 +279,7 @@ pub fn write_dataset(
                 &ParamFile {
                     params: *params,
                     fit: Some(fit),
+                    device: None,
                 },
             )?;
             files[c] = file;

@@ -171,6 +171,7 @@ pub fn run(args: &Args) -> Result<()> {
         &ParamFile {
             params: result.params,
             fit: Some(table),
+            device: None,
         },
     )?;
     if let Some(dir) = &args.report {

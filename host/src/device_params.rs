@@ -1,0 +1,55 @@
+//! Turning a parameter file into what the device runs: the blob for one sample rate.
+//!
+//! The identity of a parameter set is the first 16 bytes of the SHA-256 of its parameter
+//! file as rendered by [`ParamFile::to_toml`], so the same parameters always have the same
+//! identity whether they came from a preset or a file.
+
+use anyhow::{Result, anyhow};
+use sha2::{Digest, Sha256};
+use supine_core::blob::{DeviceParams, MAX_BLOB_LEN, TelemetryConfig};
+use supine_core::model::device_realization;
+use supine_core::protocol::{IDENTITY_LEN, ParamsIdentity};
+
+use crate::params_file::ParamFile;
+
+/// The identity the device reports for these parameters.
+pub fn identity(file: &ParamFile) -> Result<ParamsIdentity> {
+    let digest = Sha256::digest(file.to_toml()?.as_bytes());
+    let mut id = [0u8; IDENTITY_LEN];
+    id.copy_from_slice(&digest[..IDENTITY_LEN]);
+    Ok(id)
+}
+
+/// Hex form of an identity, as the tools print it.
+pub fn identity_hex(id: &ParamsIdentity) -> String {
+    id.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// Everything the device needs at `sample_rate_hz`, validated as the device will.
+pub fn build(file: &ParamFile, sample_rate_hz: f64) -> Result<DeviceParams> {
+    let device = file.device.unwrap_or_default();
+    let realization =
+        device_realization(&file.params, sample_rate_hz).map_err(|e| anyhow!("{e}"))?;
+    DeviceParams::new(
+        identity(file)?,
+        realization,
+        device.exposure,
+        device.alerts,
+        device.sensor_checks,
+        device.mounting,
+        TelemetryConfig {
+            decimation: device.telemetry_decimation,
+        },
+    )
+    .map_err(|e| anyhow!("device configuration: {e}"))
+}
+
+/// The blob's bytes.
+pub fn encode(params: &DeviceParams) -> Result<Vec<u8>> {
+    let mut buf = vec![0u8; MAX_BLOB_LEN];
+    let len = params
+        .encode(&mut buf)
+        .map_err(|e| anyhow!("encoding the blob: {e}"))?;
+    buf.truncate(len);
+    Ok(buf)
+}
