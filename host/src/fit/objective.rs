@@ -75,6 +75,8 @@ const MAX_BLOCK: usize = 6;
 /// Solves A X = B in place for a small complex system (n <= 6) by Gaussian elimination
 /// with partial pivoting; `rhs` holds B's first `nrhs` columns and receives X. Returns
 /// false if A is singular.
+// Row operations read one row and write another: index loops say that most plainly.
+#[allow(clippy::needless_range_loop)]
 fn solve_small(
     n: usize,
     a: &mut [[Cplx; MAX_BLOCK]; MAX_BLOCK],

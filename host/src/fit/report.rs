@@ -14,6 +14,7 @@ use supine_core::model::response::COUPLED_COMPONENTS;
 
 use super::objective::COMPONENTS;
 use super::{AtBound, FitResult, Identifiability, Setup};
+use crate::geomean::wrap_pi;
 use crate::output::write_atomically;
 use crate::plot::{Panel, Series, figure_svg};
 
@@ -139,7 +140,8 @@ fn unwrapped_deg(values: &[f64]) -> Vec<f64> {
 }
 
 /// The Fig. 3/4-style figure: for each group of four components a row of magnitudes and
-/// a row of phases (degrees, unwrapped along frequency for display).
+/// a row of phases (degrees: the model's unwrapped along frequency, the measured ones on
+/// the branch nearest the model's).
 pub fn components_svg(
     title: &str,
     freqs_hz: &[f64],
@@ -150,17 +152,17 @@ pub fn components_svg(
     let mut panels = Vec::with_capacity(2 * COMPONENTS);
     let series = |h: &[Transmissibility], c: usize, phase: bool, color: &str, width: f64, label| {
         let (output, input) = COUPLED_COMPONENTS[c];
-        let values: Vec<f64> = h
-            .iter()
-            .map(|m| {
-                let z = m[(output.index(), input.index())];
-                if phase { z.arg() } else { z.norm() }
-            })
-            .collect();
-        let ys = if phase {
-            unwrapped_deg(&values)
+        let at = |m: &Transmissibility| m[(output.index(), input.index())];
+        let ys: Vec<f64> = if phase {
+            // The model's phase unwrapped along frequency; every other curve on the 2 pi
+            // branch nearest it, which is what the objective's wrapped residual sees.
+            let reference = unwrapped_deg(&model.iter().map(|m| at(m).arg()).collect::<Vec<_>>());
+            h.iter()
+                .zip(&reference)
+                .map(|(m, r)| r + wrap_pi(at(m).arg() - r.to_radians()).to_degrees())
+                .collect()
         } else {
-            values
+            h.iter().map(|m| at(m).norm()).collect()
         };
         Series::line(
             freqs_hz.iter().copied().zip(ys).collect(),
