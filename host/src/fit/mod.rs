@@ -205,6 +205,8 @@ pub struct StartOutcome {
     pub evaluations: usize,
     /// Why it stopped.
     pub termination: Termination,
+    /// Wall time of this start's solve, s.
+    pub seconds: f64,
 }
 
 /// The fit's result: the best start's solution and a summary of every start.
@@ -232,6 +234,7 @@ pub fn run(
     let mut starts = Vec::with_capacity(setup.starts.len());
     for (index, (label, theta0)) in setup.starts.iter().enumerate() {
         let initial_cost = setup.objective.cost(theta0).map_err(|e| anyhow!("{e}"))?;
+        let started = std::time::Instant::now();
         let solution = solver::solve(
             &setup.objective,
             theta0,
@@ -248,6 +251,7 @@ pub fn run(
             iterations: solution.iterations,
             evaluations: solution.evaluations,
             termination: solution.termination,
+            seconds: started.elapsed().as_secs_f64(),
         });
         if best.as_ref().is_none_or(|(_, b)| solution.cost < b.cost) {
             best = Some((index, solution));

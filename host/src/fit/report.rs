@@ -53,19 +53,20 @@ pub fn summary(
     );
     let _ = writeln!(
         s,
-        "| start | initial cost | final cost | iterations | evaluations | stop |"
+        "| start | initial cost | final cost | iterations | evaluations | solver s | stop |"
     );
-    let _ = writeln!(s, "|---|---|---|---|---|---|");
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|");
     for (i, st) in result.starts.iter().enumerate() {
         let mark = if i == result.best { " (best)" } else { "" };
         let _ = writeln!(
             s,
-            "| {}{mark} | {:.6} | {:.6} | {} | {} | {} |",
+            "| {}{mark} | {:.6} | {:.6} | {} | {} | {:.3} | {} |",
             st.label,
             st.initial_cost,
             st.final_cost,
             st.iterations,
             st.evaluations,
+            st.seconds,
             st.termination.describe()
         );
     }
