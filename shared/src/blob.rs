@@ -31,7 +31,8 @@ pub const BLOB_HEADER_LEN: usize = 16;
 /// Largest blob the device accepts (header and payload), bytes.
 pub const MAX_BLOB_LEN: usize = 4096;
 
-const CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
+/// The CRC-32/ISO-HDLC engine used for blobs and commit records.
+pub(crate) const CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
 
 /// CRC-32/ISO-HDLC (the zlib/Ethernet CRC) of `bytes`.
 pub fn crc32(bytes: &[u8]) -> u32 {

@@ -18,4 +18,5 @@ pub mod mounting;
 pub mod pipeline;
 pub mod protocol;
 pub mod test_vector;
+pub mod upload;
 pub mod weighting;

@@ -1,0 +1,308 @@
+//! Authenticated parameter updates into two flash slots (A/B), and choosing the slot to
+//! run at boot.
+//!
+//! An update is received whole into RAM, then checked before flash is touched: length,
+//! HMAC-SHA256 over the counter and the blob with the device's key, a counter above every
+//! one accepted before (against replay), and the blob's own validation. Only then is the
+//! slot that is not running erased and written: the blob, then a commit record (magic,
+//! counter, CRC-32 of blob and counter), then read back. A cut transfer leaves flash as it
+//! was; a power cut mid-write leaves the new slot without a valid commit record, and the
+//! slot that ran before is chosen again at the next boot.
+//!
+//! Choosing at boot: the committed slot with the highest counter; else a plain blob
+//! without a commit record in slot 0 (as placed by a programmer or QEMU's loader); else
+//! nothing, and the device runs its built-in parameters.
+
+use hmac::{Hmac, KeyInit, Mac};
+use sha2::Sha256;
+
+use crate::blob::{BlobError, DeviceParams, MAX_BLOB_LEN, announced_len};
+use crate::protocol::{ParamAck, ParamBegin, ParamChunk, ParamsIdentity, UploadError};
+
+/// Number of parameter slots.
+pub const SLOT_COUNT: usize = 2;
+/// Bytes per slot: half of the 64 KiB PARAMS region.
+pub const SLOT_LEN: usize = 32 * 1024;
+/// First bytes of a commit record.
+pub const COMMIT_MAGIC: [u8; 4] = *b"CMIT";
+/// Commit record: magic, counter (u32 LE), CRC-32 of blob followed by counter (u32 LE).
+pub const COMMIT_LEN: usize = 12;
+/// Length of the device key, bytes.
+pub const KEY_LEN: usize = 32;
+
+/// The PARAMS region as two slots the device can read, erase and write.
+pub trait ParamFlash {
+    /// The whole slot (`SLOT_LEN` bytes), as stored.
+    fn slot(&self, slot: usize) -> &[u8];
+    /// Erases a slot (to 0xFF).
+    fn erase(&mut self, slot: usize) -> Result<(), FlashError>;
+    /// Writes bytes at an offset within an erased slot.
+    fn write(&mut self, slot: usize, offset: usize, bytes: &[u8]) -> Result<(), FlashError>;
+}
+
+/// A flash operation failed (or power was lost, in tests).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FlashError;
+
+/// The parameters chosen at boot and where they came from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ActiveParams {
+    /// The validated parameters.
+    pub params: DeviceParams,
+    /// The slot they were read from.
+    pub slot: u8,
+    /// Their update counter (0 for a blob without a commit record).
+    pub counter: u32,
+}
+
+/// What one slot holds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SlotContent {
+    /// A valid blob and, if it was committed by an update, its counter.
+    Valid {
+        /// The validated parameters.
+        params: DeviceParams,
+        /// Counter of the commit record, `None` for a plain blob.
+        counter: Option<u32>,
+    },
+    /// No usable blob, and why.
+    Invalid(BlobError),
+}
+
+/// Reads and validates one slot.
+pub fn read_slot(bytes: &[u8]) -> SlotContent {
+    match DeviceParams::decode(bytes) {
+        Err(e) => SlotContent::Invalid(e),
+        Ok(params) => SlotContent::Valid {
+            params,
+            counter: commit_counter(bytes),
+        },
+    }
+}
+
+fn commit_counter(bytes: &[u8]) -> Option<u32> {
+    let len = announced_len(bytes)?;
+    let blob = bytes.get(..len)?;
+    let record = bytes.get(len..len + COMMIT_LEN)?;
+    let word =
+        |i: usize| u32::from_le_bytes([record[i], record[i + 1], record[i + 2], record[i + 3]]);
+    let counter = word(4);
+    (record[..4] == COMMIT_MAGIC && word(8) == commit_crc(blob, counter)).then_some(counter)
+}
+
+fn commit_crc(blob: &[u8], counter: u32) -> u32 {
+    let mut digest = crate::blob::CRC32.digest();
+    digest.update(blob);
+    digest.update(&counter.to_le_bytes());
+    digest.finalize()
+}
+
+/// The slot to run at boot, or the reason (slot 0's) there is none.
+pub fn select(flash: &impl ParamFlash) -> Result<ActiveParams, BlobError> {
+    let mut best: Option<ActiveParams> = None;
+    let mut plain_slot0 = None;
+    let mut reason = BlobError::Empty;
+    for slot in 0..SLOT_COUNT {
+        match read_slot(flash.slot(slot)) {
+            SlotContent::Valid {
+                params,
+                counter: Some(counter),
+            } => {
+                if best.is_none_or(|b| counter > b.counter) {
+                    best = Some(ActiveParams {
+                        params,
+                        slot: slot as u8,
+                        counter,
+                    });
+                }
+            }
+            SlotContent::Valid {
+                params,
+                counter: None,
+            } if slot == 0 => {
+                plain_slot0 = Some(ActiveParams {
+                    params,
+                    slot: 0,
+                    counter: 0,
+                });
+            }
+            SlotContent::Valid { .. } => {}
+            SlotContent::Invalid(e) if slot == 0 => reason = e,
+            SlotContent::Invalid(_) => {}
+        }
+    }
+    best.or(plain_slot0).ok_or(reason)
+}
+
+/// The highest counter any committed slot carries (0 if none): updates must exceed it.
+pub fn last_counter(flash: &impl ParamFlash) -> u32 {
+    (0..SLOT_COUNT)
+        .filter_map(|slot| match read_slot(flash.slot(slot)) {
+            SlotContent::Valid { counter, .. } => counter,
+            SlotContent::Invalid(_) => None,
+        })
+        .max()
+        .unwrap_or(0)
+}
+
+/// HMAC-SHA256 of the counter (u32 LE) followed by the blob, with the device key.
+pub fn update_mac(key: &[u8; KEY_LEN], counter: u32, blob: &[u8]) -> [u8; 32] {
+    let mut out = [0u8; 32];
+    if let Some(mut mac) = new_mac(key, counter) {
+        mac.update(blob);
+        out.copy_from_slice(&mac.finalize().into_bytes());
+    }
+    out
+}
+
+/// HMAC keyed with the device key, primed with the counter. HMAC accepts keys of any
+/// length, so `None` cannot happen; callers treat it as a failed signature regardless.
+fn new_mac(key: &[u8; KEY_LEN], counter: u32) -> Option<Hmac<Sha256>> {
+    let mut mac = <Hmac<Sha256> as KeyInit>::new_from_slice(key).ok()?;
+    mac.update(&counter.to_le_bytes());
+    Some(mac)
+}
+
+/// An update being received: the blob accumulates in RAM until it is committed.
+#[derive(Clone, Debug)]
+pub struct Upload {
+    buf: [u8; MAX_BLOB_LEN],
+    expected: usize,
+    received: usize,
+    counter: u32,
+    mac: [u8; 32],
+    open: bool,
+}
+
+impl Default for Upload {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// A committed update: what now runs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Committed {
+    /// The new parameters.
+    pub params: DeviceParams,
+    /// Their identity.
+    pub identity: ParamsIdentity,
+    /// The slot they went to.
+    pub slot: u8,
+    /// Their counter.
+    pub counter: u32,
+}
+
+impl Upload {
+    /// No update in progress.
+    pub const fn new() -> Self {
+        Self {
+            buf: [0; MAX_BLOB_LEN],
+            expected: 0,
+            received: 0,
+            counter: 0,
+            mac: [0; 32],
+            open: false,
+        }
+    }
+
+    /// Drops a transfer in progress.
+    pub fn abort(&mut self) {
+        self.open = false;
+        self.received = 0;
+    }
+
+    /// Opens an update (replacing any unfinished one).
+    pub fn begin(
+        &mut self,
+        begin: &ParamBegin,
+        last_counter: u32,
+    ) -> Result<ParamAck, UploadError> {
+        self.abort();
+        let len = begin.length_bytes as usize;
+        if len == 0 || len > MAX_BLOB_LEN {
+            return Err(UploadError::BadLength);
+        }
+        if begin.counter <= last_counter {
+            return Err(UploadError::Replayed);
+        }
+        self.expected = len;
+        self.counter = begin.counter;
+        self.mac = begin.hmac_sha256;
+        self.open = true;
+        Ok(ParamAck::Begun)
+    }
+
+    /// Appends a chunk, which must continue where the previous one ended.
+    pub fn chunk(&mut self, chunk: &ParamChunk) -> Result<ParamAck, UploadError> {
+        if !self.open {
+            return Err(UploadError::NotStarted);
+        }
+        if chunk.offset_bytes as usize != self.received {
+            return Err(UploadError::OutOfOrder);
+        }
+        let end = self.received + chunk.bytes.len();
+        let Some(dst) = self
+            .buf
+            .get_mut(self.received..end)
+            .filter(|_| end <= self.expected)
+        else {
+            self.abort();
+            return Err(UploadError::BadLength);
+        };
+        dst.copy_from_slice(&chunk.bytes);
+        self.received = end;
+        Ok(ParamAck::Received { bytes: end as u32 })
+    }
+
+    /// Verifies the received blob and, only if everything holds, writes it to the slot not
+    /// running (`running_slot`, `None` for the built-in parameters) and reads it back.
+    pub fn commit(
+        &mut self,
+        key: &[u8; KEY_LEN],
+        flash: &mut impl ParamFlash,
+        running_slot: Option<u8>,
+    ) -> Result<Committed, UploadError> {
+        if !self.open {
+            return Err(UploadError::NotStarted);
+        }
+        if self.received != self.expected {
+            return Err(UploadError::Incomplete);
+        }
+        self.open = false;
+        let blob = &self.buf[..self.expected];
+        let mut mac = new_mac(key, self.counter).ok_or(UploadError::BadSignature)?;
+        mac.update(blob);
+        mac.verify_slice(&self.mac)
+            .map_err(|_| UploadError::BadSignature)?;
+        if self.counter <= last_counter(flash) {
+            return Err(UploadError::Replayed);
+        }
+        let params = DeviceParams::decode(blob).map_err(UploadError::Blob)?;
+        let target = match running_slot {
+            Some(0) => 1,
+            _ => 0,
+        };
+        let mut record = [0u8; COMMIT_LEN];
+        record[..4].copy_from_slice(&COMMIT_MAGIC);
+        record[4..8].copy_from_slice(&self.counter.to_le_bytes());
+        record[8..].copy_from_slice(&commit_crc(blob, self.counter).to_le_bytes());
+        flash.erase(target).map_err(|_| UploadError::Flash)?;
+        flash
+            .write(target, 0, blob)
+            .map_err(|_| UploadError::Flash)?;
+        flash
+            .write(target, blob.len(), &record)
+            .map_err(|_| UploadError::Flash)?;
+        let stored = flash.slot(target);
+        if stored.get(..blob.len()) != Some(blob) || commit_counter(stored) != Some(self.counter) {
+            return Err(UploadError::Flash);
+        }
+        Ok(Committed {
+            params,
+            identity: params.identity,
+            slot: target as u8,
+            counter: self.counter,
+        })
+    }
+}
