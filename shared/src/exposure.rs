@@ -405,7 +405,7 @@ impl ExposureSettings {
             return Err(ExposureError::TimeConstant);
         }
         let period_error = self.sample_period_s * fs - 1.0;
-        if !(period_error.abs() < 1e-4) {
+        if period_error.is_nan() || period_error.abs() >= 1e-4 {
             return Err(ExposureError::Mismatch);
         }
         if self.warmup_samples as f32 > MAX_WARMUP_S * fs {

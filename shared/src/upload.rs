@@ -56,6 +56,8 @@ pub struct ActiveParams {
 }
 
 /// What one slot holds.
+// Decoded once at boot or after an update, never stored in bulk: the size gap is harmless.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum SlotContent {
     /// A valid blob and, if it was committed by an update, its counter.
