@@ -268,7 +268,7 @@ fn unsigned_replayed_truncated_and_corrupted_updates_change_nothing() {
 
 #[test]
 fn a_cut_transfer_followed_by_a_reset_keeps_the_running_parameters() {
-    let flash = SimFlash::with_plain_blob_in_slot0(BLOB);
+    let mut flash = SimFlash::with_plain_blob_in_slot0(BLOB);
     let new = blob_with(0x42);
     let mut up = Upload::new();
     let mac = update_mac(&KEY, 1, &new);
@@ -286,8 +286,12 @@ fn a_cut_transfer_followed_by_a_reset_keeps_the_running_parameters() {
         bytes: Vec::from_slice(&new[..128]).unwrap(),
     })
     .unwrap();
-    // Reset: the RAM session is gone, flash untouched.
-    drop(up);
+    // Reset: the RAM session is gone (a fresh one starts empty), flash untouched.
+    let mut up = Upload::new();
+    assert_eq!(
+        up.commit(&KEY, &mut flash, Some(0)).map(|c| c.slot),
+        Err(UploadError::NotStarted)
+    );
     let boot = select(&flash).unwrap();
     assert_eq!(
         (boot.slot, boot.params.identity),
