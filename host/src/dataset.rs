@@ -90,7 +90,7 @@ struct DatasetRepr {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SubjectRepr {
-    id: String,
+    id: toml::Spanned<String>,
     height_m: f64,
     mass_kg: f64,
     rigid: Option<String>,
@@ -134,19 +134,20 @@ impl Dataset {
         for spanned in repr.subject {
             let line = line_of(text, spanned.span().start);
             let s = spanned.into_inner();
+            let id_line = line_of(text, s.id.span().start);
+            let id = s.id.into_inner();
             let at =
-                |field: &str| format!("{}: line {line}, subject {}, {field}", path.display(), s.id);
-            if s.id.trim().is_empty() {
+                |field: &str| format!("{}: line {line}, subject {id}, {field}", path.display());
+            if id.trim().is_empty() {
                 bail!(
-                    "{}: line {line}, id: expected a non-empty subject id",
+                    "{}: line {id_line}, id: expected a non-empty subject id",
                     path.display()
                 );
             }
-            if let Some(first) = subjects.iter().find(|e| e.id == s.id) {
+            if let Some(first) = subjects.iter().find(|e| e.id == id) {
                 bail!(
-                    "{}: expected unique subject ids, found \"{}\" again (lines {} and {line})",
-                    at("id"),
-                    s.id,
+                    "{}: line {id_line}, id: expected unique subject ids, found \"{id}\" again (its first table starts on line {})",
+                    path.display(),
                     first.line
                 );
             }
@@ -159,7 +160,7 @@ impl Dataset {
                 }
             }
             subjects.push(SubjectEntry {
-                id: s.id.clone(),
+                id,
                 subject: Subject {
                     height_m: s.height_m,
                     mass_kg: s.mass_kg,
