@@ -238,7 +238,9 @@ fn a_duplicate_subject_id_names_both_lines() {
     let e = transmissibility_error(&ds, &[]);
     assert!(e.contains("dataset.toml: line"), "{e}");
     assert!(
-        e.contains("expected unique subject ids, found \"s1\" again"),
+        e.contains(
+            "line 12, id: expected unique subject ids, found \"s1\" again (its first table starts on line 4)"
+        ),
         "{e}"
     );
 }
