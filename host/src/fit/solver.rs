@@ -189,23 +189,42 @@ pub fn solve(
             if iterations > settings.max_iterations {
                 break 'outer;
             }
-            let nf = free.len();
-            let mut system = DMatrix::zeros(nf, nf);
-            let mut rhs = DVector::zeros(nf);
-            for (a, &i) in free.iter().enumerate() {
-                rhs[a] = -g[i];
-                for (b, &j) in free.iter().enumerate() {
-                    system[(a, b)] = jtj[(i, j)];
+            // Solve on the free set; a variable on a bound whose step would leave the box
+            // joins the held set and the step is solved again (projecting such a step
+            // instead would shorten it to almost nothing in a narrow valley).
+            let mut free = free.clone();
+            let step = loop {
+                let nf = free.len();
+                let mut system = DMatrix::zeros(nf, nf);
+                let mut rhs = DVector::zeros(nf);
+                for (a, &i) in free.iter().enumerate() {
+                    rhs[a] = -g[i];
+                    for (b, &j) in free.iter().enumerate() {
+                        system[(a, b)] = jtj[(i, j)];
+                    }
+                    system[(a, a)] += lambda * scale[i];
                 }
-                system[(a, a)] += lambda * scale[i];
-            }
-            let step = match system.cholesky() {
-                Some(ch) => ch.solve(&rhs),
-                None => {
-                    lambda *= nu;
-                    nu *= 2.0;
-                    continue;
+                let Some(ch) = system.cholesky() else {
+                    break None;
+                };
+                let step = ch.solve(&rhs);
+                let leaving: Vec<usize> = free
+                    .iter()
+                    .enumerate()
+                    .filter(|&(a, &i)| {
+                        (x[i] <= lower[i] && step[a] < 0.0) || (x[i] >= upper[i] && step[a] > 0.0)
+                    })
+                    .map(|(_, &i)| i)
+                    .collect();
+                if leaving.is_empty() {
+                    break Some(step);
                 }
+                free.retain(|i| !leaving.contains(i));
+            };
+            let Some(step) = step else {
+                lambda *= nu;
+                nu *= 2.0;
+                continue;
             };
             trial_x.copy_from_slice(&x);
             for (a, &i) in free.iter().enumerate() {
