@@ -11,7 +11,15 @@ use std::env;
 use std::fs;
 use std::path::PathBuf;
 
+use supine_core::alerts::{AlertConfig, SensorCheckConfig};
+use supine_core::blob::{DeviceParams, MAX_BLOB_LEN, TelemetryConfig};
+use supine_core::exposure::ExposureConfig;
 use supine_core::model::{DEFAULT_SAMPLE_RATE_HZ, ModelParams, Preset, device_realization};
+use supine_core::mounting::Mounting;
+
+/// Identity of the built-in default parameters (not a SHA-256: a fixed, readable name that
+/// the host prints as "built-in").
+const BUILTIN_IDENTITY: [u8; 16] = *b"builtin-litter\0\0";
 
 /// Upper bound of the encoded realization; it must also fit the 64 KiB parameter region.
 const MAX_ENCODED_BYTES: usize = 64 * 1024;
@@ -23,6 +31,7 @@ fn main() {
 
     link_with_root_memory_map(&manifest_dir, &out_dir);
     write_builtin_realization(&out_dir);
+    write_default_blob(&out_dir);
 
     println!("cargo:rerun-if-changed=build.rs");
 }
@@ -73,4 +82,32 @@ fn write_builtin_realization(out_dir: &std::path::Path) {
         ),
     )
     .expect("cannot write realization.rs to OUT_DIR");
+}
+
+/// Writes `default_blob.bin` to `OUT_DIR`: the full parameter blob of the built-in default
+/// (paper litter-board preset at the default rate, default exposure, alert and sensor
+/// settings, level mounting, telemetry every sample). The firmware decodes and validates
+/// it at boot exactly like a blob in flash.
+fn write_default_blob(out_dir: &std::path::Path) {
+    let realization = device_realization(
+        &ModelParams::preset(Preset::PaperLitter),
+        DEFAULT_SAMPLE_RATE_HZ,
+    )
+    .unwrap_or_else(|err| panic!("the paper-litter preset does not discretize: {err}"));
+    let params = DeviceParams::new(
+        BUILTIN_IDENTITY,
+        realization,
+        ExposureConfig::DEFAULT,
+        AlertConfig::DEFAULT,
+        SensorCheckConfig::DEFAULT,
+        Mounting::LEVEL,
+        TelemetryConfig::EVERY_SAMPLE,
+    )
+    .unwrap_or_else(|err| panic!("the default device parameters are refused: {err}"));
+    let mut buf = vec![0u8; MAX_BLOB_LEN];
+    let len = params
+        .encode(&mut buf)
+        .unwrap_or_else(|err| panic!("the default blob does not encode: {err}"));
+    fs::write(out_dir.join("default_blob.bin"), &buf[..len])
+        .expect("cannot write default_blob.bin to OUT_DIR");
 }

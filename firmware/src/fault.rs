@@ -1,22 +1,38 @@
-//! The panic handler and the HardFault handler: report on stderr, exit with a failing status.
+//! The panic handler and the HardFault handler.
 //!
-//! On the emulated board this ends QEMU with [`exit::PANIC`] or [`exit::HARD_FAULT`] so a
-//! test sees the failure at once instead of a hang.
+//! A panic is recorded ([`crate::panic_record`]) and reported on semihosting stderr. The
+//! product image ([`reset_on_panic`]) then resets, so the device keeps running and names
+//! the panic in its next greeting; the test images instead end QEMU with [`exit::PANIC`]
+//! so a test sees the failure at once instead of a hang. A HardFault always ends the run
+//! with [`exit::HARD_FAULT`].
 
 use core::fmt::Write;
 use core::panic::PanicInfo;
+use core::sync::atomic::{AtomicBool, Ordering};
 
 use cortex_m_rt::{ExceptionFrame, exception};
 use cortex_m_semihosting::hio;
 
-use crate::exit;
+use crate::{exit, panic_record};
+
+/// Set by the product image: a panic resets instead of ending the run.
+static RESET_ON_PANIC: AtomicBool = AtomicBool::new(false);
+
+/// Makes a later panic record its message and reset the device (the product's behaviour).
+pub fn reset_on_panic() {
+    RESET_ON_PANIC.store(true, Ordering::Relaxed);
+}
 
 #[panic_handler]
 fn panic(info: &PanicInfo<'_>) -> ! {
     cortex_m::interrupt::disable();
+    panic_record::store(&format_args!("{}", info.message()));
     if let Ok(mut stderr) = hio::hstderr() {
-        // Nothing more can be done if the debugger refuses the message; exit regardless.
+        // Nothing more can be done if the debugger refuses the message; go on regardless.
         let _ = writeln!(stderr, "{info}");
+    }
+    if RESET_ON_PANIC.load(Ordering::Relaxed) {
+        cortex_m::peripheral::SCB::sys_reset()
     }
     exit::exit(exit::PANIC)
 }

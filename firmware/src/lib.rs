@@ -5,20 +5,28 @@
 //! built-in test vector for the QEMU tests, and `src/bin/panics.rs` and
 //! `src/bin/hardfault.rs` prove that a panic and a fault end a run with a failing status.
 //!
+//! `src/main.rs` runs [`app::App`], the monitor's main loop; `src/bin/panic_reset.rs` is
+//! the same monitor that panics once at first boot, to test the panic record across a reset.
+//!
 //! Each module has one job: [`board`] names the board's types, [`cmsdk_uart`] drives its
 //! UART, [`console`] writes lines to the debugger's stdout (semihosting), [`exit`] ends a
 //! run with a status, [`cycles`] counts instructions, [`stack`] measures the stack's
-//! high-water mark and [`params`] loads the model parameters.
+//! high-water mark and [`params`] loads the model parameters, [`panic_record`] keeps the last panic across a
+//! reset and [`app`] is the monitor.
 #![no_std]
 
+pub mod app;
 pub mod board;
 pub mod cmsdk_uart;
 pub mod console;
 pub mod cycles;
 pub mod exit;
 mod fault;
+pub mod panic_record;
 pub mod params;
 pub mod stack;
+
+pub use fault::reset_on_panic;
 
 /// The firmware's version, reported in its greeting and in the self-test output.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");

@@ -1,45 +1,39 @@
-//! The supine device image.
+//! The supine device image: the on-litter monitor, in its replay form under QEMU.
 //!
-//! Today it boots, checks its built-in model parameters and the parameter blob in the
-//! PARAMS region, greets the host on UART0 with its version, the parameters' identity and
-//! the blob's state, and then polls the UART. The protocol (replay,
-//! exposure, alerts) grows from the polling loop.
+//! At boot it reads the last panic's record, loads the parameter blob from the PARAMS
+//! region (or the built-in default, with the reason), greets the host on UART0 and then
+//! serves it (see [`supine_firmware::app`]): replayed samples in, telemetry and alerts out.
 #![no_std]
 #![no_main]
 
-use core::fmt::Write;
-
 use cortex_m_rt::entry;
+use supine_core::protocol::ResetCause;
+use supine_firmware::app::{App, Boot};
 use supine_firmware::board::Board;
-use supine_firmware::{VERSION, exit, params};
+use supine_firmware::cycles::InstructionCounter;
+use supine_firmware::{exit, panic_record, params};
 
 #[entry]
 fn main() -> ! {
+    supine_firmware::reset_on_panic();
     let Some(board) = Board::take() else {
         // Only reachable if something took the peripherals before main: a build error.
         exit::exit(exit::FAILURE)
     };
-    let mut uart = board.uart0;
-
-    let bytes = params::builtin_bytes();
-    let status = match params::decode(bytes) {
-        Ok(_) => "ok",
-        Err(_) => "invalid",
+    let last_panic = panic_record::take();
+    let Ok((params, source)) = params::load() else {
+        // The built-in default was validated when it was built: a broken build.
+        exit::exit(exit::FAILURE)
     };
-    // Writing to the UART cannot fail (it waits for room).
-    let _ = write!(
-        uart,
-        "supine-firmware {VERSION} params builtin crc32 {:08x} {status} fs_hz {} blob ",
-        params::identity(bytes),
-        params::SAMPLE_RATE_HZ,
-    );
-    let _ = match params::stored_blob() {
-        Ok(_) => writeln!(uart, "ok"),
-        Err(err) => writeln!(uart, "refused: {err}"),
+    let boot = Boot {
+        params,
+        source,
+        reset_cause: if last_panic.is_some() {
+            ResetCause::Panic
+        } else {
+            ResetCause::PowerOn
+        },
+        last_panic: last_panic.unwrap_or_default(),
     };
-
-    loop {
-        // Nothing is understood yet: take each byte so the one-deep RX never stalls the host.
-        let _ = uart.try_read_byte();
-    }
+    App::new(board.uart0, InstructionCounter::new(board.syst), boot).run()
 }

@@ -12,6 +12,7 @@ use core::fmt;
 
 use supine_core::blob::{BlobError, DeviceParams};
 use supine_core::model::{DeviceRealization, RealizationError};
+use supine_core::protocol::{ParamsIdentity, ParamsSource};
 
 include!(concat!(env!("OUT_DIR"), "/realization.rs"));
 
@@ -96,4 +97,33 @@ pub fn decode(bytes: &[u8]) -> Result<DeviceRealization, ParamsError> {
 /// Decodes the built-in realization.
 pub fn load_builtin() -> Result<DeviceRealization, ParamsError> {
     decode(BUILTIN)
+}
+
+/// The built-in default's full parameter blob (see `firmware/build.rs`): the paper
+/// litter-board preset at [`SAMPLE_RATE_HZ`] with the default exposure, alert and
+/// sensor-check settings, level mounting and telemetry every sample.
+static DEFAULT_BLOB: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/default_blob.bin"));
+
+/// Identity of the built-in default: a fixed name rather than a SHA-256, which the host
+/// prints as "built-in".
+pub const BUILTIN_IDENTITY: ParamsIdentity = *b"builtin-litter\0\0";
+
+/// The built-in default's blob bytes.
+pub fn default_blob() -> &'static [u8] {
+    DEFAULT_BLOB
+}
+
+/// The parameters to run with and where they came from: the blob at the start of the
+/// PARAMS region if it is valid (slot 0), else the built-in default with the reason the
+/// flash blob was refused. Errs only if the built-in default itself is refused, which
+/// `firmware/build.rs` has already ruled out when it built it.
+///
+/// Issue 6 (A/B slots, authenticated upload) replaces the slot choice here only.
+pub fn load() -> Result<(DeviceParams, ParamsSource), BlobError> {
+    match stored_blob() {
+        Ok(params) => Ok((params, ParamsSource::Flash { slot: 0 })),
+        Err(reason) => {
+            DeviceParams::decode(DEFAULT_BLOB).map(|p| (p, ParamsSource::BuiltInDefault { reason }))
+        }
+    }
 }

@@ -1,0 +1,312 @@
+//! The monitor's main loop: UART0 in, the pipeline, UART0 out.
+//!
+//! ```text
+//! loop:
+//!   poll UART0 RX -> FrameAccumulator -> HostToDevice
+//!     Samples  -> sample buffer (index + litter-frame acceleration, m/s^2)
+//!                 16 buffered -> DeviceParams::process -> DeviceFrame{seq, Telemetry|Alert}
+//!     Hello    -> (flush the buffer) Greeting
+//!     GetStatus-> (flush the buffer) Status
+//!     Param*   -> ParamNack(NotStarted)      (issue 6: authenticated upload goes here)
+//!   RX idle for IDLE_FLUSH_POLLS polls -> process what is buffered
+//!   drain the TX ring into UART0 TX
+//! ```
+//!
+//! Frames are encoded into a RAM ring while the pipeline runs and written to the UART from
+//! the loop, so [`Status::busy_ticks`] (SysTick around `process`, frame encoding included)
+//! excludes waiting on the UART. Every byte of every input is handled without a panic
+//! path: bad frames are counted and dropped, index gaps counted as dropped samples (and
+//! raised by the pipeline's sensor checks as an index-gap fault).
+
+use supine_core::blob::DeviceParams;
+use supine_core::pipeline::{BLOCK_LEN, PipelineOutput, PipelineState};
+use supine_core::protocol::{
+    DeviceFrame, DeviceToHost, FrameAccumulator, FrameEvent, Greeting, HostToDevice, MAX_FRAME_LEN,
+    PANIC_MESSAGE_LEN, PROTOCOL_VERSION, ParamsSource, ResetCause, SampleBatch, Status,
+    UploadError, encode_frame,
+};
+
+use crate::board::Uart;
+use crate::cycles::InstructionCounter;
+use crate::stack;
+
+/// Bytes of the transmit ring: more than one block's worst-case output.
+const TX_RING_LEN: usize = 4096;
+
+/// Free ring space required before a block is processed, so the pipeline never waits on
+/// the UART: 16 telemetry frames and a few alert frames need about 1 KiB.
+const TX_HEADROOM: usize = 2048;
+
+/// Empty RX polls after which a partial block is processed (the host paused).
+const IDLE_FLUSH_POLLS: u32 = 20_000;
+
+/// Where the running parameters came from and how the device last stopped.
+pub struct Boot {
+    /// The parameters in use.
+    pub params: DeviceParams,
+    /// Flash slot or built-in default (with the reason the flash blob was refused).
+    pub source: ParamsSource,
+    /// How the device last stopped.
+    pub reset_cause: ResetCause,
+    /// The last panic's message (empty if none).
+    pub last_panic: heapless::String<PANIC_MESSAGE_LEN>,
+}
+
+/// A byte ring for outgoing frames.
+struct TxRing {
+    buf: [u8; TX_RING_LEN],
+    head: usize,
+    len: usize,
+}
+
+impl TxRing {
+    const fn new() -> Self {
+        Self {
+            buf: [0; TX_RING_LEN],
+            head: 0,
+            len: 0,
+        }
+    }
+
+    fn free(&self) -> usize {
+        TX_RING_LEN - self.len
+    }
+
+    /// Appends `bytes`, first writing the oldest bytes to `uart` (waiting) if room lacks.
+    fn push(&mut self, bytes: &[u8], uart: &mut Uart) {
+        while self.free() < bytes.len() && self.len > 0 {
+            self.drain_blocking_one(uart);
+        }
+        for &b in bytes {
+            if self.len == TX_RING_LEN {
+                // Only if a frame were longer than the ring: send it straight through.
+                uart.write_byte(b);
+                continue;
+            }
+            let tail = (self.head + self.len) % TX_RING_LEN;
+            if let Some(slot) = self.buf.get_mut(tail) {
+                *slot = b;
+            }
+            self.len += 1;
+        }
+    }
+
+    fn drain_blocking_one(&mut self, uart: &mut Uart) {
+        if let Some(&b) = self.buf.get(self.head) {
+            uart.write_byte(b);
+        }
+        self.head = (self.head + 1) % TX_RING_LEN;
+        self.len -= 1;
+    }
+
+    /// Writes to `uart` while it takes bytes without waiting.
+    fn drain(&mut self, uart: &mut Uart) {
+        while self.len > 0 {
+            let Some(&b) = self.buf.get(self.head) else {
+                return;
+            };
+            if !uart.try_write_byte(b) {
+                return;
+            }
+            self.head = (self.head + 1) % TX_RING_LEN;
+            self.len -= 1;
+        }
+    }
+}
+
+/// The running monitor.
+pub struct App {
+    uart: Uart,
+    counter: InstructionCounter,
+    boot: Boot,
+    state: PipelineState,
+    rx: FrameAccumulator,
+    tx: TxRing,
+    seq: u32,
+    status: Status,
+    indices: [u32; BLOCK_LEN],
+    samples_m_s2: [[f32; 3]; BLOCK_LEN],
+    buffered: usize,
+    next_index: Option<u32>,
+}
+
+impl App {
+    /// A monitor on `uart`, timing its pipeline with `counter`, running `boot.params`.
+    pub fn new(uart: Uart, counter: InstructionCounter, boot: Boot) -> Self {
+        Self {
+            uart,
+            counter,
+            boot,
+            state: PipelineState::new(),
+            rx: FrameAccumulator::new(),
+            tx: TxRing::new(),
+            seq: 0,
+            status: Status::default(),
+            indices: [0; BLOCK_LEN],
+            samples_m_s2: [[0.0; 3]; BLOCK_LEN],
+            buffered: 0,
+            next_index: None,
+        }
+    }
+
+    /// Greets, then serves the host forever.
+    pub fn run(mut self) -> ! {
+        self.send_greeting();
+        let mut idle_polls: u32 = 0;
+        loop {
+            match self.uart.try_read_byte() {
+                Some(byte) => {
+                    idle_polls = 0;
+                    self.on_byte(byte);
+                }
+                None => {
+                    idle_polls = idle_polls.saturating_add(1);
+                    if idle_polls == IDLE_FLUSH_POLLS {
+                        self.process_buffered();
+                    }
+                }
+            }
+            self.tx.drain(&mut self.uart);
+        }
+    }
+
+    fn on_byte(&mut self, byte: u8) {
+        match self.rx.push::<HostToDevice>(byte) {
+            FrameEvent::Pending => {}
+            FrameEvent::Dropped(_) => {
+                self.status.bad_frames = self.status.bad_frames.wrapping_add(1);
+            }
+            FrameEvent::Message(message) => {
+                self.status.frames_received = self.status.frames_received.wrapping_add(1);
+                self.on_message(message);
+            }
+        }
+    }
+
+    fn on_message(&mut self, message: HostToDevice) {
+        match message {
+            HostToDevice::Hello => {
+                self.process_buffered();
+                self.send_greeting();
+            }
+            HostToDevice::Samples(batch) => self.on_samples(&batch),
+            HostToDevice::GetStatus => {
+                self.process_buffered();
+                let mut status = self.status;
+                status.stack_used_bytes = stack::high_water_bytes() as u32;
+                self.send(DeviceToHost::Status(status));
+            }
+            // Issue 6: the authenticated A/B-slot upload answers these; until then every
+            // upload is refused and counted.
+            HostToDevice::ParamBegin(_)
+            | HostToDevice::ParamChunk(_)
+            | HostToDevice::ParamCommit => {
+                self.status.uploads_rejected = self.status.uploads_rejected.wrapping_add(1);
+                self.send(DeviceToHost::ParamNack(UploadError::NotStarted));
+            }
+        }
+    }
+
+    fn on_samples(&mut self, batch: &SampleBatch) {
+        for (offset, &sample) in (0u32..).zip(batch.accel_m_s2.iter()) {
+            let index = batch.first_sample_index.wrapping_add(offset);
+            if let Some(expected) = self.next_index
+                && index > expected
+            {
+                let missing = index - expected;
+                self.status.samples_dropped = self.status.samples_dropped.saturating_add(missing);
+            }
+            self.next_index = Some(index.wrapping_add(1));
+            if let (Some(i), Some(x)) = (
+                self.indices.get_mut(self.buffered),
+                self.samples_m_s2.get_mut(self.buffered),
+            ) {
+                *i = index;
+                *x = sample;
+                self.buffered += 1;
+            } else {
+                // Unreachable (full blocks are processed at once), but counted if ever hit.
+                self.status.samples_dropped = self.status.samples_dropped.saturating_add(1);
+            }
+            if self.buffered == BLOCK_LEN {
+                self.process_buffered();
+            }
+        }
+    }
+
+    /// Runs the buffered samples through the pipeline, queueing their frames.
+    fn process_buffered(&mut self) {
+        let n = self.buffered;
+        if n == 0 {
+            return;
+        }
+        self.buffered = 0;
+        // Make room first, so the timed span never waits on the UART.
+        while self.tx.free() < TX_HEADROOM {
+            self.tx.drain_blocking_one(&mut self.uart);
+        }
+        let Self {
+            uart,
+            counter,
+            boot,
+            state,
+            tx,
+            seq,
+            status,
+            indices,
+            samples_m_s2,
+            ..
+        } = self;
+        let (indices, samples) = (
+            indices.get(..n).unwrap_or(&[]),
+            samples_m_s2.get(..n).unwrap_or(&[]),
+        );
+        let start = counter.now();
+        boot.params.process(state, indices, samples, |output| {
+            let message = match output {
+                PipelineOutput::Telemetry(t) => {
+                    status.telemetry_sent = status.telemetry_sent.wrapping_add(1);
+                    DeviceToHost::Telemetry(t)
+                }
+                PipelineOutput::Alert(e) => DeviceToHost::Alert(e),
+            };
+            queue_frame(tx, uart, seq, message);
+        });
+        status.busy_ticks = status
+            .busy_ticks
+            .wrapping_add(u64::from(counter.ticks_since(start)));
+        status.samples_processed = status.samples_processed.wrapping_add(n as u32);
+    }
+
+    fn send_greeting(&mut self) {
+        let mut firmware_version = heapless::String::new();
+        let _ = firmware_version.push_str(crate::VERSION);
+        let _ = firmware_version.push_str("+qemu");
+        let greeting = Greeting {
+            protocol_version: PROTOCOL_VERSION,
+            firmware_version,
+            params_identity: self.boot.params.identity,
+            params_source: self.boot.source,
+            sample_rate_hz: self.boot.params.sample_rate_hz(),
+            reset_cause: self.boot.reset_cause,
+            last_panic: self.boot.last_panic.clone(),
+        };
+        self.send(DeviceToHost::Greeting(greeting));
+    }
+
+    fn send(&mut self, message: DeviceToHost) {
+        queue_frame(&mut self.tx, &mut self.uart, &mut self.seq, message);
+    }
+}
+
+/// Encodes `message` with the next sequence number into the TX ring. A message that does
+/// not encode (none can: every one fits [`MAX_FRAME_LEN`]) is skipped, its number kept, so
+/// the host counts it as lost rather than the device stopping.
+fn queue_frame(tx: &mut TxRing, uart: &mut Uart, seq: &mut u32, message: DeviceToHost) {
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let frame = DeviceFrame { seq: *seq, message };
+    *seq = seq.wrapping_add(1);
+    if let Ok(bytes) = encode_frame(&frame, &mut buf) {
+        tx.push(bytes, uart);
+    }
+}

@@ -1,0 +1,68 @@
+//! `supine replay`: a recording through the device image in QEMU, telemetry to CSV.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use anyhow::{Result, bail};
+
+use crate::params_file::ModelSource;
+use crate::recording::Recording;
+use crate::replay::{events_path, replay, write_events, write_telemetry};
+
+/// Arguments of `supine replay`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Run the firmware in QEMU (mps2-an386); the only target for now.
+    #[arg(long)]
+    pub qemu: bool,
+    /// The model parameters (and optional `[device]` table) to build the blob from.
+    #[command(flatten)]
+    pub model: ModelSource,
+    /// The recording whose platform columns are streamed as samples.
+    #[arg(long, value_name = "RIDE.csv")]
+    pub input: PathBuf,
+    /// Where to write the device's telemetry (events go to `<stem>.events.csv`).
+    #[arg(long, value_name = "DEVICE.csv")]
+    pub out: PathBuf,
+    /// Count instructions (QEMU -icount) and print `instructions_per_sample: N`.
+    #[arg(long)]
+    pub icount: bool,
+}
+
+/// Replays and writes the CSVs; Ctrl-C stops QEMU and removes its socket folder.
+pub fn run(args: &Args) -> Result<()> {
+    if !args.qemu {
+        bail!("give --qemu: replay runs the firmware in QEMU (no hardware target yet)");
+    }
+    let file = args.model.load()?;
+    let recording = Recording::read(&args.input)?;
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    // A second handler cannot be installed in one process (e.g. a library caller): then
+    // Ctrl-C keeps its default, which also ends QEMU through the guard's process group.
+    let _ = ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed));
+    let result = replay(&file, &recording, args.icount, &stop)?;
+    let s = &result.session;
+    write_telemetry(&args.out, &s.telemetry, result.sample_rate_hz)?;
+    let events = events_path(&args.out);
+    write_events(&events, &s.events, result.sample_rate_hz)?;
+    if args.icount {
+        println!(
+            "instructions_per_sample: {:.0}",
+            s.instructions_per_sample()
+        );
+    }
+    let raised = s.events.iter().filter(|e| e.is_raise()).count();
+    eprintln!(
+        "replayed {} samples: {} telemetry records, frames lost {}, bad {}, alerts raised {}; wrote {} and {}",
+        result.samples,
+        s.telemetry.len(),
+        s.link.lost_frames,
+        s.link.bad_frames,
+        raised,
+        args.out.display(),
+        events.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,54 @@
+//! The host's reference for the device: what the firmware must produce for given inputs.
+//!
+//! Two references, for two questions:
+//! - [`pipeline`] runs the device's own chain (`DeviceParams::process`, f32) on the host.
+//!   The device runs the same code on the same f32 inputs, so its telemetry and alert
+//!   events are expected bit for bit; exposure is compared at 1e-3 relative to leave room
+//!   for a compiler that fuses differently.
+//! - [`head_f64`] steps the model's f64 realization (before rounding to f32): the accuracy
+//!   reference for the predicted head acceleration (1e-4 m/s^2 max abs over a minute).
+
+use anyhow::{Result, anyhow};
+use supine_core::alerts::AlertEvent;
+use supine_core::blob::DeviceParams;
+use supine_core::model::{ModalState, Model, ModelParams, Output};
+use supine_core::pipeline::{PipelineOutput, PipelineState};
+use supine_core::protocol::Telemetry;
+
+/// What the pipeline produced for a stream: telemetry and alert events in order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PipelineRun {
+    /// Telemetry records (every `decimation`-th sample).
+    pub telemetry: Vec<Telemetry>,
+    /// Alert edges, in the order raised.
+    pub events: Vec<AlertEvent>,
+}
+
+/// Runs `params`' device pipeline on samples `input_m_s2` (litter axes, gravity removed)
+/// with sample indices `indices`, from rest.
+pub fn pipeline(params: &DeviceParams, indices: &[u32], input_m_s2: &[[f32; 3]]) -> PipelineRun {
+    let mut state = PipelineState::new();
+    let mut run = PipelineRun::default();
+    params.process(&mut state, indices, input_m_s2, |out| match out {
+        PipelineOutput::Telemetry(t) => run.telemetry.push(t),
+        PipelineOutput::Alert(e) => run.events.push(e),
+    });
+    run
+}
+
+/// The head acceleration (x, y, z, m/s^2) of the f64 model at `sample_rate_hz` for each
+/// input sample (widened exactly from f32), from rest.
+pub fn head_f64(
+    params: &ModelParams,
+    sample_rate_hz: f64,
+    input_m_s2: &[[f32; 3]],
+) -> Result<Vec<[f64; 3]>> {
+    let realization = Model::new(params)
+        .and_then(|model| model.realization::<3>(sample_rate_hz, &Output::HEAD))
+        .map_err(|e| anyhow!("the model does not discretize at {sample_rate_hz} Hz: {e}"))?;
+    let mut state = ModalState::<f64>::default();
+    Ok(input_m_s2
+        .iter()
+        .map(|x| realization.step(&mut state, x.map(f64::from)))
+        .collect())
+}
