@@ -39,6 +39,8 @@ pub enum Command {
     Predict(commands::predict::Args),
     /// Compare predicted and measured sensor accelerations of a recording (rms, R^2).
     Validate(commands::validate::Args),
+    /// Replay a recording through the firmware in QEMU; write its telemetry as CSV.
+    Replay(commands::replay::Args),
 }
 
 /// Parses the process arguments, runs the command and maps errors to a one-line message.
@@ -65,6 +67,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Fit(args) => commands::fit::run(&args),
         Command::Predict(args) => commands::predict::run(&args),
         Command::Validate(args) => commands::validate::run(&args),
+        Command::Replay(args) => commands::replay::run(&args),
     }
 }
 

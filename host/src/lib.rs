@@ -17,6 +17,8 @@ pub mod params_file;
 pub mod plot;
 pub mod qemu;
 pub mod recording;
+pub mod reference;
+pub mod replay;
 pub mod spectral;
 pub mod synth;
 pub mod validate;

@@ -5,6 +5,7 @@ pub mod model;
 pub mod modes;
 pub mod params;
 pub mod predict;
+pub mod replay;
 pub mod synth;
 pub mod transmissibility;
 pub mod validate;
