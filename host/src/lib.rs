@@ -21,4 +21,5 @@ pub mod reference;
 pub mod replay;
 pub mod spectral;
 pub mod synth;
+pub mod upload_client;
 pub mod validate;
