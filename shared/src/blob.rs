@@ -97,6 +97,24 @@ impl DeviceParams {
         Ok(params)
     }
 
+    /// A realization with the documented default configuration: weighting and axes
+    /// ([`ExposureConfig::DEFAULT`]), alert thresholds, sensor checks, a level mounting,
+    /// and telemetry for every sample.
+    pub fn with_defaults(
+        identity: ParamsIdentity,
+        realization: DeviceRealization,
+    ) -> Result<Self, BlobError> {
+        Self::new(
+            identity,
+            realization,
+            ExposureConfig::DEFAULT,
+            AlertConfig::DEFAULT,
+            SensorCheckConfig::DEFAULT,
+            Mounting::LEVEL,
+            TelemetryConfig::EVERY_SAMPLE,
+        )
+    }
+
     /// The sample rate every stage was built for, Hz.
     pub fn sample_rate_hz(&self) -> f32 {
         self.realization.sample_rate_hz

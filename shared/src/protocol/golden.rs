@@ -8,11 +8,9 @@ use super::{
     DeviceFrame, DeviceToHost, Greeting, HostToDevice, PROTOCOL_VERSION, ParamAck, ParamBegin,
     ParamChunk, ParamsSource, ResetCause, SampleBatch, Status, Telemetry, UploadError,
 };
-use crate::alerts::{AlertConfig, AlertEvent, Level, SensorCheckConfig, SensorFault};
-use crate::blob::{BlobError, DeviceParams, TelemetryConfig};
-use crate::exposure::ExposureConfig;
+use crate::alerts::{AlertEvent, Level, SensorFault};
+use crate::blob::{BlobError, DeviceParams};
 use crate::model::{Axis, DiscreteModal, ModalBlock};
-use crate::mounting::Mounting;
 
 /// Example host-to-device messages, in [`HOST_TO_DEVICE`] order.
 pub fn host_to_device_examples() -> [HostToDevice; 6] {
@@ -150,15 +148,7 @@ pub fn blob_example() -> Result<DeviceParams, BlobError> {
         blocks,
         block_count: 1,
     };
-    DeviceParams::new(
-        [0x5A; 16],
-        realization,
-        ExposureConfig::DEFAULT,
-        AlertConfig::DEFAULT,
-        SensorCheckConfig::DEFAULT,
-        Mounting::LEVEL,
-        TelemetryConfig::EVERY_SAMPLE,
-    )
+    DeviceParams::with_defaults([0x5A; 16], realization)
 }
 
 /// The bytes of [`blob_example`]: header and payload (recorded with `cargo test -p supine-core
