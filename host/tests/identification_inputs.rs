@@ -287,3 +287,27 @@ fn a_malformed_dataset_description_names_the_line() {
     let e = transmissibility_error(&ds, &[]);
     assert!(e.contains("dataset.toml: line 7"), "{e}");
 }
+
+#[test]
+fn the_binary_exits_non_zero_with_one_line_on_stderr() {
+    let (_dir, ds) = dataset();
+    let file = ds.join("s2_rigid.csv");
+    set_cell(&file, 17, 2, "abc");
+    let out = ds.join("H.csv");
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_supine"))
+        .args(["transmissibility", "--dataset"])
+        .arg(&ds)
+        .args(["--case", "rigid", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!output.status.success());
+    let stderr = String::from_utf8(output.stderr).unwrap();
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(stderr.starts_with("supine: "), "{stderr}");
+    assert!(
+        stderr
+            .contains("s2_rigid.csv: line 17, column platform_y: expected a number, found \"abc\"")
+    );
+    assert!(!out.exists());
+}
