@@ -3,11 +3,16 @@
 //!
 //! Each iteration solves (J_F^T J_F + lambda D) d = -J_F^T r over the free variables F,
 //! where a variable is held (not free) when it sits on a bound and the gradient pushes it
-//! outward; D = max(diag J^T J) I (Levenberg's damping, scaled so that lambda is
-//! dimensionless; a parameter without effect gets a zero step, not a singular system). The trial point is projected onto the box; the step is accepted when the
-//! actual reduction is at least 1e-4 of the reduction the linear model predicts for the
-//! projected step, and lambda follows Nielsen's update (lambda *= max(1/3, 1 - (2 rho - 1)^3)
-//! on success, *= nu with nu doubling on failure).
+//! outward, or when it sits on a bound and the solved step would leave the box (it then
+//! joins the held set and the step is solved again: the binding set of projected Newton
+//! methods). D = max(diag J^T J) I: Levenberg's damping, scaled so that lambda is
+//! dimensionless; a parameter without effect gets a zero step, not a singular system.
+//! (Marquardt's D = diag J^T J and a Moré-style trust region on |d| were both tried on
+//! the fit's benchmark and found worse minima.) The trial point is projected onto the
+//! box; the step is accepted when the actual reduction is at least 1e-4 of the reduction
+//! the local quadratic model predicts for the projected step, and lambda follows
+//! Nielsen's update (lambda *= max(1/3, 1 - (2 rho - 1)^3) on success, *= nu with nu
+//! doubling on failure).
 //!
 //! Stops (as scipy's `least_squares`) when an accepted step reduces the cost by less than
 //! `ftol` times the cost, when the step is shorter than `xtol (xtol + |x|)`, when the
