@@ -39,6 +39,10 @@ pub enum Command {
     Predict(commands::predict::Args),
     /// Compare predicted and measured sensor accelerations of a recording (rms, R^2).
     Validate(commands::validate::Args),
+    /// ISO 2631-1 exposure of a recording: predicted head (model) or one channel (no model).
+    Exposure(commands::exposure::Args),
+    /// Write a realistic litter-frame ride (ambulance, rough road, helicopter, lab) as CSV.
+    Ride(commands::ride::Args),
     /// Replay a recording through the firmware in QEMU; write its telemetry as CSV.
     Replay(commands::replay::Args),
 }
@@ -67,6 +71,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Fit(args) => commands::fit::run(&args),
         Command::Predict(args) => commands::predict::run(&args),
         Command::Validate(args) => commands::validate::run(&args),
+        Command::Exposure(args) => commands::exposure::run(&args),
+        Command::Ride(args) => commands::ride::run(&args),
         Command::Replay(args) => commands::replay::run(&args),
     }
 }

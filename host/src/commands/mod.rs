@@ -1,11 +1,13 @@
 //! One module per `supine` subcommand.
 
+pub mod exposure;
 pub mod fit;
 pub mod model;
 pub mod modes;
 pub mod params;
 pub mod predict;
 pub mod replay;
+pub mod ride;
 pub mod synth;
 pub mod transmissibility;
 pub mod validate;
