@@ -8,7 +8,7 @@
 //!     Hello    -> (flush the buffer) Greeting
 //!     GetStatus-> (flush the buffer) Status
 //!     Param*   -> ParamNack(NotStarted)      (issue 6: authenticated upload goes here)
-//!   RX idle for IDLE_FLUSH_POLLS polls -> process what is buffered
+//!   RX idle for 100 ms (IDLE_FLUSH_TICKS) -> process what is buffered
 //!   drain the TX ring into UART0 TX
 //! ```
 //!
@@ -29,6 +29,7 @@ use supine_core::protocol::{
 use crate::board::Uart;
 use crate::cycles::InstructionCounter;
 use crate::stack;
+use crate::telemetry_frame;
 
 /// Bytes of the transmit ring: more than one block's worst-case output.
 const TX_RING_LEN: usize = 4096;
@@ -37,8 +38,12 @@ const TX_RING_LEN: usize = 4096;
 /// the UART: 16 telemetry frames and a few alert frames need about 1 KiB.
 const TX_HEADROOM: usize = 2048;
 
-/// Empty RX polls after which a partial block is processed (the host paused).
-const IDLE_FLUSH_POLLS: u32 = 20_000;
+/// SysTick ticks (25 MHz: 100 ms) without a received byte after which a partial block
+/// is processed: the host paused or the stream ended. Shorter waits would cut blocks
+/// between two sample frames, and partial blocks run one sample at a time (about twice
+/// the instructions per sample). Under QEMU -icount one tick is 40 instructions of
+/// virtual time; an end of stream is flushed by `GetStatus` anyway.
+const IDLE_FLUSH_TICKS: u32 = 2_500_000;
 
 /// Where the running parameters came from and how the device last stopped.
 pub struct Boot {
@@ -77,18 +82,22 @@ impl TxRing {
         while self.free() < bytes.len() && self.len > 0 {
             self.drain_blocking_one(uart);
         }
-        for &b in bytes {
-            if self.len == TX_RING_LEN {
-                // Only if a frame were longer than the ring: send it straight through.
-                uart.write_byte(b);
-                continue;
-            }
-            let tail = (self.head + self.len) % TX_RING_LEN;
-            if let Some(slot) = self.buf.get_mut(tail) {
-                *slot = b;
-            }
-            self.len += 1;
+        if bytes.len() > self.free() {
+            // Only if a frame were longer than the ring: send it straight through.
+            bytes.iter().for_each(|&b| uart.write_byte(b));
+            return;
         }
+        let tail = (self.head + self.len) % TX_RING_LEN;
+        // At most two contiguous pieces: up to the end of the buffer, then from its start.
+        let first = bytes.len().min(TX_RING_LEN - tail);
+        let (a, b) = bytes.split_at(first);
+        if let Some(dst) = self.buf.get_mut(tail..tail + a.len()) {
+            dst.copy_from_slice(a);
+        }
+        if let Some(dst) = self.buf.get_mut(..b.len()) {
+            dst.copy_from_slice(b);
+        }
+        self.len += bytes.len();
     }
 
     fn drain_blocking_one(&mut self, uart: &mut Uart) {
@@ -152,16 +161,16 @@ impl App {
     /// Greets, then serves the host forever.
     pub fn run(mut self) -> ! {
         self.send_greeting();
-        let mut idle_polls: u32 = 0;
+        let mut last_byte = self.counter.now();
         loop {
             match self.uart.try_read_byte() {
                 Some(byte) => {
-                    idle_polls = 0;
+                    last_byte = self.counter.now();
                     self.on_byte(byte);
                 }
                 None => {
-                    idle_polls = idle_polls.saturating_add(1);
-                    if idle_polls == IDLE_FLUSH_POLLS {
+                    if self.buffered > 0 && self.counter.ticks_since(last_byte) >= IDLE_FLUSH_TICKS
+                    {
                         self.process_buffered();
                     }
                 }
@@ -262,16 +271,17 @@ impl App {
             samples_m_s2.get(..n).unwrap_or(&[]),
         );
         let start = counter.now();
-        boot.params.process(state, indices, samples, |output| {
-            let message = match output {
+        boot.params
+            .process(state, indices, samples, |output| match output {
                 PipelineOutput::Telemetry(t) => {
                     status.telemetry_sent = status.telemetry_sent.wrapping_add(1);
-                    DeviceToHost::Telemetry(t)
+                    let mut frame = [0u8; telemetry_frame::MAX_FRAME];
+                    let len = telemetry_frame::encode(*seq, &t, &mut frame);
+                    *seq = seq.wrapping_add(1);
+                    tx.push(frame.get(..len).unwrap_or(&[]), uart);
                 }
-                PipelineOutput::Alert(e) => DeviceToHost::Alert(e),
-            };
-            queue_frame(tx, uart, seq, message);
-        });
+                PipelineOutput::Alert(e) => queue_frame(tx, uart, seq, DeviceToHost::Alert(e)),
+            });
         status.busy_ticks = status
             .busy_ticks
             .wrapping_add(u64::from(counter.ticks_since(start)));

@@ -25,6 +25,7 @@ mod fault;
 pub mod panic_record;
 pub mod params;
 pub mod stack;
+pub mod telemetry_frame;
 
 pub use fault::reset_on_panic;
 

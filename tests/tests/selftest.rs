@@ -42,8 +42,40 @@ fn report() -> &'static SelftestReport {
             "the self-test failed; stderr: {}",
             output.stderr
         );
+        let _ = STDOUT.set(output.stdout.clone());
         parse_selftest(&output.stdout).unwrap_or_else(|err| panic!("{err}"))
     })
+}
+
+/// The self-test's raw stdout (after [`report`] ran it).
+static STDOUT: OnceLock<String> = OnceLock::new();
+
+/// A `key: <n>` line of the self-test's stage timings.
+fn stage_figure(key: &str) -> u64 {
+    report();
+    let stdout = STDOUT.get().expect("the self-test ran");
+    stdout
+        .lines()
+        .find_map(|l| l.strip_prefix(key)?.strip_prefix(": ")?.parse().ok())
+        .unwrap_or_else(|| panic!("no `{key}: <n>` line"))
+}
+
+/// Issue 4's budget: the streaming exposure stage (three axes: weighting, running rms,
+/// VDV, alerts), instructions per sample on the Cortex-M4F under QEMU -icount.
+const MAX_EXPOSURE_STAGE_INSTRUCTIONS: u64 = 250;
+
+#[test]
+fn the_exposure_stage_fits_its_instruction_budget() {
+    let exposure = stage_figure("exposure_stage_instructions_per_sample");
+    let pipeline = stage_figure("pipeline_instructions_per_sample");
+    let frame = stage_figure("telemetry_frame_instructions");
+    let sqrtf = stage_figure("sqrtf_instructions");
+    println!(
+        "exposure stage {exposure}, whole pipeline without frames {pipeline}, telemetry frame {frame}, one libm::sqrtf {sqrtf} (instructions per sample, QEMU -icount)"
+    );
+    // A count below a few instructions per axis means the timing is broken.
+    assert!(exposure >= 30 && pipeline > exposure && frame > 10);
+    assert!(exposure <= MAX_EXPOSURE_STAGE_INSTRUCTIONS);
 }
 
 #[test]

@@ -25,6 +25,10 @@
 //! step_ticks: <n>
 //! baseline_ticks: <n>
 //! instructions_per_step: <n>
+//! exposure_stage_instructions_per_sample: <n>  (weighting, running rms, VDV, alerts; 3 axes)
+//! pipeline_instructions_per_sample: <n>   (DeviceParams::process, telemetry not encoded)
+//! telemetry_frame_instructions: <n>       (hand-written telemetry frame encoding)
+//! sqrtf_instructions: <n>                 (one libm::sqrtf)
 //! stack_high_water_bytes: <n>             (after everything, golden checks included)
 //! stack_size_bytes: <n>
 //! selftest: ok
@@ -137,6 +141,8 @@ fn run() -> Result<(), Failure> {
     // Rounded to the nearest whole instruction.
     let per_step = (net_instructions + timed as u64 / 2) / timed as u64;
     writeln!(out, "instructions_per_step: {per_step}")?;
+
+    time_stages(&counter, &mut out)?;
 
     writeln!(out, "stack_high_water_bytes: {}", stack::high_water_bytes())?;
     writeln!(out, "stack_size_bytes: {}", stack::size_bytes())?;
@@ -257,4 +263,119 @@ fn time_steps(realization: &DeviceRealization, counter: &InstructionCounter) -> 
         }
     });
     (step_ticks, baseline_ticks)
+}
+
+/// Samples in the stage timings: 64 blocks of 16 at the built-in default's 500 Hz.
+const STAGE_SAMPLES: usize = 1024;
+
+/// Times the stages of the device pipeline on the built-in default parameters and prints
+/// instructions per sample (QEMU -icount): the exposure stage alone (`step_block` of the
+/// exposure and the alerts on 16-sample blocks of head accelerations), the whole
+/// `DeviceParams::process` with a no-op `emit`, one telemetry frame's encoding and one
+/// `libm::sqrtf` (the telemetry's six square roots are in software on this target).
+fn time_stages(counter: &InstructionCounter, out: &mut Console) -> Result<(), Failure> {
+    use supine_core::alerts::AlertState;
+    use supine_core::exposure::{ExposureSample, ExposureState};
+    use supine_core::pipeline::{BLOCK_LEN, PipelineState};
+    use supine_core::protocol::Telemetry;
+    use supine_firmware::telemetry_frame;
+
+    let failure = Failure::Golden {
+        what: "default blob",
+        index: 0,
+    };
+    let device = DeviceParams::decode(params::default_blob()).map_err(|_| failure)?;
+    let mut inputs = [[0.0_f32; 3]; BLOCK_LEN];
+    let mut indices = [0u32; BLOCK_LEN];
+    let mut vector = TestVector::new(SEED.wrapping_add(2));
+    let rounds = (STAGE_SAMPLES / BLOCK_LEN) as u32;
+    let per_sample = |ticks: u32, samples: usize| {
+        (u64::from(ticks) * u64::from(INSTRUCTIONS_PER_TICK) + samples as u64 / 2) / samples as u64
+    };
+
+    // Exposure and alerts, on the model's typical outputs (the test vector scaled down).
+    let mut exposure_state = ExposureState::new();
+    let mut alert_state = AlertState::new();
+    let mut samples = [ExposureSample::default(); BLOCK_LEN];
+    let mut ticks = 0u32;
+    for round in 0..rounds {
+        for slot in inputs.iter_mut() {
+            *slot = vector.next().unwrap_or_default().map(|v| 0.5 * v);
+        }
+        let first = round * BLOCK_LEN as u32;
+        let (t, ()) = counter.ticks(|| {
+            device.exposure.step_block(
+                black_box(&mut exposure_state),
+                black_box(&inputs),
+                first,
+                &mut samples,
+            );
+            device
+                .alerts
+                .step_block(&mut alert_state, black_box(&samples), first, |e| {
+                    black_box(e);
+                });
+        });
+        ticks = ticks.wrapping_add(t);
+    }
+    writeln!(
+        out,
+        "exposure_stage_instructions_per_sample: {}",
+        per_sample(ticks, STAGE_SAMPLES)
+    )?;
+
+    let mut state = PipelineState::new();
+    let mut ticks = 0u32;
+    for round in 0..rounds {
+        for (k, (slot, index)) in inputs.iter_mut().zip(indices.iter_mut()).enumerate() {
+            *slot = vector.next().unwrap_or_default();
+            *index = round * BLOCK_LEN as u32 + k as u32;
+        }
+        let (t, ()) = counter.ticks(|| {
+            device.process(black_box(&mut state), &indices, black_box(&inputs), |o| {
+                black_box(o);
+            });
+        });
+        ticks = ticks.wrapping_add(t);
+    }
+    writeln!(
+        out,
+        "pipeline_instructions_per_sample: {}",
+        per_sample(ticks, STAGE_SAMPLES)
+    )?;
+
+    let telemetry = Telemetry {
+        sample_index: 123_456,
+        head_acc_m_s2: [0.1, -0.2, 0.3],
+        running_rms_m_s2: [0.01, 0.02, 0.5],
+        vector_running_rms_m_s2: 0.7,
+        vdv_m_s175: 3.5,
+        alert_level: supine_core::alerts::Level::Warning,
+        fault_flags: 0,
+        valid: true,
+    };
+    let mut frame = [0u8; telemetry_frame::MAX_FRAME];
+    let (t, ()) = counter.ticks(|| {
+        for seq in 0..STAGE_SAMPLES as u32 {
+            black_box(telemetry_frame::encode(
+                black_box(seq + 1_000_000),
+                black_box(&telemetry),
+                &mut frame,
+            ));
+        }
+    });
+    writeln!(
+        out,
+        "telemetry_frame_instructions: {}",
+        per_sample(t, STAGE_SAMPLES)
+    )?;
+    let (t, ()) = counter.ticks(|| {
+        let mut x = 1.234_f32;
+        for _ in 0..STAGE_SAMPLES {
+            x = libm::sqrtf(black_box(x)) + 1.0;
+        }
+        black_box(x);
+    });
+    writeln!(out, "sqrtf_instructions: {}", per_sample(t, STAGE_SAMPLES))?;
+    Ok(())
 }
