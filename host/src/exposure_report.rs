@@ -108,6 +108,13 @@ pub fn prepare(recording: &Recording, channels: &[&[f64]], fs_hz: Option<f64>) -
     let own_hz = recording.sample_rate_hz();
     let path = recording.path.display();
     let start_s = recording.time_s.first().copied().unwrap_or(0.0);
+    if let Some(target_hz) = fs_hz.filter(|f| !rate_supported(*f)) {
+        bail!(
+            "--fs {target_hz}: expected a sample rate within {MIN_SAMPLE_RATE_HZ}..={MAX_SAMPLE_RATE_HZ} Hz"
+        );
+    }
+    // `--fs` at the recording's own rate (to 1 ppm) changes nothing: no conversion.
+    let fs_hz = fs_hz.filter(|f| (f - own_hz).abs() > 1e-6 * own_hz);
     let Some(target_hz) = fs_hz else {
         if !rate_supported(own_hz) {
             bail!(
@@ -123,11 +130,6 @@ pub fn prepare(recording: &Recording, channels: &[&[f64]], fs_hz: Option<f64>) -
             channels: channels.iter().map(|c| c.to_vec()).collect(),
         });
     };
-    if !rate_supported(target_hz) {
-        bail!(
-            "--fs {target_hz}: expected a sample rate within {MIN_SAMPLE_RATE_HZ}..={MAX_SAMPLE_RATE_HZ} Hz"
-        );
-    }
     let resampler = Resampler::new(own_hz, target_hz)?;
     Ok(Prepared {
         sample_rate_hz: target_hz,

@@ -293,6 +293,17 @@ fn fs_resamples_the_recording_before_the_device_runs() {
         );
     }
     assert!(own["resampled_from_hz"].is_null());
+    // --fs at the recording's own rate converts nothing.
+    let same = json(&[
+        "--preset",
+        "paper-litter",
+        "--input",
+        s(&path),
+        "--fs",
+        "1000",
+    ]);
+    assert!(same["resampled_from_hz"].is_null());
+    assert_eq!(same["vector"], own["vector"]);
 }
 
 #[test]
