@@ -26,7 +26,6 @@ use supine_core::protocol::{
     UploadError, encode_frame,
 };
 
-use crate::board::Uart;
 use crate::cycles::InstructionCounter;
 use crate::stack;
 use crate::telemetry_frame;
@@ -45,8 +44,31 @@ const TX_HEADROOM: usize = 2048;
 /// virtual time; an end of stream is flushed by `GetStatus` anyway.
 const IDLE_FLUSH_TICKS: u32 = 2_500_000;
 
+/// The byte link to the host: UART0 (CMSDK) under QEMU, USART1 on the board.
+pub trait ByteLink {
+    /// The received byte, if there is one.
+    fn try_read_byte(&mut self) -> Option<u8>;
+    /// Sends `byte` if the transmitter has room; returns whether it was sent.
+    fn try_write_byte(&mut self, byte: u8) -> bool;
+    /// Sends `byte`, waiting for room.
+    fn write_byte(&mut self, byte: u8) {
+        while !self.try_write_byte(byte) {}
+    }
+}
+
+impl ByteLink for crate::cmsdk_uart::CmsdkUart {
+    fn try_read_byte(&mut self) -> Option<u8> {
+        crate::cmsdk_uart::CmsdkUart::try_read_byte(self)
+    }
+    fn try_write_byte(&mut self, byte: u8) -> bool {
+        crate::cmsdk_uart::CmsdkUart::try_write_byte(self, byte)
+    }
+}
+
 /// Where the running parameters came from and how the device last stopped.
 pub struct Boot {
+    /// Appended to the firmware version in the greeting (`+qemu`, `+blackpill`).
+    pub build: &'static str,
     /// The parameters in use.
     pub params: DeviceParams,
     /// Flash slot or built-in default (with the reason the flash blob was refused).
@@ -78,7 +100,7 @@ impl TxRing {
     }
 
     /// Appends `bytes`, first writing the oldest bytes to `uart` (waiting) if room lacks.
-    fn push(&mut self, bytes: &[u8], uart: &mut Uart) {
+    fn push(&mut self, bytes: &[u8], uart: &mut impl ByteLink) {
         while self.free() < bytes.len() && self.len > 0 {
             self.drain_blocking_one(uart);
         }
@@ -100,7 +122,7 @@ impl TxRing {
         self.len += bytes.len();
     }
 
-    fn drain_blocking_one(&mut self, uart: &mut Uart) {
+    fn drain_blocking_one(&mut self, uart: &mut impl ByteLink) {
         if let Some(&b) = self.buf.get(self.head) {
             uart.write_byte(b);
         }
@@ -109,7 +131,7 @@ impl TxRing {
     }
 
     /// Writes to `uart` while it takes bytes without waiting.
-    fn drain(&mut self, uart: &mut Uart) {
+    fn drain(&mut self, uart: &mut impl ByteLink) {
         while self.len > 0 {
             let Some(&b) = self.buf.get(self.head) else {
                 return;
@@ -124,8 +146,8 @@ impl TxRing {
 }
 
 /// The running monitor.
-pub struct App {
-    uart: Uart,
+pub struct App<U: ByteLink> {
+    uart: U,
     counter: InstructionCounter,
     boot: Boot,
     state: PipelineState,
@@ -137,11 +159,12 @@ pub struct App {
     samples_m_s2: [[f32; 3]; BLOCK_LEN],
     buffered: usize,
     next_index: Option<u32>,
+    last_byte: u32,
 }
 
-impl App {
+impl<U: ByteLink> App<U> {
     /// A monitor on `uart`, timing its pipeline with `counter`, running `boot.params`.
-    pub fn new(uart: Uart, counter: InstructionCounter, boot: Boot) -> Self {
+    pub fn new(uart: U, counter: InstructionCounter, boot: Boot) -> Self {
         Self {
             uart,
             counter,
@@ -155,28 +178,47 @@ impl App {
             samples_m_s2: [[0.0; 3]; BLOCK_LEN],
             buffered: 0,
             next_index: None,
+            last_byte: 0,
         }
     }
 
-    /// Greets, then serves the host forever.
+    /// Greets, then serves the host forever (replay: samples arrive over the link).
     pub fn run(mut self) -> ! {
-        self.send_greeting();
-        let mut last_byte = self.counter.now();
+        self.greet();
         loop {
-            match self.uart.try_read_byte() {
-                Some(byte) => {
-                    last_byte = self.counter.now();
-                    self.on_byte(byte);
-                }
-                None => {
-                    if self.buffered > 0 && self.counter.ticks_since(last_byte) >= IDLE_FLUSH_TICKS
-                    {
-                        self.process_buffered();
-                    }
+            self.poll();
+        }
+    }
+
+    /// Sends the greeting (at boot; again on `Hello`).
+    pub fn greet(&mut self) {
+        self.last_byte = self.counter.now();
+        self.send_greeting();
+    }
+
+    /// One pass of the main loop: take a received byte (or process a partial block after
+    /// a pause), then send what the link takes without waiting.
+    pub fn poll(&mut self) {
+        match self.uart.try_read_byte() {
+            Some(byte) => {
+                self.last_byte = self.counter.now();
+                self.on_byte(byte);
+            }
+            None => {
+                if self.buffered > 0 && self.counter.ticks_since(self.last_byte) >= IDLE_FLUSH_TICKS
+                {
+                    self.process_buffered();
                 }
             }
-            self.tx.drain(&mut self.uart);
         }
+        self.tx.drain(&mut self.uart);
+    }
+
+    /// A sample from a local sensor (litter axes, gravity removed, m/s^2), as if the host
+    /// had sent it: buffered and processed in blocks.
+    pub fn push_sample(&mut self, index: u32, accel_m_s2: [f32; 3]) {
+        self.last_byte = self.counter.now();
+        self.accept_sample(index, accel_m_s2);
     }
 
     fn on_byte(&mut self, byte: u8) {
@@ -218,28 +260,31 @@ impl App {
 
     fn on_samples(&mut self, batch: &SampleBatch) {
         for (offset, &sample) in (0u32..).zip(batch.accel_m_s2.iter()) {
-            let index = batch.first_sample_index.wrapping_add(offset);
-            if let Some(expected) = self.next_index
-                && index > expected
-            {
-                let missing = index - expected;
-                self.status.samples_dropped = self.status.samples_dropped.saturating_add(missing);
-            }
-            self.next_index = Some(index.wrapping_add(1));
-            if let (Some(i), Some(x)) = (
-                self.indices.get_mut(self.buffered),
-                self.samples_m_s2.get_mut(self.buffered),
-            ) {
-                *i = index;
-                *x = sample;
-                self.buffered += 1;
-            } else {
-                // Unreachable (full blocks are processed at once), but counted if ever hit.
-                self.status.samples_dropped = self.status.samples_dropped.saturating_add(1);
-            }
-            if self.buffered == BLOCK_LEN {
-                self.process_buffered();
-            }
+            self.accept_sample(batch.first_sample_index.wrapping_add(offset), sample);
+        }
+    }
+
+    fn accept_sample(&mut self, index: u32, sample: [f32; 3]) {
+        if let Some(expected) = self.next_index
+            && index > expected
+        {
+            let missing = index - expected;
+            self.status.samples_dropped = self.status.samples_dropped.saturating_add(missing);
+        }
+        self.next_index = Some(index.wrapping_add(1));
+        if let (Some(i), Some(x)) = (
+            self.indices.get_mut(self.buffered),
+            self.samples_m_s2.get_mut(self.buffered),
+        ) {
+            *i = index;
+            *x = sample;
+            self.buffered += 1;
+        } else {
+            // Unreachable (full blocks are processed at once), but counted if ever hit.
+            self.status.samples_dropped = self.status.samples_dropped.saturating_add(1);
+        }
+        if self.buffered == BLOCK_LEN {
+            self.process_buffered();
         }
     }
 
@@ -291,7 +336,7 @@ impl App {
     fn send_greeting(&mut self) {
         let mut firmware_version = heapless::String::new();
         let _ = firmware_version.push_str(crate::VERSION);
-        let _ = firmware_version.push_str("+qemu");
+        let _ = firmware_version.push_str(self.boot.build);
         let greeting = Greeting {
             protocol_version: PROTOCOL_VERSION,
             firmware_version,
@@ -312,7 +357,7 @@ impl App {
 /// Encodes `message` with the next sequence number into the TX ring. A message that does
 /// not encode (none can: every one fits [`MAX_FRAME_LEN`]) is skipped, its number kept, so
 /// the host counts it as lost rather than the device stopping.
-fn queue_frame(tx: &mut TxRing, uart: &mut Uart, seq: &mut u32, message: DeviceToHost) {
+fn queue_frame(tx: &mut TxRing, uart: &mut impl ByteLink, seq: &mut u32, message: DeviceToHost) {
     let mut buf = [0u8; MAX_FRAME_LEN];
     let frame = DeviceFrame { seq: *seq, message };
     *seq = seq.wrapping_add(1);

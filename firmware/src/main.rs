@@ -26,6 +26,7 @@ fn main() -> ! {
         exit::exit(exit::FAILURE)
     };
     let boot = Boot {
+        build: "+qemu",
         params,
         source,
         reset_cause: if last_panic.is_some() {

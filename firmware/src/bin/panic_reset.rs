@@ -28,6 +28,7 @@ fn main() -> ! {
         exit::exit(exit::FAILURE)
     };
     let boot = Boot {
+        build: "+qemu",
         params,
         source,
         reset_cause: ResetCause::Panic,
