@@ -38,7 +38,13 @@ fn main() {
 
 /// Copies `<root>/memory.x` next to the build outputs and adds the link arguments.
 fn link_with_root_memory_map(manifest_dir: &std::path::Path, out_dir: &std::path::Path) {
-    let memory_x = manifest_dir.join("..").join("memory.x");
+    // The real board has its own map; every QEMU image uses the repository's one.
+    let board = env::var_os("CARGO_FEATURE_BOARD_BLACKPILL").is_some();
+    let memory_x = if board {
+        manifest_dir.join("boards").join("blackpill-memory.x")
+    } else {
+        manifest_dir.join("..").join("memory.x")
+    };
     fs::copy(&memory_x, out_dir.join("memory.x"))
         .unwrap_or_else(|err| panic!("cannot copy {}: {err}", memory_x.display()));
     println!("cargo:rerun-if-changed={}", memory_x.display());
@@ -48,6 +54,10 @@ fn link_with_root_memory_map(manifest_dir: &std::path::Path, out_dir: &std::path
     if env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none") {
         println!("cargo:rustc-link-arg=--nmagic");
         println!("cargo:rustc-link-arg=-Tlink.x");
+        if board {
+            // defmt's symbol table for the board's diagnostics (defmt-rtt).
+            println!("cargo:rustc-link-arg=-Tdefmt.x");
+        }
     }
 }
 

@@ -3,17 +3,17 @@
 //! A panic is recorded ([`crate::panic_record`]) and reported on semihosting stderr. The
 //! product image ([`reset_on_panic`]) then resets, so the device keeps running and names
 //! the panic in its next greeting; the test images instead end QEMU with [`exit::PANIC`]
-//! so a test sees the failure at once instead of a hang. A HardFault always ends the run
-//! with [`exit::HARD_FAULT`].
+//! so a test sees the failure at once instead of a hang. A HardFault ends the run
+//! with [`exit::HARD_FAULT`] under QEMU. On the real board (feature `board-blackpill`)
+//! both reset the device and nothing goes to semihosting.
 
+#[cfg(not(feature = "board-blackpill"))]
 use core::fmt::Write;
 use core::panic::PanicInfo;
 use core::sync::atomic::{AtomicBool, Ordering};
 
-use cortex_m_rt::{ExceptionFrame, exception};
-use cortex_m_semihosting::hio;
-
 use crate::{exit, panic_record};
+use cortex_m_rt::{ExceptionFrame, exception};
 
 /// Set by the product image: a panic resets instead of ending the run.
 static RESET_ON_PANIC: AtomicBool = AtomicBool::new(false);
@@ -27,10 +27,7 @@ pub fn reset_on_panic() {
 fn panic(info: &PanicInfo<'_>) -> ! {
     cortex_m::interrupt::disable();
     panic_record::store(&format_args!("{}", info.message()));
-    if let Ok(mut stderr) = hio::hstderr() {
-        // Nothing more can be done if the debugger refuses the message; go on regardless.
-        let _ = writeln!(stderr, "{info}");
-    }
+    report(&format_args!("{info}"));
     if RESET_ON_PANIC.load(Ordering::Relaxed) {
         cortex_m::peripheral::SCB::sys_reset()
     }
@@ -39,8 +36,21 @@ fn panic(info: &PanicInfo<'_>) -> ! {
 
 #[exception]
 unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
-    if let Ok(mut stderr) = hio::hstderr() {
-        let _ = writeln!(stderr, "hard fault at pc {:#010x}", frame.pc());
-    }
+    report(&format_args!("hard fault at pc {:#010x}", frame.pc()));
+    #[cfg(feature = "board-blackpill")]
+    cortex_m::peripheral::SCB::sys_reset();
+    #[cfg(not(feature = "board-blackpill"))]
     exit::exit(exit::HARD_FAULT)
+}
+
+/// Writes a line on semihosting stderr (QEMU). On the real board nothing: semihosting
+/// without a debugger would stop the core, and the panic record carries the message.
+fn report(line: &core::fmt::Arguments<'_>) {
+    #[cfg(not(feature = "board-blackpill"))]
+    if let Ok(mut stderr) = cortex_m_semihosting::hio::hstderr() {
+        // Nothing more can be done if the debugger refuses the message; go on regardless.
+        let _ = writeln!(stderr, "{line}");
+    }
+    #[cfg(feature = "board-blackpill")]
+    let _ = line;
 }

@@ -1,0 +1,125 @@
+//! The monitor on a real board: WeAct STM32F411CE "Black Pill" (Cortex-M4F), an ST LIS3DH
+//! on I2C1 (PB8 SCL, PB9 SDA, 400 kHz), the host on USART1 (PA9 TX, PA10 RX, 921,600 bd).
+//!
+//! Same main loop as under QEMU ([`App`]); samples come from the accelerometer
+//! ([`Lis3dhSource`]: counts to m/s^2, rotated to litter axes, gravity removed with the
+//! blob's mounting calibration) instead of the UART. The independent watchdog resets a
+//! hung loop after 250 ms; defmt over RTT carries diagnostics, USART1 only protocol frames.
+//! The blob in flash must be built for the sensor's 400 Hz output rate.
+#![no_std]
+#![no_main]
+
+use cortex_m_rt::entry;
+use defmt_rtt as _;
+use stm32f4xx_hal::i2c::{I2c, Mode as I2cMode};
+use stm32f4xx_hal::pac;
+use stm32f4xx_hal::prelude::*;
+use stm32f4xx_hal::rcc::Config;
+use stm32f4xx_hal::serial::{Rx, Serial, Tx};
+use stm32f4xx_hal::watchdog::IndependentWatchdog;
+use supine_core::protocol::ResetCause;
+use supine_firmware::app::{App, Boot, ByteLink};
+use supine_firmware::cycles::InstructionCounter;
+use supine_firmware::{panic_record, params};
+use supine_sensor::{Lis3dhSource, SampleSource};
+
+/// USART1 as the monitor's byte link.
+struct Usart1 {
+    tx: Tx<pac::USART1>,
+    rx: Rx<pac::USART1>,
+}
+
+impl ByteLink for Usart1 {
+    fn try_read_byte(&mut self) -> Option<u8> {
+        // Overrun and framing errors drop the byte: the frame's CRC-less COBS/postcard
+        // decode then fails and the frame is counted as bad.
+        embedded_hal_nb::serial::Read::read(&mut self.rx).ok()
+    }
+
+    fn try_write_byte(&mut self, byte: u8) -> bool {
+        !matches!(
+            embedded_hal_nb::serial::Write::write(&mut self.tx, byte),
+            Err(nb::Error::WouldBlock)
+        )
+    }
+}
+
+#[entry]
+fn main() -> ! {
+    supine_firmware::reset_on_panic();
+    let last_panic = panic_record::take();
+    let (Some(dp), Some(cp)) = (pac::Peripherals::take(), cortex_m::Peripherals::take()) else {
+        // Only reachable if something took the peripherals before main.
+        cortex_m::peripheral::SCB::sys_reset()
+    };
+    let mut watchdog = IndependentWatchdog::new(dp.IWDG);
+    watchdog.start(250.millis());
+
+    let mut rcc = dp.RCC.freeze(Config::hse(25.MHz()).sysclk(64.MHz()));
+    let gpioa = dp.GPIOA.split(&mut rcc);
+    let gpiob = dp.GPIOB.split(&mut rcc);
+
+    let Ok((params, source)) = params::load() else {
+        defmt::error!("the built-in parameters are refused: broken build");
+        cortex_m::peripheral::SCB::sys_reset()
+    };
+    match source {
+        supine_core::protocol::ParamsSource::Flash { slot } => {
+            defmt::info!("parameters from flash slot {}", slot)
+        }
+        supine_core::protocol::ParamsSource::BuiltInDefault { reason } => {
+            defmt::warn!(
+                "built-in default parameters: flash blob refused ({})",
+                reason.code()
+            )
+        }
+    }
+    let mounting = params.mounting;
+
+    let Ok(serial) = Serial::new(dp.USART1, (gpioa.pa9, gpioa.pa10), 921_600.bps(), &mut rcc)
+    else {
+        defmt::error!("USART1 configuration refused");
+        cortex_m::peripheral::SCB::sys_reset()
+    };
+    let (tx, rx) = serial.split();
+
+    let i2c = I2c::new(
+        dp.I2C1,
+        (gpiob.pb8, gpiob.pb9),
+        I2cMode::standard(400.kHz()),
+        &mut rcc,
+    );
+    let mut sensor = match Lis3dhSource::new(i2c, mounting) {
+        Ok(sensor) => Some(sensor),
+        Err(_) => {
+            // Keep serving the host (greeting, status); the missing samples show as none.
+            defmt::error!("no LIS3DH on I2C1");
+            None
+        }
+    };
+
+    let boot = Boot {
+        build: "+blackpill",
+        params,
+        source,
+        reset_cause: if last_panic.is_some() {
+            ResetCause::Panic
+        } else {
+            ResetCause::PowerOn
+        },
+        last_panic: last_panic.unwrap_or_default(),
+    };
+    let mut app = App::new(Usart1 { tx, rx }, InstructionCounter::new(cp.SYST), boot);
+    app.greet();
+    loop {
+        app.poll();
+        if let Some(source) = sensor.as_mut() {
+            match source.poll() {
+                Ok(Some((index, accel_m_s2))) => app.push_sample(index, accel_m_s2),
+                Ok(None) => {}
+                Err(_) => defmt::warn!("LIS3DH read failed"),
+            }
+        }
+        watchdog.feed();
+    }
+}
