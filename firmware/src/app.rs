@@ -22,7 +22,7 @@ use supine_core::blob::DeviceParams;
 use supine_core::pipeline::{BLOCK_LEN, PipelineOutput, PipelineState};
 use supine_core::protocol::{
     DeviceFrame, DeviceToHost, FrameAccumulator, FrameEvent, Greeting, HostToDevice, MAX_FRAME_LEN,
-    PANIC_MESSAGE_LEN, PROTOCOL_VERSION, ParamsSource, ResetCause, SampleBatch, Status,
+    PANIC_MESSAGE_LEN, PROTOCOL_VERSION, ParamsSource, ResetCause, SampleBatch, Status, Telemetry,
     UploadError, encode_frame,
 };
 
@@ -30,8 +30,10 @@ use crate::cycles::InstructionCounter;
 use crate::stack;
 use crate::telemetry_frame;
 
-/// Bytes of the transmit ring: more than one block's worst-case output.
+/// Bytes of the transmit ring: more than one block's worst-case output. A power of two,
+/// so `i & TX_MASK` indexes it without a bounds check.
 const TX_RING_LEN: usize = 4096;
+const TX_MASK: usize = TX_RING_LEN - 1;
 
 /// Free ring space required before a block is processed, so the pipeline never waits on
 /// the UART: 16 telemetry frames and a few alert frames need about 1 KiB.
@@ -120,6 +122,17 @@ impl TxRing {
             dst.copy_from_slice(b);
         }
         self.len += bytes.len();
+    }
+
+    /// Encodes a telemetry frame straight into the ring (the hot path: no copy).
+    fn push_telemetry(&mut self, seq: u32, t: &Telemetry, uart: &mut impl ByteLink) {
+        while self.free() < telemetry_frame::MAX_FRAME && self.len > 0 {
+            self.drain_blocking_one(uart);
+        }
+        let tail = self.head + self.len;
+        let buf = &mut self.buf;
+        let len = telemetry_frame::encode_with(seq, t, |i, b| buf[(tail + i) & TX_MASK] = b);
+        self.len += len;
     }
 
     fn drain_blocking_one(&mut self, uart: &mut impl ByteLink) {
@@ -320,10 +333,8 @@ impl<U: ByteLink> App<U> {
             .process(state, indices, samples, |output| match output {
                 PipelineOutput::Telemetry(t) => {
                     status.telemetry_sent = status.telemetry_sent.wrapping_add(1);
-                    let mut frame = [0u8; telemetry_frame::MAX_FRAME];
-                    let len = telemetry_frame::encode(*seq, &t, &mut frame);
+                    tx.push_telemetry(*seq, &t, uart);
                     *seq = seq.wrapping_add(1);
-                    tx.push(frame.get(..len).unwrap_or(&[]), uart);
                 }
                 PipelineOutput::Alert(e) => queue_frame(tx, uart, seq, DeviceToHost::Alert(e)),
             });

@@ -28,76 +28,89 @@ const MAX_RAW: usize = 5 + 1 + 5 + 8 * 4 + 1 + 1 + 1;
 /// Longest frame: COBS adds one byte per 254 (one here) plus the terminating zero.
 pub const MAX_FRAME: usize = MAX_RAW + 2;
 
-fn varint(out: &mut [u8; MAX_RAW], at: &mut usize, mut v: u32) {
-    loop {
-        let byte = (v & 0x7F) as u8;
-        v >>= 7;
-        if let Some(slot) = out.get_mut(*at) {
-            *slot = if v == 0 { byte } else { byte | 0x80 };
+/// Scratch size, a power of two above [`MAX_RAW`], so `i & SCRATCH_MASK` indexes it
+/// without a bounds check (and cannot fail).
+const SCRATCH: usize = 64;
+const SCRATCH_MASK: usize = SCRATCH - 1;
+
+struct Raw {
+    bytes: [u8; SCRATCH],
+    len: usize,
+}
+
+impl Raw {
+    #[inline(always)]
+    fn byte(&mut self, b: u8) {
+        self.bytes[self.len & SCRATCH_MASK] = b;
+        self.len += 1;
+    }
+
+    #[inline(always)]
+    fn varint(&mut self, mut v: u32) {
+        while v >= 0x80 {
+            self.byte((v as u8) | 0x80);
+            v >>= 7;
         }
-        *at += 1;
-        if v == 0 {
-            return;
+        self.byte(v as u8);
+    }
+
+    #[inline(always)]
+    fn float(&mut self, v: f32) {
+        for b in v.to_le_bytes() {
+            self.byte(b);
         }
     }
 }
 
-fn float(out: &mut [u8; MAX_RAW], at: &mut usize, v: f32) {
-    if let Some(slot) = out.get_mut(*at..*at + 4) {
-        slot.copy_from_slice(&v.to_le_bytes());
-    }
-    *at += 4;
-}
-
-/// Encodes the frame into `frame`; returns its length (terminating zero included).
-pub fn encode(seq: u32, t: &Telemetry, frame: &mut [u8; MAX_FRAME]) -> usize {
-    let mut raw = [0u8; MAX_RAW];
-    let mut n = 0;
-    varint(&mut raw, &mut n, seq);
-    varint(&mut raw, &mut n, u32::from(TELEMETRY_VARIANT));
-    varint(&mut raw, &mut n, t.sample_index);
+/// Encodes the frame, handing each byte to `put(offset, byte)` (offsets `0..len`, not in
+/// order: COBS writes each run's code byte after the run); returns the frame's length,
+/// terminating zero included (at most [`MAX_FRAME`]).
+#[inline(always)]
+pub fn encode_with(seq: u32, t: &Telemetry, mut put: impl FnMut(usize, u8)) -> usize {
+    let mut raw = Raw {
+        bytes: [0; SCRATCH],
+        len: 0,
+    };
+    raw.varint(seq);
+    raw.byte(TELEMETRY_VARIANT);
+    raw.varint(t.sample_index);
     for v in t.head_acc_m_s2 {
-        float(&mut raw, &mut n, v);
+        raw.float(v);
     }
     for v in t.running_rms_m_s2 {
-        float(&mut raw, &mut n, v);
+        raw.float(v);
     }
-    float(&mut raw, &mut n, t.vector_running_rms_m_s2);
-    float(&mut raw, &mut n, t.vdv_m_s175);
-    varint(&mut raw, &mut n, t.alert_level as u32);
-    // postcard writes a u8 and a bool as one raw byte each.
-    if let Some(slot) = raw.get_mut(n..n + 2) {
-        slot.copy_from_slice(&[t.fault_flags, u8::from(t.valid)]);
-    }
-    n += 2;
-    cobs(raw.get(..n).unwrap_or(&[]), frame)
-}
-
-/// COBS of `raw` (shorter than 254 bytes) and the terminating zero; returns the length.
-fn cobs(raw: &[u8], frame: &mut [u8; MAX_FRAME]) -> usize {
-    let mut code_at = 0;
-    let mut out = 1;
-    let mut code: u8 = 1;
-    for &b in raw {
+    raw.float(t.vector_running_rms_m_s2);
+    raw.float(t.vdv_m_s175);
+    // The level's variant index (< 128: one varint byte); postcard writes a u8 and a
+    // bool as one raw byte each.
+    raw.byte(t.alert_level as u8);
+    raw.byte(t.fault_flags);
+    raw.byte(u8::from(t.valid));
+    // COBS (the payload is shorter than 254 bytes: one code per zero) and the zero.
+    let (mut code_at, mut code, mut out) = (0usize, 1u8, 1usize);
+    for i in 0..raw.len.min(MAX_RAW) {
+        let b = raw.bytes[i & SCRATCH_MASK];
         if b == 0 {
-            if let Some(slot) = frame.get_mut(code_at) {
-                *slot = code;
-            }
+            put(code_at, code);
             code_at = out;
             code = 1;
         } else {
-            if let Some(slot) = frame.get_mut(out) {
-                *slot = b;
-            }
+            put(out, b);
             code += 1;
         }
         out += 1;
     }
-    if let Some(slot) = frame.get_mut(code_at) {
-        *slot = code;
-    }
-    if let Some(slot) = frame.get_mut(out) {
-        *slot = 0;
-    }
+    put(code_at, code);
+    put(out, 0);
     out + 1
+}
+
+/// Encodes the frame into `frame`; returns its length (terminating zero included).
+pub fn encode(seq: u32, t: &Telemetry, frame: &mut [u8; MAX_FRAME]) -> usize {
+    encode_with(seq, t, |i, b| {
+        if let Some(slot) = frame.get_mut(i) {
+            *slot = b;
+        }
+    })
 }
