@@ -5,14 +5,17 @@
 //! built-in test vector for the QEMU tests, and `src/bin/panics.rs` and
 //! `src/bin/hardfault.rs` prove that a panic and a fault end a run with a failing status.
 //!
-//! `src/main.rs` runs [`app::App`], the monitor's main loop; `src/bin/panic_reset.rs` is
-//! the same monitor that panics once at first boot, to test the panic record across a reset.
+//! `src/main.rs` runs [`app::App`], the monitor's main loop, with replayed samples from
+//! the UART; `src/bin/panic_reset.rs` is the same monitor that panics once at first boot,
+//! to test the panic record across a reset; `src/bin/blackpill.rs` (feature
+//! `board-blackpill`, `cargo fw-board`) is the monitor on an STM32F411 with an LIS3DH.
 //!
 //! Each module has one job: [`board`] names the board's types, [`cmsdk_uart`] drives its
 //! UART, [`console`] writes lines to the debugger's stdout (semihosting), [`exit`] ends a
 //! run with a status, [`cycles`] counts instructions, [`stack`] measures the stack's
-//! high-water mark and [`params`] loads the model parameters, [`panic_record`] keeps the last panic across a
-//! reset and [`app`] is the monitor.
+//! high-water mark, [`params`] loads the model parameters, [`panic_record`] keeps the last
+//! panic across a reset, [`telemetry_frame`] encodes the per-sample frame and [`app`] is
+//! the monitor.
 #![no_std]
 
 pub mod app;
