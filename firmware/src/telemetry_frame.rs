@@ -28,21 +28,29 @@ const MAX_RAW: usize = 5 + 1 + 5 + 8 * 4 + 1 + 1 + 1;
 /// Longest frame: COBS adds one byte per 254 (one here) plus the terminating zero.
 pub const MAX_FRAME: usize = MAX_RAW + 2;
 
-/// Scratch size, a power of two above [`MAX_RAW`], so `i & SCRATCH_MASK` indexes it
-/// without a bounds check (and cannot fail).
-const SCRATCH: usize = 64;
-const SCRATCH_MASK: usize = SCRATCH - 1;
-
-struct Raw {
-    bytes: [u8; SCRATCH],
-    len: usize,
+/// COBS encoder writing through `put` as the payload is produced, one pass, no scratch
+/// buffer: each nonzero byte goes to its place at once; each zero closes a run by writing
+/// the run's code byte where the run started.
+struct Cobs<P: FnMut(usize, u8)> {
+    put: P,
+    code_at: usize,
+    code: u8,
+    out: usize,
 }
 
-impl Raw {
+impl<P: FnMut(usize, u8)> Cobs<P> {
     #[inline(always)]
     fn byte(&mut self, b: u8) {
-        self.bytes[self.len & SCRATCH_MASK] = b;
-        self.len += 1;
+        if b == 0 {
+            (self.put)(self.code_at, self.code);
+            self.code_at = self.out;
+            self.code = 1;
+        } else {
+            (self.put)(self.out, b);
+            // Runs stay below 254 bytes: the whole payload is shorter than that.
+            self.code += 1;
+        }
+        self.out += 1;
     }
 
     #[inline(always)]
@@ -60,50 +68,44 @@ impl Raw {
             self.byte(b);
         }
     }
+
+    /// Closes the last run and writes the terminating zero; returns the frame length.
+    #[inline(always)]
+    fn finish(mut self) -> usize {
+        (self.put)(self.code_at, self.code);
+        (self.put)(self.out, 0);
+        self.out + 1
+    }
 }
 
 /// Encodes the frame, handing each byte to `put(offset, byte)` (offsets `0..len`, not in
 /// order: COBS writes each run's code byte after the run); returns the frame's length,
 /// terminating zero included (at most [`MAX_FRAME`]).
 #[inline(always)]
-pub fn encode_with(seq: u32, t: &Telemetry, mut put: impl FnMut(usize, u8)) -> usize {
-    let mut raw = Raw {
-        bytes: [0; SCRATCH],
-        len: 0,
+pub fn encode_with(seq: u32, t: &Telemetry, put: impl FnMut(usize, u8)) -> usize {
+    let mut c = Cobs {
+        put,
+        code_at: 0,
+        code: 1,
+        out: 1,
     };
-    raw.varint(seq);
-    raw.byte(TELEMETRY_VARIANT);
-    raw.varint(t.sample_index);
+    c.varint(seq);
+    c.byte(TELEMETRY_VARIANT);
+    c.varint(t.sample_index);
     for v in t.head_acc_m_s2 {
-        raw.float(v);
+        c.float(v);
     }
     for v in t.running_rms_m_s2 {
-        raw.float(v);
+        c.float(v);
     }
-    raw.float(t.vector_running_rms_m_s2);
-    raw.float(t.vdv_m_s175);
+    c.float(t.vector_running_rms_m_s2);
+    c.float(t.vdv_m_s175);
     // The level's variant index (< 128: one varint byte); postcard writes a u8 and a
     // bool as one raw byte each.
-    raw.byte(t.alert_level as u8);
-    raw.byte(t.fault_flags);
-    raw.byte(u8::from(t.valid));
-    // COBS (the payload is shorter than 254 bytes: one code per zero) and the zero.
-    let (mut code_at, mut code, mut out) = (0usize, 1u8, 1usize);
-    for i in 0..raw.len.min(MAX_RAW) {
-        let b = raw.bytes[i & SCRATCH_MASK];
-        if b == 0 {
-            put(code_at, code);
-            code_at = out;
-            code = 1;
-        } else {
-            put(out, b);
-            code += 1;
-        }
-        out += 1;
-    }
-    put(code_at, code);
-    put(out, 0);
-    out + 1
+    c.byte(t.alert_level as u8);
+    c.byte(t.fault_flags);
+    c.byte(u8::from(t.valid));
+    c.finish()
 }
 
 /// Encodes the frame into `frame`; returns its length (terminating zero included).

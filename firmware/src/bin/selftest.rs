@@ -362,6 +362,8 @@ fn time_stages(counter: &InstructionCounter, out: &mut Console) -> Result<(), Fa
                 black_box(&telemetry),
                 &mut frame,
             ));
+            // Read the frame, or the compiler drops the stores and most of the work.
+            black_box(&mut frame);
         }
     });
     writeln!(
