@@ -9,6 +9,7 @@ pub mod dataset;
 pub mod device_params;
 pub mod exposure_report;
 pub mod firmware;
+pub mod flash;
 pub mod fit;
 pub mod geomean;
 pub mod h_csv;

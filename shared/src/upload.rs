@@ -92,6 +92,16 @@ fn commit_counter(bytes: &[u8]) -> Option<u32> {
     (record[..4] == COMMIT_MAGIC && word(8) == commit_crc(blob, counter)).then_some(counter)
 }
 
+/// The commit record that follows `blob` in its slot once it is committed with `counter`:
+/// written by the device after an update, and by the host into a region image.
+pub fn commit_record(blob: &[u8], counter: u32) -> [u8; COMMIT_LEN] {
+    let mut record = [0u8; COMMIT_LEN];
+    record[..4].copy_from_slice(&COMMIT_MAGIC);
+    record[4..8].copy_from_slice(&counter.to_le_bytes());
+    record[8..].copy_from_slice(&commit_crc(blob, counter).to_le_bytes());
+    record
+}
+
 fn commit_crc(blob: &[u8], counter: u32) -> u32 {
     let mut digest = crate::blob::CRC32.digest();
     digest.update(blob);
@@ -285,10 +295,7 @@ impl Upload {
             Some(0) => 1,
             _ => 0,
         };
-        let mut record = [0u8; COMMIT_LEN];
-        record[..4].copy_from_slice(&COMMIT_MAGIC);
-        record[4..8].copy_from_slice(&self.counter.to_le_bytes());
-        record[8..].copy_from_slice(&commit_crc(blob, self.counter).to_le_bytes());
+        let record = commit_record(blob, self.counter);
         flash.erase(target).map_err(|_| UploadError::Flash)?;
         flash
             .write(target, 0, blob)

@@ -1,0 +1,176 @@
+//! Getting a parameter file onto a device: the blob for one sample rate, the PARAMS
+//! region image a loader or programmer places (QEMU's `-device loader`, probe-rs), and the
+//! authenticated upload over a running device's link.
+//!
+//! A region image covers the whole 64 KiB region: slot A holds the blob and a commit
+//! record, everything else is erased (0xFF). Writing the whole region matters: a stale
+//! committed slot B left by an earlier upload would otherwise win the boot selection.
+
+use std::io::{Read, Write};
+use std::path::Path;
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+use anyhow::{Result, anyhow, bail};
+use supine_core::blob::DeviceParams;
+use supine_core::protocol::{Greeting, HostToDevice};
+use supine_core::upload::{
+    COMMIT_LEN, KEY_LEN, ParamFlash, SLOT_COUNT, SLOT_LEN, commit_record, select,
+};
+
+use crate::device_params::{self, identity_hex};
+use crate::link::{FrameReader, FrameWriter};
+use crate::params_file::ParamFile;
+use crate::upload_client::{self, Uploaded};
+
+/// Bytes of the PARAMS region image: both slots.
+pub const REGION_LEN: usize = SLOT_COUNT * SLOT_LEN;
+
+/// Update counter of the commit record in a region image from [`qemu_region_image`].
+/// Uploads over the link use larger counters (by default the Unix time in seconds).
+pub const REGION_IMAGE_COUNTER: u32 = 1;
+
+/// The development device key, committed for QEMU and tests (never for a real device).
+pub const DEV_KEY_PATH: &str = "firmware/keys/dev-device.key";
+
+/// The device parameters for `file` at `sample_rate_hz` and their blob bytes.
+pub fn device_blob(file: &ParamFile, sample_rate_hz: f64) -> Result<(DeviceParams, Vec<u8>)> {
+    if !(sample_rate_hz.is_finite() && sample_rate_hz > 0.0) {
+        bail!("--fs: expected a positive sample rate in Hz, got {sample_rate_hz}");
+    }
+    let params = device_params::build(file, sample_rate_hz)?;
+    let blob = device_params::encode(&params)?;
+    Ok((params, blob))
+}
+
+/// The PARAMS region with `blob` committed in slot A under `counter`, the rest erased.
+/// Checked with the device's own boot selection before it is returned.
+pub fn region_image(blob: &[u8], counter: u32) -> Result<Vec<u8>> {
+    if blob.len() + COMMIT_LEN > SLOT_LEN {
+        bail!(
+            "the blob has {} bytes; a slot holds {}",
+            blob.len(),
+            SLOT_LEN - COMMIT_LEN
+        );
+    }
+    let mut image = vec![0xFF; REGION_LEN];
+    image[..blob.len()].copy_from_slice(blob);
+    image[blob.len()..blob.len() + COMMIT_LEN].copy_from_slice(&commit_record(blob, counter));
+    let active = select(&RegionView(&image))
+        .map_err(|e| anyhow!("the region image does not boot: {e}"))?;
+    if active.slot != 0 || active.counter != counter {
+        bail!("the region image boots slot {} instead of slot 0", active.slot);
+    }
+    Ok(image)
+}
+
+/// The PARAMS region image that QEMU's `-device loader,file=...,addr=0x70000` places so
+/// that the device boots `file`'s parameters at `sample_rate_hz` (counter
+/// [`REGION_IMAGE_COUNTER`]).
+pub fn qemu_region_image(file: &ParamFile, sample_rate_hz: f64) -> Result<Vec<u8>> {
+    let (_, blob) = device_blob(file, sample_rate_hz)?;
+    region_image(&blob, REGION_IMAGE_COUNTER)
+}
+
+/// A region image seen as the device's two slots (read only).
+pub struct RegionView<'a>(pub &'a [u8]);
+
+impl ParamFlash for RegionView<'_> {
+    fn slot(&self, slot: usize) -> &[u8] {
+        self.0
+            .get(slot * SLOT_LEN..(slot + 1) * SLOT_LEN)
+            .unwrap_or(&[])
+    }
+    fn erase(&mut self, _slot: usize) -> Result<(), supine_core::upload::FlashError> {
+        Err(supine_core::upload::FlashError)
+    }
+    fn write(
+        &mut self,
+        _slot: usize,
+        _offset: usize,
+        _bytes: &[u8],
+    ) -> Result<(), supine_core::upload::FlashError> {
+        Err(supine_core::upload::FlashError)
+    }
+}
+
+/// The default update counter: the Unix time in seconds, which only grows.
+pub fn counter_now() -> Result<u32> {
+    let secs = SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_err(|_| anyhow!("the clock is before 1970: give --counter"))?
+        .as_secs();
+    u32::try_from(secs).map_err(|_| anyhow!("the Unix time no longer fits 32 bits: give --counter"))
+}
+
+/// What an upload over a link achieved.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UploadOutcome {
+    /// The device's acknowledgement of the commit.
+    pub uploaded: Uploaded,
+    /// The greeting the device sent afterwards, naming the parameters it now runs.
+    pub greeting: Greeting,
+}
+
+/// Uploads `blob` (whose identity is `params.identity`) over a running device's link,
+/// signed with `key` under `counter`, then asks for a greeting and checks that the device
+/// names the new identity. Each step waits at most `timeout`.
+pub fn upload_over_link<R: Read, W: Write>(
+    reader: &mut FrameReader<R>,
+    writer: &mut FrameWriter<W>,
+    params: &DeviceParams,
+    blob: &[u8],
+    key: &[u8; KEY_LEN],
+    counter: u32,
+    timeout: Duration,
+) -> Result<UploadOutcome> {
+    let uploaded =
+        upload_client::upload(reader, writer, blob, params.identity, key, counter, timeout)?;
+    writer.send(&HostToDevice::Hello)?;
+    writer.flush()?;
+    let greeting = reader.greeting(timeout)?;
+    if greeting.params_identity != params.identity {
+        bail!(
+            "the device acknowledged {} but greets with {}",
+            identity_hex(&params.identity),
+            identity_hex(&greeting.params_identity)
+        );
+    }
+    Ok(UploadOutcome { uploaded, greeting })
+}
+
+/// The key in `path`, or the development key when `path` is `None`.
+pub fn load_key(path: Option<&Path>) -> Result<[u8; KEY_LEN]> {
+    match path {
+        Some(p) => upload_client::read_key(p),
+        None => upload_client::read_key(&crate::firmware::repository_root().join(DEV_KEY_PATH)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use supine_core::model::Preset;
+
+    #[test]
+    fn a_region_image_boots_slot_a_with_its_counter_and_blob() {
+        let file = ParamFile::preset(Preset::PaperLitter);
+        let image = qemu_region_image(&file, 500.0).unwrap();
+        assert_eq!(image.len(), 64 * 1024);
+        let (params, blob) = device_blob(&file, 500.0).unwrap();
+        assert_eq!(&image[..blob.len()], &blob[..]);
+        assert_eq!(&image[blob.len()..blob.len() + 4], b"CMIT");
+        assert!(image[blob.len() + COMMIT_LEN..].iter().all(|&b| b == 0xFF));
+        let active = select(&RegionView(&image)).unwrap();
+        assert_eq!((active.slot, active.counter), (0, REGION_IMAGE_COUNTER));
+        assert_eq!(active.params, params);
+        assert_eq!(active.params.sample_rate_hz(), 500.0);
+    }
+
+    #[test]
+    fn a_bad_rate_is_refused_with_the_option_named() {
+        let file = ParamFile::preset(Preset::PaperLitter);
+        let err = qemu_region_image(&file, 0.0).unwrap_err().to_string();
+        assert!(err.contains("--fs"), "{err}");
+        assert!(qemu_region_image(&file, f64::NAN).is_err());
+    }
+}
