@@ -36,7 +36,7 @@ use crate::recording::Recording;
 pub const INSTRUCTIONS_PER_TICK: f64 = 40.0;
 
 /// Header of the telemetry CSV.
-pub const TELEMETRY_HEADER: &str = "sample,time_s,head_x,head_y,head_z,running_rms_x_m_s2,running_rms_y_m_s2,running_rms_z_m_s2,running_rms_vector_m_s2,vdv_m_s175,alert_level,fault_flags,valid";
+pub const TELEMETRY_HEADER: &str = "sample,time_s,head_x_m_s2,head_y_m_s2,head_z_m_s2,running_rms_x_m_s2,running_rms_y_m_s2,running_rms_z_m_s2,running_rms_vector_m_s2,vdv_m_s175,alert_level,fault_flags,valid";
 /// Header of the alert events CSV.
 pub const EVENTS_HEADER: &str = "sample,time_s,kind,name,raised";
 
@@ -295,20 +295,26 @@ pub fn write_telemetry(path: &Path, telemetry: &[Telemetry], sample_rate_hz: f64
     text.push_str(TELEMETRY_HEADER);
     text.push('\n');
     for t in telemetry {
-        let [hx, hy, hz] = t.head_acc_m_s2;
-        let [rx, ry, rz] = t.running_rms_m_s2;
-        text.push_str(&format!(
-            "{},{},{hx},{hy},{hz},{rx},{ry},{rz},{},{},{},{},{}\n",
-            t.sample_index,
-            f64::from(t.sample_index) / sample_rate_hz,
-            t.vector_running_rms_m_s2,
-            t.vdv_m_s175,
-            t.alert_level.name(),
-            t.fault_flags,
-            u8::from(t.valid),
-        ));
+        text.push_str(&telemetry_row(t, sample_rate_hz));
     }
     write_atomically(path, &text)
+}
+
+/// One line of the telemetry CSV ([`TELEMETRY_HEADER`]), newline included; shared with
+/// `supine monitor`'s live log so both write the same format.
+pub fn telemetry_row(t: &Telemetry, sample_rate_hz: f64) -> String {
+    let [hx, hy, hz] = t.head_acc_m_s2;
+    let [rx, ry, rz] = t.running_rms_m_s2;
+    format!(
+        "{},{},{hx},{hy},{hz},{rx},{ry},{rz},{},{},{},{},{}\n",
+        t.sample_index,
+        f64::from(t.sample_index) / sample_rate_hz,
+        t.vector_running_rms_m_s2,
+        t.vdv_m_s175,
+        t.alert_level.name(),
+        t.fault_flags,
+        u8::from(t.valid),
+    )
 }
 
 /// Writes the alert events CSV ([`EVENTS_HEADER`]) through a temporary file.
@@ -316,18 +322,23 @@ pub fn write_events(path: &Path, events: &[AlertEvent], sample_rate_hz: f64) -> 
     let mut text = String::from(EVENTS_HEADER);
     text.push('\n');
     for e in events {
-        let (kind, name) = match *e {
-            AlertEvent::Level { to, .. } => ("level", to.name()),
-            AlertEvent::Fault { fault, .. } => ("fault", fault.name()),
-        };
-        text.push_str(&format!(
-            "{},{},{kind},{name},{}\n",
-            e.at_sample(),
-            f64::from(e.at_sample()) / sample_rate_hz,
-            u8::from(e.is_raise())
-        ));
+        text.push_str(&event_row(e, sample_rate_hz));
     }
     write_atomically(path, &text)
+}
+
+/// One line of the events CSV ([`EVENTS_HEADER`]), newline included.
+pub fn event_row(e: &AlertEvent, sample_rate_hz: f64) -> String {
+    let (kind, name) = match *e {
+        AlertEvent::Level { to, .. } => ("level", to.name()),
+        AlertEvent::Fault { fault, .. } => ("fault", fault.name()),
+    };
+    format!(
+        "{},{},{kind},{name},{}\n",
+        e.at_sample(),
+        f64::from(e.at_sample()) / sample_rate_hz,
+        u8::from(e.is_raise())
+    )
 }
 
 /// `<stem>.events.csv` next to `out`.
