@@ -14,6 +14,7 @@ pub mod fit;
 pub mod geomean;
 pub mod h_csv;
 pub mod link;
+pub mod monitor;
 pub mod output;
 pub mod params_file;
 pub mod plot;

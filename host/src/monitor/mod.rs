@@ -1,0 +1,12 @@
+//! `supine monitor`: follow a device's telemetry and alerts live.
+//!
+//! - [`state`]: what the monitor knows ([`Monitor`]), fed one message at a time; pure, so
+//!   it is tested without a terminal and reused by `supine demo`.
+//! - [`view`]: the terminal rendering (a redrawn panel on a terminal, plain lines otherwise).
+//! - [`log`]: the CSV log of every telemetry record and event.
+//! - [`session`]: the loop that reads the link and drives the three, and the sources that
+//!   feed it (QEMU with a streamed ride, or a serial port).
+
+pub mod state;
+
+pub use state::{Counters, Monitor, Notice, Severity, describe_event, device_line, fault_names};

@@ -1,0 +1,394 @@
+//! What the monitor knows about a device: the latest telemetry, the alert level and its
+//! history, the active faults, and counters. Pure state: fed one message at a time, read
+//! by the views, the log and `supine demo`; no terminal, no I/O.
+
+use std::collections::VecDeque;
+
+use anyhow::Result;
+use supine_core::alerts::{AlertEvent, Level, SensorFault};
+use supine_core::protocol::{DeviceToHost, Greeting, ParamsSource, Status, Telemetry};
+
+use crate::device_params::identity_hex;
+use crate::link::{LinkStats, check_protocol};
+
+/// Alert events kept for the view (the log keeps all of them).
+pub const HISTORY_LEN: usize = 8;
+
+/// How an event is shown: its colour in the live view, its tag in plain lines.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Severity {
+    /// Nothing to act on (a greeting, a cleared alert).
+    Info,
+    /// The exposure reached advisory.
+    Advisory,
+    /// The exposure reached warning.
+    Warning,
+    /// The exposure reached alarm.
+    Alarm,
+    /// A sensor fault started: the prediction is not trustworthy.
+    Fault,
+}
+
+impl Severity {
+    /// Upper-case tag for plain output (`INFO`, `ADVISORY`, `WARNING`, `ALARM`, `FAULT`).
+    pub const fn tag(self) -> &'static str {
+        match self {
+            Severity::Info => "INFO",
+            Severity::Advisory => "ADVISORY",
+            Severity::Warning => "WARNING",
+            Severity::Alarm => "ALARM",
+            Severity::Fault => "FAULT",
+        }
+    }
+
+    /// The severity of showing the alert level `level` (normal is informational).
+    pub const fn of_level(level: Level) -> Severity {
+        match level {
+            Level::Normal => Severity::Info,
+            Level::Advisory => Severity::Advisory,
+            Level::Warning => Severity::Warning,
+            Level::Alarm => Severity::Alarm,
+        }
+    }
+
+    /// How an alert event is highlighted: a raise by what it raised, a clear as info.
+    pub fn of_event(event: &AlertEvent) -> Severity {
+        match *event {
+            AlertEvent::Level { from, to, .. } if to > from => Severity::of_level(to),
+            AlertEvent::Fault { active: true, .. } => Severity::Fault,
+            _ => Severity::Info,
+        }
+    }
+}
+
+/// Something to show at once (scrolling above the panel, or one plain line).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Notice {
+    /// How to highlight it.
+    pub severity: Severity,
+    /// One line of text, without the tag.
+    pub text: String,
+}
+
+/// Names of the faults set in a telemetry record's `fault_flags` (bit order of
+/// `SensorFault::ALL`); bits no fault owns are named `bit N` rather than dropped.
+pub fn fault_names(fault_flags: u8) -> Vec<String> {
+    (0..8u8)
+        .filter(|bit| fault_flags & (1 << bit) != 0)
+        .map(|bit| match SensorFault::ALL.get(usize::from(bit)) {
+            Some(f) => f.name().to_string(),
+            None => format!("bit {bit}"),
+        })
+        .collect()
+}
+
+/// One line describing an alert event, with its time at `sample_rate_hz`.
+pub fn describe_event(event: &AlertEvent, sample_rate_hz: f64) -> String {
+    let at = event.at_sample();
+    let when = format!("t {:.3} s (sample {at})", f64::from(at) / sample_rate_hz);
+    match *event {
+        AlertEvent::Level { from, to, .. } => {
+            let verb = if to > from { "raised" } else { "lowered" };
+            format!("{when}: alert level {verb} {from} -> {to}")
+        }
+        AlertEvent::Fault { fault, active, .. } => {
+            let verb = if active { "raised" } else { "cleared" };
+            format!("{when}: sensor fault {fault} {verb}")
+        }
+    }
+}
+
+/// Counters of a monitoring session.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counters {
+    /// Telemetry records received.
+    pub telemetry: u64,
+    /// Alert events received (raises and clears).
+    pub events: u64,
+    /// Alert events that raised something.
+    pub raised: u64,
+    /// Greetings after the first (the device restarted or was asked to greet).
+    pub greetings: u64,
+    /// Status reports received.
+    pub statuses: u64,
+    /// Other messages (parameter acks and nacks).
+    pub other: u64,
+    /// The link's frame counters (decoded, bad, lost, reordered), as last reported.
+    pub link: LinkStats,
+}
+
+/// The monitor's view of one device.
+#[derive(Clone, Debug)]
+pub struct Monitor {
+    greeting: Greeting,
+    sample_rate_hz: f64,
+    latest: Option<Telemetry>,
+    level: Level,
+    highest_level: Level,
+    faults: u8,
+    peak_head_m_s2: f32,
+    peak_vector_rms_m_s2: f32,
+    history: VecDeque<AlertEvent>,
+    status: Option<Status>,
+    counters: Counters,
+}
+
+impl Monitor {
+    /// Starts monitoring the device that sent `greeting`; refuses another protocol
+    /// version (with what to update) and a sample rate that is not positive.
+    pub fn new(greeting: &Greeting) -> Result<Self> {
+        check_protocol(greeting.protocol_version)?;
+        let sample_rate_hz = f64::from(greeting.sample_rate_hz);
+        if !(sample_rate_hz.is_finite() && sample_rate_hz > 0.0) {
+            anyhow::bail!("the device's greeting gives a sample rate of {sample_rate_hz} Hz");
+        }
+        Ok(Self {
+            greeting: greeting.clone(),
+            sample_rate_hz,
+            latest: None,
+            level: Level::Normal,
+            highest_level: Level::Normal,
+            faults: 0,
+            peak_head_m_s2: 0.0,
+            peak_vector_rms_m_s2: 0.0,
+            history: VecDeque::with_capacity(HISTORY_LEN),
+            status: None,
+            counters: Counters::default(),
+        })
+    }
+
+    /// Takes one message from the device; returns what to show at once, if anything.
+    /// Errors only on a (new) greeting in another protocol version.
+    pub fn on_message(&mut self, message: &DeviceToHost) -> Result<Option<Notice>> {
+        match message {
+            DeviceToHost::Telemetry(t) => {
+                self.counters.telemetry += 1;
+                self.level = t.alert_level;
+                self.highest_level = self.highest_level.max(t.alert_level);
+                self.faults = t.fault_flags;
+                let [x, y, z] = t.head_acc_m_s2;
+                let magnitude = (x * x + y * y + z * z).sqrt();
+                if magnitude.is_finite() {
+                    self.peak_head_m_s2 = self.peak_head_m_s2.max(magnitude);
+                }
+                if t.valid && t.vector_running_rms_m_s2.is_finite() {
+                    self.peak_vector_rms_m_s2 =
+                        self.peak_vector_rms_m_s2.max(t.vector_running_rms_m_s2);
+                }
+                self.latest = Some(*t);
+                Ok(None)
+            }
+            DeviceToHost::Alert(e) => {
+                self.counters.events += 1;
+                if e.is_raise() {
+                    self.counters.raised += 1;
+                }
+                match *e {
+                    AlertEvent::Level { to, .. } => {
+                        self.level = to;
+                        self.highest_level = self.highest_level.max(to);
+                    }
+                    AlertEvent::Fault { fault, active, .. } => {
+                        let bit = SensorFault::ALL
+                            .iter()
+                            .position(|f| *f == fault)
+                            .unwrap_or(0);
+                        if active {
+                            self.faults |= 1 << bit;
+                        } else {
+                            self.faults &= !(1 << bit);
+                        }
+                    }
+                }
+                if self.history.len() == HISTORY_LEN {
+                    self.history.pop_front();
+                }
+                self.history.push_back(*e);
+                Ok(Some(Notice {
+                    severity: Severity::of_event(e),
+                    text: describe_event(e, self.sample_rate_hz),
+                }))
+            }
+            DeviceToHost::Greeting(g) => {
+                check_protocol(g.protocol_version)?;
+                self.counters.greetings += 1;
+                let changed = g.params_identity != self.greeting.params_identity
+                    || g.sample_rate_hz != self.greeting.sample_rate_hz;
+                self.greeting = g.clone();
+                if g.sample_rate_hz.is_finite() && g.sample_rate_hz > 0.0 {
+                    self.sample_rate_hz = f64::from(g.sample_rate_hz);
+                }
+                Ok(Some(Notice {
+                    severity: Severity::Info,
+                    text: format!(
+                        "the device greeted again ({}, reset cause {:?}){}",
+                        device_line(g),
+                        g.reset_cause,
+                        if changed { "; parameters changed" } else { "" }
+                    ),
+                }))
+            }
+            DeviceToHost::Status(s) => {
+                self.counters.statuses += 1;
+                self.status = Some(*s);
+                Ok(None)
+            }
+            DeviceToHost::ParamAck(_) | DeviceToHost::ParamNack(_) => {
+                self.counters.other += 1;
+                Ok(None)
+            }
+        }
+    }
+
+    /// Records the link's frame counters (decoded, bad, lost, reordered).
+    pub fn on_link(&mut self, stats: LinkStats) {
+        self.counters.link = stats;
+    }
+
+    /// The greeting in force (the latest one).
+    pub fn greeting(&self) -> &Greeting {
+        &self.greeting
+    }
+
+    /// The device's sample rate, Hz.
+    pub fn sample_rate_hz(&self) -> f64 {
+        self.sample_rate_hz
+    }
+
+    /// The latest telemetry record.
+    pub fn latest(&self) -> Option<&Telemetry> {
+        self.latest.as_ref()
+    }
+
+    /// The current alert level (from the latest telemetry or alert event).
+    pub fn level(&self) -> Level {
+        self.level
+    }
+
+    /// The highest alert level seen.
+    pub fn highest_level(&self) -> Level {
+        self.highest_level
+    }
+
+    /// Active fault flags (bit order of `SensorFault::ALL`).
+    pub fn fault_flags(&self) -> u8 {
+        self.faults
+    }
+
+    /// Names of the active faults.
+    pub fn fault_names(&self) -> Vec<String> {
+        fault_names(self.faults)
+    }
+
+    /// Largest predicted head acceleration magnitude seen, m/s^2.
+    pub fn peak_head_m_s2(&self) -> f32 {
+        self.peak_head_m_s2
+    }
+
+    /// Largest valid vector running rms seen, m/s^2.
+    pub fn peak_vector_rms_m_s2(&self) -> f32 {
+        self.peak_vector_rms_m_s2
+    }
+
+    /// The last alert events, oldest first (at most [`HISTORY_LEN`]).
+    pub fn history(&self) -> impl Iterator<Item = &AlertEvent> {
+        self.history.iter()
+    }
+
+    /// The device's last status report.
+    pub fn status(&self) -> Option<&Status> {
+        self.status.as_ref()
+    }
+
+    /// The counters.
+    pub fn counters(&self) -> &Counters {
+        &self.counters
+    }
+
+    /// Seconds of signal covered so far (from the latest telemetry's sample index).
+    pub fn time_s(&self) -> f64 {
+        self.latest
+            .map_or(0.0, |t| f64::from(t.sample_index) / self.sample_rate_hz)
+    }
+
+    /// One plain status line: time, head, running rms, VDV, level, faults, counters.
+    pub fn render_line(&self) -> String {
+        let c = &self.counters;
+        let values = match &self.latest {
+            None => "no telemetry yet".to_string(),
+            Some(t) => {
+                let [hx, hy, hz] = t.head_acc_m_s2;
+                let [rx, ry, rz] = t.running_rms_m_s2;
+                format!(
+                    "t {:.2} s  head {hx:+.3} {hy:+.3} {hz:+.3} m/s^2  rms {rx:.3} {ry:.3} {rz:.3} (vector {:.3}) m/s^2  VDV {:.3} m/s^1.75{}",
+                    self.time_s(),
+                    t.vector_running_rms_m_s2,
+                    t.vdv_m_s175,
+                    if t.valid { "" } else { " (settling)" },
+                )
+            }
+        };
+        format!(
+            "{values}  level {}  faults {}  frames {} lost {} bad {}  events {}",
+            self.level,
+            self.faults_text(),
+            c.link.frames,
+            c.link.lost_frames,
+            c.link.bad_frames,
+            c.events
+        )
+    }
+
+    /// The active faults as text (`none`, or names joined with `+`).
+    pub fn faults_text(&self) -> String {
+        let names = self.fault_names();
+        if names.is_empty() {
+            "none".to_string()
+        } else {
+            names.join("+")
+        }
+    }
+
+    /// A closing summary: what was received, the worst exposure, the link's losses.
+    pub fn summary(&self) -> String {
+        let c = &self.counters;
+        let vdv = self.latest.map_or(0.0, |t| t.vdv_m_s175);
+        let mut text = format!(
+            "monitored {:.2} s: {} telemetry records, {} alert events ({} raised), highest level {}, peak head {:.3} m/s^2, peak running rms {:.3} m/s^2, VDV {:.3} m/s^1.75; frames {}, lost {}, bad {}, reordered {}",
+            self.time_s(),
+            c.telemetry,
+            c.events,
+            c.raised,
+            self.highest_level,
+            self.peak_head_m_s2,
+            self.peak_vector_rms_m_s2,
+            vdv,
+            c.link.frames,
+            c.link.lost_frames,
+            c.link.bad_frames,
+            c.link.reordered_frames,
+        );
+        if let Some(s) = &self.status {
+            text.push_str(&format!(
+                "; device: {} samples processed, {} dropped, {} bad frames received",
+                s.samples_processed, s.samples_dropped, s.bad_frames
+            ));
+        }
+        text
+    }
+}
+
+/// The device in one line: firmware, parameters and their source, sample rate.
+pub fn device_line(g: &Greeting) -> String {
+    let source = match g.params_source {
+        ParamsSource::Flash { slot } => format!("flash slot {slot}"),
+        ParamsSource::BuiltInDefault { reason } => format!("built-in default ({reason})"),
+    };
+    format!(
+        "firmware {}, protocol {}, parameters {} from {source}, {} Hz",
+        g.firmware_version.as_str(),
+        g.protocol_version,
+        identity_hex(&g.params_identity),
+        g.sample_rate_hz
+    )
+}
