@@ -6,6 +6,9 @@
 //! 2. Bakes the default model realization into the image: the paper's litter-board preset,
 //!    discretized at the device's default sample rate on the build machine in f64 by `supine-core` (the same code the host runs)
 //!    and stored as postcard bytes that the firmware decodes and validates at boot.
+//! 3. Provisions the device key for authenticated parameter uploads: the file named by
+//!    `SUPINE_DEVICE_KEY_FILE` (64 hex digits), by default the committed development key
+//!    `keys/dev-device.key` (for QEMU and the tests only; see `keys/README.md`).
 
 use std::env;
 use std::fs;
@@ -32,6 +35,7 @@ fn main() {
     link_with_root_memory_map(&manifest_dir, &out_dir);
     write_builtin_realization(&out_dir);
     write_default_blob(&out_dir);
+    write_device_key(&manifest_dir, &out_dir);
 
     println!("cargo:rerun-if-changed=build.rs");
 }
@@ -120,4 +124,33 @@ fn write_default_blob(out_dir: &std::path::Path) {
         .unwrap_or_else(|err| panic!("the default blob does not encode: {err}"));
     fs::write(out_dir.join("default_blob.bin"), &buf[..len])
         .expect("cannot write default_blob.bin to OUT_DIR");
+}
+
+/// Environment variable naming the device key file.
+const KEY_FILE_ENV: &str = "SUPINE_DEVICE_KEY_FILE";
+
+/// Writes `device_key.rs` to `OUT_DIR`: the key from `$SUPINE_DEVICE_KEY_FILE`, or the
+/// development key. Parsed by `supine_core::upload::parse_key`, as the host reads it.
+fn write_device_key(manifest_dir: &std::path::Path, out_dir: &std::path::Path) {
+    println!("cargo:rerun-if-env-changed={KEY_FILE_ENV}");
+    let (path, development) = match env::var_os(KEY_FILE_ENV).filter(|p| !p.is_empty()) {
+        Some(path) => (PathBuf::from(path), false),
+        None => (manifest_dir.join("keys").join("dev-device.key"), true),
+    };
+    println!("cargo:rerun-if-changed={}", path.display());
+    let text = fs::read_to_string(&path)
+        .unwrap_or_else(|err| panic!("{KEY_FILE_ENV}: cannot read {}: {err}", path.display()));
+    let key = supine_core::upload::parse_key(&text)
+        .unwrap_or_else(|err| panic!("{KEY_FILE_ENV}: {}: {err}", path.display()));
+    fs::write(
+        out_dir.join("device_key.rs"),
+        format!(
+            "/// The key uploads must be signed with (provisioned at build time).\n\
+             pub(crate) static DEVICE_KEY: [u8; {}] = {key:?};\n\
+             /// Whether it is the public development key (QEMU and tests only).\n\
+             pub const DEVELOPMENT_KEY: bool = {development};\n",
+            key.len()
+        ),
+    )
+    .expect("cannot write device_key.rs to OUT_DIR");
 }

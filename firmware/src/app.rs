@@ -7,7 +7,9 @@
 //!                 16 buffered -> DeviceParams::process -> DeviceFrame{seq, Telemetry|Alert}
 //!     Hello    -> (flush the buffer) Greeting
 //!     GetStatus-> (flush the buffer) Status
-//!     Param*   -> ParamNack(NotStarted)      (issue 6: authenticated upload goes here)
+//!     Param*   -> Upload (RAM) -> HMAC, counter, blob checks -> the other flash slot
+//!                 -> ParamAck(Committed) + Greeting, pipeline restarted on the new blob;
+//!                 any refusal -> ParamNack(code), counted, nothing changed
 //!   RX idle for 100 ms (IDLE_FLUSH_TICKS) -> process what is buffered
 //!   drain the TX ring into UART0 TX
 //! ```
@@ -22,9 +24,10 @@ use supine_core::blob::DeviceParams;
 use supine_core::pipeline::{BLOCK_LEN, PipelineOutput, PipelineState};
 use supine_core::protocol::{
     DeviceFrame, DeviceToHost, FrameAccumulator, FrameEvent, Greeting, HostToDevice, MAX_FRAME_LEN,
-    PANIC_MESSAGE_LEN, PROTOCOL_VERSION, ParamsSource, ResetCause, SampleBatch, Status, Telemetry,
-    UploadError, encode_frame,
+    PANIC_MESSAGE_LEN, PROTOCOL_VERSION, ParamAck, ParamsSource, ResetCause, SampleBatch, Status,
+    Telemetry, UploadError, encode_frame,
 };
+use supine_core::upload::{KEY_LEN, ParamFlash, Upload, last_counter};
 
 use crate::cycles::InstructionCounter;
 use crate::stack;
@@ -161,9 +164,37 @@ impl TxRing {
     }
 }
 
+/// Parameter updates over the link: the slots, the update being received, the key.
+struct Updates<F> {
+    flash: F,
+    upload: Upload,
+    key: &'static [u8; KEY_LEN],
+}
+
+/// Stands for the flash of an image that takes no updates over the link.
+pub struct NoUpdates;
+
+impl ParamFlash for NoUpdates {
+    fn slot(&self, _slot: usize) -> &[u8] {
+        &[]
+    }
+    fn erase(&mut self, _slot: usize) -> Result<(), supine_core::upload::FlashError> {
+        Err(supine_core::upload::FlashError)
+    }
+    fn write(
+        &mut self,
+        _slot: usize,
+        _offset: usize,
+        _bytes: &[u8],
+    ) -> Result<(), supine_core::upload::FlashError> {
+        Err(supine_core::upload::FlashError)
+    }
+}
+
 /// The running monitor.
-pub struct App<U: ByteLink> {
+pub struct App<U: ByteLink, F: ParamFlash = NoUpdates> {
     uart: U,
+    updates: Option<Updates<F>>,
     counter: InstructionCounter,
     boot: Boot,
     state: PipelineState,
@@ -179,10 +210,40 @@ pub struct App<U: ByteLink> {
 }
 
 impl<U: ByteLink> App<U> {
-    /// A monitor on `uart`, timing its pipeline with `counter`, running `boot.params`.
+    /// A monitor on `uart`, timing its pipeline with `counter`, running `boot.params`,
+    /// that refuses parameter updates over the link (`UploadError::Flash`).
     pub fn new(uart: U, counter: InstructionCounter, boot: Boot) -> Self {
+        App::build(uart, counter, boot, None)
+    }
+}
+
+impl<U: ByteLink, F: ParamFlash> App<U, F> {
+    /// A monitor that accepts updates signed with `key` into `flash`'s slots (the ones
+    /// `boot` was chosen from).
+    pub fn with_updates(
+        uart: U,
+        counter: InstructionCounter,
+        boot: Boot,
+        flash: F,
+        key: &'static [u8; KEY_LEN],
+    ) -> Self {
+        let updates = Updates {
+            flash,
+            upload: Upload::new(),
+            key,
+        };
+        Self::build(uart, counter, boot, Some(updates))
+    }
+
+    fn build(
+        uart: U,
+        counter: InstructionCounter,
+        boot: Boot,
+        updates: Option<Updates<F>>,
+    ) -> Self {
         Self {
             uart,
+            updates,
             counter,
             boot,
             state: PipelineState::new(),
@@ -263,13 +324,62 @@ impl<U: ByteLink> App<U> {
                 status.stack_used_bytes = stack::high_water_bytes() as u32;
                 self.send(DeviceToHost::Status(status));
             }
-            // Issue 6: the authenticated A/B-slot upload answers these; until then every
-            // upload is refused and counted.
-            HostToDevice::ParamBegin(_)
-            | HostToDevice::ParamChunk(_)
-            | HostToDevice::ParamCommit => {
+            HostToDevice::ParamBegin(begin) => {
+                let answer = match self.updates.as_mut() {
+                    Some(u) => u.upload.begin(&begin, last_counter(&u.flash)),
+                    None => Err(UploadError::Flash),
+                };
+                self.answer_upload(answer);
+            }
+            HostToDevice::ParamChunk(chunk) => {
+                let answer = match self.updates.as_mut() {
+                    Some(u) => u.upload.chunk(&chunk),
+                    None => Err(UploadError::Flash),
+                };
+                self.answer_upload(answer);
+            }
+            HostToDevice::ParamCommit => self.commit_upload(),
+        }
+    }
+
+    /// Verifies and stores a received update; on success runs it from the next sample on
+    /// (the samples already buffered finish on the old parameters) and greets again.
+    fn commit_upload(&mut self) {
+        self.process_buffered();
+        let running = match self.boot.source {
+            ParamsSource::Flash { slot } => Some(slot),
+            ParamsSource::BuiltInDefault { .. } => None,
+        };
+        let result = match self.updates.as_mut() {
+            Some(u) => u.upload.commit(u.key, &mut u.flash, running),
+            None => Err(UploadError::Flash),
+        };
+        let committed = match result {
+            Ok(c) => c,
+            Err(e) => return self.answer_upload(Err(e)),
+        };
+        self.boot.params = committed.params;
+        self.boot.source = ParamsSource::Flash {
+            slot: committed.slot,
+        };
+        // A new filter, exposure and alert history: the old state belongs to other
+        // parameters (and possibly another sample rate).
+        self.state = PipelineState::new();
+        self.next_index = None;
+        self.answer_upload(Ok(ParamAck::Committed {
+            identity: committed.identity,
+            slot: committed.slot,
+        }));
+        self.send_greeting();
+    }
+
+    /// Acknowledges an upload step, or refuses it with its code and counts the refusal.
+    fn answer_upload(&mut self, answer: Result<ParamAck, UploadError>) {
+        match answer {
+            Ok(ack) => self.send(DeviceToHost::ParamAck(ack)),
+            Err(e) => {
                 self.status.uploads_rejected = self.status.uploads_rejected.wrapping_add(1);
-                self.send(DeviceToHost::ParamNack(UploadError::NotStarted));
+                self.send(DeviceToHost::ParamNack(e));
             }
         }
     }

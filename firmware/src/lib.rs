@@ -13,7 +13,8 @@
 //! Each module has one job: [`board`] names the board's types, [`cmsdk_uart`] drives its
 //! UART, [`console`] writes lines to the debugger's stdout (semihosting), [`exit`] ends a
 //! run with a status, [`cycles`] counts instructions, [`stack`] measures the stack's
-//! high-water mark, [`params`] loads the model parameters, [`panic_record`] keeps the last
+//! high-water mark, [`params`] loads the model parameters, [`param_flash`] reads and writes
+//! their A/B slots, [`panic_record`] keeps the last
 //! panic across a reset, [`telemetry_frame`] encodes the per-sample frame and [`app`] is
 //! the monitor.
 #![no_std]
@@ -26,6 +27,7 @@ pub mod cycles;
 pub mod exit;
 mod fault;
 pub mod panic_record;
+pub mod param_flash;
 pub mod params;
 pub mod stack;
 pub mod telemetry_frame;

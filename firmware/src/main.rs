@@ -1,8 +1,9 @@
 //! The supine device image: the on-litter monitor, in its replay form under QEMU.
 //!
 //! At boot it reads the last panic's record, loads the parameter blob from the PARAMS
-//! region (or the built-in default, with the reason), greets the host on UART0 and then
-//! serves it (see [`supine_firmware::app`]): replayed samples in, telemetry and alerts out.
+//! region's A/B slots (or the built-in default, with the reason), greets the host on UART0
+//! and then serves it (see [`supine_firmware::app`]): replayed samples in, telemetry and
+//! alerts out, authenticated parameter updates into the slot not running.
 #![no_std]
 #![no_main]
 
@@ -11,6 +12,7 @@ use supine_core::protocol::ResetCause;
 use supine_firmware::app::{App, Boot};
 use supine_firmware::board::Board;
 use supine_firmware::cycles::InstructionCounter;
+use supine_firmware::param_flash::{self, ParamRegion};
 use supine_firmware::{exit, panic_record, params};
 
 #[entry]
@@ -21,7 +23,11 @@ fn main() -> ! {
         exit::exit(exit::FAILURE)
     };
     let last_panic = panic_record::take();
-    let Ok((params, source)) = params::load() else {
+    let Some(region) = ParamRegion::take() else {
+        // Only reachable if memory.x gives PARAMS fewer than two slots: a build error.
+        exit::exit(exit::FAILURE)
+    };
+    let Ok((params, source)) = params::load_from(&region) else {
         // The built-in default was validated when it was built: a broken build.
         exit::exit(exit::FAILURE)
     };
@@ -36,5 +42,13 @@ fn main() -> ! {
         },
         last_panic: last_panic.unwrap_or_default(),
     };
-    App::new(board.uart0, InstructionCounter::new(board.syst), boot).run()
+    let counter = InstructionCounter::new(board.syst);
+    App::with_updates(
+        board.uart0,
+        counter,
+        boot,
+        region,
+        param_flash::device_key(),
+    )
+    .run()
 }

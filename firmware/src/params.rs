@@ -4,15 +4,18 @@
 //! litter-board preset, discretized at [`SAMPLE_RATE_HZ`] on the build machine and encoded
 //! with postcard). Decoding checks it once at boot, so the hot path cannot fail.
 //!
-//! The full parameter blob (`supine_core::blob`) lives in the PARAMS region of `memory.x`
-//! ([`region`]); [`stored_blob`] validates it. The product image reports its state in the
-//! greeting; running from it is the next step.
+//! The full parameter blob (`supine_core::blob`) lives in one of the two slots of the
+//! PARAMS region of `memory.x` ([`crate::param_flash`]); [`load_from`] picks the slot to run
+//! at boot, or the built-in default blob, and the greeting says which and why.
 
 use core::fmt;
 
 use supine_core::blob::{BlobError, DeviceParams};
 use supine_core::model::{DeviceRealization, RealizationError};
 use supine_core::protocol::{ParamsIdentity, ParamsSource};
+use supine_core::upload::{ParamFlash, select};
+
+use crate::param_flash::ParamRegion;
 
 include!(concat!(env!("OUT_DIR"), "/realization.rs"));
 
@@ -44,33 +47,6 @@ impl fmt::Display for ParamsError {
 }
 
 impl core::error::Error for ParamsError {}
-
-unsafe extern "C" {
-    /// First byte of the PARAMS region (from `memory.x`).
-    static __params_start: u8;
-    /// One past the last byte of the PARAMS region.
-    static __params_end: u8;
-}
-
-/// The PARAMS region of `memory.x`, where a parameter blob is stored (under QEMU:
-/// `-device loader,file=<blob>,addr=0x70000`). An erased or blank region reads as
-/// [`BlobError::Empty`] through [`stored_blob`].
-pub fn region() -> &'static [u8] {
-    // Only the symbols' addresses are used, never their values.
-    let start = &raw const __params_start as usize;
-    let end = &raw const __params_end as usize;
-    // SAFETY: [start, end) is the PARAMS region that memory.x reserves outside FLASH and
-    // RAM: readable memory that holds no Rust object. Nothing writes it while the firmware
-    // runs (the loader or the programmer fills it before reset), so a shared `'static`
-    // slice of it is sound. A future in-field update must not hold this slice while it
-    // writes the region.
-    unsafe { core::slice::from_raw_parts(start as *const u8, end.saturating_sub(start)) }
-}
-
-/// Reads and validates the parameter blob in the PARAMS region.
-pub fn stored_blob() -> Result<DeviceParams, BlobError> {
-    DeviceParams::decode(region())
-}
 
 /// The built-in realization's encoded bytes.
 pub fn builtin_bytes() -> &'static [u8] {
@@ -113,17 +89,32 @@ pub fn default_blob() -> &'static [u8] {
     DEFAULT_BLOB
 }
 
-/// The parameters to run with and where they came from: the blob at the start of the
-/// PARAMS region if it is valid (slot 0), else the built-in default with the reason the
-/// flash blob was refused. Errs only if the built-in default itself is refused, which
-/// `firmware/build.rs` has already ruled out when it built it.
-///
-/// Issue 6 (A/B slots, authenticated upload) replaces the slot choice here only.
-pub fn load() -> Result<(DeviceParams, ParamsSource), BlobError> {
-    match stored_blob() {
-        Ok(params) => Ok((params, ParamsSource::Flash { slot: 0 })),
+/// The parameters to run with and where they came from: the committed slot with the
+/// highest counter, else a plain blob in slot A, else the built-in default with the reason
+/// slot A was refused (`supine_core::upload::select`). Errs only if the built-in default
+/// itself is refused, which `firmware/build.rs` has already ruled out when it built it.
+pub fn load_from(flash: &impl ParamFlash) -> Result<(DeviceParams, ParamsSource), BlobError> {
+    match select(flash) {
+        Ok(active) => Ok((active.params, ParamsSource::Flash { slot: active.slot })),
         Err(reason) => {
             DeviceParams::decode(DEFAULT_BLOB).map(|p| (p, ParamsSource::BuiltInDefault { reason }))
         }
+    }
+}
+
+/// [`load_from`] the PARAMS region, for images that never write it (the region is taken
+/// and released here; a second call, or a call after [`ParamRegion::take`], runs the
+/// built-in default).
+pub fn load() -> Result<(DeviceParams, ParamsSource), BlobError> {
+    match ParamRegion::take() {
+        Some(region) => load_from(&region),
+        None => DeviceParams::decode(DEFAULT_BLOB).map(|p| {
+            (
+                p,
+                ParamsSource::BuiltInDefault {
+                    reason: BlobError::Empty,
+                },
+            )
+        }),
     }
 }

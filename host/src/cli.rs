@@ -45,6 +45,8 @@ pub enum Command {
     Ride(commands::ride::Args),
     /// Replay a recording through the firmware in QEMU; write its telemetry as CSV.
     Replay(commands::replay::Args),
+    /// Put parameters on a device: QEMU region image, signed upload over serial, probe-rs.
+    Flash(commands::flash::Args),
 }
 
 /// Parses the process arguments, runs the command and maps errors to a one-line message.
@@ -74,6 +76,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Exposure(args) => commands::exposure::run(&args),
         Command::Ride(args) => commands::ride::run(&args),
         Command::Replay(args) => commands::replay::run(&args),
+        Command::Flash(args) => commands::flash::run(&args),
     }
 }
 

@@ -1,6 +1,7 @@
 //! Getting a parameter file onto a device: the blob for one sample rate, the PARAMS
 //! region image a loader or programmer places (QEMU's `-device loader`, probe-rs), and the
-//! authenticated upload over a running device's link.
+//! authenticated upload over a running device's link (a serial port, or QEMU's UART), and
+//! probe-rs for a board.
 //!
 //! A region image covers the whole 64 KiB region: slot A holds the blob and a commit
 //! record, everything else is erased (0xFF). Writing the whole region matters: a stale
@@ -20,6 +21,7 @@ use supine_core::upload::{
 use crate::device_params::{self, identity_hex};
 use crate::link::{FrameReader, FrameWriter};
 use crate::params_file::ParamFile;
+use crate::qemu::{Qemu, QemuConfig};
 use crate::upload_client::{self, Uploaded};
 
 /// Bytes of the PARAMS region image: both slots.
@@ -55,10 +57,13 @@ pub fn region_image(blob: &[u8], counter: u32) -> Result<Vec<u8>> {
     let mut image = vec![0xFF; REGION_LEN];
     image[..blob.len()].copy_from_slice(blob);
     image[blob.len()..blob.len() + COMMIT_LEN].copy_from_slice(&commit_record(blob, counter));
-    let active = select(&RegionView(&image))
-        .map_err(|e| anyhow!("the region image does not boot: {e}"))?;
+    let active =
+        select(&RegionView(&image)).map_err(|e| anyhow!("the region image does not boot: {e}"))?;
     if active.slot != 0 || active.counter != counter {
-        bail!("the region image boots slot {} instead of slot 0", active.slot);
+        bail!(
+            "the region image boots slot {} instead of slot 0",
+            active.slot
+        );
     }
     Ok(image)
 }
@@ -112,8 +117,8 @@ pub struct UploadOutcome {
 }
 
 /// Uploads `blob` (whose identity is `params.identity`) over a running device's link,
-/// signed with `key` under `counter`, then asks for a greeting and checks that the device
-/// names the new identity. Each step waits at most `timeout`.
+/// signed with `key` under `counter`, then reads the greeting the device sends after the
+/// commit and checks that it names the new identity. Each step waits at most `timeout`.
 pub fn upload_over_link<R: Read, W: Write>(
     reader: &mut FrameReader<R>,
     writer: &mut FrameWriter<W>,
@@ -125,8 +130,7 @@ pub fn upload_over_link<R: Read, W: Write>(
 ) -> Result<UploadOutcome> {
     let uploaded =
         upload_client::upload(reader, writer, blob, params.identity, key, counter, timeout)?;
-    writer.send(&HostToDevice::Hello)?;
-    writer.flush()?;
+    // The device greets after a commit, naming what it now runs.
     let greeting = reader.greeting(timeout)?;
     if greeting.params_identity != params.identity {
         bail!(
@@ -145,6 +149,109 @@ pub fn load_key(path: Option<&Path>) -> Result<[u8; KEY_LEN]> {
         None => upload_client::read_key(&crate::firmware::repository_root().join(DEV_KEY_PATH)),
     }
 }
+
+/// Opens `port` at `baud`, waits for the device's greeting (asking with `Hello`), then
+/// [`upload_over_link`].
+pub fn upload_serial(
+    port: &str,
+    baud: u32,
+    params: &DeviceParams,
+    blob: &[u8],
+    key: &[u8; KEY_LEN],
+    counter: u32,
+    timeout: Duration,
+) -> Result<UploadOutcome> {
+    let serial = serialport::new(port, baud)
+        .timeout(Duration::from_millis(50))
+        .open()
+        .map_err(|e| anyhow!("{port}: cannot open the serial port: {e}"))?;
+    let tx = serial
+        .try_clone()
+        .map_err(|e| anyhow!("{port}: cannot use the serial port: {e}"))?;
+    let mut reader = FrameReader::new(serial);
+    let mut writer = FrameWriter::new(tx);
+    writer.send(&HostToDevice::Hello)?;
+    writer.flush()?;
+    reader
+        .greeting(timeout)
+        .map_err(|e| anyhow!("{port}: {e}"))?;
+    upload_over_link(
+        &mut reader,
+        &mut writer,
+        params,
+        blob,
+        key,
+        counter,
+        timeout,
+    )
+    .map_err(|e| anyhow!("{port}: {e}"))
+}
+
+/// Starts the product image in QEMU (built-in parameters), uploads `blob` over its UART
+/// and checks the greeting that follows: the upload path end to end, without hardware.
+pub fn upload_qemu(
+    params: &DeviceParams,
+    blob: &[u8],
+    key: &[u8; KEY_LEN],
+    counter: u32,
+    timeout: Duration,
+) -> Result<UploadOutcome> {
+    let kernel = crate::firmware::build_binary(crate::firmware::PRODUCT_BINARY)?;
+    let config = QemuConfig::new(kernel)
+        .uart()
+        .timeout(timeout + Duration::from_secs(30));
+    let mut qemu = Qemu::start(&config)?;
+    let uart = qemu.uart().ok_or_else(|| anyhow!("QEMU has no UART"))?;
+    uart.set_read_timeout(Some(Duration::from_millis(50)))?;
+    let mut reader = FrameReader::new(uart.try_clone()?);
+    let mut writer = FrameWriter::new(uart.try_clone()?);
+    reader.greeting(timeout)?;
+    upload_over_link(
+        &mut reader,
+        &mut writer,
+        params,
+        blob,
+        key,
+        counter,
+        timeout,
+    )
+}
+
+/// Programs a region image into a board's flash at `base_address` with probe-rs.
+pub fn probe_download(chip: &str, base_address: u32, image: &[u8]) -> Result<()> {
+    let dir = tempfile::Builder::new().prefix("supine-flash-").tempdir()?;
+    let path = dir.path().join("params-region.bin");
+    std::fs::write(&path, image)?;
+    let output = std::process::Command::new(PROBE_RS)
+        .args(["download", "--chip", chip, "--binary-format", "bin", "--base-address"])
+        .arg(format!("{base_address:#010x}"))
+        .arg(&path)
+        .output()
+        .map_err(|e| match e.kind() {
+            std::io::ErrorKind::NotFound => anyhow!(
+                "probe-rs is not installed: install it with `cargo install probe-rs-tools --locked` \
+                 (or see https://probe.rs/docs/getting-started/installation/)"
+            ),
+            _ => anyhow!("cannot run probe-rs: {e}"),
+        })?;
+    if !output.status.success() {
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        let last = stderr
+            .lines()
+            .rev()
+            .find(|l| !l.trim().is_empty())
+            .unwrap_or("no message");
+        bail!(
+            "probe-rs download failed ({}): {}",
+            output.status,
+            last.trim()
+        );
+    }
+    Ok(())
+}
+
+/// The probe-rs program.
+const PROBE_RS: &str = "probe-rs";
 
 #[cfg(test)]
 mod tests {

@@ -9,6 +9,9 @@
 //! are captured. UART0, when asked for, is a Unix socket that QEMU serves with
 //! `wait=on`: the guest starts only once the host has connected, so no byte is lost.
 //! The image's exit status (semihosting `SYS_EXIT_EXTENDED`) is QEMU's exit status.
+//!
+//! The HMP monitor, when asked for, is a second Unix socket ([`Qemu::monitor`]): tests
+//! stop the machine and save the PARAMS region (`pmemsave`) to simulate a power cut.
 
 use std::ffi::OsString;
 use std::io::{self, Read};
@@ -44,6 +47,8 @@ pub struct QemuConfig {
     pub params_blob: Option<PathBuf>,
     /// Connect UART0 to a Unix socket (see [`Qemu::uart`]); otherwise UART0 goes nowhere.
     pub uart: bool,
+    /// Serve the HMP monitor on a Unix socket (see [`Qemu::monitor`]); otherwise none.
+    pub monitor: bool,
     /// Longest the run may take, from the start of QEMU to its exit.
     pub timeout: Duration,
 }
@@ -56,6 +61,7 @@ impl QemuConfig {
             icount: false,
             params_blob: None,
             uart: false,
+            monitor: false,
             timeout: Duration::from_secs(60),
         }
     }
@@ -75,6 +81,12 @@ impl QemuConfig {
     /// Connects UART0 to the host.
     pub fn uart(mut self) -> Self {
         self.uart = true;
+        self
+    }
+
+    /// Serves the HMP monitor to the host.
+    pub fn monitor(mut self) -> Self {
+        self.monitor = true;
         self
     }
 
@@ -147,6 +159,7 @@ pub enum QemuError {
 pub struct Qemu {
     child: Child,
     uart: Option<UnixStream>,
+    monitor: Option<UnixStream>,
     stdout: Option<JoinHandle<String>>,
     stderr: Option<JoinHandle<String>>,
     deadline: Instant,
@@ -178,6 +191,7 @@ impl Qemu {
         let mut qemu = Self {
             child,
             uart: None,
+            monitor: None,
             stdout,
             stderr,
             deadline,
@@ -185,9 +199,68 @@ impl Qemu {
             dir,
         };
         if config.uart {
-            qemu.uart = Some(qemu.connect_uart(&socket)?);
+            qemu.uart = Some(qemu.connect_socket(&socket)?);
+        }
+        if config.monitor {
+            let path = monitor_socket(qemu.dir.path());
+            let monitor = qemu.connect_socket(&path)?;
+            monitor.set_read_timeout(Some(POLL))?;
+            // The banner ends with the first prompt.
+            qemu.monitor = Some(monitor);
+            qemu.read_monitor_reply()?;
         }
         Ok(qemu)
+    }
+
+    /// Runs an HMP monitor command (e.g. `stop`, `pmemsave 0x70000 65536 FILE`) and
+    /// returns what QEMU answered; it has completed when this returns.
+    pub fn monitor(&mut self, command: &str) -> Result<String, QemuError> {
+        use std::io::Write;
+        let monitor = self.monitor.as_mut().ok_or_else(|| {
+            QemuError::BadInput("this QEMU run has no monitor: use QemuConfig::monitor".into())
+        })?;
+        monitor.write_all(command.as_bytes())?;
+        monitor.write_all(b"\n")?;
+        self.read_monitor_reply()
+    }
+
+    /// Reads the monitor's output up to its next prompt.
+    fn read_monitor_reply(&mut self) -> Result<String, QemuError> {
+        const PROMPT: &str = "(qemu) ";
+        let mut text = Vec::new();
+        let mut buf = [0u8; 1024];
+        loop {
+            let Some(monitor) = self.monitor.as_mut() else {
+                return Err(QemuError::BadInput("no monitor".into()));
+            };
+            match monitor.read(&mut buf) {
+                Ok(0) => {
+                    return Err(QemuError::Io(io::Error::new(
+                        io::ErrorKind::UnexpectedEof,
+                        "the QEMU monitor closed",
+                    )));
+                }
+                Ok(n) => text.extend_from_slice(&buf[..n]),
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
+                    ) => {}
+                Err(e) => return Err(e.into()),
+            }
+            let reply = String::from_utf8_lossy(&text);
+            if let Some(body) = reply.strip_suffix(PROMPT) {
+                return Ok(body.to_owned());
+            }
+            if Instant::now() >= self.deadline {
+                let output = self.kill()?;
+                return Err(QemuError::Timeout {
+                    timeout: self.timeout,
+                    stdout: output.stdout,
+                    stderr: output.stderr,
+                });
+            }
+        }
     }
 
     /// The host end of UART0 (present when the config asked for a UART).
@@ -236,6 +309,7 @@ impl Qemu {
     fn kill(&mut self) -> Result<QemuOutput, QemuError> {
         // Closing our end first lets QEMU see EOF rather than a reset mid-write.
         self.uart = None;
+        self.monitor = None;
         if self.child.try_wait()?.is_none() {
             // It may exit between the check and the kill; then kill's error is harmless.
             let _ = self.child.kill();
@@ -252,8 +326,8 @@ impl Qemu {
         }
     }
 
-    /// Connects to the socket QEMU serves, retrying until it appears or QEMU gives up.
-    fn connect_uart(&mut self, socket: &Path) -> Result<UnixStream, QemuError> {
+    /// Connects to a socket QEMU serves, retrying until it appears or QEMU gives up.
+    fn connect_socket(&mut self, socket: &Path) -> Result<UnixStream, QemuError> {
         loop {
             match UnixStream::connect(socket) {
                 Ok(stream) => return Ok(stream),
@@ -307,9 +381,15 @@ pub fn arguments(config: &QemuConfig, socket: &Path) -> Vec<OsString> {
     push("-machine");
     push(MACHINE);
     push("-nographic");
-    // No monitor: with -nographic it would share stdout with the image's output.
+    // With -nographic a default monitor would share stdout with the image's output.
     push("-monitor");
-    push("none");
+    if config.monitor {
+        let path = monitor_socket(socket.parent().unwrap_or(Path::new(".")));
+        args.push(option_with_path("unix:", &path, ",server=on,wait=off"));
+    } else {
+        push("none");
+    }
+    let mut push = |arg: &str| args.push(OsString::from(arg));
     push("-semihosting-config");
     push("enable=on,target=native");
     if config.icount {
@@ -341,6 +421,11 @@ pub fn arguments(config: &QemuConfig, socket: &Path) -> Vec<OsString> {
     args.push(OsString::from("-kernel"));
     args.push(config.kernel.clone().into_os_string());
     args
+}
+
+/// The monitor's socket in a run's folder (next to the UART's).
+fn monitor_socket(dir: &Path) -> PathBuf {
+    dir.join("monitor.sock")
 }
 
 /// `prefix` + `path` + `suffix`, with commas in the path doubled as QEMU's option syntax
@@ -462,6 +547,16 @@ mod tests {
             ),
             "{line}"
         );
+    }
+
+    #[test]
+    fn a_monitor_is_served_on_a_socket_beside_the_uart() {
+        let line = args_of(&QemuConfig::new("/fw/img").uart().monitor()).join(" ");
+        assert!(
+            line.contains("-monitor unix:/tmp/x/monitor.sock,server=on,wait=off"),
+            "{line}"
+        );
+        assert!(!line.contains("-monitor none"), "{line}");
     }
 
     #[test]

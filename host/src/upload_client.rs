@@ -94,24 +94,12 @@ fn expect_ack<R: Read>(
 pub fn read_key(path: &std::path::Path) -> Result<[u8; KEY_LEN]> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| anyhow!("{}: cannot read the device key: {e}", path.display()))?;
-    parse_key(&text).map_err(|e| anyhow!("{}: line 1: {e}", path.display()))
+    parse_key(&text).map_err(|e| anyhow!("{}: {e}", path.display()))
 }
 
-/// Parses 64 hexadecimal digits into a key.
+/// Parses 64 hexadecimal digits into a key (see [`supine_core::upload::parse_key`]).
 pub fn parse_key(text: &str) -> Result<[u8; KEY_LEN]> {
-    let digits: String = text.split_whitespace().collect();
-    if digits.len() != 2 * KEY_LEN || !digits.bytes().all(|b| b.is_ascii_hexdigit()) {
-        bail!(
-            "expected {} hexadecimal digits (a 32-byte key), found {} characters",
-            2 * KEY_LEN,
-            digits.len()
-        );
-    }
-    let mut key = [0u8; KEY_LEN];
-    for (i, byte) in key.iter_mut().enumerate() {
-        *byte = u8::from_str_radix(&digits[2 * i..2 * i + 2], 16)?;
-    }
-    Ok(key)
+    supine_core::upload::parse_key(text).map_err(|e| anyhow!("{e}"))
 }
 
 #[cfg(test)]

@@ -157,6 +157,43 @@ pub fn last_counter(flash: &impl ParamFlash) -> u32 {
         .unwrap_or(0)
 }
 
+/// A device key file that is not 64 hexadecimal digits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct KeyFileError {
+    /// Characters other than whitespace that the file holds.
+    pub found_chars: usize,
+}
+
+impl core::fmt::Display for KeyFileError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(
+            f,
+            "expected {} hexadecimal digits (a {KEY_LEN}-byte key), found {} characters",
+            2 * KEY_LEN,
+            self.found_chars
+        )
+    }
+}
+
+/// Parses a device key file: 64 hexadecimal digits, whitespace anywhere ignored. The host
+/// (signing) and the firmware's build script (provisioning) read the same files with it.
+pub fn parse_key(text: &str) -> Result<[u8; KEY_LEN], KeyFileError> {
+    let mut key = [0u8; KEY_LEN];
+    let mut found = 0usize;
+    let mut all_hex = true;
+    for c in text.chars().filter(|c| !c.is_whitespace()) {
+        match (c.to_digit(16), key.get_mut(found / 2)) {
+            (Some(d), Some(byte)) => *byte = (*byte << 4) | d as u8,
+            _ => all_hex = false,
+        }
+        found += 1;
+    }
+    if !all_hex || found != 2 * KEY_LEN {
+        return Err(KeyFileError { found_chars: found });
+    }
+    Ok(key)
+}
+
 /// HMAC-SHA256 of the counter (u32 LE) followed by the blob, with the device key.
 pub fn update_mac(key: &[u8; KEY_LEN], counter: u32, blob: &[u8]) -> [u8; 32] {
     let mut out = [0u8; 32];

@@ -2,6 +2,7 @@
 
 pub mod exposure;
 pub mod fit;
+pub mod flash;
 pub mod model;
 pub mod modes;
 pub mod params;

@@ -1,0 +1,125 @@
+//! `supine flash`: a parameter file onto a device, as a QEMU region image, an
+//! authenticated upload over a serial port (or into QEMU), or with probe-rs.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use anyhow::{Result, anyhow, bail};
+
+use crate::device_params::identity_hex;
+use crate::flash::{self, UploadOutcome};
+use crate::params_file::ModelSource;
+
+/// Arguments of `supine flash`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The model parameters (and optional `[device]` table) to build the blob from.
+    #[command(flatten)]
+    pub model: ModelSource,
+    /// Sample rate the device runs at, Hz (the blob holds the realization for it).
+    #[arg(long = "fs", value_name = "HZ", default_value_t = 500.0)]
+    pub fs_hz: f64,
+    /// Where the parameters go.
+    #[command(flatten)]
+    pub target: Target,
+    /// Serial speed for --serial, baud.
+    #[arg(long, value_name = "N", default_value_t = 921_600)]
+    pub baud: u32,
+    /// Device key file (64 hex digits) that signs the upload; default: the development key.
+    #[arg(long, value_name = "FILE")]
+    pub key: Option<PathBuf>,
+    /// Update counter; must exceed every one the device accepted (default: Unix time, s).
+    #[arg(long, value_name = "N")]
+    pub counter: Option<u32>,
+    /// Flash address of the PARAMS region for --probe (the Black Pill's sector 7).
+    #[arg(long, value_name = "ADDR", default_value = "0x08060000", value_parser = parse_address)]
+    pub base_address: u32,
+    /// Longest wait for each answer of the device, seconds.
+    #[arg(long, value_name = "S", default_value_t = 10.0)]
+    pub timeout_s: f64,
+}
+
+/// Exactly one destination.
+#[derive(Debug, clap::Args)]
+#[group(required = true, multiple = false)]
+pub struct Target {
+    /// Write the PARAMS region image for QEMU's `-device loader,file=OUT,addr=0x70000`.
+    #[arg(long, value_name = "OUT")]
+    pub qemu_image: Option<PathBuf>,
+    /// Upload over the UART protocol to a running device on this serial port.
+    #[arg(long, value_name = "PORT")]
+    pub serial: Option<String>,
+    /// Write the region image to a board with `probe-rs download --chip CHIP`.
+    #[arg(long, value_name = "CHIP")]
+    pub probe: Option<String>,
+    /// Start the device image in QEMU, upload over its UART, check the new greeting, exit.
+    #[arg(long)]
+    pub qemu: bool,
+}
+
+fn parse_address(text: &str) -> Result<u32, String> {
+    let digits = text.strip_prefix("0x").or_else(|| text.strip_prefix("0X"));
+    match digits {
+        Some(hex) => u32::from_str_radix(hex, 16),
+        None => text.parse(),
+    }
+    .map_err(|_| format!("expected an address like 0x08060000, got {text:?}"))
+}
+
+/// Builds the blob and delivers it.
+pub fn run(args: &Args) -> Result<()> {
+    let file = args.model.load()?;
+    if !(args.timeout_s.is_finite() && args.timeout_s > 0.0) {
+        bail!(
+            "--timeout-s: expected a positive number of seconds, got {}",
+            args.timeout_s
+        );
+    }
+    let timeout = Duration::from_secs_f64(args.timeout_s);
+    let (params, blob) = flash::device_blob(&file, args.fs_hz)?;
+    let id = identity_hex(&params.identity);
+    let counter = || args.counter.map_or_else(flash::counter_now, Ok);
+    let t = &args.target;
+    if let Some(out) = &t.qemu_image {
+        let image = flash::qemu_region_image(&file, args.fs_hz)?;
+        crate::output::write_atomically(out, |w| {
+            std::io::Write::write_all(w, &image)
+                .map_err(|e| anyhow!("{}: cannot write: {e}", out.display()))
+        })?;
+        println!(
+            "wrote {} ({} bytes: parameters {id} at {} Hz in slot A); run with -device loader,file={},addr={:#x}",
+            out.display(),
+            image.len(),
+            args.fs_hz,
+            out.display(),
+            crate::qemu::PARAMS_ADDR
+        );
+    } else if let Some(port) = &t.serial {
+        let key = flash::load_key(args.key.as_deref())?;
+        let outcome =
+            flash::upload_serial(port, args.baud, &params, &blob, &key, counter()?, timeout)?;
+        report(&outcome, port);
+    } else if let Some(chip) = &t.probe {
+        let image = flash::region_image(&blob, counter()?)?;
+        flash::probe_download(chip, args.base_address, &image)?;
+        println!(
+            "flashed parameters {id} at {} Hz to {chip} at {:#010x}",
+            args.fs_hz, args.base_address
+        );
+    } else if t.qemu {
+        let key = flash::load_key(args.key.as_deref())?;
+        let outcome = flash::upload_qemu(&params, &blob, &key, counter()?, timeout)?;
+        report(&outcome, "QEMU");
+    }
+    Ok(())
+}
+
+fn report(outcome: &UploadOutcome, device: &str) {
+    println!(
+        "{device}: parameters {} committed to slot {} and running (greeting: {} Hz, firmware {})",
+        identity_hex(&outcome.uploaded.identity),
+        outcome.uploaded.slot,
+        outcome.greeting.sample_rate_hz,
+        outcome.greeting.firmware_version
+    );
+}
