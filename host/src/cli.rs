@@ -45,6 +45,8 @@ pub enum Command {
     Ride(commands::ride::Args),
     /// Replay a recording through the firmware in QEMU; write its telemetry as CSV.
     Replay(commands::replay::Args),
+    /// Follow a device live (serial port, or the firmware in QEMU fed a ride); log to CSV.
+    Monitor(commands::monitor::Args),
     /// Put parameters on a device: QEMU region image, signed upload over serial, probe-rs.
     Flash(commands::flash::Args),
 }
@@ -76,6 +78,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Exposure(args) => commands::exposure::run(&args),
         Command::Ride(args) => commands::ride::run(&args),
         Command::Replay(args) => commands::replay::run(&args),
+        Command::Monitor(args) => commands::monitor::run(&args),
         Command::Flash(args) => commands::flash::run(&args),
     }
 }

@@ -5,6 +5,7 @@ pub mod fit;
 pub mod flash;
 pub mod model;
 pub mod modes;
+pub mod monitor;
 pub mod params;
 pub mod predict;
 pub mod replay;

@@ -7,6 +7,9 @@
 //! - [`session`]: the loop that reads the link and drives the three, and the sources that
 //!   feed it (QEMU with a streamed ride, or a serial port).
 
+pub mod log;
+pub mod session;
 pub mod state;
+pub mod view;
 
 pub use state::{Counters, Monitor, Notice, Severity, describe_event, device_line, fault_names};

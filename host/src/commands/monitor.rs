@@ -1,0 +1,197 @@
+//! `supine monitor`: follow a device live (a serial port, or the firmware in QEMU fed with
+//! a ride), with a terminal panel or plain lines, and an optional CSV log.
+
+use std::io::IsTerminal as _;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use anyhow::{Context as _, Result, anyhow, bail};
+use clap::ArgGroup;
+
+use crate::device_params;
+use crate::exposure_report::read_input;
+use crate::firmware;
+use crate::link::FrameReader;
+use crate::monitor::log::MonitorLog;
+use crate::monitor::session::{Ending, QemuRun, follow, open_serial, run_qemu, wait_greeting};
+use crate::monitor::view::{LiveView, PlainView, View};
+use crate::monitor::{Monitor, device_line};
+use crate::params_file::ModelSource;
+use crate::ride::{Profile, generate};
+
+/// Arguments of `supine monitor`.
+#[derive(Debug, clap::Args)]
+#[command(group(ArgGroup::new("target").required(true).args(["serial", "qemu"])))]
+pub struct Args {
+    /// A real device on this serial port (e.g. /dev/ttyUSB0); only listens.
+    #[arg(long, value_name = "PORT")]
+    pub serial: Option<String>,
+    /// The serial port's baud rate.
+    #[arg(long, default_value_t = 115_200, requires = "serial")]
+    pub baud: u32,
+    /// The firmware in QEMU (mps2-an386), fed with a ride over its UART.
+    #[arg(long)]
+    pub qemu: bool,
+    /// With --qemu: the model parameters (and optional `[device]` table) for the blob.
+    #[command(flatten)]
+    pub model: Option<ModelSource>,
+    /// With --qemu: a recording whose platform columns are streamed as samples.
+    #[arg(long, value_name = "RIDE.csv", conflicts_with_all = ["profile", "serial"])]
+    pub input: Option<PathBuf>,
+    /// With --qemu: generate the ride instead (see `supine ride`).
+    #[arg(long, value_enum, conflicts_with = "serial")]
+    pub profile: Option<Profile>,
+    /// Length of the generated ride, s.
+    #[arg(long, default_value_t = 60.0, requires = "profile")]
+    pub duration_s: f64,
+    /// Sample rate of the generated ride, Hz (100..=2000).
+    #[arg(long, default_value_t = 500.0, requires = "profile")]
+    pub fs: f64,
+    /// Seed of the generated ride.
+    #[arg(long, default_value_t = 0, requires = "profile")]
+    pub seed: u64,
+    /// With --qemu: send the samples in real time (default: as fast as the device takes them).
+    #[arg(long, requires = "qemu")]
+    pub realtime: bool,
+    /// Log every telemetry record to FILE.csv and every alert event to <stem>.events.csv
+    /// (the formats of `supine replay`).
+    #[arg(long, value_name = "FILE.csv")]
+    pub log: Option<PathBuf>,
+    /// Longest wait for the device's greeting, s.
+    #[arg(long, default_value_t = 10.0)]
+    pub greeting_timeout_s: f64,
+}
+
+/// Runs the monitor until the ride ends (QEMU), Ctrl-C, or the link fails.
+pub fn run(args: &Args) -> Result<()> {
+    if !(args.greeting_timeout_s.is_finite() && args.greeting_timeout_s > 0.0) {
+        bail!(
+            "--greeting-timeout-s {}: expected a positive number of seconds",
+            args.greeting_timeout_s
+        );
+    }
+    let greeting_timeout = Duration::from_secs_f64(args.greeting_timeout_s);
+    let qemu_run = if args.qemu {
+        Some(prepare_qemu(args, greeting_timeout)?)
+    } else {
+        None
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    // A second handler cannot be installed in one process (a library caller): then Ctrl-C
+    // keeps its default, which ends QEMU through its guard's process group.
+    let _ = ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed));
+    let mut log = args.log.as_deref().map(MonitorLog::create).transpose()?;
+    let stdout = std::io::stdout();
+    let mut view: Box<dyn View> = if stdout.is_terminal() {
+        Box::new(LiveView::new(stdout)?)
+    } else {
+        Box::new(PlainView::new(stdout))
+    };
+    let result = match (&qemu_run, &args.serial) {
+        (Some(run), _) => run_qemu(run, view.as_mut(), log.as_mut(), &stop),
+        (None, Some(port)) => monitor_serial(
+            port,
+            args.baud,
+            greeting_timeout,
+            view.as_mut(),
+            log.as_mut(),
+            &stop,
+        ),
+        (None, None) => Err(anyhow!("give --serial PORT or --qemu")),
+    };
+    drop(view);
+    let (monitor, ending) = match result {
+        Ok(done) => done,
+        Err(e) => {
+            return Err(match log {
+                Some(log) if log.rows() > 0 => {
+                    let (t, _) = log.abandon();
+                    e.context(format!("the log so far is in {}", t.display()))
+                }
+                Some(log) => {
+                    let (t, ev) = log.abandon();
+                    let _ = std::fs::remove_file(t);
+                    let _ = std::fs::remove_file(ev);
+                    e
+                }
+                None => e,
+            });
+        }
+    };
+    let written = log.map(MonitorLog::finish).transpose()?;
+    eprintln!("{}", monitor.summary());
+    if let Some((t, e)) = written {
+        eprintln!("wrote {} and {}", t.display(), e.display());
+    }
+    match (ending, &qemu_run) {
+        (Ending::Stopped, Some(run)) => bail!(
+            "interrupted after {} of {} samples",
+            monitor.latest().map_or(0, |t| t.sample_index + 1),
+            run.samples.len()
+        ),
+        _ => Ok(()),
+    }
+}
+
+/// The blob, the ride and the image for `--qemu`.
+fn prepare_qemu(args: &Args, greeting_timeout: Duration) -> Result<QemuRun> {
+    let model = args
+        .model
+        .as_ref()
+        .ok_or_else(|| anyhow!("--qemu needs --preset NAME or --params FILE"))?;
+    let file = model.load()?;
+    let (samples, sample_rate_hz) = match (&args.input, args.profile) {
+        (Some(path), _) => {
+            let (recording, _) = read_input(path)?;
+            if recording.len() < 2 {
+                bail!("{}: fewer than two samples", path.display());
+            }
+            let samples = (0..recording.len())
+                .map(|k| recording.platform_m_s2.each_ref().map(|c| c[k] as f32))
+                .collect();
+            (samples, recording.sample_rate_hz())
+        }
+        (None, Some(profile)) => {
+            let ride = generate(profile, args.duration_s, args.fs, args.seed)?;
+            let samples = (0..ride.len())
+                .map(|k| ride.platform_m_s2.each_ref().map(|c| c[k] as f32))
+                .collect();
+            (samples, ride.sample_rate_hz)
+        }
+        (None, None) => bail!("--qemu needs a ride: --input RIDE.csv or --profile NAME"),
+    };
+    let params = device_params::build(&file, sample_rate_hz)?;
+    let blob = device_params::encode(&params)?;
+    let kernel = firmware::build_binary(firmware::PRODUCT_BINARY)?;
+    Ok(QemuRun {
+        kernel,
+        blob,
+        identity: params.identity,
+        samples,
+        sample_rate_hz,
+        realtime: args.realtime,
+        greeting_timeout,
+    })
+}
+
+/// Follows a device on a serial port until Ctrl-C (or the port fails).
+fn monitor_serial(
+    port: &str,
+    baud: u32,
+    greeting_timeout: Duration,
+    view: &mut dyn View,
+    log: Option<&mut MonitorLog>,
+    stop: &AtomicBool,
+) -> Result<(Monitor, Ending)> {
+    let serial = open_serial(port, baud)?;
+    let mut reader = FrameReader::new(serial);
+    let greeting = wait_greeting(&mut reader, greeting_timeout, stop)
+        .with_context(|| format!("{port} at {baud} baud"))?;
+    eprintln!("supine monitor: {}", device_line(&greeting));
+    let mut monitor = Monitor::new(&greeting)?;
+    let ending = follow(&mut reader, &mut monitor, view, log, stop, false, None)?;
+    Ok((monitor, ending))
+}

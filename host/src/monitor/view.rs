@@ -1,0 +1,294 @@
+//! Showing a [`Monitor`]: a compact panel redrawn in place on a terminal (crossterm), with
+//! alert events scrolling above it in colour; or, when the output is not a terminal,
+//! plain lines (a status line per second and each event as it happens), no escape codes.
+//!
+//! The panel's content is a pure function ([`panel_lines`]), tested without a terminal;
+//! the views only decide when to draw and how to colour.
+
+use std::io::{self, Write};
+use std::time::{Duration, Instant};
+
+use anyhow::{Result, anyhow};
+use crossterm::style::{Attribute, Color, Print, ResetColor, SetAttribute, SetForegroundColor};
+use crossterm::terminal::{Clear, ClearType};
+use crossterm::{cursor, queue};
+
+use super::state::{Monitor, Notice, Severity, describe_event, device_line};
+
+/// Redraw period of the live panel (10 Hz, whatever the telemetry rate).
+pub const REDRAW_INTERVAL: Duration = Duration::from_millis(100);
+/// Period of the plain status line.
+pub const PLAIN_INTERVAL: Duration = Duration::from_secs(1);
+/// Alert events listed in the panel.
+const PANEL_EVENTS: usize = 4;
+
+/// A piece of a panel line, highlighted by `severity` (`None`: plain text).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Span {
+    /// Highlight, if any.
+    pub severity: Option<Severity>,
+    /// The text.
+    pub text: String,
+}
+
+fn plain(text: impl Into<String>) -> Span {
+    Span {
+        severity: None,
+        text: text.into(),
+    }
+}
+
+fn marked(severity: Severity, text: impl Into<String>) -> Span {
+    Span {
+        severity: Some(severity),
+        text: text.into(),
+    }
+}
+
+/// The panel: device, time and level, head acceleration, running rms, VDV, link counters
+/// and the latest alert events.
+pub fn panel_lines(m: &Monitor) -> Vec<Vec<Span>> {
+    let mut lines = vec![vec![plain(format!(
+        "supine monitor: {}",
+        device_line(m.greeting())
+    ))]];
+    let level = m.level();
+    let faults = m.fault_names();
+    lines.push(vec![
+        plain(format!("t {:>9.2} s   level ", m.time_s())),
+        marked(Severity::of_level(level), level.name().to_ascii_uppercase()),
+        plain(format!(" (highest {})   faults ", m.highest_level())),
+        if faults.is_empty() {
+            plain("none")
+        } else {
+            marked(Severity::Fault, faults.join(" + "))
+        },
+    ]);
+    match m.latest() {
+        None => lines.push(vec![plain("waiting for telemetry")]),
+        Some(t) => {
+            let [hx, hy, hz] = t.head_acc_m_s2;
+            let [rx, ry, rz] = t.running_rms_m_s2;
+            lines.push(vec![plain(format!(
+                "head (predicted)       x {hx:+8.3}  y {hy:+8.3}  z {hz:+8.3} m/s^2   peak |a| {:.3}",
+                m.peak_head_m_s2()
+            ))]);
+            lines.push(vec![plain(format!(
+                "weighted rms (1 s)     x {rx:8.3}  y {ry:8.3}  z {rz:8.3} m/s^2   vector {:.3}{}",
+                t.vector_running_rms_m_s2,
+                if t.valid { "" } else { "  (settling)" }
+            ))]);
+            lines.push(vec![plain(format!(
+                "VDV (vector)           {:.3} m/s^1.75",
+                t.vdv_m_s175
+            ))]);
+        }
+    }
+    let c = m.counters();
+    let link = &c.link;
+    let losses = link.lost_frames + link.bad_frames;
+    let counters = format!(
+        "frames {}  lost {}  bad {}  reordered {}",
+        link.frames, link.lost_frames, link.bad_frames, link.reordered_frames
+    );
+    lines.push(vec![
+        plain("link                   "),
+        if losses > 0 {
+            marked(Severity::Warning, counters)
+        } else {
+            plain(counters)
+        },
+        plain(format!(
+            "   telemetry {}  events {} ({} raised)",
+            c.telemetry, c.events, c.raised
+        )),
+    ]);
+    let recent: Vec<_> = m.history().collect();
+    let skip = recent.len().saturating_sub(PANEL_EVENTS);
+    for e in &recent[skip..] {
+        lines.push(vec![
+            plain("event                  "),
+            marked(Severity::of_event(e), describe_event(e, m.sample_rate_hz())),
+        ]);
+    }
+    lines
+}
+
+/// Where the monitor shows itself.
+pub trait View {
+    /// Shows something at once (an alert event, a greeting).
+    fn notice(&mut self, m: &Monitor, notice: &Notice) -> Result<()>;
+    /// Called often; redraws when its own interval has passed.
+    fn refresh(&mut self, m: &Monitor) -> Result<()>;
+    /// Draws the final state and gives the terminal back.
+    fn close(&mut self, m: &Monitor) -> Result<()>;
+}
+
+/// The colour of a severity on a terminal.
+pub fn colour(severity: Severity) -> Color {
+    match severity {
+        Severity::Info => Color::Green,
+        Severity::Advisory => Color::Yellow,
+        Severity::Warning => Color::DarkYellow,
+        Severity::Alarm => Color::Red,
+        Severity::Fault => Color::Magenta,
+    }
+}
+
+/// The redrawn panel on a terminal. Dropping it restores the cursor and colours (also
+/// on an error or a panic unwinding through the caller).
+pub struct LiveView<W: Write> {
+    out: W,
+    drawn_lines: u16,
+    last_draw: Option<Instant>,
+}
+
+impl<W: Write> LiveView<W> {
+    /// Takes over `out` (a terminal): hides the cursor.
+    pub fn new(mut out: W) -> Result<Self> {
+        queue!(out, cursor::Hide).map_err(term_error)?;
+        out.flush().map_err(term_error)?;
+        Ok(Self {
+            out,
+            drawn_lines: 0,
+            last_draw: None,
+        })
+    }
+
+    /// Erases the panel drawn last (the cursor goes back to its first line).
+    fn erase(&mut self) -> io::Result<()> {
+        if self.drawn_lines > 0 {
+            queue!(self.out, cursor::MoveUp(self.drawn_lines))?;
+        }
+        queue!(
+            self.out,
+            cursor::MoveToColumn(0),
+            Clear(ClearType::FromCursorDown)
+        )?;
+        self.drawn_lines = 0;
+        Ok(())
+    }
+
+    fn print_spans(&mut self, spans: &[Span]) -> io::Result<()> {
+        for span in spans {
+            match span.severity {
+                Some(s) => queue!(
+                    self.out,
+                    SetForegroundColor(colour(s)),
+                    SetAttribute(Attribute::Bold),
+                    Print(&span.text),
+                    SetAttribute(Attribute::Reset),
+                    ResetColor
+                )?,
+                None => queue!(self.out, Print(&span.text))?,
+            }
+        }
+        queue!(self.out, Print("\r\n"))
+    }
+
+    fn draw(&mut self, m: &Monitor) -> io::Result<()> {
+        self.erase()?;
+        let lines = panel_lines(m);
+        for line in &lines {
+            self.print_spans(line)?;
+        }
+        self.drawn_lines = u16::try_from(lines.len()).unwrap_or(u16::MAX);
+        self.out.flush()?;
+        self.last_draw = Some(Instant::now());
+        Ok(())
+    }
+}
+
+impl<W: Write> View for LiveView<W> {
+    fn notice(&mut self, m: &Monitor, notice: &Notice) -> Result<()> {
+        // The event goes above the panel, where it stays as the panel is redrawn.
+        self.erase().map_err(term_error)?;
+        let line = [marked(
+            notice.severity,
+            format!("[{}] {}", notice.severity.tag(), notice.text),
+        )];
+        self.print_spans(&line).map_err(term_error)?;
+        self.draw(m).map_err(term_error)
+    }
+
+    fn refresh(&mut self, m: &Monitor) -> Result<()> {
+        if self
+            .last_draw
+            .is_none_or(|t| t.elapsed() >= REDRAW_INTERVAL)
+        {
+            self.draw(m).map_err(term_error)?;
+        }
+        Ok(())
+    }
+
+    fn close(&mut self, m: &Monitor) -> Result<()> {
+        self.draw(m).map_err(term_error)?;
+        restore(&mut self.out).map_err(term_error)
+    }
+}
+
+impl<W: Write> Drop for LiveView<W> {
+    fn drop(&mut self) {
+        let _ = restore(&mut self.out);
+    }
+}
+
+fn restore(out: &mut impl Write) -> io::Result<()> {
+    queue!(
+        out,
+        SetAttribute(Attribute::Reset),
+        ResetColor,
+        cursor::Show
+    )?;
+    out.flush()
+}
+
+fn term_error(e: io::Error) -> anyhow::Error {
+    anyhow!("writing to the terminal: {e}")
+}
+
+/// Plain lines for pipes and logs: `[SEVERITY] text` for each event as it happens, and
+/// the status line ([`Monitor::render_line`]) once per [`PLAIN_INTERVAL`].
+pub struct PlainView<W: Write> {
+    out: W,
+    last_line: Instant,
+}
+
+impl<W: Write> PlainView<W> {
+    /// Writes to `out`.
+    pub fn new(out: W) -> Self {
+        Self {
+            out,
+            last_line: Instant::now(),
+        }
+    }
+
+    /// Gives the writer back (tests read what was written).
+    pub fn into_inner(self) -> W {
+        self.out
+    }
+
+    fn line(&mut self, text: &str) -> Result<()> {
+        writeln!(self.out, "{text}")
+            .and_then(|()| self.out.flush())
+            .map_err(|e| anyhow!("writing the monitor's output: {e}"))
+    }
+}
+
+impl<W: Write> View for PlainView<W> {
+    fn notice(&mut self, _m: &Monitor, notice: &Notice) -> Result<()> {
+        self.line(&format!("[{}] {}", notice.severity.tag(), notice.text))
+    }
+
+    fn refresh(&mut self, m: &Monitor) -> Result<()> {
+        if self.last_line.elapsed() >= PLAIN_INTERVAL {
+            self.last_line = Instant::now();
+            self.line(&m.render_line())?;
+        }
+        Ok(())
+    }
+
+    fn close(&mut self, m: &Monitor) -> Result<()> {
+        self.line(&m.render_line())
+    }
+}
