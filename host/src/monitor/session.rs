@@ -100,7 +100,19 @@ pub fn follow<R: Read>(
             }
             let message = reader.next_before(Instant::now() + STEP);
             monitor.on_link(reader.stats);
-            if let Some(message) = message? {
+            let message = match message {
+                Ok(message) => message,
+                // Ctrl-C on a terminal also reaches QEMU (same process group), whose link
+                // may fail before the handler has set the flag: a failure then is a stop.
+                Err(e) => {
+                    thread::sleep(STEP);
+                    if stop.load(Ordering::Relaxed) {
+                        return Ok(Ending::Stopped);
+                    }
+                    return Err(e);
+                }
+            };
+            if let Some(message) = message {
                 let notice = monitor.on_message(&message)?;
                 if let Some(log) = log.as_deref_mut() {
                     log.on_message(&message, monitor.sample_rate_hz())?;
