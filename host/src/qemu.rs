@@ -224,6 +224,35 @@ impl Qemu {
         self.read_monitor_reply()
     }
 
+    /// Saves `len_bytes` of guest memory from `addr` to the file `out` (`pmemsave`).
+    pub fn save_memory(
+        &mut self,
+        addr: u32,
+        len_bytes: usize,
+        out: &Path,
+    ) -> Result<(), QemuError> {
+        // HMP parses the size as an expression, so a path starting with `/` would read as
+        // a division: name the file relative to the working directory QEMU shares with us.
+        let out = std::path::absolute(out)?;
+        let cwd = std::env::current_dir()?;
+        let mut relative = PathBuf::from(".");
+        relative.extend(cwd.components().skip(1).map(|_| ".."));
+        relative.extend(out.components().skip(1));
+        let reply = self.monitor(&format!(
+            "pmemsave {addr:#x} {len_bytes} {}",
+            relative.display()
+        ))?;
+        let written = std::fs::metadata(&out).map(|m| m.len()).unwrap_or(0);
+        if written != len_bytes as u64 {
+            return Err(QemuError::BadInput(format!(
+                "pmemsave to {} failed: {}",
+                out.display(),
+                one_line(&reply)
+            )));
+        }
+        Ok(())
+    }
+
     /// Reads the monitor's output up to its next prompt.
     fn read_monitor_reply(&mut self) -> Result<String, QemuError> {
         const PROMPT: &str = "(qemu) ";
