@@ -299,3 +299,179 @@ pub fn open_serial(port: &str, baud: u32) -> Result<Box<dyn serialport::SerialPo
     writer.flush()?;
     Ok(serial)
 }
+
+#[cfg(test)]
+mod tests {
+    use std::io::Cursor;
+
+    use super::*;
+    use crate::monitor::view::PlainView;
+    use supine_core::alerts::{AlertEvent, Level, SensorFault};
+    use supine_core::protocol::{
+        DeviceFrame, MAX_FRAME_LEN, PROTOCOL_VERSION, ParamsSource, ResetCause, Status, Telemetry,
+        encode_frame,
+    };
+
+    fn frame(seq: u32, message: DeviceToHost) -> Vec<u8> {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        encode_frame(&DeviceFrame { seq, message }, &mut buf)
+            .expect("encodes")
+            .to_vec()
+    }
+
+    fn greeting(protocol_version: u16) -> DeviceToHost {
+        DeviceToHost::Greeting(Greeting {
+            protocol_version,
+            firmware_version: heapless::String::try_from("0.1.0+test").expect("fits"),
+            params_identity: [1; 16],
+            params_source: ParamsSource::Flash { slot: 1 },
+            sample_rate_hz: 250.0,
+            reset_cause: ResetCause::PowerOn,
+            last_panic: heapless::String::new(),
+        })
+    }
+
+    fn telemetry(sample_index: u32) -> DeviceToHost {
+        DeviceToHost::Telemetry(Telemetry {
+            sample_index,
+            head_acc_m_s2: [0.0, 0.0, 1.0],
+            running_rms_m_s2: [0.1, 0.1, 0.9],
+            vector_running_rms_m_s2: 0.95,
+            vdv_m_s175: 2.0,
+            alert_level: Level::Advisory,
+            fault_flags: 0,
+            valid: true,
+        })
+    }
+
+    /// A hand-built stream: greeting, telemetry with 3 frames missing (seq 3..=5) and a
+    /// corrupted frame, an alert event, telemetry, a fault event, then a status.
+    fn stream() -> Vec<u8> {
+        let mut bytes = frame(0, greeting(PROTOCOL_VERSION));
+        bytes.extend(frame(1, telemetry(0)));
+        bytes.extend(frame(2, telemetry(1)));
+        bytes.extend(frame(6, telemetry(5)));
+        // A frame whose payload was hit on the line: postcard cannot decode it.
+        let mut hit = frame(7, telemetry(6));
+        hit[3] ^= 0x5a;
+        hit[4] = 0xff;
+        bytes.extend(hit);
+        bytes.extend(frame(
+            8,
+            DeviceToHost::Alert(AlertEvent::Level {
+                from: Level::Normal,
+                to: Level::Alarm,
+                at_sample: 500,
+            }),
+        ));
+        bytes.extend(frame(9, telemetry(510)));
+        bytes.extend(frame(
+            10,
+            DeviceToHost::Alert(AlertEvent::Fault {
+                fault: SensorFault::Saturated,
+                active: true,
+                at_sample: 510,
+            }),
+        ));
+        bytes.extend(frame(11, DeviceToHost::Status(Status::default())));
+        bytes
+    }
+
+    #[test]
+    fn lost_and_bad_frames_are_counted_and_events_shown_as_they_come() {
+        let mut reader = FrameReader::new(Cursor::new(stream()));
+        let stop = AtomicBool::new(false);
+        let g = wait_greeting(&mut reader, Duration::from_secs(1), &stop).expect("greeting");
+        let mut monitor = Monitor::new(&g).expect("monitor");
+        let mut view = PlainView::new(Vec::new());
+        let ending = follow(
+            &mut reader,
+            &mut monitor,
+            &mut view,
+            None,
+            &stop,
+            true,
+            None,
+        )
+        .expect("follows");
+        assert_eq!(ending, Ending::Finished);
+        let c = monitor.counters();
+        assert_eq!(c.telemetry, 4);
+        assert_eq!((c.events, c.raised, c.statuses), (2, 2, 1));
+        // seq 3, 4, 5 never came; seq 7 came damaged (bad, and so also missing).
+        assert_eq!(c.link.bad_frames, 1);
+        assert_eq!(c.link.lost_frames, 4);
+        assert_eq!(c.link.frames, 8);
+        assert_eq!(monitor.fault_names(), ["saturated"]);
+        let text = String::from_utf8(view.into_inner()).expect("utf-8");
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(
+            lines[..2],
+            [
+                "[ALARM] t 2.000 s (sample 500): alert level raised normal -> alarm",
+                "[FAULT] t 2.040 s (sample 510): sensor fault saturated raised",
+            ]
+        );
+        // The closing status line, and no escape codes anywhere.
+        assert!(lines[2].contains("frames 8 lost 4 bad 1"), "{text}");
+        assert!(!text.contains('\x1b'), "{text}");
+    }
+
+    #[test]
+    fn a_stream_that_ends_is_an_error_and_a_stop_is_not() {
+        let mut bytes = frame(0, greeting(PROTOCOL_VERSION));
+        bytes.extend(frame(1, telemetry(0)));
+        let mut reader = FrameReader::new(Cursor::new(bytes.clone()));
+        let stop = AtomicBool::new(false);
+        let g = wait_greeting(&mut reader, Duration::from_secs(1), &stop).expect("greeting");
+        let mut monitor = Monitor::new(&g).expect("monitor");
+        let mut view = PlainView::new(Vec::new());
+        let err = follow(
+            &mut reader,
+            &mut monitor,
+            &mut view,
+            None,
+            &stop,
+            false,
+            None,
+        )
+        .expect_err("the stream ended");
+        assert!(err.to_string().contains("closed the connection"), "{err}");
+        let stop = AtomicBool::new(true);
+        let mut reader = FrameReader::new(Cursor::new(bytes));
+        let ending = follow(
+            &mut reader,
+            &mut monitor,
+            &mut view,
+            None,
+            &stop,
+            false,
+            None,
+        )
+        .expect("a stop ends cleanly");
+        assert_eq!(ending, Ending::Stopped);
+    }
+
+    #[test]
+    fn no_greeting_and_a_greeting_in_another_version_are_one_line_each() {
+        let stop = AtomicBool::new(false);
+        // Telemetry but never a greeting: the wait times out.
+        let (a, b) = std::os::unix::net::UnixStream::pair().expect("socket pair");
+        a.set_read_timeout(Some(STEP)).expect("timeout");
+        let mut reader = FrameReader::new(a);
+        let mut device = b;
+        std::io::Write::write_all(&mut device, &frame(4, telemetry(9))).expect("write");
+        let err =
+            wait_greeting(&mut reader, Duration::from_millis(300), &stop).expect_err("no greeting");
+        assert_eq!(
+            err.to_string(),
+            "no greeting from the device within 0 s (is it running supine firmware?)"
+        );
+        let bytes = frame(0, greeting(PROTOCOL_VERSION + 1));
+        let mut reader = FrameReader::new(Cursor::new(bytes));
+        let err = wait_greeting(&mut reader, Duration::from_secs(1), &stop).expect_err("mismatch");
+        let text = err.to_string();
+        assert!(!text.contains('\n'), "{text}");
+        assert!(text.contains("update this host tool"), "{text}");
+    }
+}

@@ -392,3 +392,182 @@ pub fn device_line(g: &Greeting) -> String {
         g.sample_rate_hz
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use supine_core::protocol::{PROTOCOL_VERSION, ResetCause};
+
+    pub(crate) fn greeting(protocol_version: u16) -> Greeting {
+        Greeting {
+            protocol_version,
+            firmware_version: heapless::String::try_from("0.1.0+test").expect("fits"),
+            params_identity: [7; 16],
+            params_source: ParamsSource::Flash { slot: 0 },
+            sample_rate_hz: 500.0,
+            reset_cause: ResetCause::PowerOn,
+            last_panic: heapless::String::new(),
+        }
+    }
+
+    fn telemetry(sample_index: u32, level: Level, fault_flags: u8) -> Telemetry {
+        Telemetry {
+            sample_index,
+            head_acc_m_s2: [0.3, -0.4, 1.2],
+            running_rms_m_s2: [0.1, 0.2, 0.6],
+            vector_running_rms_m_s2: 0.7,
+            vdv_m_s175: 1.5,
+            alert_level: level,
+            fault_flags,
+            valid: true,
+        }
+    }
+
+    #[test]
+    fn another_protocol_version_is_refused_with_what_to_update() {
+        let newer = Monitor::new(&greeting(PROTOCOL_VERSION + 1))
+            .expect_err("refused")
+            .to_string();
+        assert!(
+            newer.contains(&format!(
+                "protocol version {}, this host speaks {PROTOCOL_VERSION}",
+                PROTOCOL_VERSION + 1
+            )),
+            "{newer}"
+        );
+        assert!(newer.contains("update this host tool"), "{newer}");
+        let older = Monitor::new(&greeting(PROTOCOL_VERSION - 1))
+            .expect_err("refused")
+            .to_string();
+        assert!(older.contains("update the firmware"), "{older}");
+        // A device that restarts mid-session with another version is refused too.
+        let mut m = Monitor::new(&greeting(PROTOCOL_VERSION)).expect("same version");
+        let again = DeviceToHost::Greeting(greeting(PROTOCOL_VERSION + 1));
+        assert!(m.on_message(&again).is_err());
+    }
+
+    #[test]
+    fn fault_flags_are_named_in_bit_order_and_unknown_bits_kept() {
+        assert!(fault_names(0).is_empty());
+        assert_eq!(fault_names(0b0001), ["non-finite"]);
+        assert_eq!(fault_names(0b1010), ["saturated", "index-gap"]);
+        assert_eq!(fault_names(0b1000_0100), ["stuck", "bit 7"]);
+        // The names follow the protocol's own bit test.
+        let t = telemetry(0, Level::Normal, 0b0110);
+        for f in SensorFault::ALL {
+            assert_eq!(
+                t.has_fault(f),
+                fault_names(t.fault_flags).contains(&f.name().to_string()),
+                "{f}"
+            );
+        }
+    }
+
+    #[test]
+    fn events_are_highlighted_by_what_they_raise_and_clears_are_info() {
+        let level = |from, to| AlertEvent::Level {
+            from,
+            to,
+            at_sample: 1000,
+        };
+        assert_eq!(
+            Severity::of_event(&level(Level::Normal, Level::Advisory)),
+            Severity::Advisory
+        );
+        assert_eq!(
+            Severity::of_event(&level(Level::Advisory, Level::Warning)),
+            Severity::Warning
+        );
+        assert_eq!(
+            Severity::of_event(&level(Level::Normal, Level::Alarm)),
+            Severity::Alarm
+        );
+        assert_eq!(
+            Severity::of_event(&level(Level::Alarm, Level::Warning)),
+            Severity::Info
+        );
+        let fault = |active| AlertEvent::Fault {
+            fault: SensorFault::Stuck,
+            active,
+            at_sample: 1000,
+        };
+        assert_eq!(Severity::of_event(&fault(true)), Severity::Fault);
+        assert_eq!(Severity::of_event(&fault(false)), Severity::Info);
+        assert_eq!(
+            describe_event(&level(Level::Warning, Level::Advisory), 500.0),
+            "t 2.000 s (sample 1000): alert level lowered warning -> advisory"
+        );
+        assert_eq!(
+            describe_event(&fault(true), 250.0),
+            "t 4.000 s (sample 1000): sensor fault stuck raised"
+        );
+    }
+
+    #[test]
+    fn the_state_follows_telemetry_and_events() {
+        let mut m = Monitor::new(&greeting(PROTOCOL_VERSION)).expect("monitor");
+        assert!(m.latest().is_none());
+        assert!(m.render_line().starts_with("no telemetry yet"));
+        let t = telemetry(1000, Level::Normal, 0);
+        assert_eq!(m.on_message(&DeviceToHost::Telemetry(t)).expect("ok"), None);
+        assert_eq!(m.time_s(), 2.0);
+        let raise = AlertEvent::Level {
+            from: Level::Normal,
+            to: Level::Warning,
+            at_sample: 1001,
+        };
+        let notice = m
+            .on_message(&DeviceToHost::Alert(raise))
+            .expect("ok")
+            .expect("an event is shown at once");
+        assert_eq!(notice.severity, Severity::Warning);
+        assert_eq!(m.level(), Level::Warning);
+        let fault = AlertEvent::Fault {
+            fault: SensorFault::IndexGap,
+            active: true,
+            at_sample: 1002,
+        };
+        m.on_message(&DeviceToHost::Alert(fault)).expect("ok");
+        assert_eq!(m.fault_names(), ["index-gap"]);
+        assert_eq!(m.faults_text(), "index-gap");
+        let lower = AlertEvent::Level {
+            from: Level::Warning,
+            to: Level::Normal,
+            at_sample: 4000,
+        };
+        m.on_message(&DeviceToHost::Alert(lower)).expect("ok");
+        // The next telemetry is the device's word on the level and faults.
+        m.on_message(&DeviceToHost::Telemetry(telemetry(
+            4001,
+            Level::Normal,
+            0b0010,
+        )))
+        .expect("ok");
+        assert_eq!(m.level(), Level::Normal);
+        assert_eq!(m.highest_level(), Level::Warning);
+        assert_eq!(m.fault_names(), ["saturated"]);
+        let c = m.counters();
+        assert_eq!((c.telemetry, c.events, c.raised), (2, 3, 2));
+        assert_eq!(m.history().count(), 3);
+        assert!(
+            (m.peak_head_m_s2() - 1.3).abs() < 1e-6,
+            "{}",
+            m.peak_head_m_s2()
+        );
+        let line = m.render_line();
+        assert!(line.contains("t 8.00 s"), "{line}");
+        assert!(line.contains("VDV 1.500 m/s^1.75"), "{line}");
+        assert!(line.contains("level normal  faults saturated"), "{line}");
+        // The history keeps the last HISTORY_LEN events.
+        for k in 0..20 {
+            m.on_message(&DeviceToHost::Alert(AlertEvent::Fault {
+                fault: SensorFault::Stuck,
+                active: k % 2 == 0,
+                at_sample: 5000 + k,
+            }))
+            .expect("ok");
+        }
+        assert_eq!(m.history().count(), HISTORY_LEN);
+        assert_eq!(m.history().last().map(AlertEvent::at_sample), Some(5019));
+    }
+}

@@ -292,3 +292,125 @@ impl<W: Write> View for PlainView<W> {
         self.line(&m.render_line())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use supine_core::alerts::{AlertEvent, Level, SensorFault};
+    use supine_core::protocol::{
+        DeviceToHost, Greeting, PROTOCOL_VERSION, ParamsSource, ResetCause, Telemetry,
+    };
+
+    use crate::link::LinkStats;
+
+    fn monitor() -> Monitor {
+        let g = Greeting {
+            protocol_version: PROTOCOL_VERSION,
+            firmware_version: heapless::String::try_from("0.1.0+test").expect("fits"),
+            params_identity: [0xab; 16],
+            params_source: ParamsSource::Flash { slot: 0 },
+            sample_rate_hz: 500.0,
+            reset_cause: ResetCause::PowerOn,
+            last_panic: heapless::String::new(),
+        };
+        let mut m = Monitor::new(&g).expect("monitor");
+        m.on_message(&DeviceToHost::Telemetry(Telemetry {
+            sample_index: 2500,
+            head_acc_m_s2: [0.5, -0.25, 2.0],
+            running_rms_m_s2: [0.3, 0.4, 1.2],
+            vector_running_rms_m_s2: 1.3,
+            vdv_m_s175: 3.25,
+            alert_level: Level::Alarm,
+            fault_flags: 0b0100,
+            valid: true,
+        }))
+        .expect("telemetry");
+        m.on_message(&DeviceToHost::Alert(AlertEvent::Fault {
+            fault: SensorFault::Stuck,
+            active: true,
+            at_sample: 2400,
+        }))
+        .expect("event");
+        m.on_link(LinkStats {
+            frames: 100,
+            bad_frames: 1,
+            lost_frames: 2,
+            reordered_frames: 0,
+        });
+        m
+    }
+
+    fn find(lines: &[Vec<Span>], text: &str) -> Span {
+        lines
+            .iter()
+            .flatten()
+            .find(|s| s.text.contains(text))
+            .cloned()
+            .unwrap_or_else(|| panic!("no span with {text:?} in {lines:?}"))
+    }
+
+    #[test]
+    fn the_panel_shows_values_and_highlights_level_faults_losses_and_events() {
+        let lines = panel_lines(&monitor());
+        assert!(find(&lines, "parameters abab").severity.is_none());
+        assert_eq!(find(&lines, "ALARM").severity, Some(Severity::Alarm));
+        assert_eq!(find(&lines, "stuck").severity, Some(Severity::Fault));
+        assert!(find(&lines, "z   +2.000 m/s^2").severity.is_none());
+        assert!(find(&lines, "vector 1.300").severity.is_none());
+        assert!(find(&lines, "3.250 m/s^1.75").severity.is_none());
+        assert_eq!(
+            find(&lines, "frames 100  lost 2  bad 1").severity,
+            Some(Severity::Warning)
+        );
+        assert_eq!(
+            find(&lines, "sensor fault stuck raised").severity,
+            Some(Severity::Fault)
+        );
+    }
+
+    #[test]
+    fn the_live_view_colours_and_restores_the_terminal() {
+        let m = monitor();
+        let mut out = Vec::new();
+        {
+            let mut view = LiveView::new(&mut out).expect("view");
+            view.refresh(&m).expect("draw");
+            view.notice(
+                &m,
+                &Notice {
+                    severity: Severity::Alarm,
+                    text: "alarm!".into(),
+                },
+            )
+            .expect("notice");
+            view.close(&m).expect("close");
+        }
+        let text = String::from_utf8_lossy(&out);
+        assert!(text.starts_with("\x1b[?25l"), "cursor hidden first");
+        assert!(text.contains("[ALARM] alarm!"), "{text}");
+        // Red for the alarm, and the cursor shown again at the end.
+        assert!(text.contains("\x1b[38;5;9m"), "{text:?}");
+        assert!(text.ends_with("\x1b[?25h"), "{text:?}");
+    }
+
+    #[test]
+    fn the_plain_view_writes_lines_without_escape_codes() {
+        let m = monitor();
+        let mut view = PlainView::new(Vec::new());
+        view.refresh(&m).expect("too early: nothing");
+        view.notice(
+            &m,
+            &Notice {
+                severity: Severity::Warning,
+                text: "w".into(),
+            },
+        )
+        .expect("notice");
+        view.close(&m).expect("close");
+        let text = String::from_utf8(view.into_inner()).expect("utf-8");
+        assert_eq!(text.lines().count(), 2, "{text}");
+        assert_eq!(text.lines().next(), Some("[WARNING] w"));
+        assert!(text.contains("level alarm  faults stuck"), "{text}");
+        assert!(!text.contains('\x1b'));
+    }
+}
