@@ -1,0 +1,201 @@
+//! `supine monitor --qemu` as a user runs it: a scripted rough-road ride with a shock from
+//! `supine ride`, streamed to the firmware in QEMU; its log checked against the host's own
+//! pipeline (`supine_host::reference`): same telemetry rows, same alert events at the same
+//! samples, head acceleration within 1e-4 m/s^2.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use supine_core::alerts::AlertEvent;
+use supine_core::model::Preset;
+use supine_host::exposure_report::read_input;
+use supine_host::params_file::ParamFile;
+use supine_host::reference;
+use supine_host::replay::{EVENTS_HEADER, TELEMETRY_HEADER};
+use supine_qemu_tests::firmware;
+
+/// The `supine` binary next to this test's target dir, built if missing (as replay_cli).
+fn supine_binary() -> PathBuf {
+    let exe = std::env::current_exe().expect("test executable path");
+    // target/<dir>/debug/deps/monitor_cli-<hash> -> target/<dir>/debug/supine
+    let profile_dir = exe
+        .parent()
+        .and_then(Path::parent)
+        .expect("deps/ inside the profile dir");
+    let binary = profile_dir.join("supine");
+    if !binary.is_file() {
+        let target_dir = profile_dir.parent().expect("target dir");
+        let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+        let status = Command::new(cargo)
+            .args([
+                "build",
+                "-p",
+                "supine-host",
+                "--bin",
+                "supine",
+                "--target-dir",
+            ])
+            .arg(target_dir)
+            .current_dir(supine_host::firmware::repository_root())
+            .status()
+            .expect("cargo runs");
+        assert!(status.success(), "building supine failed");
+    }
+    binary
+}
+
+/// Runs `supine ARGS`, returning (success, stdout, stderr).
+fn supine(args: &[&str]) -> (bool, String, String) {
+    let output = Command::new(supine_binary())
+        .args(args)
+        .output()
+        .expect("supine runs");
+    (
+        output.status.success(),
+        String::from_utf8_lossy(&output.stdout).into_owned(),
+        String::from_utf8_lossy(&output.stderr).into_owned(),
+    )
+}
+
+fn cells(line: &str) -> Vec<&str> {
+    line.split(',').collect()
+}
+
+#[test]
+fn monitor_logs_what_the_host_pipeline_predicts_for_a_scripted_ride() {
+    firmware(supine_host::firmware::PRODUCT_BINARY);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let ride = dir.path().join("ride.csv");
+    let log = dir.path().join("log.csv");
+    let s = |p: &Path| p.to_str().expect("utf-8 path").to_owned();
+    // 20 s of rough road: one shock (one per 20 s window), which drives an alert.
+    let (ok, _, stderr) = supine(&[
+        "ride",
+        "--profile",
+        "rough-road",
+        "--duration-s",
+        "20",
+        "--seed",
+        "3",
+        "--out",
+        &s(&ride),
+    ]);
+    assert!(ok, "{stderr}");
+    assert!(stderr.contains("1 shocks"), "{stderr}");
+    let (ok, stdout, stderr) = supine(&[
+        "monitor",
+        "--qemu",
+        "--preset",
+        "paper-litter",
+        "--input",
+        &s(&ride),
+        "--log",
+        &s(&log),
+    ]);
+    println!("stdout:\n{stdout}\nstderr:\n{stderr}");
+    assert!(ok, "monitor failed: {stderr}");
+
+    // The host's reference on the same f32 samples the CLI sent.
+    let (recording, _) = read_input(&ride).expect("ride reads");
+    let fs = recording.sample_rate_hz();
+    let samples: Vec<[f32; 3]> = (0..recording.len())
+        .map(|k| recording.platform_m_s2.each_ref().map(|c| c[k] as f32))
+        .collect();
+    let indices: Vec<u32> = (0..samples.len() as u32).collect();
+    let file = ParamFile::preset(Preset::PaperLitter);
+    let params = supine_host::device_params::build(&file, fs).expect("device params");
+    let expected = reference::pipeline(&params, &indices, &samples);
+    let head_f64 = reference::head_f64(&file.params, fs, &samples).expect("f64 model");
+    assert!(
+        expected.events.iter().any(AlertEvent::is_raise),
+        "the scripted ride must raise an alert: {:?}",
+        expected.events
+    );
+
+    // Telemetry: one row per record, at the same samples, head within 1e-4 m/s^2.
+    let text = std::fs::read_to_string(&log).expect("log written");
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some(TELEMETRY_HEADER));
+    let rows: Vec<Vec<&str>> = lines.map(cells).collect();
+    assert_eq!(rows.len(), expected.telemetry.len());
+    let mut worst_pipeline = 0.0f64;
+    let mut worst_f64 = 0.0f64;
+    for (row, t) in rows.iter().zip(&expected.telemetry) {
+        let sample: u32 = row[0].parse().expect("sample index");
+        assert_eq!(sample, t.sample_index);
+        for axis in 0..3 {
+            // The log prints each f32 in its shortest round-trip form: parsed as f32 it
+            // is the device's value exactly.
+            let logged: f32 = row[2 + axis].parse().expect("head value");
+            let logged = f64::from(logged);
+            worst_pipeline = worst_pipeline.max((logged - f64::from(t.head_acc_m_s2[axis])).abs());
+            worst_f64 = worst_f64.max((logged - head_f64[sample as usize][axis]).abs());
+        }
+        assert_eq!(row[10], t.alert_level.name(), "level at sample {sample}");
+        assert_eq!(
+            row[11],
+            t.fault_flags.to_string(),
+            "faults at sample {sample}"
+        );
+    }
+    println!(
+        "head: max |log - pipeline| {worst_pipeline:.3e}, max |log - f64 model| {worst_f64:.3e} m/s^2"
+    );
+    assert!(worst_pipeline <= 1e-4, "{worst_pipeline}");
+    assert!(worst_f64 <= 1e-4, "{worst_f64}");
+
+    // Events: the same edges at the same samples.
+    let events_text =
+        std::fs::read_to_string(dir.path().join("log.events.csv")).expect("events written");
+    let mut lines = events_text.lines();
+    assert_eq!(lines.next(), Some(EVENTS_HEADER));
+    let logged: Vec<(u32, String, String, bool)> = lines
+        .map(|l| {
+            let c = cells(l);
+            (
+                c[0].parse().expect("sample"),
+                c[2].to_string(),
+                c[3].to_string(),
+                c[4] == "1",
+            )
+        })
+        .collect();
+    let wanted: Vec<(u32, String, String, bool)> = expected
+        .events
+        .iter()
+        .map(|e| {
+            let (kind, name) = match *e {
+                AlertEvent::Level { to, .. } => ("level", to.name()),
+                AlertEvent::Fault { fault, .. } => ("fault", fault.name()),
+            };
+            (e.at_sample(), kind.into(), name.into(), e.is_raise())
+        })
+        .collect();
+    assert_eq!(logged, wanted);
+
+    // The plain view: no escape codes, each event as a tagged line, a summary on stderr.
+    assert!(!stdout.contains('\x1b'), "escape codes in piped output");
+    for (sample, _, name, raised) in &wanted {
+        let line = stdout
+            .lines()
+            .find(|l| l.contains(&format!("(sample {sample})")))
+            .unwrap_or_else(|| panic!("no line for the event at sample {sample}"));
+        if *raised {
+            assert!(
+                line.starts_with('[') && !line.starts_with("[INFO]"),
+                "{line}"
+            );
+            assert!(line.contains(name.as_str()), "{line}");
+        }
+    }
+    assert!(
+        stderr.contains(&format!(
+            "{} telemetry records, {} alert events",
+            rows.len(),
+            wanted.len()
+        )),
+        "{stderr}"
+    );
+    assert!(stderr.contains("lost 0, bad 0"), "{stderr}");
+    assert!(!dir.path().join("log.csv.partial").exists());
+}
