@@ -10,6 +10,7 @@ use anyhow::{Result, anyhow, bail};
 use heapless::Vec as HVec;
 use supine_core::protocol::{
     DeviceToHost, HostToDevice, PARAM_CHUNK_LEN, ParamAck, ParamBegin, ParamChunk, ParamsIdentity,
+    UploadError,
 };
 use supine_core::upload::{KEY_LEN, update_mac};
 
@@ -41,7 +42,15 @@ pub fn upload<R: Read, W: Write>(
         hmac_sha256: update_mac(key, counter, blob),
     };
     writer.send(&HostToDevice::ParamBegin(begin))?;
-    expect_ack(reader, timeout, |a| matches!(a, ParamAck::Begun))?;
+    expect_ack(reader, timeout, |a| matches!(a, ParamAck::Begun)).map_err(|e| {
+        // Refused before any byte arrived: this device cannot write its own flash.
+        match e.downcast_ref::<Refused>() {
+            Some(Refused(UploadError::Flash)) => {
+                e.context("this device takes no updates over the link: use `supine flash --probe`")
+            }
+            _ => e,
+        }
+    })?;
     for (i, piece) in blob.chunks(PARAM_CHUNK_LEN).enumerate() {
         let bytes = HVec::from_slice(piece).map_err(|_| anyhow!("chunk too long"))?;
         let offset_bytes = (i * PARAM_CHUNK_LEN) as u32;
@@ -67,6 +76,11 @@ pub fn upload<R: Read, W: Write>(
     Ok(Uploaded { identity, slot })
 }
 
+/// The device refused an upload step with this code.
+#[derive(Debug, thiserror::Error)]
+#[error("the device refused the update: {0}")]
+pub struct Refused(pub UploadError);
+
 /// Waits for the acknowledgement `want` accepts, skipping telemetry; a refusal is an error.
 fn expect_ack<R: Read>(
     reader: &mut FrameReader<R>,
@@ -80,7 +94,7 @@ fn expect_ack<R: Read>(
             Some(DeviceToHost::ParamAck(ack)) => {
                 bail!("unexpected acknowledgement from the device: {ack:?}")
             }
-            Some(DeviceToHost::ParamNack(e)) => bail!("the device refused the update: {e}"),
+            Some(DeviceToHost::ParamNack(e)) => return Err(Refused(e).into()),
             Some(_) => {}
             None => bail!(
                 "no answer from the device within {:.0} s",

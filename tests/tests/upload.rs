@@ -519,3 +519,137 @@ fn a_cut_while_the_new_slot_is_written_boots_the_running_slot() {
     assert_eq!(greeting.params_source, ParamsSource::Flash { slot: 1 });
     assert_ne!(blob_a, blob_b);
 }
+
+/// The `supine` binary of this test's target dir, built (or found up to date) first.
+fn supine() -> std::process::Command {
+    let exe = std::env::current_exe().expect("test executable path");
+    // target/<dir>/debug/deps/upload-<hash> -> target/<dir>/debug/supine
+    let profile_dir = exe
+        .parent()
+        .and_then(Path::parent)
+        .expect("deps/ inside the profile dir");
+    let target_dir = profile_dir.parent().expect("target dir");
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let status = std::process::Command::new(cargo)
+        .args([
+            "build",
+            "-p",
+            "supine-host",
+            "--bin",
+            "supine",
+            "--target-dir",
+        ])
+        .arg(target_dir)
+        .current_dir(supine_host::firmware::repository_root())
+        .status()
+        .expect("cargo runs");
+    assert!(status.success(), "building supine failed");
+    std::process::Command::new(profile_dir.join("supine"))
+}
+
+fn run_cli(cmd: &mut std::process::Command) -> (bool, String, String) {
+    let out = cmd.output().expect("supine runs");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn supine_flash_writes_a_bootable_qemu_image_uploads_into_qemu_and_explains_failures() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let rigid = ParamFile::preset(Preset::PaperRigid);
+    let rigid_id = supine_host::device_params::identity(&rigid).expect("identity");
+    let rigid_hex = supine_host::device_params::identity_hex(&rigid_id);
+
+    // --qemu-image: the device boots it from slot A at the rate asked for.
+    let image = dir.path().join("params.bin");
+    let (ok, stdout, stderr) = run_cli(
+        supine()
+            .args([
+                "flash",
+                "--preset",
+                "paper-rigid",
+                "--fs",
+                "400",
+                "--qemu-image",
+            ])
+            .arg(&image),
+    );
+    assert!(ok, "{stderr}");
+    assert!(stdout.contains(&rigid_hex), "{stdout}");
+    let (device, greeting) = Device::boot(&image);
+    drop(device);
+    assert_eq!(greeting.params_identity, rigid_id);
+    assert_eq!(greeting.params_source, ParamsSource::Flash { slot: 0 });
+    assert_eq!(greeting.sample_rate_hz, 400.0);
+
+    // --qemu: uploaded into a running device (built-in parameters, so slot A).
+    let (ok, stdout, stderr) =
+        run_cli(supine().args(["flash", "--preset", "paper-rigid", "--qemu"]));
+    assert!(ok, "{stderr}");
+    assert!(
+        stdout.contains(&format!("parameters {rigid_hex} committed to slot 0")),
+        "{stdout}"
+    );
+
+    // The wrong key: the device's code, on one line, and a failing status.
+    let wrong = dir.path().join("wrong.key");
+    std::fs::write(&wrong, "11".repeat(KEY_LEN)).expect("key");
+    let (ok, _, stderr) = run_cli(
+        supine()
+            .args(["flash", "--preset", "paper-rigid", "--qemu", "--key"])
+            .arg(&wrong),
+    );
+    assert!(!ok);
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("HMAC does not match (code 6)"), "{stderr}");
+
+    // A key file that is not a key names the file and what it should hold.
+    let short = dir.path().join("short.key");
+    std::fs::write(&short, "abcd\n").expect("key");
+    let (ok, _, stderr) = run_cli(
+        supine()
+            .args(["flash", "--preset", "paper-rigid", "--qemu", "--key"])
+            .arg(&short),
+    );
+    assert!(!ok);
+    assert!(
+        stderr.contains("short.key") && stderr.contains("64 hexadecimal digits"),
+        "{stderr}"
+    );
+
+    // A bad rate: named, and no image left behind.
+    let bad = dir.path().join("bad.bin");
+    let (ok, _, stderr) = run_cli(
+        supine()
+            .args([
+                "flash",
+                "--preset",
+                "paper-rigid",
+                "--fs",
+                "0",
+                "--qemu-image",
+            ])
+            .arg(&bad),
+    );
+    assert!(!ok);
+    assert!(stderr.contains("--fs"), "{stderr}");
+    assert!(!bad.exists());
+
+    // No probe-rs on the PATH: how to install it.
+    let (ok, _, stderr) = run_cli(
+        supine()
+            .args([
+                "flash",
+                "--preset",
+                "paper-rigid",
+                "--probe",
+                "STM32F411CEUx",
+            ])
+            .env("PATH", dir.path()),
+    );
+    assert!(!ok);
+    assert!(stderr.contains("cargo install probe-rs-tools"), "{stderr}");
+}
