@@ -18,7 +18,7 @@ use crate::monitor::log::MonitorLog;
 use crate::monitor::session::{Ending, QemuRun, follow, open_serial, run_qemu, wait_greeting};
 use crate::monitor::view::{LiveView, PlainView, View};
 use crate::monitor::{Monitor, device_line};
-use crate::params_file::ModelSource;
+use crate::params_file::{ModelSource, PresetArg};
 use crate::ride::{Profile, generate};
 
 /// Arguments of `supine monitor`.
@@ -34,9 +34,12 @@ pub struct Args {
     /// The firmware in QEMU (mps2-an386), fed with a ride over its UART.
     #[arg(long)]
     pub qemu: bool,
-    /// With --qemu: the model parameters (and optional `[device]` table) for the blob.
-    #[command(flatten)]
-    pub model: Option<ModelSource>,
+    /// With --qemu: one of the paper's parameter sets for the blob.
+    #[arg(long, value_enum, conflicts_with_all = ["params", "serial"])]
+    pub preset: Option<PresetArg>,
+    /// With --qemu: a parameter file (TOML; optional `[device]` table) for the blob.
+    #[arg(long, value_name = "FILE", conflicts_with = "serial")]
+    pub params: Option<PathBuf>,
     /// With --qemu: a recording whose platform columns are streamed as samples.
     #[arg(long, value_name = "RIDE.csv", conflicts_with_all = ["profile", "serial"])]
     pub input: Option<PathBuf>,
@@ -138,10 +141,14 @@ pub fn run(args: &Args) -> Result<()> {
 
 /// The blob, the ride and the image for `--qemu`.
 fn prepare_qemu(args: &Args, greeting_timeout: Duration) -> Result<QemuRun> {
-    let model = args
-        .model
-        .as_ref()
-        .ok_or_else(|| anyhow!("--qemu needs --preset NAME or --params FILE"))?;
+    if args.preset.is_none() && args.params.is_none() {
+        bail!("--qemu needs --preset NAME or --params FILE");
+    }
+    // The same source as other commands; optional here because --serial needs none.
+    let model = ModelSource {
+        preset: args.preset,
+        params: args.params.clone(),
+    };
     let file = model.load()?;
     let (samples, sample_rate_hz) = match (&args.input, args.profile) {
         (Some(path), _) => {
