@@ -44,9 +44,21 @@ pub fn device_blob(file: &ParamFile, sample_rate_hz: f64) -> Result<(DeviceParam
     Ok((params, blob))
 }
 
-/// The PARAMS region with `blob` committed in slot A under `counter`, the rest erased.
-/// Checked with the device's own boot selection before it is returned.
+/// Where the Black Pill's PARAMS region starts: flash sector 6 (slot A; sector 7 is B).
+pub const BLACKPILL_PARAMS_ADDR: u32 = 0x0804_0000;
+/// Distance between the Black Pill's slots: one 128 KiB flash sector each.
+pub const BLACKPILL_SLOT_STRIDE: usize = 128 * 1024;
+
+/// The PARAMS region (QEMU's layout: slots 32 KiB apart) with `blob` committed in slot A
+/// under `counter`, the rest erased.
 pub fn region_image(blob: &[u8], counter: u32) -> Result<Vec<u8>> {
+    region_image_with_stride(blob, counter, SLOT_LEN)
+}
+
+/// The PARAMS region with slots `slot_stride` bytes apart, `blob` committed in slot A
+/// under `counter`, everything else up to the end of slot B erased. Checked with the
+/// device's own boot selection before it is returned.
+pub fn region_image_with_stride(blob: &[u8], counter: u32, slot_stride: usize) -> Result<Vec<u8>> {
     if blob.len() + COMMIT_LEN > SLOT_LEN {
         bail!(
             "the blob has {} bytes; a slot holds {}",
@@ -54,11 +66,11 @@ pub fn region_image(blob: &[u8], counter: u32) -> Result<Vec<u8>> {
             SLOT_LEN - COMMIT_LEN
         );
     }
-    let mut image = vec![0xFF; REGION_LEN];
+    let mut image = vec![0xFF; slot_stride * (SLOT_COUNT - 1) + SLOT_LEN];
     image[..blob.len()].copy_from_slice(blob);
     image[blob.len()..blob.len() + COMMIT_LEN].copy_from_slice(&commit_record(blob, counter));
-    let active =
-        select(&RegionView(&image)).map_err(|e| anyhow!("the region image does not boot: {e}"))?;
+    let active = select(&RegionView::new(&image, slot_stride))
+        .map_err(|e| anyhow!("the region image does not boot: {e}"))?;
     if active.slot != 0 || active.counter != counter {
         bail!(
             "the region image boots slot {} instead of slot 0",
@@ -77,13 +89,22 @@ pub fn qemu_region_image(file: &ParamFile, sample_rate_hz: f64) -> Result<Vec<u8
 }
 
 /// A region image seen as the device's two slots (read only).
-pub struct RegionView<'a>(pub &'a [u8]);
+pub struct RegionView<'a> {
+    bytes: &'a [u8],
+    slot_stride: usize,
+}
+
+impl<'a> RegionView<'a> {
+    /// The slots of `bytes`, `slot_stride` bytes apart.
+    pub fn new(bytes: &'a [u8], slot_stride: usize) -> Self {
+        Self { bytes, slot_stride }
+    }
+}
 
 impl ParamFlash for RegionView<'_> {
     fn slot(&self, slot: usize) -> &[u8] {
-        self.0
-            .get(slot * SLOT_LEN..(slot + 1) * SLOT_LEN)
-            .unwrap_or(&[])
+        let start = slot * self.slot_stride;
+        self.bytes.get(start..start + SLOT_LEN).unwrap_or(&[])
     }
     fn erase(&mut self, _slot: usize) -> Result<(), supine_core::upload::FlashError> {
         Err(supine_core::upload::FlashError)
@@ -267,10 +288,20 @@ mod tests {
         assert_eq!(&image[..blob.len()], &blob[..]);
         assert_eq!(&image[blob.len()..blob.len() + 4], b"CMIT");
         assert!(image[blob.len() + COMMIT_LEN..].iter().all(|&b| b == 0xFF));
-        let active = select(&RegionView(&image)).unwrap();
+        let active = select(&RegionView::new(&image, SLOT_LEN)).unwrap();
         assert_eq!((active.slot, active.counter), (0, REGION_IMAGE_COUNTER));
         assert_eq!(active.params, params);
         assert_eq!(active.params.sample_rate_hz(), 500.0);
+    }
+
+    #[test]
+    fn the_board_image_spans_both_sectors_with_slot_b_erased() {
+        let (_, blob) = device_blob(&ParamFile::preset(Preset::PaperLitter), 400.0).unwrap();
+        let image = region_image_with_stride(&blob, 77, BLACKPILL_SLOT_STRIDE).unwrap();
+        assert_eq!(image.len(), 128 * 1024 + SLOT_LEN);
+        assert!(image[BLACKPILL_SLOT_STRIDE..].iter().all(|&b| b == 0xFF));
+        let active = select(&RegionView::new(&image, BLACKPILL_SLOT_STRIDE)).unwrap();
+        assert_eq!((active.slot, active.counter), (0, 77));
     }
 
     #[test]

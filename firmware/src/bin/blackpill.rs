@@ -5,7 +5,8 @@
 //! ([`Lis3dhSource`]: counts to m/s^2, rotated to litter axes, gravity removed with the
 //! blob's mounting calibration) instead of the UART. The independent watchdog resets a
 //! hung loop after 250 ms; defmt over RTT carries diagnostics, USART1 only protocol frames.
-//! The blob in flash must be built for the sensor's 400 Hz output rate.
+//! The blob in flash must be built for the sensor's 400 Hz output rate. Parameter slots A
+//! and B are flash sectors 6 and 7; signed uploads over USART1 are written there.
 #![no_std]
 #![no_main]
 
@@ -20,6 +21,7 @@ use stm32f4xx_hal::watchdog::IndependentWatchdog;
 use supine_core::protocol::ResetCause;
 use supine_firmware::app::{App, Boot, ByteLink};
 use supine_firmware::cycles::InstructionCounter;
+use supine_firmware::param_flash::{self, ParamRegion, board::BoardFlash};
 use supine_firmware::{panic_record, params};
 use supine_sensor::{Lis3dhSource, SampleSource};
 
@@ -59,7 +61,12 @@ fn main() -> ! {
     let gpioa = dp.GPIOA.split(&mut rcc);
     let gpiob = dp.GPIOB.split(&mut rcc);
 
-    let Ok((params, source)) = params::load() else {
+    let Some(flash) = ParamRegion::take().and_then(|region| BoardFlash::new(region, dp.FLASH))
+    else {
+        defmt::error!("the PARAMS region is not sectors 6 and 7: broken build");
+        cortex_m::peripheral::SCB::sys_reset()
+    };
+    let Ok((params, source)) = params::load_from(&flash) else {
         defmt::error!("the built-in parameters are refused: broken build");
         cortex_m::peripheral::SCB::sys_reset()
     };
@@ -109,7 +116,9 @@ fn main() -> ! {
         },
         last_panic: last_panic.unwrap_or_default(),
     };
-    let mut app = App::new(Usart1 { tx, rx }, InstructionCounter::new(cp.SYST), boot);
+    let counter = InstructionCounter::new(cp.SYST);
+    let key = param_flash::device_key();
+    let mut app = App::with_updates(Usart1 { tx, rx }, counter, boot, flash, key);
     app.greet();
     loop {
         app.poll();

@@ -31,8 +31,8 @@ pub struct Args {
     /// Update counter; must exceed every one the device accepted (default: Unix time, s).
     #[arg(long, value_name = "N")]
     pub counter: Option<u32>,
-    /// Flash address of the PARAMS region for --probe (the Black Pill's sector 7).
-    #[arg(long, value_name = "ADDR", default_value = "0x08060000", value_parser = parse_address)]
+    /// Flash address of the PARAMS region for --probe (the Black Pill's sectors 6 and 7).
+    #[arg(long, value_name = "ADDR", default_value = "0x08040000", value_parser = parse_address)]
     pub base_address: u32,
     /// Longest wait for each answer of the device, seconds.
     #[arg(long, value_name = "S", default_value_t = 10.0)]
@@ -49,7 +49,7 @@ pub struct Target {
     /// Upload over the UART protocol to a running device on this serial port.
     #[arg(long, value_name = "PORT")]
     pub serial: Option<String>,
-    /// Write the region image to a board with `probe-rs download --chip CHIP`.
+    /// Write the region image (Black Pill layout) to a board: `probe-rs download --chip CHIP`.
     #[arg(long, value_name = "CHIP")]
     pub probe: Option<String>,
     /// Start the device image in QEMU, upload over its UART, check the new greeting, exit.
@@ -100,7 +100,8 @@ pub fn run(args: &Args) -> Result<()> {
             flash::upload_serial(port, args.baud, &params, &blob, &key, counter()?, timeout)?;
         report(&outcome, port);
     } else if let Some(chip) = &t.probe {
-        let image = flash::region_image(&blob, counter()?)?;
+        let image =
+            flash::region_image_with_stride(&blob, counter()?, flash::BLACKPILL_SLOT_STRIDE)?;
         flash::probe_download(chip, args.base_address, &image)?;
         println!(
             "flashed parameters {id} at {} Hz to {chip} at {:#010x}",
@@ -122,4 +123,33 @@ fn report(outcome: &UploadOutcome, device: &str) {
         outcome.greeting.sample_rate_hz,
         outcome.greeting.firmware_version
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn addresses_parse_in_hex_or_decimal_and_the_default_is_the_boards() {
+        assert_eq!(
+            parse_address("0x08040000"),
+            Ok(flash::BLACKPILL_PARAMS_ADDR)
+        );
+        assert_eq!(parse_address("458752"), Ok(0x70000));
+        assert!(parse_address("0x8zz").unwrap_err().contains("0x8zz"));
+        let cli = <crate::cli::Cli as clap::Parser>::try_parse_from([
+            "supine",
+            "flash",
+            "--preset",
+            "paper-litter",
+            "--probe",
+            "X",
+        ])
+        .unwrap();
+        let crate::cli::Command::Flash(args) = cli.command else {
+            panic!("not flash")
+        };
+        assert_eq!(args.base_address, flash::BLACKPILL_PARAMS_ADDR);
+        assert_eq!(args.fs_hz, 500.0);
+    }
 }
