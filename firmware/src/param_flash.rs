@@ -172,6 +172,15 @@ pub mod board {
             while iwdg.sr().read().bits() != 0 {}
             let saved = (iwdg.pr().read().pr().bits(), iwdg.rlr().read().rl().bits());
             set_period(IWDG_LONG);
+            // Clear error flags left by an earlier operation (or a debugger): the HAL reads
+            // them after each step but never clears them.
+            self.flash.sr().write(|w| {
+                w.operr().clear();
+                w.wrperr().clear();
+                w.pgaerr().clear();
+                w.pgperr().clear();
+                w.pgserr().clear()
+            });
             let result = f(&mut self.flash.unlocked());
             self.flash
                 .acr()
