@@ -49,6 +49,8 @@ pub enum Command {
     Monitor(commands::monitor::Args),
     /// Put parameters on a device: QEMU region image, signed upload over serial, probe-rs.
     Flash(commands::flash::Args),
+    /// The whole product on this machine: ride, firmware in QEMU, monitor, check, HTML report.
+    Demo(commands::demo::Args),
 }
 
 /// Parses the process arguments, runs the command and maps errors to a one-line message.
@@ -80,6 +82,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Replay(args) => commands::replay::run(&args),
         Command::Monitor(args) => commands::monitor::run(&args),
         Command::Flash(args) => commands::flash::run(&args),
+        Command::Demo(args) => commands::demo::run(&args),
     }
 }
 

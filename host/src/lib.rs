@@ -6,6 +6,7 @@
 pub mod cli;
 pub mod commands;
 pub mod dataset;
+pub mod demo;
 pub mod device_params;
 pub mod exposure_report;
 pub mod firmware;
@@ -22,6 +23,7 @@ pub mod qemu;
 pub mod recording;
 pub mod reference;
 pub mod replay;
+pub mod report;
 pub mod resample;
 pub mod ride;
 pub mod spectral;

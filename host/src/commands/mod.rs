@@ -1,5 +1,6 @@
 //! One module per `supine` subcommand.
 
+pub mod demo;
 pub mod exposure;
 pub mod fit;
 pub mod flash;

@@ -1,0 +1,376 @@
+//! `supine demo`: the product end to end on one machine, with a report a user can read.
+//!
+//! Steps, each announced on one line: build the firmware image (if stale); make a ride
+//! ([`ride`]); place the paper litter-board parameters in QEMU's PARAMS region (the
+//! region image `supine flash` makes); run the image in QEMU with the ride streamed over
+//! its UART, followed live by the monitor ([`crate::monitor`]) which logs the device's
+//! telemetry and events to CSV; run the host's own computation on the same samples
+//! ([`crate::reference`]: the device's f32 pipeline and the f64 model); write the report
+//! ([`crate::report`]) from the CSV files; summarize ([`summary`]).
+//!
+//! The output folder gets `ride.csv`, `device.csv` and `device.events.csv` (what the
+//! device sent), `host.csv` and `host.events.csv` (the host's reference), `params.toml`
+//! (the parameters flashed) and `report.html`. A previous `report.html` is removed first,
+//! so a failed run never leaves an older report that looks like this run's.
+
+pub mod ride;
+pub mod summary;
+pub mod trace;
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+use std::time::{Duration, Instant};
+
+use anyhow::{Context as _, Result, anyhow, bail};
+use supine_core::alerts::AlertConfig;
+use supine_core::model::Preset;
+use supine_core::protocol::Status;
+
+use crate::device_params::{self, identity_hex};
+use crate::exposure_report::{AxisReport, run_pipeline};
+use crate::firmware;
+use crate::flash;
+use crate::link::LinkStats;
+use crate::monitor::device_line;
+use crate::monitor::log::MonitorLog;
+use crate::monitor::session::{Ending, QemuRun, run_qemu};
+use crate::monitor::view::View;
+use crate::params_file::{self, ParamFile};
+use crate::reference;
+use crate::replay::{write_events, write_telemetry};
+use ride::{DemoProfile, DemoRide};
+use summary::Summary;
+use trace::{EventRow, Trace, read_events};
+
+/// The output folder when none is given.
+pub const DEFAULT_OUT_DIR: &str = "supine-demo";
+/// The demo's sample rate, Hz (the device's default rate).
+pub const SAMPLE_RATE_HZ: f64 = 500.0;
+/// The parameters flashed: the paper's litter-board case.
+pub const PRESET: Preset = Preset::PaperLitter;
+/// Number of steps announced.
+pub const STEPS: usize = 7;
+
+/// How to run the demo.
+#[derive(Clone, Debug)]
+pub struct DemoConfig {
+    /// The output folder (created if missing).
+    pub out_dir: PathBuf,
+    /// The ride.
+    pub profile: DemoProfile,
+    /// Its length, s.
+    pub duration_s: f64,
+    /// Its seed.
+    pub seed: u64,
+    /// Stream the samples in real time (otherwise as fast as the device takes them).
+    pub realtime: bool,
+}
+
+/// How the run was made (for the report's last section and the summary's first line).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunInfo {
+    /// The ride.
+    pub profile: DemoProfile,
+    /// Its seed.
+    pub seed: u64,
+    /// Sample rate, Hz.
+    pub sample_rate_hz: f64,
+    /// Samples streamed.
+    pub samples: usize,
+    /// The parameters' name (the preset).
+    pub params_name: String,
+    /// Their identity, hex.
+    pub identity: String,
+    /// The firmware's version from its greeting.
+    pub firmware_version: String,
+    /// The device in one line (firmware, protocol, parameters and their source, rate).
+    pub device_line: String,
+    /// Exposure warm-up, s.
+    pub warmup_s: f64,
+    /// The alert configuration flashed.
+    pub alerts: AlertConfig,
+    /// The device's last status.
+    pub status: Option<Status>,
+    /// Frames the host decoded, lost and bad.
+    pub link: LinkStats,
+    /// Wall time of each step.
+    pub step_times: Vec<(String, Duration)>,
+    /// Samples streamed in real time.
+    pub realtime: bool,
+}
+
+/// The host's exposure evaluation of the predicted head (supine-core on the same samples).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HostExposure {
+    /// Head x, y, z.
+    pub head: [AxisReport; 3],
+    /// Vector sum.
+    pub vector: AxisReport,
+}
+
+/// Everything the report and the summary are made from.
+#[derive(Clone, Debug)]
+pub struct DemoData {
+    /// How the run was made.
+    pub info: RunInfo,
+    /// The ride.
+    pub ride: DemoRide,
+    /// What the device sent (read back from `device.csv`).
+    pub device: Trace,
+    /// The device's alert events (read back from `device.events.csv`).
+    pub device_events: Vec<EventRow>,
+    /// The host's run of the device pipeline (f32, the same code) on the same samples.
+    pub host: Trace,
+    /// The host pipeline's alert events.
+    pub host_events: Vec<EventRow>,
+    /// The f64 model's head acceleration for the same samples, m/s^2.
+    pub host_head_f64_m_s2: [Vec<f64>; 3],
+    /// The exposure of the host's run.
+    pub exposure: HostExposure,
+}
+
+/// What a finished demo produced.
+#[derive(Clone, Debug)]
+pub struct DemoOutcome {
+    /// The data behind the report.
+    pub data: DemoData,
+    /// The summary.
+    pub summary: Summary,
+    /// The report's path.
+    pub report: PathBuf,
+}
+
+/// The files of a demo folder.
+#[derive(Clone, Debug)]
+pub struct DemoFiles {
+    /// The ride's platform columns.
+    pub ride: PathBuf,
+    /// The parameter file flashed.
+    pub params: PathBuf,
+    /// The device's telemetry.
+    pub device: PathBuf,
+    /// The device's alert events.
+    pub device_events: PathBuf,
+    /// The host's reference telemetry.
+    pub host: PathBuf,
+    /// The host's reference events.
+    pub host_events: PathBuf,
+    /// The report.
+    pub report: PathBuf,
+}
+
+impl DemoFiles {
+    /// The files in `dir`.
+    pub fn in_dir(dir: &Path) -> Self {
+        Self {
+            ride: dir.join("ride.csv"),
+            params: dir.join("params.toml"),
+            device: dir.join("device.csv"),
+            device_events: dir.join("device.events.csv"),
+            host: dir.join("host.csv"),
+            host_events: dir.join("host.events.csv"),
+            report: dir.join("report.html"),
+        }
+    }
+}
+
+/// Times a step and announces it on one line.
+struct Steps<'a> {
+    announce: &'a mut dyn FnMut(&str),
+    times: Vec<(String, Duration)>,
+    current: Option<(String, Instant)>,
+}
+
+impl Steps<'_> {
+    fn start(&mut self, name: &str, text: &str) {
+        self.finish();
+        (self.announce)(&format!("[{}/{STEPS}] {text}", self.times.len() + 1));
+        self.current = Some((name.to_string(), Instant::now()));
+    }
+
+    fn finish(&mut self) {
+        if let Some((name, t)) = self.current.take() {
+            self.times.push((name, t.elapsed()));
+        }
+    }
+}
+
+/// Runs the demo; `announce` gets each step's line, `view` shows the device live, `stop`
+/// (Ctrl-C) ends the run early with an error, QEMU stopped and its folder removed.
+pub fn run(
+    config: &DemoConfig,
+    announce: &mut dyn FnMut(&str),
+    view: &mut dyn View,
+    stop: &Arc<AtomicBool>,
+) -> Result<DemoOutcome> {
+    let dir = &config.out_dir;
+    std::fs::create_dir_all(dir)
+        .map_err(|e| anyhow!("{}: cannot create the output folder: {e}", dir.display()))?;
+    let files = DemoFiles::in_dir(dir);
+    match std::fs::remove_file(&files.report) {
+        Ok(()) => {}
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(e) => bail!(
+            "{}: cannot remove the previous report: {e}",
+            files.report.display()
+        ),
+    }
+    let mut steps = Steps {
+        announce,
+        times: Vec::new(),
+        current: None,
+    };
+
+    steps.start(
+        "firmware",
+        "firmware: building the device image if it is stale (cargo fw; the first time takes a minute or two)",
+    );
+    let kernel = firmware::build_binary(firmware::PRODUCT_BINARY)?;
+
+    steps.start(
+        "ride",
+        &format!(
+            "ride: {}, {} s at {SAMPLE_RATE_HZ} Hz, seed {} -> {}",
+            config.profile.name(),
+            config.duration_s,
+            config.seed,
+            files.ride.display()
+        ),
+    );
+    let ride = ride::make(
+        config.profile,
+        config.duration_s,
+        SAMPLE_RATE_HZ,
+        config.seed,
+    )?;
+    crate::ride::write_ride(&files.ride, &ride.ride)?;
+    let samples = ride.samples();
+
+    let file = ParamFile::preset(PRESET);
+    let params = device_params::build(&file, SAMPLE_RATE_HZ)?;
+    let identity = identity_hex(&params.identity);
+    steps.start(
+        "parameters",
+        &format!(
+            "parameters: {} preset (identity {identity}) into QEMU's PARAMS region, slot A -> {}",
+            PRESET.name(),
+            files.params.display()
+        ),
+    );
+    params_file::save(&files.params, &file)?;
+    let region = flash::qemu_region_image(&file, SAMPLE_RATE_HZ)?;
+
+    steps.start(
+        "device",
+        &format!(
+            "device: the firmware in QEMU (mps2-an386), {} samples over its UART{} -> {}",
+            samples.len(),
+            if config.realtime {
+                " in real time"
+            } else {
+                ", as fast as it takes them"
+            },
+            files.device.display()
+        ),
+    );
+    let qemu_run = QemuRun {
+        kernel,
+        blob: region,
+        identity: params.identity,
+        samples: samples.clone(),
+        sample_rate_hz: SAMPLE_RATE_HZ,
+        realtime: config.realtime,
+        greeting_timeout: Duration::from_secs(20),
+    };
+    let mut log = MonitorLog::create(&files.device)?;
+    let (monitor, ending) = match run_qemu(&qemu_run, view, Some(&mut log), stop) {
+        Ok(done) => done,
+        Err(e) => {
+            let (t, ev) = log.abandon();
+            let _ = std::fs::remove_file(t);
+            let _ = std::fs::remove_file(ev);
+            return Err(e.context("running the device in QEMU"));
+        }
+    };
+    if ending == Ending::Stopped {
+        let (t, ev) = log.abandon();
+        let _ = std::fs::remove_file(t);
+        let _ = std::fs::remove_file(ev);
+        bail!(
+            "interrupted after {} of {} samples",
+            monitor.latest().map_or(0, |t| t.sample_index + 1),
+            samples.len()
+        );
+    }
+    log.finish()?;
+    let device = Trace::read_csv(&files.device, SAMPLE_RATE_HZ)?;
+    let device_events = read_events(&files.device_events, SAMPLE_RATE_HZ)?;
+
+    steps.start(
+        "host reference",
+        &format!(
+            "host reference: the same samples through the device's code (f32) and the f64 model -> {}",
+            files.host.display()
+        ),
+    );
+    let indices: Vec<u32> = (0..samples.len() as u32).collect();
+    let host_run = reference::pipeline(&params, &indices, &samples);
+    write_telemetry(&files.host, &host_run.telemetry, SAMPLE_RATE_HZ)?;
+    write_events(&files.host_events, &host_run.events, SAMPLE_RATE_HZ)?;
+    let head_f64 = reference::head_f64(&file.params, SAMPLE_RATE_HZ, &samples)?;
+    let host_head_f64_m_s2 = [0, 1, 2].map(|a| head_f64.iter().map(|h| h[a]).collect());
+    let (values, _, _) = run_pipeline(&params, &samples, 0.0)?;
+    let kinds = params.exposure.config.axes.axes().map(|a| a.kind.name());
+    let exposure = HostExposure {
+        head: [0, 1, 2].map(|i| AxisReport::new(kinds[i], &values.axes[i])),
+        vector: AxisReport::new("vector", &values.vector),
+    };
+
+    steps.start("report", &format!("report: {}", files.report.display()));
+    let greeting = monitor.greeting();
+    let mut data = DemoData {
+        info: RunInfo {
+            profile: config.profile,
+            seed: config.seed,
+            sample_rate_hz: SAMPLE_RATE_HZ,
+            samples: samples.len(),
+            params_name: PRESET.name().to_string(),
+            identity,
+            firmware_version: greeting.firmware_version.as_str().to_string(),
+            device_line: device_line(greeting),
+            warmup_s: f64::from(params.exposure.config.warmup_s),
+            alerts: params.alerts.config,
+            status: monitor.status().copied(),
+            link: monitor.counters().link,
+            step_times: Vec::new(),
+            realtime: config.realtime,
+        },
+        ride,
+        device,
+        device_events,
+        host: Trace::from_telemetry(&host_run.telemetry, SAMPLE_RATE_HZ),
+        host_events: host_run
+            .events
+            .iter()
+            .map(|e| EventRow::from_event(e, SAMPLE_RATE_HZ))
+            .collect(),
+        host_head_f64_m_s2,
+        exposure,
+    };
+    steps.finish();
+    data.info.step_times = steps.times.clone();
+    let summary = Summary::new(&data);
+    let html = crate::report::render(&data, &summary)?;
+    crate::output::write_atomically(&files.report, |w| {
+        use std::io::Write as _;
+        w.write_all(html.as_bytes())
+            .with_context(|| format!("writing {}", files.report.display()))
+    })?;
+    (steps.announce)(&format!("[{STEPS}/{STEPS}] summary"));
+    Ok(DemoOutcome {
+        data,
+        summary,
+        report: files.report,
+    })
+}

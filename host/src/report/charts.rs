@@ -1,0 +1,356 @@
+//! The report's time charts, drawn by `plotters` into SVG text (its SVG backend writes
+//! plain `<svg>` elements with system sans-serif text: no script, no font file).
+//!
+//! A [`Chart`] is data only (lines, threshold lines, shaded stretches, event markers), so
+//! what the report draws is testable without parsing SVG; [`Chart::to_svg`] draws it.
+
+use anyhow::{Result, anyhow};
+use plotters::prelude::*;
+
+/// Width of every chart, px (the report's column).
+pub const WIDTH_PX: u32 = 1100;
+/// Pixel columns of the plotting area, for downsampling.
+pub const PLOT_COLUMNS: usize = 1000;
+
+/// A colour as red, green, blue.
+pub type Rgb = (u8, u8, u8);
+
+/// One data line.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Line {
+    /// Points (time s, value).
+    pub points: Vec<(f64, f64)>,
+    /// Colour.
+    pub color: Rgb,
+    /// Stroke width, px.
+    pub width: u32,
+    /// Dashed (the host's overlays).
+    pub dashed: bool,
+    /// Legend entry.
+    pub label: String,
+}
+
+/// A horizontal reference line (an alert threshold).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Threshold {
+    /// Its value.
+    pub y: f64,
+    /// Colour.
+    pub color: Rgb,
+    /// Text drawn at its right end.
+    pub label: String,
+}
+
+/// A shaded stretch of time (a road surface), labelled at its top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Band {
+    /// Start, s.
+    pub start_s: f64,
+    /// End, s.
+    pub end_s: f64,
+    /// Label.
+    pub label: String,
+}
+
+/// A marker at a point: an up triangle (raised) or a down triangle (cleared).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Marker {
+    /// Time, s.
+    pub t_s: f64,
+    /// Value.
+    pub y: f64,
+    /// Pointing up (raise) or down (clear).
+    pub up: bool,
+    /// Colour.
+    pub color: Rgb,
+}
+
+/// A vertical line at an instant (a shock), labelled at its top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Moment {
+    /// Time, s.
+    pub t_s: f64,
+    /// Label.
+    pub label: String,
+}
+
+/// One chart with time on the x axis.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct Chart {
+    /// Title, drawn above.
+    pub title: String,
+    /// Y axis description (with units).
+    pub y_label: String,
+    /// Time range, s.
+    pub x_range_s: (f64, f64),
+    /// Value range.
+    pub y_range: (f64, f64),
+    /// Height, px.
+    pub height_px: u32,
+    /// Shaded stretches, drawn first.
+    pub bands: Vec<Band>,
+    /// Threshold lines.
+    pub thresholds: Vec<Threshold>,
+    /// Data lines, in drawing order.
+    pub lines: Vec<Line>,
+    /// Markers, drawn last.
+    pub markers: Vec<Marker>,
+    /// Instants (vertical dotted lines).
+    pub instants: Vec<Moment>,
+    /// Names for integer y ticks (the alert levels), instead of numbers.
+    pub y_tick_names: Option<Vec<String>>,
+}
+
+fn rgb(c: Rgb) -> RGBColor {
+    RGBColor(c.0, c.1, c.2)
+}
+
+fn plot_error<E: std::fmt::Debug>(e: E) -> anyhow::Error {
+    anyhow!("drawing a chart: {e:?}")
+}
+
+/// The y range covering `values` and `also` (threshold values to keep in view), with a
+/// margin of 8 % of the span; never empty.
+pub fn y_range<'a>(
+    values: impl IntoIterator<Item = &'a f64>,
+    also: &'a [f64],
+    from_zero: bool,
+) -> (f64, f64) {
+    let mut lo = if from_zero { 0.0 } else { f64::INFINITY };
+    let mut hi = f64::NEG_INFINITY;
+    for &v in values.into_iter().chain(also) {
+        if v.is_finite() {
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+    }
+    if !(lo.is_finite() && hi.is_finite()) {
+        return (0.0, 1.0);
+    }
+    if hi - lo < 1e-12 {
+        return (lo - 0.5, hi + 0.5);
+    }
+    let pad = 0.08 * (hi - lo);
+    (if from_zero { lo } else { lo - pad }, hi + pad)
+}
+
+impl Chart {
+    /// The chart as an `<svg>` element.
+    pub fn to_svg(&self) -> Result<String> {
+        let mut svg = String::new();
+        {
+            let root =
+                SVGBackend::with_string(&mut svg, (WIDTH_PX, self.height_px)).into_drawing_area();
+            root.fill(&WHITE).map_err(plot_error)?;
+            let (x0, x1) = self.x_range_s;
+            let (y0, y1) = self.y_range;
+            let mut chart = ChartBuilder::on(&root)
+                .caption(&self.title, ("sans-serif", 17))
+                .margin_left(10)
+                .margin_right(110)
+                .margin_top(6)
+                .margin_bottom(6)
+                .x_label_area_size(36)
+                .y_label_area_size(70)
+                .build_cartesian_2d(x0..x1, y0..y1)
+                .map_err(plot_error)?;
+            let names = self.y_tick_names.clone();
+            let mut mesh = chart.configure_mesh();
+            mesh.x_desc("time, s")
+                .y_desc(self.y_label.as_str())
+                .light_line_style(RGBColor(238, 238, 238))
+                .bold_line_style(RGBColor(215, 215, 215))
+                .axis_desc_style(("sans-serif", 14))
+                .label_style(("sans-serif", 13));
+            let formatter = move |v: &f64| match &names {
+                Some(n) => {
+                    let i = v.round();
+                    if (v - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < n.len() {
+                        n[i as usize].clone()
+                    } else {
+                        String::new()
+                    }
+                }
+                None => format_tick(*v),
+            };
+            if let Some(n) = &self.y_tick_names {
+                mesh.y_labels(n.len() * 2 - 1);
+            }
+            mesh.y_label_formatter(&formatter)
+                .draw()
+                .map_err(plot_error)?;
+
+            for band in &self.bands {
+                chart
+                    .draw_series(std::iter::once(Rectangle::new(
+                        [(band.start_s, y0), (band.end_s, y1)],
+                        RGBColor(255, 200, 120).mix(0.18).filled(),
+                    )))
+                    .map_err(plot_error)?;
+                chart
+                    .draw_series(std::iter::once(Text::new(
+                        band.label.clone(),
+                        (band.start_s + 0.01 * (x1 - x0), y1 - 0.04 * (y1 - y0)),
+                        ("sans-serif", 13).into_font().color(&RGBColor(150, 90, 20)),
+                    )))
+                    .map_err(plot_error)?;
+            }
+            for instant in &self.instants {
+                chart
+                    .draw_series(DashedLineSeries::new(
+                        [(instant.t_s, y0), (instant.t_s, y1)],
+                        3,
+                        4,
+                        RGBColor(120, 120, 120).stroke_width(1),
+                    ))
+                    .map_err(plot_error)?;
+                chart
+                    .draw_series(std::iter::once(Text::new(
+                        instant.label.clone(),
+                        (instant.t_s + 0.005 * (x1 - x0), y1 - 0.12 * (y1 - y0)),
+                        ("sans-serif", 12).into_font().color(&RGBColor(90, 90, 90)),
+                    )))
+                    .map_err(plot_error)?;
+            }
+            for th in &self.thresholds {
+                if !(y0..=y1).contains(&th.y) {
+                    continue;
+                }
+                let color = rgb(th.color);
+                chart
+                    .draw_series(DashedLineSeries::new(
+                        [(x0, th.y), (x1, th.y)],
+                        8,
+                        5,
+                        color.stroke_width(2),
+                    ))
+                    .map_err(plot_error)?;
+                // The label sits in the right margin, beside the line's end.
+                let (px, py) = chart.backend_coord(&(x1, th.y));
+                root.draw(&Text::new(
+                    th.label.clone(),
+                    (px + 6, py - 7),
+                    ("sans-serif", 13).into_font().color(&color),
+                ))
+                .map_err(plot_error)?;
+            }
+            for line in &self.lines {
+                let color = rgb(line.color);
+                let style = color.stroke_width(line.width);
+                let legend = move |(x, y): (i32, i32)| {
+                    PathElement::new(vec![(x, y), (x + 22, y)], color.stroke_width(3))
+                };
+                if line.dashed {
+                    chart
+                        .draw_series(DashedLineSeries::new(
+                            line.points.iter().copied(),
+                            6,
+                            4,
+                            style,
+                        ))
+                        .map_err(plot_error)?
+                        .label(line.label.as_str())
+                        .legend(legend);
+                } else {
+                    chart
+                        .draw_series(LineSeries::new(line.points.iter().copied(), style))
+                        .map_err(plot_error)?
+                        .label(line.label.as_str())
+                        .legend(legend);
+                }
+            }
+            for m in &self.markers {
+                let color = rgb(m.color);
+                let shape = if m.up {
+                    vec![(0, -8), (-6, 3), (6, 3)]
+                } else {
+                    vec![(0, 8), (-6, -3), (6, -3)]
+                };
+                chart
+                    .draw_series(std::iter::once(
+                        EmptyElement::at((m.t_s, m.y)) + Polygon::new(shape, color.filled()),
+                    ))
+                    .map_err(plot_error)?;
+            }
+            if !self.lines.is_empty() {
+                chart
+                    .configure_series_labels()
+                    .position(SeriesLabelPosition::UpperLeft)
+                    .margin(8)
+                    .label_font(("sans-serif", 13))
+                    .background_style(WHITE.mix(0.85))
+                    .border_style(RGBColor(190, 190, 190))
+                    .draw()
+                    .map_err(plot_error)?;
+            }
+            root.present().map_err(plot_error)?;
+        }
+        Ok(svg)
+    }
+}
+
+/// A tick label: short, no trailing zeros.
+fn format_tick(v: f64) -> String {
+    let s = format!("{v:.3}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".to_string()
+    } else {
+        s.to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_svg_has_the_title_thresholds_and_lines() {
+        let chart = Chart {
+            title: "running rms".into(),
+            y_label: "m/s^2".into(),
+            x_range_s: (0.0, 10.0),
+            y_range: (0.0, 2.0),
+            height_px: 300,
+            thresholds: vec![
+                Threshold {
+                    y: 0.5,
+                    color: (200, 150, 0),
+                    label: "advisory 0.5".into(),
+                },
+                Threshold {
+                    y: 5.0,
+                    color: (200, 0, 0),
+                    label: "alarm 5 (off scale)".into(),
+                },
+            ],
+            lines: vec![Line {
+                points: vec![(0.0, 0.1), (5.0, 1.5), (10.0, 0.2)],
+                color: (0, 0, 200),
+                width: 2,
+                dashed: false,
+                label: "device <vector>".into(),
+            }],
+            ..Chart::default()
+        };
+        let svg = chart.to_svg().expect("svg");
+        assert!(svg.starts_with("<svg"), "{}", &svg[..80]);
+        assert!(svg.contains("running rms"));
+        assert!(svg.contains("advisory 0.5"));
+        // A threshold outside the range is not drawn (the caption lists it instead).
+        assert!(!svg.contains("alarm 5"));
+        // Text is escaped by the backend.
+        assert!(svg.contains("device &lt;vector&gt;"));
+        assert!(!svg.contains("<script"));
+    }
+
+    #[test]
+    fn ranges_include_thresholds_and_pad() {
+        let (lo, hi) = y_range(&[0.2, 0.9], &[1.25], true);
+        assert_eq!(lo, 0.0);
+        assert!(hi > 1.25 && hi < 1.4, "{hi}");
+        assert_eq!(y_range(&[], &[], false), (0.0, 1.0));
+        assert_eq!(format_tick(0.5), "0.5");
+        assert_eq!(format_tick(2.0), "2");
+    }
+}

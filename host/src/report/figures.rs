@@ -1,0 +1,368 @@
+//! The report's charts, built from a demo's data: what each shows is decided here, how it
+//! is drawn in [`super::charts`].
+
+use supine_core::alerts::Level;
+
+use super::charts::{Band, Chart, Line, Marker, Moment, PLOT_COLUMNS, Rgb, Threshold, y_range};
+use super::downsample::min_max;
+use crate::demo::DemoData;
+use crate::demo::trace::{Trace, level_from_name};
+use crate::ride::ShockKind;
+
+/// Axis colours: x, y, z.
+pub const AXIS_COLORS: [Rgb; 3] = [(31, 119, 180), (44, 160, 44), (214, 39, 40)];
+/// The vector sum's colour.
+pub const VECTOR_COLOR: Rgb = (25, 25, 25);
+/// The host's overlays.
+pub const HOST_COLOR: Rgb = (255, 127, 14);
+/// Level colours: normal, advisory, warning, alarm.
+pub const LEVEL_COLORS: [Rgb; 4] = [(46, 139, 87), (204, 153, 0), (230, 90, 0), (200, 0, 0)];
+
+const AXES: [&str; 3] = ["x (along the body)", "y (lateral)", "z (vertical)"];
+
+fn series(t: &[f64], y: &[f64]) -> Vec<(f64, f64)> {
+    min_max(t, y, PLOT_COLUMNS)
+}
+
+fn line(points: Vec<(f64, f64)>, color: Rgb, width: u32, dashed: bool, label: &str) -> Line {
+    Line {
+        points,
+        color,
+        width,
+        dashed,
+        label: label.to_string(),
+    }
+}
+
+fn bands(data: &DemoData) -> Vec<Band> {
+    // Shade only a ride of several surfaces, and only the ones that are not the base road.
+    if data.ride.segments.len() < 2 {
+        return Vec::new();
+    }
+    data.ride
+        .segments
+        .iter()
+        .filter(|s| s.label != "paved road")
+        .map(|s| Band {
+            start_s: s.start_s,
+            end_s: s.end_s,
+            label: s.label.clone(),
+        })
+        .collect()
+}
+
+fn x_range(data: &DemoData) -> (f64, f64) {
+    (0.0, data.ride.duration_s())
+}
+
+/// Threshold lines for `values` (advisory, warning, alarm); the names carry the value.
+fn thresholds(values: [f32; 3], unit: &str) -> Vec<Threshold> {
+    ["advisory", "warning", "alarm"]
+        .iter()
+        .zip(values)
+        .enumerate()
+        .map(|(i, (name, v))| Threshold {
+            y: f64::from(v),
+            color: LEVEL_COLORS[i + 1],
+            label: format!("{name} {v} {unit}"),
+        })
+        .collect()
+}
+
+/// The litter frame's acceleration: the ride the device was given.
+pub fn input(data: &DemoData) -> Chart {
+    let ride = &data.ride.ride;
+    let fs = ride.sample_rate_hz;
+    let t: Vec<f64> = (0..ride.len()).map(|k| k as f64 / fs).collect();
+    let lines: Vec<Line> = [2, 0, 1]
+        .into_iter()
+        .map(|a| {
+            line(
+                series(&t, &ride.platform_m_s2[a]),
+                AXIS_COLORS[a],
+                1,
+                false,
+                &format!("litter {}", AXES[a]),
+            )
+        })
+        .collect();
+    let y = y_range(ride.platform_m_s2.iter().flatten(), &[], false);
+    Chart {
+        title: "Litter-frame acceleration (the device's input)".into(),
+        y_label: "acceleration, m/s^2".into(),
+        x_range_s: x_range(data),
+        y_range: y,
+        height_px: 320,
+        bands: bands(data),
+        lines,
+        instants: data
+            .ride
+            .shocks
+            .iter()
+            .map(|s| Moment {
+                t_s: s.time_s,
+                label: match s.kind {
+                    ShockKind::Pothole => "pothole".into(),
+                    ShockKind::SpeedBump => "speed bump".into(),
+                },
+            })
+            .collect(),
+        ..Chart::default()
+    }
+}
+
+/// Predicted head acceleration on one axis: the device, and the f64 model over it.
+pub fn head(data: &DemoData, axis: usize) -> Chart {
+    let d = &data.device;
+    let host_t: Vec<f64> = (0..data.host_head_f64_m_s2[axis].len())
+        .map(|k| k as f64 / data.info.sample_rate_hz)
+        .collect();
+    let y = y_range(
+        d.head_m_s2[axis]
+            .iter()
+            .chain(&data.host_head_f64_m_s2[axis]),
+        &[],
+        false,
+    );
+    Chart {
+        title: format!("Predicted head acceleration, {} (unweighted)", AXES[axis]),
+        y_label: "m/s^2".into(),
+        x_range_s: x_range(data),
+        y_range: y,
+        height_px: 230,
+        bands: bands(data),
+        lines: vec![
+            line(
+                series(&d.time_s, &d.head_m_s2[axis]),
+                AXIS_COLORS[axis],
+                2,
+                false,
+                "device",
+            ),
+            line(
+                series(&host_t, &data.host_head_f64_m_s2[axis]),
+                VECTOR_COLOR,
+                1,
+                true,
+                "host, f64 model",
+            ),
+        ],
+        ..Chart::default()
+    }
+}
+
+/// Where the vector running rms was when each level event happened, for markers.
+fn level_markers(data: &DemoData, trace: &Trace, y_of: impl Fn(usize) -> f64) -> Vec<Marker> {
+    data.device_events
+        .iter()
+        .filter(|e| e.kind == "level")
+        .filter_map(|e| {
+            let k = trace.sample.binary_search(&e.sample).ok()?;
+            let level = level_from_name(&e.name)?;
+            Some(Marker {
+                t_s: e.time_s,
+                y: y_of(k),
+                up: e.raised,
+                color: LEVEL_COLORS[level as usize],
+            })
+        })
+        .collect()
+}
+
+/// The vector sum's running rms against the running-rms thresholds, with level events.
+pub fn vector_rms(data: &DemoData) -> Chart {
+    let d = &data.device;
+    let h = &data.host;
+    let th = data.info.alerts.running_rms_m_s2;
+    let y = y_range(
+        d.vector_rms_m_s2.iter(),
+        &th.map(|v| f64::from(v) * 1.05),
+        true,
+    );
+    Chart {
+        title: "Weighted running rms (1 s), vector sum, against the alert thresholds".into(),
+        y_label: "m/s^2".into(),
+        x_range_s: x_range(data),
+        y_range: y,
+        height_px: 340,
+        bands: bands(data),
+        thresholds: thresholds(th, "m/s^2"),
+        lines: vec![
+            line(
+                series(&d.time_s, &d.vector_rms_m_s2),
+                VECTOR_COLOR,
+                2,
+                false,
+                "device, vector sum",
+            ),
+            line(
+                series(&h.time_s, &h.vector_rms_m_s2),
+                HOST_COLOR,
+                1,
+                true,
+                "host, vector sum",
+            ),
+        ],
+        markers: level_markers(data, d, |k| d.vector_rms_m_s2[k]),
+        ..Chart::default()
+    }
+}
+
+/// The running rms of each weighted head axis, device and host.
+pub fn axis_rms(data: &DemoData) -> Chart {
+    let d = &data.device;
+    let h = &data.host;
+    let mut lines = Vec::new();
+    for a in 0..3 {
+        lines.push(line(
+            series(&d.time_s, &d.running_rms_m_s2[a]),
+            AXIS_COLORS[a],
+            2,
+            false,
+            &format!("device, head {}", AXES[a]),
+        ));
+    }
+    for a in 0..3 {
+        lines.push(line(
+            series(&h.time_s, &h.running_rms_m_s2[a]),
+            VECTOR_COLOR,
+            1,
+            true,
+            if a == 0 { "host (each axis)" } else { "" },
+        ));
+    }
+    let y = y_range(d.running_rms_m_s2.iter().flatten(), &[], true);
+    Chart {
+        title: "Weighted running rms (1 s) per head axis".into(),
+        y_label: "m/s^2".into(),
+        x_range_s: x_range(data),
+        y_range: y,
+        height_px: 280,
+        bands: bands(data),
+        lines,
+        ..Chart::default()
+    }
+}
+
+/// The vibration dose value against its thresholds (those in view).
+pub fn vdv(data: &DemoData) -> Chart {
+    let d = &data.device;
+    let h = &data.host;
+    let th = data.info.alerts.vdv_m_s175;
+    // Keep the first threshold in view; higher ones far above the data would flatten the
+    // curve, and the caption lists them.
+    let y = y_range(d.vdv_m_s175.iter(), &[f64::from(th[0]) * 1.05], true);
+    Chart {
+        title: "Vibration dose value (VDV) of the vector sum, since the start".into(),
+        y_label: "m/s^1.75".into(),
+        x_range_s: x_range(data),
+        y_range: y,
+        height_px: 280,
+        bands: bands(data),
+        thresholds: thresholds(th, "m/s^1.75"),
+        lines: vec![
+            line(
+                series(&d.time_s, &d.vdv_m_s175),
+                VECTOR_COLOR,
+                2,
+                false,
+                "device",
+            ),
+            line(
+                series(&h.time_s, &h.vdv_m_s175),
+                HOST_COLOR,
+                1,
+                true,
+                "host",
+            ),
+        ],
+        ..Chart::default()
+    }
+}
+
+/// Steps of a level trace: a point at the start, then two at every change.
+fn level_steps(trace: &Trace, end_s: f64) -> Vec<(f64, f64)> {
+    let mut points = Vec::new();
+    let mut last: Option<Level> = None;
+    for (k, &level) in trace.level.iter().enumerate() {
+        let t = trace.time_s[k];
+        match last {
+            None => points.push((t, level as u8 as f64)),
+            Some(prev) if prev != level => {
+                points.push((t, prev as u8 as f64));
+                points.push((t, level as u8 as f64));
+            }
+            _ => {}
+        }
+        last = Some(level);
+    }
+    if let Some(l) = last {
+        points.push((end_s, l as u8 as f64));
+    }
+    points
+}
+
+/// The alert level over time, with a marker at each raise and clear.
+pub fn levels(data: &DemoData) -> Chart {
+    let end = data.ride.duration_s();
+    Chart {
+        title: "Alert level (raised: up triangle, lowered: down triangle)".into(),
+        y_label: "level".into(),
+        x_range_s: x_range(data),
+        y_range: (-0.3, 3.4),
+        height_px: 240,
+        bands: bands(data),
+        lines: vec![
+            line(
+                level_steps(&data.device, end),
+                VECTOR_COLOR,
+                2,
+                false,
+                "device",
+            ),
+            line(level_steps(&data.host, end), HOST_COLOR, 1, true, "host"),
+        ],
+        markers: level_markers(data, &data.device, |k| data.device.level[k] as u8 as f64),
+        y_tick_names: Some(
+            ["normal", "advisory", "warning", "alarm"]
+                .iter()
+                .map(|s| s.to_string())
+                .collect(),
+        ),
+        ..Chart::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn level_steps_change_where_the_level_does() {
+        let trace = Trace {
+            sample: vec![0, 1, 2, 3],
+            time_s: vec![0.0, 1.0, 2.0, 3.0],
+            level: vec![Level::Normal, Level::Normal, Level::Warning, Level::Normal],
+            ..Trace::default()
+        };
+        assert_eq!(
+            level_steps(&trace, 4.0),
+            vec![
+                (0.0, 0.0),
+                (2.0, 0.0),
+                (2.0, 2.0),
+                (3.0, 2.0),
+                (3.0, 0.0),
+                (4.0, 0.0)
+            ]
+        );
+    }
+
+    #[test]
+    fn thresholds_carry_their_values_and_level_colours() {
+        let t = thresholds([0.5, 0.8, 1.25], "m/s^2");
+        assert_eq!(t[2].label, "alarm 1.25 m/s^2");
+        assert_eq!(t[2].y, 1.25);
+        assert_eq!(t[0].color, LEVEL_COLORS[1]);
+    }
+}
