@@ -12,4 +12,7 @@ pub mod session;
 pub mod state;
 pub mod view;
 
-pub use state::{Counters, Monitor, Notice, Severity, describe_event, device_line, fault_names};
+pub use state::{
+    Counters, Monitor, Notice, Severity, describe_event, device_line, fault_names,
+    params_source_text,
+};

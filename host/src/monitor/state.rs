@@ -378,12 +378,17 @@ impl Monitor {
     }
 }
 
-/// The device in one line: firmware, parameters and their source, sample rate.
-pub fn device_line(g: &Greeting) -> String {
-    let source = match g.params_source {
+/// Where the parameters came from, in words.
+pub fn params_source_text(source: ParamsSource) -> String {
+    match source {
         ParamsSource::Flash { slot } => format!("flash slot {slot}"),
         ParamsSource::BuiltInDefault { reason } => format!("built-in default ({reason})"),
-    };
+    }
+}
+
+/// The device in one line: firmware, parameters and their source, sample rate.
+pub fn device_line(g: &Greeting) -> String {
+    let source = params_source_text(g.params_source);
     format!(
         "firmware {}, protocol {}, parameters {} from {source}, {} Hz",
         g.firmware_version.as_str(),

@@ -13,7 +13,8 @@ use crossterm::style::{Attribute, Color, Print, ResetColor, SetAttribute, SetFor
 use crossterm::terminal::{Clear, ClearType};
 use crossterm::{cursor, queue};
 
-use super::state::{Monitor, Notice, Severity, describe_event, device_line};
+use super::state::{Monitor, Notice, Severity, describe_event, params_source_text};
+use crate::device_params::identity_hex;
 
 /// Redraw period of the live panel (10 Hz, whatever the telemetry rate).
 pub const REDRAW_INTERVAL: Duration = Duration::from_millis(100);
@@ -48,14 +49,19 @@ fn marked(severity: Severity, text: impl Into<String>) -> Span {
 /// The panel: device, time and level, head acceleration, running rms, VDV, link counters
 /// and the latest alert events.
 pub fn panel_lines(m: &Monitor) -> Vec<Vec<Span>> {
+    let g = m.greeting();
     let mut lines = vec![vec![plain(format!(
-        "supine monitor: {}",
-        device_line(m.greeting())
+        "supine monitor  fw {}  params {} ({})  {} Hz",
+        g.firmware_version.as_str(),
+        // The first 8 hex digits name a parameter set well enough on screen.
+        &identity_hex(&g.params_identity)[..8],
+        params_source_text(g.params_source),
+        g.sample_rate_hz
     ))]];
     let level = m.level();
     let faults = m.fault_names();
     lines.push(vec![
-        plain(format!("t {:>9.2} s   level ", m.time_s())),
+        plain(format!("t {:>8.2} s    level ", m.time_s())),
         marked(Severity::of_level(level), level.name().to_ascii_uppercase()),
         plain(format!(" (highest {})   faults ", m.highest_level())),
         if faults.is_empty() {
@@ -70,16 +76,16 @@ pub fn panel_lines(m: &Monitor) -> Vec<Vec<Span>> {
             let [hx, hy, hz] = t.head_acc_m_s2;
             let [rx, ry, rz] = t.running_rms_m_s2;
             lines.push(vec![plain(format!(
-                "head (predicted)       x {hx:+8.3}  y {hy:+8.3}  z {hz:+8.3} m/s^2   peak |a| {:.3}",
+                "head          x {hx:+8.3}  y {hy:+8.3}  z {hz:+8.3} m/s^2  peak {:.2}",
                 m.peak_head_m_s2()
             ))]);
             lines.push(vec![plain(format!(
-                "weighted rms (1 s)     x {rx:8.3}  y {ry:8.3}  z {rz:8.3} m/s^2   vector {:.3}{}",
+                "weighted rms  x {rx:8.3}  y {ry:8.3}  z {rz:8.3} m/s^2  vector {:.3}{}",
                 t.vector_running_rms_m_s2,
                 if t.valid { "" } else { "  (settling)" }
             ))]);
             lines.push(vec![plain(format!(
-                "VDV (vector)           {:.3} m/s^1.75",
+                "VDV           {:.3} m/s^1.75 (vector)",
                 t.vdv_m_s175
             ))]);
         }
@@ -88,26 +94,23 @@ pub fn panel_lines(m: &Monitor) -> Vec<Vec<Span>> {
     let link = &c.link;
     let losses = link.lost_frames + link.bad_frames;
     let counters = format!(
-        "frames {}  lost {}  bad {}  reordered {}",
+        "frames {} lost {} bad {} reordered {}",
         link.frames, link.lost_frames, link.bad_frames, link.reordered_frames
     );
     lines.push(vec![
-        plain("link                   "),
+        plain("link          "),
         if losses > 0 {
             marked(Severity::Warning, counters)
         } else {
             plain(counters)
         },
-        plain(format!(
-            "   telemetry {}  events {} ({} raised)",
-            c.telemetry, c.events, c.raised
-        )),
+        plain(format!("  events {} ({} raised)", c.events, c.raised)),
     ]);
     let recent: Vec<_> = m.history().collect();
     let skip = recent.len().saturating_sub(PANEL_EVENTS);
     for e in &recent[skip..] {
         lines.push(vec![
-            plain("event                  "),
+            plain("event         "),
             marked(Severity::of_event(e), describe_event(e, m.sample_rate_hz())),
         ]);
     }
@@ -169,18 +172,23 @@ impl<W: Write> LiveView<W> {
         Ok(())
     }
 
-    fn print_spans(&mut self, spans: &[Span]) -> io::Result<()> {
+    /// Prints one line, cut to `width` characters so that it never wraps (a wrapped line
+    /// would throw off the count of lines to erase at the next redraw).
+    fn print_spans(&mut self, spans: &[Span], width: usize) -> io::Result<()> {
+        let mut room = width;
         for span in spans {
+            let text: String = span.text.chars().take(room).collect();
+            room -= text.chars().count();
             match span.severity {
                 Some(s) => queue!(
                     self.out,
                     SetForegroundColor(colour(s)),
                     SetAttribute(Attribute::Bold),
-                    Print(&span.text),
+                    Print(text),
                     SetAttribute(Attribute::Reset),
                     ResetColor
                 )?,
-                None => queue!(self.out, Print(&span.text))?,
+                None => queue!(self.out, Print(text))?,
             }
         }
         queue!(self.out, Print("\r\n"))
@@ -189,8 +197,9 @@ impl<W: Write> LiveView<W> {
     fn draw(&mut self, m: &Monitor) -> io::Result<()> {
         self.erase()?;
         let lines = panel_lines(m);
+        let width = terminal_width();
         for line in &lines {
-            self.print_spans(line)?;
+            self.print_spans(line, width)?;
         }
         self.drawn_lines = u16::try_from(lines.len()).unwrap_or(u16::MAX);
         self.out.flush()?;
@@ -207,7 +216,7 @@ impl<W: Write> View for LiveView<W> {
             notice.severity,
             format!("[{}] {}", notice.severity.tag(), notice.text),
         )];
-        self.print_spans(&line).map_err(term_error)?;
+        self.print_spans(&line, usize::MAX).map_err(term_error)?;
         self.draw(m).map_err(term_error)
     }
 
@@ -231,6 +240,12 @@ impl<W: Write> Drop for LiveView<W> {
     fn drop(&mut self) {
         let _ = restore(&mut self.out);
     }
+}
+
+/// Columns of the terminal less one (the last column would wrap on some terminals); 200
+/// when it cannot be asked (not a terminal: the tests).
+fn terminal_width() -> usize {
+    crossterm::terminal::size().map_or(200, |(columns, _)| usize::from(columns.max(2)) - 1)
 }
 
 fn restore(out: &mut impl Write) -> io::Result<()> {
@@ -352,14 +367,18 @@ mod tests {
     #[test]
     fn the_panel_shows_values_and_highlights_level_faults_losses_and_events() {
         let lines = panel_lines(&monitor());
-        assert!(find(&lines, "parameters abab").severity.is_none());
+        assert!(
+            find(&lines, "params abababab (flash slot 0)")
+                .severity
+                .is_none()
+        );
         assert_eq!(find(&lines, "ALARM").severity, Some(Severity::Alarm));
         assert_eq!(find(&lines, "stuck").severity, Some(Severity::Fault));
         assert!(find(&lines, "z   +2.000 m/s^2").severity.is_none());
         assert!(find(&lines, "vector 1.300").severity.is_none());
         assert!(find(&lines, "3.250 m/s^1.75").severity.is_none());
         assert_eq!(
-            find(&lines, "frames 100  lost 2  bad 1").severity,
+            find(&lines, "frames 100 lost 2 bad 1").severity,
             Some(Severity::Warning)
         );
         assert_eq!(
