@@ -5,6 +5,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::time::Duration;
 
 use supine_core::alerts::AlertEvent;
 use supine_core::model::Preset;
@@ -198,4 +199,89 @@ fn monitor_logs_what_the_host_pipeline_predicts_for_a_scripted_ride() {
     );
     assert!(stderr.contains("lost 0, bad 0"), "{stderr}");
     assert!(!dir.path().join("log.csv.partial").exists());
+}
+
+fn children(pid: u32) -> Vec<u32> {
+    let mut out = Vec::new();
+    if let Ok(tasks) = std::fs::read_dir(format!("/proc/{pid}/task")) {
+        for task in tasks.flatten() {
+            if let Ok(text) = std::fs::read_to_string(task.path().join("children")) {
+                out.extend(
+                    text.split_whitespace()
+                        .filter_map(|p| p.parse::<u32>().ok()),
+                );
+            }
+        }
+    }
+    out
+}
+
+fn is_qemu(pid: u32) -> bool {
+    std::fs::read(format!("/proc/{pid}/cmdline"))
+        .is_ok_and(|c| String::from_utf8_lossy(&c).contains("qemu-system-arm"))
+}
+
+#[test]
+fn realtime_pacing_and_ctrl_c_keep_the_log_and_leave_no_qemu() {
+    firmware(supine_host::firmware::PRODUCT_BINARY);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let log = dir.path().join("live.csv");
+    let child = Command::new(supine_binary())
+        .args([
+            "monitor",
+            "--qemu",
+            "--preset",
+            "paper-litter",
+            "--profile",
+            "ambulance",
+            "--duration-s",
+            "60",
+            "--realtime",
+            "--log",
+        ])
+        .arg(&log)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("supine runs");
+    let start = std::time::Instant::now();
+    let qemu_pid = loop {
+        if let Some(pid) = children(child.id()).into_iter().find(|p| is_qemu(*p)) {
+            break pid;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(120),
+            "no QEMU started"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let qemu_started = std::time::Instant::now();
+    std::thread::sleep(Duration::from_secs(3));
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .expect("kill runs");
+    assert!(status.success());
+    let output = child.wait_with_output().expect("supine exits");
+    let streamed_s = qemu_started.elapsed().as_secs_f64();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    println!("{stderr}");
+    assert!(!output.status.success(), "an interrupted ride fails");
+    assert!(stderr.contains("interrupted after"), "{stderr}");
+    assert!(stderr.contains("of 30000 samples"), "{stderr}");
+    assert!(
+        !Path::new(&format!("/proc/{qemu_pid}")).exists() || !is_qemu(qemu_pid),
+        "QEMU {qemu_pid} still running"
+    );
+    // The log holds what arrived, renamed into place; real time means at most the
+    // streamed seconds' worth of samples (500 Hz), not the whole ride.
+    let text = std::fs::read_to_string(&log).expect("log kept on Ctrl-C");
+    let rows = text.lines().count() - 1;
+    println!("{rows} rows in {streamed_s:.2} s");
+    assert!(rows > 500, "{rows} rows: samples were streaming");
+    assert!(
+        (rows as f64) <= 500.0 * streamed_s + 8.0,
+        "{rows} rows in {streamed_s:.2} s: faster than real time"
+    );
+    assert!(!dir.path().join("live.csv.partial").exists());
 }
