@@ -132,7 +132,7 @@ fn a_device_in_another_protocol_version_is_refused_with_what_to_do() {
     assert_eq!(
         stderr.trim_end(),
         format!(
-            "supine: {} at 115200 baud: the device speaks protocol version {}, this host speaks {PROTOCOL_VERSION}: update this host tool to the firmware's release",
+            "supine: {} at 921600 baud: the device speaks protocol version {}, this host speaks {PROTOCOL_VERSION}: update this host tool to the firmware's release",
             device.path,
             PROTOCOL_VERSION + 1
         )
