@@ -69,7 +69,7 @@ pub fn wait_greeting<R: Read>(
 
 /// Follows the device after its greeting: every message goes to `monitor`, then to `log`;
 /// notices (alert events, greetings) to `view` at once; the view is refreshed at least
-/// every [`STEP`]. With `until_status`, the first `Status` ends the session; past
+/// every 50 ms. With `until_status`, the first `Status` ends the session; past
 /// `deadline`, the session fails.
 ///
 /// On any ending, the log is left as written so far (the caller finishes it) and the
