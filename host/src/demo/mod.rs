@@ -49,6 +49,10 @@ pub const DEFAULT_OUT_DIR: &str = "supine-demo";
 pub const SAMPLE_RATE_HZ: f64 = 500.0;
 /// The parameters flashed: the paper's litter-board case.
 pub const PRESET: Preset = Preset::PaperLitter;
+/// Shortest demo ride, s: the 5 s warm-up and something to evaluate after it.
+pub const MIN_DURATION_S: f64 = 10.0;
+/// Longest demo ride, s (an hour: about 15 minutes in QEMU).
+pub const MAX_DURATION_S: f64 = 3600.0;
 /// Number of steps announced.
 pub const STEPS: usize = 7;
 
@@ -204,6 +208,12 @@ pub fn run(
     view: &mut dyn View,
     stop: &Arc<AtomicBool>,
 ) -> Result<DemoOutcome> {
+    if !(MIN_DURATION_S..=MAX_DURATION_S).contains(&config.duration_s) {
+        bail!(
+            "--duration-s {}: expected {MIN_DURATION_S} to {MAX_DURATION_S} s",
+            config.duration_s
+        );
+    }
     let dir = &config.out_dir;
     std::fs::create_dir_all(dir)
         .map_err(|e| anyhow!("{}: cannot create the output folder: {e}", dir.display()))?;

@@ -50,6 +50,8 @@ pub struct Band {
     pub end_s: f64,
     /// Label.
     pub label: String,
+    /// Fill colour (drawn at 18 % opacity).
+    pub color: Rgb,
 }
 
 /// A marker at a point: an up triangle (raised) or a down triangle (cleared).
@@ -184,14 +186,14 @@ impl Chart {
                 chart
                     .draw_series(std::iter::once(Rectangle::new(
                         [(band.start_s, y0), (band.end_s, y1)],
-                        RGBColor(255, 200, 120).mix(0.18).filled(),
+                        rgb(band.color).mix(0.18).filled(),
                     )))
                     .map_err(plot_error)?;
                 chart
                     .draw_series(std::iter::once(Text::new(
                         band.label.clone(),
                         (band.start_s + 0.01 * (x1 - x0), y1 - 0.04 * (y1 - y0)),
-                        ("sans-serif", 13).into_font().color(&RGBColor(150, 90, 20)),
+                        ("sans-serif", 13).into_font().color(&RGBColor(110, 80, 40)),
                     )))
                     .map_err(plot_error)?;
             }
@@ -240,7 +242,7 @@ impl Chart {
                 let legend = move |(x, y): (i32, i32)| {
                     PathElement::new(vec![(x, y), (x + 22, y)], color.stroke_width(3))
                 };
-                if line.dashed {
+                let drawn = if line.dashed {
                     chart
                         .draw_series(DashedLineSeries::new(
                             line.points.iter().copied(),
@@ -249,22 +251,22 @@ impl Chart {
                             style,
                         ))
                         .map_err(plot_error)?
-                        .label(line.label.as_str())
-                        .legend(legend);
                 } else {
                     chart
                         .draw_series(LineSeries::new(line.points.iter().copied(), style))
                         .map_err(plot_error)?
-                        .label(line.label.as_str())
-                        .legend(legend);
+                };
+                // Lines without a label share the legend entry of one that has it.
+                if !line.label.is_empty() {
+                    drawn.label(line.label.as_str()).legend(legend);
                 }
             }
             for m in &self.markers {
                 let color = rgb(m.color);
                 let shape = if m.up {
-                    vec![(0, -8), (-6, 3), (6, 3)]
+                    vec![(0, -11), (-8, 4), (8, 4)]
                 } else {
-                    vec![(0, 8), (-6, -3), (6, -3)]
+                    vec![(0, 11), (-8, -4), (8, -4)]
                 };
                 chart
                     .draw_series(std::iter::once(
@@ -275,7 +277,7 @@ impl Chart {
             if !self.lines.is_empty() {
                 chart
                     .configure_series_labels()
-                    .position(SeriesLabelPosition::UpperLeft)
+                    .position(SeriesLabelPosition::UpperRight)
                     .margin(8)
                     .label_font(("sans-serif", 13))
                     .background_style(WHITE.mix(0.85))

@@ -15,6 +15,10 @@ pub const AXIS_COLORS: [Rgb; 3] = [(31, 119, 180), (44, 160, 44), (214, 39, 40)]
 pub const VECTOR_COLOR: Rgb = (25, 25, 25);
 /// The host's overlays.
 pub const HOST_COLOR: Rgb = (255, 127, 14);
+/// Shading of a rough stretch of road.
+pub const ROUGH_COLOR: Rgb = (255, 170, 60);
+/// Shading of the exposure's warm-up.
+pub const WARMUP_COLOR: Rgb = (120, 120, 120);
 /// Level colours: normal, advisory, warning, alarm.
 pub const LEVEL_COLORS: [Rgb; 4] = [(46, 139, 87), (204, 153, 0), (230, 90, 0), (200, 0, 0)];
 
@@ -47,8 +51,21 @@ fn bands(data: &DemoData) -> Vec<Band> {
             start_s: s.start_s,
             end_s: s.end_s,
             label: s.label.clone(),
+            color: ROUGH_COLOR,
         })
         .collect()
+}
+
+/// The road's bands and the warm-up, for charts of exposure values.
+fn bands_with_warmup(data: &DemoData) -> Vec<Band> {
+    let mut b = vec![Band {
+        start_s: 0.0,
+        end_s: data.info.warmup_s,
+        label: "warm-up".into(),
+        color: WARMUP_COLOR,
+    }];
+    b.extend(bands(data));
+    b
 }
 
 fn x_range(data: &DemoData) -> (f64, f64) {
@@ -141,7 +158,7 @@ pub fn head(data: &DemoData, axis: usize) -> Chart {
             ),
             line(
                 series(&host_t, &data.host_head_f64_m_s2[axis]),
-                VECTOR_COLOR,
+                HOST_COLOR,
                 1,
                 true,
                 "host, f64 model",
@@ -185,7 +202,7 @@ pub fn vector_rms(data: &DemoData) -> Chart {
         x_range_s: x_range(data),
         y_range: y,
         height_px: 340,
-        bands: bands(data),
+        bands: bands_with_warmup(data),
         thresholds: thresholds(th, "m/s^2"),
         lines: vec![
             line(
@@ -225,7 +242,7 @@ pub fn axis_rms(data: &DemoData) -> Chart {
     for a in 0..3 {
         lines.push(line(
             series(&h.time_s, &h.running_rms_m_s2[a]),
-            VECTOR_COLOR,
+            HOST_COLOR,
             1,
             true,
             if a == 0 { "host (each axis)" } else { "" },
@@ -238,7 +255,7 @@ pub fn axis_rms(data: &DemoData) -> Chart {
         x_range_s: x_range(data),
         y_range: y,
         height_px: 280,
-        bands: bands(data),
+        bands: bands_with_warmup(data),
         lines,
         ..Chart::default()
     }
@@ -258,7 +275,7 @@ pub fn vdv(data: &DemoData) -> Chart {
         x_range_s: x_range(data),
         y_range: y,
         height_px: 280,
-        bands: bands(data),
+        bands: bands_with_warmup(data),
         thresholds: thresholds(th, "m/s^1.75"),
         lines: vec![
             line(
@@ -311,7 +328,7 @@ pub fn levels(data: &DemoData) -> Chart {
         x_range_s: x_range(data),
         y_range: (-0.3, 3.4),
         height_px: 240,
-        bands: bands(data),
+        bands: bands_with_warmup(data),
         lines: vec![
             line(
                 level_steps(&data.device, end),

@@ -56,7 +56,7 @@ p, li, td, th, dd, dt { font-size: 14.5px; line-height: 1.45; }
 table { border-collapse: collapse; margin: 8px 0; }
 th, td { border: 1px solid #ddd; padding: 4px 10px; text-align: right; }
 th { background: #f0f0ee; } td:first-child, th:first-child { text-align: left; }
-td.text { text-align: left; }
+td.text, th.text { text-align: left; }
 .grid { display: flex; gap: 28px; flex-wrap: wrap; align-items: flex-start; }
 figure { margin: 14px 0 4px; } figcaption { font-size: 13.5px; color: #444; max-width: 1060px; margin-top: 2px; }
 svg { display: block; max-width: 100%; height: auto; }
@@ -67,6 +67,15 @@ code { background: #f2f2f2; padding: 0 4px; border-radius: 3px; font-size: 13.5p
 
 fn level_tag(level: Level) -> String {
     format!("<span class=\"tag tag-{0}\">{0}</span>", level.name())
+}
+
+/// A difference: `0` when exact, else two significant digits in scientific form.
+fn diff(v: f64) -> String {
+    if v == 0.0 {
+        "0 (bit for bit)".to_string()
+    } else {
+        format!("{v:.1e} m/s&sup2;")
+    }
 }
 
 fn num(v: f64, digits: usize) -> String {
@@ -124,17 +133,17 @@ pub fn render(data: &DemoData, summary: &Summary) -> Result<String> {
         summary.events_agree && summary.head_diff_f32_m_s2 == 0.0 && summary.records_complete;
     let _ = writeln!(
         h,
-        "<p>Check against the host: {} Head acceleration max |device &minus; host| = {:.3e} m/s&sup2; \
-         with the same f32 code, {:.3e} m/s&sup2; against the f64 model; running rms {:.3e} m/s&sup2;; \
+        "<p>Check against the host: {} Head acceleration: largest |device &minus; host| {} \
+         with the host running the same f32 code, {} against the f64 model; running rms {}; \
          alert events {}. Link: {} frames, {} lost, {} bad. Sensor faults: {}.</p></div>",
         if agree {
             "<span class=\"ok\">the device and the host agree.</span>"
         } else {
             "<span class=\"bad\">the device and the host DIFFER (see below).</span>"
         },
-        summary.head_diff_f32_m_s2,
-        summary.head_diff_f64_m_s2,
-        summary.rms_diff_m_s2,
+        diff(summary.head_diff_f32_m_s2),
+        diff(summary.head_diff_f64_m_s2),
+        diff(summary.rms_diff_m_s2),
         if summary.events_agree {
             "identical"
         } else {
@@ -233,7 +242,7 @@ pub fn render(data: &DemoData, summary: &Summary) -> Result<String> {
             &figures::head(data, axis),
             if axis == 0 {
                 "The head acceleration the device predicted (solid), with the host's f64 model on the same input \
-                 (black dashes). They coincide: the difference is listed in the check above."
+                 (orange dashes). They coincide: the largest difference is given in the check at the top."
             } else {
                 ""
             },
@@ -248,7 +257,7 @@ pub fn render(data: &DemoData, summary: &Summary) -> Result<String> {
             "The 1 s running rms of the weighted head acceleration (vector sum): what the alert levels follow. \
              Dashed horizontal lines: advisory {} / warning {} / alarm {} m/s&sup2;. A level is raised after {} s \
              above its line (up triangle) and lowered after {} s below {}&nbsp;% of it (down triangle). Device \
-             solid, host dashed orange. Values before {} s are not yet valid (the weighting filters settle).",
+             solid, host dashed orange. Grey: the first {} s, before the values are valid (the weighting filters settle); no alert is raised then.",
             rms[0],
             rms[1],
             rms[2],
@@ -284,7 +293,7 @@ pub fn render(data: &DemoData, summary: &Summary) -> Result<String> {
     let _ = write!(
         h,
         "<h2>What the alert levels mean</h2>\n<table>\n\
-         <tr><th>level</th><th>running rms (1 s, vector)</th><th>VDV (vector)</th><th>borrowed from</th></tr>\n\
+         <tr><th>level</th><th>running rms (1 s, vector)</th><th>VDV (vector)</th><th class=\"text\">borrowed from</th></tr>\n\
          <tr><td>{}</td><td>below {} m/s&sup2;</td><td>below {} m/s<sup>1.75</sup></td><td class=\"text\">nothing to do</td></tr>\n\
          <tr><td>{}</td><td>{} m/s&sup2;</td><td>{} m/s<sup>1.75</sup></td><td class=\"text\">&ldquo;fairly uncomfortable&rdquo; (ISO 2631-1 Annex C); VDV entering the health guidance caution zone (Annex B)</td></tr>\n\
          <tr><td>{}</td><td>{} m/s&sup2;</td><td>{} m/s<sup>1.75</sup></td><td class=\"text\">&ldquo;uncomfortable&rdquo;; VDV leaving the caution zone: health risks likely</td></tr>\n\
