@@ -195,7 +195,7 @@ fn supine_demo_writes_a_self_contained_report_whose_summary_matches_its_csv_file
         "{vector}"
     );
     assert!(
-        s.contains("head max |diff| 0.000e0"),
+        s.contains("head max |diff| 0 (bit for bit)"),
         "device and host differ"
     );
     // Nothing left half-written.

@@ -212,10 +212,10 @@ impl Summary {
         );
         let _ = writeln!(
             s,
-            "  device vs host: head max |diff| {:.3e} m/s^2 (same f32 code), {:.3e} m/s^2 vs the f64 model; running rms {:.3e} m/s^2; events {}",
-            self.head_diff_f32_m_s2,
-            self.head_diff_f64_m_s2,
-            self.rms_diff_m_s2,
+            "  device vs host: head max |diff| {} with the same f32 code, {} vs the f64 model; running rms {}; events {}",
+            difference(self.head_diff_f32_m_s2, "m/s^2"),
+            difference(self.head_diff_f64_m_s2, "m/s^2"),
+            difference(self.rms_diff_m_s2, "m/s^2"),
             if self.events_agree {
                 "identical"
             } else {
@@ -223,6 +223,15 @@ impl Summary {
             }
         );
         s
+    }
+}
+
+/// A largest difference: `0 (bit for bit)` when exact, else two digits and the unit.
+pub fn difference(v: f64, unit: &str) -> String {
+    if v == 0.0 {
+        "0 (bit for bit)".to_string()
+    } else {
+        format!("{v:.1e} {unit}")
     }
 }
 

@@ -17,7 +17,7 @@ use anyhow::Result;
 use supine_core::alerts::Level;
 
 use crate::demo::DemoData;
-use crate::demo::summary::Summary;
+use crate::demo::summary::{Summary, difference};
 
 /// Most alert events listed in the report's table (all are in the CSV file).
 pub const MAX_EVENT_ROWS: usize = 40;
@@ -67,15 +67,6 @@ code { background: #f2f2f2; padding: 0 4px; border-radius: 3px; font-size: 13.5p
 
 fn level_tag(level: Level) -> String {
     format!("<span class=\"tag tag-{0}\">{0}</span>", level.name())
-}
-
-/// A difference: `0` when exact, else two significant digits in scientific form.
-fn diff(v: f64) -> String {
-    if v == 0.0 {
-        "0 (bit for bit)".to_string()
-    } else {
-        format!("{v:.1e} m/s&sup2;")
-    }
 }
 
 fn num(v: f64, digits: usize) -> String {
@@ -141,9 +132,9 @@ pub fn render(data: &DemoData, summary: &Summary) -> Result<String> {
         } else {
             "<span class=\"bad\">the device and the host DIFFER (see below).</span>"
         },
-        diff(summary.head_diff_f32_m_s2),
-        diff(summary.head_diff_f64_m_s2),
-        diff(summary.rms_diff_m_s2),
+        difference(summary.head_diff_f32_m_s2, "m/s&sup2;"),
+        difference(summary.head_diff_f64_m_s2, "m/s&sup2;"),
+        difference(summary.rms_diff_m_s2, "m/s&sup2;"),
         if summary.events_agree {
             "identical"
         } else {
@@ -394,6 +385,136 @@ fn figure(h: &mut String, chart: &charts::Chart, caption: &str) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::demo::ride::{DemoProfile, make};
+    use crate::demo::trace::{EventRow, Trace};
+    use crate::demo::{HostExposure, RunInfo};
+    use crate::exposure_report::AxisReport;
+    use supine_core::alerts::{AlertConfig, AlertEvent};
+    use supine_core::exposure::AxisValues;
+    use supine_core::protocol::Telemetry;
+
+    /// A small run: 12 s at 100 Hz, the vector running rms ramping through every
+    /// threshold and back, one level raised and cleared; the device's version string
+    /// carries markup (it comes from the device, so it must be escaped).
+    fn data() -> DemoData {
+        let fs = 100.0;
+        let ride = make(DemoProfile::Lab, 12.0, fs, 1).expect("ride");
+        let n = ride.ride.len();
+        let telemetry: Vec<Telemetry> = (0..n as u32)
+            .map(|k| {
+                let t = f64::from(k) / fs;
+                let v = (1.5 * (std::f64::consts::PI * t / 12.0).sin()) as f32;
+                Telemetry {
+                    sample_index: k,
+                    head_acc_m_s2: [0.1, -0.2, v],
+                    running_rms_m_s2: [0.0, 0.0, v],
+                    vector_running_rms_m_s2: v,
+                    vdv_m_s175: (t / 4.0) as f32,
+                    alert_level: if (300..900).contains(&k) {
+                        Level::Warning
+                    } else {
+                        Level::Normal
+                    },
+                    fault_flags: 0,
+                    valid: k >= 500,
+                }
+            })
+            .collect();
+        let events: Vec<EventRow> = [
+            AlertEvent::Level {
+                from: Level::Normal,
+                to: Level::Warning,
+                at_sample: 300,
+            },
+            AlertEvent::Level {
+                from: Level::Warning,
+                to: Level::Normal,
+                at_sample: 900,
+            },
+        ]
+        .iter()
+        .map(|e| EventRow::from_event(e, fs))
+        .collect();
+        let trace = Trace::from_telemetry(&telemetry, fs);
+        let axis = AxisReport::new("wd", &AxisValues::default());
+        DemoData {
+            info: RunInfo {
+                profile: DemoProfile::Lab,
+                seed: 1,
+                sample_rate_hz: fs,
+                samples: n,
+                params_name: "paper-litter".into(),
+                identity: "00ff".into(),
+                firmware_version: "0.1.0<b>+test".into(),
+                device_line: "firmware 0.1.0<b>+test".into(),
+                warmup_s: 5.0,
+                alerts: AlertConfig::DEFAULT,
+                status: None,
+                link: Default::default(),
+                step_times: vec![("device".into(), std::time::Duration::from_millis(1500))],
+                realtime: false,
+            },
+            host_head_f64_m_s2: trace.head_m_s2.clone(),
+            host: trace.clone(),
+            device: trace,
+            host_events: events.clone(),
+            device_events: events,
+            ride,
+            exposure: HostExposure {
+                head: [axis; 3],
+                vector: axis,
+            },
+        }
+    }
+
+    #[test]
+    fn the_report_is_self_contained_escaped_and_draws_the_thresholds() {
+        let data = data();
+        let summary = Summary::new(&data);
+        assert_eq!(summary.highest_level, Level::Warning);
+        assert_eq!(summary.highest_at_s, Some(3.0));
+        assert_eq!(summary.cleared_at_s, Some(9.0));
+        assert_eq!(summary.final_level, Level::Normal);
+        // MTVV from the valid records only: the peak 1.5 at t = 6 s is inside them.
+        assert!(
+            (summary.device_mtvv_m_s2 - 1.5).abs() < 1e-6,
+            "{}",
+            summary.device_mtvv_m_s2
+        );
+        assert!(summary.events_agree && summary.records_complete);
+        assert_eq!(summary.head_diff_f32_m_s2, 0.0);
+
+        let html = render(&data, &summary).expect("report");
+        assert!(!html.to_lowercase().contains("<script"));
+        for (at, _) in html.match_indices("href=\"") {
+            assert!(!html[at + 6..].starts_with("http"), "external link");
+        }
+        // The only URL is SVG's namespace name, which nothing fetches.
+        for (at, _) in html.match_indices("http") {
+            assert!(
+                html[at..].starts_with("http://www.w3.org/2000/svg"),
+                "a URL in the report"
+            );
+        }
+        // The device's text is escaped, not interpreted.
+        assert!(html.contains("0.1.0&lt;b&gt;+test"));
+        assert!(!html.contains("0.1.0<b>"));
+        // Every running-rms threshold is drawn (the data reach 1.5 > 1.25), the VDV's
+        // advisory too; the caption names all three VDV thresholds.
+        for label in [
+            "advisory 0.5 m/s^2",
+            "warning 0.8 m/s^2",
+            "alarm 1.25 m/s^2",
+            "advisory 8.5 m/s^1.75",
+        ] {
+            assert!(html.contains(label), "{label} not drawn");
+        }
+        assert!(html.contains("advisory 8.5 / warning 17 / alarm 21"));
+        assert!(html.matches("<svg").count() == 8, "eight charts");
+        assert!(html.contains("recumbent"), "the standard's caveat");
+        assert!(html.contains("first reached at 3.0 s"));
+        assert!(html.contains("cleared at 9.0 s"));
+    }
 
     #[test]
     fn escaping_covers_markup_and_quotes() {
