@@ -2,8 +2,9 @@
 //! was made from; the summary's numbers checked against those files.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Stdio};
 use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
 use supine_qemu_tests::firmware;
 
@@ -219,4 +220,70 @@ fn a_bad_duration_is_one_line_and_writes_nothing() {
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
     assert!(stderr.contains("--duration-s 2"), "{stderr}");
     assert!(!out.join("report.html").exists());
+}
+
+fn children(pid: u32) -> Vec<u32> {
+    let mut out = Vec::new();
+    if let Ok(tasks) = std::fs::read_dir(format!("/proc/{pid}/task")) {
+        for task in tasks.flatten() {
+            if let Ok(text) = std::fs::read_to_string(task.path().join("children")) {
+                out.extend(
+                    text.split_whitespace()
+                        .filter_map(|p| p.parse::<u32>().ok()),
+                );
+            }
+        }
+    }
+    out
+}
+
+fn is_qemu(pid: u32) -> bool {
+    std::fs::read(format!("/proc/{pid}/cmdline"))
+        .map(|c| String::from_utf8_lossy(&c).contains("qemu-system-arm"))
+        .unwrap_or(false)
+}
+
+#[test]
+fn ctrl_c_during_the_demo_leaves_no_qemu_and_no_report() {
+    firmware(supine_host::firmware::PRODUCT_BINARY);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("demo");
+    let child = Command::new(supine_binary())
+        .args(["demo", "--duration-s", "600", "--out"])
+        .arg(&out)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("supine runs");
+    let start = Instant::now();
+    let qemu = loop {
+        if let Some(pid) = children(child.id()).into_iter().find(|p| is_qemu(*p)) {
+            break pid;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(120),
+            "no QEMU started"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    std::thread::sleep(Duration::from_secs(2));
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .expect("kill runs");
+    assert!(status.success());
+    let output = child.wait_with_output().expect("supine exits");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    println!("{stderr}");
+    assert!(!output.status.success(), "an interrupted demo must fail");
+    assert!(stderr.contains("interrupted"), "{stderr}");
+    assert!(!is_qemu(qemu), "QEMU {qemu} still running");
+    assert!(
+        !out.join("report.html").exists(),
+        "no report from an interrupted run"
+    );
+    for entry in std::fs::read_dir(&out).expect("out dir").flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        assert!(!name.starts_with("device"), "{name} left behind");
+    }
 }
