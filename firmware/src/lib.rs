@@ -7,16 +7,16 @@
 //!
 //! `src/main.rs` runs [`app::App`], the monitor's main loop, with replayed samples from
 //! the UART; `src/bin/panic_reset.rs` is the same monitor that panics once at first boot,
-//! to test the panic record across a reset; `src/bin/blackpill.rs` (feature
+//! to test the panic record across a reset; `src/bin/power_cut.rs` is the same monitor
+//! whose power fails mid flash update, to test the A/B slots; `src/bin/blackpill.rs` (feature
 //! `board-blackpill`, `cargo fw-board`) is the monitor on an STM32F411 with an LIS3DH.
 //!
 //! Each module has one job: [`board`] names the board's types, [`cmsdk_uart`] drives its
 //! UART, [`console`] writes lines to the debugger's stdout (semihosting), [`exit`] ends a
 //! run with a status, [`cycles`] counts instructions, [`stack`] measures the stack's
 //! high-water mark, [`params`] loads the model parameters, [`param_flash`] reads and writes
-//! their A/B slots, [`panic_record`] keeps the last
-//! panic across a reset, [`telemetry_frame`] encodes the per-sample frame and [`app`] is
-//! the monitor.
+//! their A/B slots, [`panic_record`] keeps the last panic across a reset,
+//! [`telemetry_frame`] encodes the per-sample frame and [`app`] is the monitor.
 #![no_std]
 
 pub mod app;

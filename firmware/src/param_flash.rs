@@ -63,6 +63,18 @@ impl ParamRegion {
         })
     }
 
+    /// Erases only the first `len_bytes` of a slot: what a power cut in the middle of an
+    /// erase leaves (for the `power_cut` test image).
+    #[cfg(not(feature = "board-blackpill"))]
+    pub fn erase_prefix(&mut self, slot: usize, len_bytes: usize) -> Result<(), FlashError> {
+        let ptr = self.slot_ptr(slot).ok_or(FlashError)?;
+        for i in 0..len_bytes.min(SLOT_LEN) {
+            // SAFETY: in the slot (see `slot`), exclusively owned through `&mut self`.
+            unsafe { ptr.add(i).write_volatile(0xFF) };
+        }
+        Ok(())
+    }
+
     fn slot_ptr(&self, slot: usize) -> Option<*mut u8> {
         // In bounds: `take` checked that the region holds REGION_USED bytes.
         (slot < SLOT_COUNT).then(|| self.base.wrapping_add(slot * SLOT_STRIDE))

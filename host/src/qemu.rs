@@ -49,6 +49,8 @@ pub struct QemuConfig {
     pub uart: bool,
     /// Serve the HMP monitor on a Unix socket (see [`Qemu::monitor`]); otherwise none.
     pub monitor: bool,
+    /// The image's command line, as semihosting `SYS_GET_CMDLINE` returns it (words).
+    pub semihosting_args: Vec<String>,
     /// Longest the run may take, from the start of QEMU to its exit.
     pub timeout: Duration,
 }
@@ -62,6 +64,7 @@ impl QemuConfig {
             params_blob: None,
             uart: false,
             monitor: false,
+            semihosting_args: Vec::new(),
             timeout: Duration::from_secs(60),
         }
     }
@@ -87,6 +90,12 @@ impl QemuConfig {
     /// Serves the HMP monitor to the host.
     pub fn monitor(mut self) -> Self {
         self.monitor = true;
+        self
+    }
+
+    /// Appends a word to the image's semihosting command line.
+    pub fn semihosting_arg(mut self, arg: impl Into<String>) -> Self {
+        self.semihosting_args.push(arg.into());
         self
     }
 
@@ -420,7 +429,12 @@ pub fn arguments(config: &QemuConfig, socket: &Path) -> Vec<OsString> {
     }
     let mut push = |arg: &str| args.push(OsString::from(arg));
     push("-semihosting-config");
-    push("enable=on,target=native");
+    let mut semihosting = String::from("enable=on,target=native");
+    for arg in &config.semihosting_args {
+        semihosting.push_str(",arg=");
+        semihosting.push_str(&arg.replace(',', ",,"));
+    }
+    push(&semihosting);
     if config.icount {
         push("-icount");
         push("shift=0,align=off,sleep=off");
@@ -574,6 +588,18 @@ mod tests {
             line.contains(
                 "-chardev socket,id=u0,path=/tmp/x/uart.sock,server=on,wait=on -serial chardev:u0"
             ),
+            "{line}"
+        );
+    }
+
+    #[test]
+    fn semihosting_arguments_follow_the_semihosting_options() {
+        let config = QemuConfig::new("/fw/img")
+            .semihosting_arg("power_cut")
+            .semihosting_arg("1,2");
+        let line = args_of(&config).join(" ");
+        assert!(
+            line.contains("-semihosting-config enable=on,target=native,arg=power_cut,arg=1,,2"),
             "{line}"
         );
     }

@@ -7,6 +7,10 @@
 //! QEMU, and boots a fresh QEMU with the saved bytes as the region's loader file. A
 //! `system_reset` in the same QEMU would not do: `-device loader` files are ROM blobs that
 //! QEMU copies again at every reset, undoing what the device wrote (checked below).
+//!
+//! Cuts during the device's own erase and write come from the `power_cut` image: the
+//! product's monitor whose flash stops after a byte budget given on QEMU's command line,
+//! mid-erase, mid-blob or mid-record, exactly where the test asks.
 
 use std::path::Path;
 use std::sync::Arc;
@@ -334,7 +338,12 @@ struct Device {
 impl Device {
     /// Boots the monitor with `region` as the PARAMS region's contents; returns its greeting.
     fn boot(region: &Path) -> (Self, Greeting) {
-        let config = QemuConfig::new(firmware(PRODUCT_BINARY))
+        Self::boot_image(QemuConfig::new(firmware(PRODUCT_BINARY)), region)
+    }
+
+    /// Boots `config`'s image with `region` as the PARAMS region's contents.
+    fn boot_image(config: QemuConfig, region: &Path) -> (Self, Greeting) {
+        let config = config
             .uart()
             .monitor()
             .params_blob(region)
@@ -359,15 +368,25 @@ impl Device {
 
     /// Sends `message` and returns the upload answer that follows.
     fn step(&mut self, message: &HostToDevice) -> Result<ParamAck, UploadError> {
+        self.step_within(message, STEP)
+            .unwrap_or_else(|| panic!("no answer to {message:?}"))
+    }
+
+    /// Sends `message` and returns the upload answer that follows within `wait`, if any.
+    fn step_within(
+        &mut self,
+        message: &HostToDevice,
+        wait: Duration,
+    ) -> Option<Result<ParamAck, UploadError>> {
         self.writer.send(message).expect("send");
         self.writer.flush().expect("flush");
-        let deadline = std::time::Instant::now() + STEP;
+        let deadline = std::time::Instant::now() + wait;
         loop {
             match self.reader.next_before(deadline).expect("link") {
-                Some(DeviceToHost::ParamAck(a)) => return Ok(a),
-                Some(DeviceToHost::ParamNack(e)) => return Err(e),
+                Some(DeviceToHost::ParamAck(a)) => return Some(Ok(a)),
+                Some(DeviceToHost::ParamNack(e)) => return Some(Err(e)),
                 Some(_) => {}
-                None => panic!("no answer to {message:?}"),
+                None => return None,
             }
         }
     }
@@ -652,4 +671,143 @@ fn supine_flash_writes_a_bootable_qemu_image_uploads_into_qemu_and_explains_fail
     );
     assert!(!ok);
     assert!(stderr.contains("cargo install probe-rs-tools"), "{stderr}");
+}
+
+/// Boots the `power_cut` image (the monitor whose power fails after `budget_bytes` of
+/// flash erasing and programming) on the flash in `region`, uploads `blob` signed with
+/// `counter`, and keeps the flash in `out` once the power is gone (or, with budget to
+/// spare, after the commit). Returns whether the device acknowledged the commit.
+fn upload_with_power_cut(
+    region: &Path,
+    budget_bytes: usize,
+    blob: &[u8],
+    counter: u32,
+    out: &Path,
+) -> bool {
+    let config = QemuConfig::new(firmware("power_cut"))
+        .semihosting_arg("power_cut")
+        .semihosting_arg(budget_bytes.to_string());
+    let (mut device, _) = Device::boot_image(config, region);
+    let messages = signed(blob, counter);
+    let (commit, transfer) = messages.split_last().expect("messages");
+    for m in transfer {
+        let Outgoing::Message(m) = m else {
+            unreachable!()
+        };
+        assert!(device.step(m).is_ok(), "{m:?}");
+    }
+    let Outgoing::Message(commit) = commit else {
+        unreachable!()
+    };
+    // Erasing and writing a slot takes the device milliseconds; a cut device never answers.
+    let answer = device.step_within(commit, Duration::from_secs(2));
+    device.cut_power(out);
+    match answer {
+        None => false,
+        Some(Ok(ParamAck::Committed { .. })) => true,
+        Some(other) => panic!("unexpected answer to the commit: {other:?}"),
+    }
+}
+
+/// What the product image boots from the flash in `region`.
+fn boots(region: &Path) -> (supine_core::protocol::ParamsIdentity, ParamsSource) {
+    let (device, greeting) = Device::boot(region);
+    drop(device);
+    (greeting.params_identity, greeting.params_source)
+}
+
+#[test]
+fn power_cuts_during_the_device_own_flash_update_boot_the_last_committed_slot() {
+    use supine_core::upload::{COMMIT_LEN, SLOT_LEN};
+    let (a, _) = params_and_blob(Preset::PaperLitter);
+    let (b, blob_b) = params_and_blob(Preset::PaperRigid);
+    // C: the litter preset with telemetry every other sample, another identity.
+    let mut file_c = file(Preset::PaperLitter);
+    if let Some(d) = file_c.device.as_mut() {
+        d.telemetry_decimation = 2;
+    }
+    let (c, blob_c) = flash::device_blob(&file_c, FS_HZ).expect("blob builds");
+    assert_ne!(c.identity, a.identity);
+
+    let dir = tempfile::tempdir().expect("temp dir");
+    let flash0 = dir.path().join("flash0.bin");
+    std::fs::write(&flash0, region_a()).expect("region");
+    let original = std::fs::read(&flash0).expect("read");
+    let cut = dir.path().join("cut.bin");
+    let slot = |image: &[u8], i: usize| image[i * SLOT_LEN..(i + 1) * SLOT_LEN].to_vec();
+
+    // Running A (slot A, counter 1): B goes to slot B. Every cut before the commit record's
+    // last byte boots A again.
+    let need_b = SLOT_LEN + blob_b.len() + COMMIT_LEN;
+    for (name, budget) in [
+        ("while erasing slot B", 10_000),
+        ("halfway through the blob", SLOT_LEN + blob_b.len() / 2),
+        ("in the commit record", SLOT_LEN + blob_b.len() + 6),
+        ("one byte short", need_b - 1),
+    ] {
+        assert!(
+            !upload_with_power_cut(&flash0, budget, &blob_b, 100, &cut),
+            "{name}"
+        );
+        let saved = std::fs::read(&cut).expect("read");
+        assert_eq!(
+            slot(&saved, 0),
+            slot(&original, 0),
+            "{name}: slot A touched"
+        );
+        if budget > SLOT_LEN {
+            assert_ne!(
+                slot(&saved, 1),
+                slot(&original, 1),
+                "{name}: nothing written"
+            );
+        }
+        println!("cut {name} ({budget} B): boots {:?}", boots(&cut).1);
+        assert_eq!(
+            boots(&cut),
+            (a.identity, ParamsSource::Flash { slot: 0 }),
+            "{name}"
+        );
+    }
+    let flash_b = dir.path().join("flash_b.bin");
+    assert!(upload_with_power_cut(
+        &flash0, need_b, &blob_b, 100, &flash_b
+    ));
+    assert_eq!(
+        boots(&flash_b),
+        (b.identity, ParamsSource::Flash { slot: 1 })
+    );
+
+    // Running B (slot B, counter 100): C goes to slot A, whose erase destroys A. A cut
+    // there leaves A unusable and B in charge.
+    let need_c = SLOT_LEN + blob_c.len() + COMMIT_LEN;
+    for (name, budget) in [
+        ("while erasing slot A", 1_000),
+        ("halfway through the blob", SLOT_LEN + blob_c.len() / 2),
+        ("one byte short", need_c - 1),
+    ] {
+        assert!(
+            !upload_with_power_cut(&flash_b, budget, &blob_c, 200, &cut),
+            "{name}"
+        );
+        let saved = std::fs::read(&cut).expect("read");
+        assert!(
+            DeviceParams::decode(&slot(&saved, 0)).is_err() || budget == need_c - 1,
+            "{name}: slot A should be damaged"
+        );
+        println!("cut {name} ({budget} B): boots {:?}", boots(&cut).1);
+        assert_eq!(
+            boots(&cut),
+            (b.identity, ParamsSource::Flash { slot: 1 }),
+            "{name}"
+        );
+    }
+    let flash_c = dir.path().join("flash_c.bin");
+    assert!(upload_with_power_cut(
+        &flash_b, need_c, &blob_c, 200, &flash_c
+    ));
+    assert_eq!(
+        boots(&flash_c),
+        (c.identity, ParamsSource::Flash { slot: 0 })
+    );
 }
