@@ -1,15 +1,20 @@
-//! Minimal SVG line plots for reports, written as SVG text (no plotting crate: plotters'
-//! build cost is not worth a few line charts). A figure is a grid of panels; each panel
-//! has linear or log axes, ticks, and polylines.
+//! Line-plot figures for the command line's reports (`fit --report`, `validate --report`):
+//! a grid of panels, each with linear or logarithmic y, ticks and lines, drawn by
+//! `plotters` into SVG text (the same crate and backend as `supine demo`'s report).
 
-use std::fmt::Write as _;
+use std::ops::Range;
+
+use anyhow::{Result, anyhow};
+use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 /// One line of a panel.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Series {
-    /// (x, y) points; non-finite values break the line.
+    /// (x, y) points; non-finite values (and, on a log axis, non-positive ones) break the line.
     pub points: Vec<(f64, f64)>,
-    /// An SVG colour, e.g. `#bbbbbb`.
+    /// An SVG colour as `#rrggbb`, e.g. `#bbbbbb`.
     pub color: String,
     /// Stroke width, px.
     pub width: f64,
@@ -43,219 +48,257 @@ pub struct Panel {
     pub y_label: String,
     /// Logarithmic y axis (non-positive values are dropped).
     pub log_y: bool,
-    /// Fixed y range, else from the data.
+    /// Fixed y range, else from the data; points outside it break the line.
     pub y_range: Option<(f64, f64)>,
     /// The lines, drawn in order.
     pub series: Vec<Series>,
 }
 
-const PANEL_W: f64 = 300.0;
-const PANEL_H: f64 = 200.0;
-const MARGIN_L: f64 = 55.0;
-const MARGIN_R: f64 = 12.0;
-const MARGIN_T: f64 = 24.0;
-const MARGIN_B: f64 = 36.0;
+/// Size of one panel, px.
+const PANEL_PX: (u32, u32) = (340, 240);
+/// Height of the figure's title and legend, px.
+const TOP_PX: u32 = 56;
 
-fn nice_ticks(lo: f64, hi: f64) -> Vec<f64> {
-    let span = (hi - lo).max(1e-300);
-    let raw = span / 5.0;
-    let mag = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0]
-        .iter()
-        .map(|m| m * mag)
-        .find(|s| span / s <= 6.0)
-        .unwrap_or(10.0 * mag);
-    let mut ticks = Vec::new();
-    let mut t = (lo / step).ceil() * step;
-    while t <= hi + step * 1e-9 {
-        ticks.push(if t.abs() < step * 1e-9 { 0.0 } else { t });
-        t += step;
-    }
-    ticks
+fn plot_error<E: std::fmt::Debug>(e: E) -> anyhow::Error {
+    anyhow!("drawing a figure: {e:?}")
 }
 
-fn fmt_tick(v: f64) -> String {
-    if v != 0.0 && (v.abs() >= 1e4 || v.abs() < 1e-2) {
-        format!("{v:.0e}")
-    } else {
-        let s = format!("{v:.3}");
-        s.trim_end_matches('0').trim_end_matches('.').to_string()
+/// `#rrggbb` as a colour (black if it is not one).
+fn color(text: &str) -> RGBColor {
+    let hex = text.trim_start_matches('#');
+    let byte = |i: usize| {
+        hex.get(i..i + 2)
+            .and_then(|h| u8::from_str_radix(h, 16).ok())
+    };
+    match (hex.len(), byte(0), byte(2), byte(4)) {
+        (6, Some(r), Some(g), Some(b)) => RGBColor(r, g, b),
+        _ => BLACK,
     }
 }
 
-fn escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-}
+impl Panel {
+    fn usable(&self, &(x, y): &(f64, f64)) -> bool {
+        x.is_finite() && y.is_finite() && (!self.log_y || y > 0.0)
+    }
 
-fn render_panel(out: &mut String, panel: &Panel, ox: f64, oy: f64) {
-    let ty = |y: f64| if panel.log_y { y.log10() } else { y };
-    let valid = |&(x, y): &(f64, f64)| x.is_finite() && y.is_finite() && (!panel.log_y || y > 0.0);
-    let pts = || {
-        panel
+    /// The x and y ranges: the data's (y padded by 5 %, of log10 y on a log axis), or the
+    /// fixed y range; never empty.
+    fn ranges(&self) -> (Range<f64>, Range<f64>) {
+        let (mut x0, mut x1) = (f64::INFINITY, f64::NEG_INFINITY);
+        let (mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY);
+        for p in self
             .series
             .iter()
-            .flat_map(|s| s.points.iter())
-            .filter(|p| valid(p))
-    };
-    let (mut x0, mut x1) = (f64::INFINITY, f64::NEG_INFINITY);
-    let (mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY);
-    for &(x, y) in pts() {
-        x0 = x0.min(x);
-        x1 = x1.max(x);
-        y0 = y0.min(ty(y));
-        y1 = y1.max(ty(y));
-    }
-    if let Some((a, b)) = panel.y_range {
-        (y0, y1) = (ty(a), ty(b));
-    }
-    if !x0.is_finite() {
-        (x0, x1, y0, y1) = (0.0, 1.0, 0.0, 1.0);
-    }
-    if x1 <= x0 {
-        x1 = x0 + 1.0;
-    }
-    if y1 <= y0 {
-        let pad = y0.abs().max(1.0) * 0.1;
-        (y0, y1) = (y0 - pad, y1 + pad);
-    } else if panel.y_range.is_none() {
+            .flat_map(|s| &s.points)
+            .filter(|p| self.usable(p))
+        {
+            x0 = x0.min(p.0);
+            x1 = x1.max(p.0);
+            y0 = y0.min(p.1);
+            y1 = y1.max(p.1);
+        }
+        if !x0.is_finite() {
+            (x0, x1) = (0.0, 1.0);
+            (y0, y1) = if self.log_y { (0.1, 1.0) } else { (0.0, 1.0) };
+        }
+        if x1 <= x0 {
+            x1 = x0 + 1.0;
+        }
+        if let Some((a, b)) = self.y_range {
+            return (x0..x1, a..b);
+        }
+        if self.log_y {
+            let (l0, l1) = (y0.log10(), y1.log10());
+            let pad = if l1 > l0 { 0.05 * (l1 - l0) } else { 0.5 };
+            return (x0..x1, 10f64.powf(l0 - pad)..10f64.powf(l1 + pad));
+        }
+        if y1 <= y0 {
+            let pad = y0.abs().max(1.0) * 0.1;
+            return (x0..x1, y0 - pad..y1 + pad);
+        }
         let pad = 0.05 * (y1 - y0);
-        (y0, y1) = (y0 - pad, y1 + pad);
+        (x0..x1, y0 - pad..y1 + pad)
     }
-    let (pw, ph) = (PANEL_W - MARGIN_L - MARGIN_R, PANEL_H - MARGIN_T - MARGIN_B);
-    let (px, py) = (ox + MARGIN_L, oy + MARGIN_T);
-    let sx = |x: f64| px + (x - x0) / (x1 - x0) * pw;
-    let sy = |y: f64| py + ph - (ty(y) - y0) / (y1 - y0) * ph;
-    let _ = writeln!(
-        out,
-        r##"<rect x="{px:.1}" y="{py:.1}" width="{pw:.1}" height="{ph:.1}" fill="white" stroke="#444"/>"##
-    );
-    let _ = writeln!(
-        out,
-        r#"<text x="{:.1}" y="{:.1}" text-anchor="middle" font-size="12" font-weight="bold">{}</text>"#,
-        px + pw / 2.0,
-        oy + 16.0,
-        escape(&panel.title)
-    );
-    for t in nice_ticks(x0, x1) {
-        let x = sx(t);
-        let _ = writeln!(
-            out,
-            r##"<line x1="{x:.1}" y1="{:.1}" x2="{x:.1}" y2="{:.1}" stroke="#ddd"/><text x="{x:.1}" y="{:.1}" text-anchor="middle" font-size="9">{}</text>"##,
-            py,
-            py + ph,
-            py + ph + 11.0,
-            fmt_tick(t)
-        );
-    }
-    for t in nice_ticks(y0, y1) {
-        let y = py + ph - (t - y0) / (y1 - y0) * ph;
-        let label = if panel.log_y {
-            fmt_tick(10f64.powf(t))
-        } else {
-            fmt_tick(t)
+
+    /// The runs of a series' points that can be drawn (split at unusable points and,
+    /// with a fixed range, at points outside it).
+    fn runs(&self, s: &Series) -> Vec<Vec<(f64, f64)>> {
+        let inside = |y: f64| {
+            self.y_range
+                .is_none_or(|(a, b)| y >= a - 1e-9 * (b - a).abs() && y <= b + 1e-9 * (b - a).abs())
         };
-        let _ = writeln!(
-            out,
-            r##"<line x1="{px:.1}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#ddd"/><text x="{:.1}" y="{:.1}" text-anchor="end" font-size="9">{label}</text>"##,
-            px + pw,
-            px - 3.0,
-            y + 3.0
-        );
-    }
-    let _ = writeln!(
-        out,
-        r#"<text x="{:.1}" y="{:.1}" text-anchor="middle" font-size="10">{}</text>"#,
-        px + pw / 2.0,
-        py + ph + 26.0,
-        escape(&panel.x_label)
-    );
-    let _ = writeln!(
-        out,
-        r#"<text x="{:.1}" y="{:.1}" text-anchor="middle" font-size="10" transform="rotate(-90 {:.1} {:.1})">{}</text>"#,
-        ox + 14.0,
-        py + ph / 2.0,
-        ox + 14.0,
-        py + ph / 2.0,
-        escape(&panel.y_label)
-    );
-    for s in &panel.series {
-        let dash = if s.dashed {
-            r#" stroke-dasharray="5,3""#
-        } else {
-            ""
-        };
-        let mut run: Vec<String> = Vec::new();
-        let flush = |run: &mut Vec<String>, out: &mut String| {
-            if run.len() > 1 {
-                let _ = writeln!(
-                    out,
-                    r#"<polyline fill="none" stroke="{}" stroke-width="{}"{dash} points="{}"/>"#,
-                    s.color,
-                    s.width,
-                    run.join(" ")
-                );
-            }
-            run.clear();
-        };
+        let mut runs = vec![Vec::new()];
         for p in &s.points {
-            let inside = valid(p)
-                && (ty(p.1) >= y0 - 1e-9 && ty(p.1) <= y1 + 1e-9 || panel.y_range.is_none());
-            if inside {
-                run.push(format!("{:.1},{:.1}", sx(p.0), sy(p.1)));
-            } else {
-                flush(&mut run, out);
+            if self.usable(p) && inside(p.1) {
+                if let Some(run) = runs.last_mut() {
+                    run.push(*p);
+                }
+            } else if runs.last().is_some_and(|r| !r.is_empty()) {
+                runs.push(Vec::new());
             }
         }
-        flush(&mut run, out);
+        runs.retain(|r| r.len() > 1);
+        runs
     }
+}
+
+fn draw_panel<DB, Y>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    panel: &Panel,
+    x: Range<f64>,
+    y: Y,
+) -> Result<()>
+where
+    DB: DrawingBackend,
+    Y: AsRangedCoord<Value = f64>,
+    Y::CoordDescType: ValueFormatter<f64>,
+{
+    let mut chart = ChartBuilder::on(area)
+        .caption(
+            &panel.title,
+            ("sans-serif", 13).into_font().style(FontStyle::Bold),
+        )
+        .margin(6)
+        .x_label_area_size(34)
+        .y_label_area_size(52)
+        .build_cartesian_2d(x, y)
+        .map_err(plot_error)?;
+    chart
+        .configure_mesh()
+        .x_desc(panel.x_label.as_str())
+        .y_desc(panel.y_label.as_str())
+        .x_labels(6)
+        .y_labels(6)
+        .light_line_style(RGBColor(240, 240, 240))
+        .bold_line_style(RGBColor(215, 215, 215))
+        .label_style(("sans-serif", 10))
+        .axis_desc_style(("sans-serif", 11))
+        .draw()
+        .map_err(plot_error)?;
+    for s in &panel.series {
+        let style = color(&s.color).stroke_width(s.width.round().max(1.0) as u32);
+        for run in panel.runs(s) {
+            if s.dashed {
+                chart
+                    .draw_series(DashedLineSeries::new(run, 5, 3, style))
+                    .map_err(plot_error)?;
+            } else {
+                chart
+                    .draw_series(LineSeries::new(run, style))
+                    .map_err(plot_error)?;
+            }
+        }
+    }
+    Ok(())
 }
 
 /// A figure of `panels` in a grid of `columns`, with a title and a legend of the first
-/// panel's labelled series.
-pub fn figure_svg(title: &str, panels: &[Panel], columns: usize) -> String {
+/// panel's labelled series, as an `<svg>` document.
+pub fn figure_svg(title: &str, panels: &[Panel], columns: usize) -> Result<String> {
     let columns = columns.max(1);
-    let rows = panels.len().div_ceil(columns);
-    let top = 48.0;
-    let width = PANEL_W * columns as f64;
-    let height = top + PANEL_H * rows as f64;
-    let mut out = String::new();
-    let _ = writeln!(
-        out,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" viewBox="0 0 {width} {height}" font-family="sans-serif">"#
-    );
-    let _ = writeln!(out, r#"<rect width="100%" height="100%" fill="white"/>"#);
-    let _ = writeln!(
-        out,
-        r#"<text x="{:.1}" y="20" text-anchor="middle" font-size="15" font-weight="bold">{}</text>"#,
-        width / 2.0,
-        escape(title)
-    );
-    if let Some(first) = panels.first() {
-        let mut x = 10.0;
-        for s in first.series.iter().filter(|s| s.label.is_some()) {
-            let label = escape(s.label.as_deref().unwrap_or(""));
-            let _ = writeln!(
-                out,
-                r#"<line x1="{x:.1}" y1="36" x2="{:.1}" y2="36" stroke="{}" stroke-width="{}"/><text x="{:.1}" y="40" font-size="11">{label}</text>"#,
-                x + 20.0,
-                s.color,
-                s.width.max(1.5),
-                x + 24.0
-            );
-            x += 40.0 + 6.5 * label.len() as f64;
+    let rows = panels.len().div_ceil(columns).max(1);
+    let width = PANEL_PX.0 * columns as u32;
+    let height = TOP_PX + PANEL_PX.1 * rows as u32;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (width, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_error)?;
+        let (top, body) = root.split_vertically(TOP_PX);
+        let center = Pos::new(HPos::Center, VPos::Top);
+        top.draw(&Text::new(
+            title.to_string(),
+            (width as i32 / 2, 6),
+            TextStyle::from(("sans-serif", 16).into_font().style(FontStyle::Bold)).pos(center),
+        ))
+        .map_err(plot_error)?;
+        if let Some(first) = panels.first() {
+            let mut x = 12;
+            for s in first.series.iter().filter(|s| s.label.is_some()) {
+                let label = s.label.clone().unwrap_or_default();
+                let c = color(&s.color);
+                top.draw(&PathElement::new(
+                    vec![(x, 38), (x + 22, 38)],
+                    c.stroke_width(2),
+                ))
+                .map_err(plot_error)?;
+                top.draw(&Text::new(
+                    label.clone(),
+                    (x + 28, 32),
+                    ("sans-serif", 12).into_font(),
+                ))
+                .map_err(plot_error)?;
+                x += 48 + 7 * label.chars().count() as i32;
+            }
+        }
+        let areas = body.split_evenly((rows, columns));
+        for (panel, area) in panels.iter().zip(&areas) {
+            let (x, y) = panel.ranges();
+            if panel.log_y {
+                draw_panel(area, panel, x, y.log_scale())?;
+            } else {
+                draw_panel(area, panel, x, y)?;
+            }
+        }
+        root.present().map_err(plot_error)?;
+    }
+    Ok(svg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn panel(log_y: bool, points: Vec<(f64, f64)>) -> Panel {
+        Panel {
+            title: "H11 <magnitude>".into(),
+            x_label: "frequency (Hz)".into(),
+            y_label: "|H|".into(),
+            log_y,
+            y_range: None,
+            series: vec![Series::line(points, "#d62728", 1.8, Some("fitted model"))],
         }
     }
-    for (i, panel) in panels.iter().enumerate() {
-        let (c, r) = (i % columns, i / columns);
-        render_panel(
-            &mut out,
-            panel,
-            c as f64 * PANEL_W,
-            top + r as f64 * PANEL_H,
+
+    #[test]
+    fn a_figure_has_its_title_legend_panels_and_escaped_text() {
+        let p = panel(false, vec![(0.5, 1.0), (8.0, 2.5), (16.0, 0.2)]);
+        let svg = figure_svg("fit & check", &[p.clone(), p], 2).expect("svg");
+        assert!(svg.starts_with("<svg"));
+        assert!(svg.contains("fit &amp; check"));
+        assert!(svg.contains("H11 &lt;magnitude&gt;"));
+        assert!(svg.contains("fitted model"));
+        assert!(
+            svg.contains("#D62728") || svg.contains("#d62728"),
+            "the series' colour"
         );
+        assert!(!svg.contains("<script"));
     }
-    out.push_str("</svg>\n");
-    out
+
+    #[test]
+    fn ranges_pad_the_data_and_log_axes_drop_non_positive_values() {
+        let p = panel(false, vec![(0.0, 0.0), (10.0, 2.0)]);
+        let (x, y) = p.ranges();
+        assert_eq!(x, 0.0..10.0);
+        assert!((y.start + 0.1).abs() < 1e-12 && (y.end - 2.1).abs() < 1e-12);
+        let p = panel(
+            true,
+            vec![(1.0, 1e-4), (2.0, -1.0), (3.0, 1e-2), (4.0, f64::NAN)],
+        );
+        let (_, y) = p.ranges();
+        assert!(y.start > 0.0 && y.start < 1e-4 && y.end > 1e-2, "{y:?}");
+        // The non-positive and NaN points break the line: two runs would need two points
+        // each, so only what is drawable remains.
+        assert!(p.runs(&p.series[0]).is_empty());
+        let q = panel(
+            true,
+            vec![(1.0, 1.0), (2.0, 2.0), (3.0, 0.0), (4.0, 1.0), (5.0, 3.0)],
+        );
+        assert_eq!(q.runs(&q.series[0]).len(), 2);
+    }
+
+    #[test]
+    fn colours_parse_and_bad_ones_fall_back_to_black() {
+        assert_eq!(color("#c8c8c8"), RGBColor(200, 200, 200));
+        assert_eq!(color("red"), BLACK);
+    }
 }

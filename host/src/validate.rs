@@ -222,7 +222,7 @@ pub fn psd_svg(recording: &Recording, predicted: &[Vec<f64>; 9]) -> Result<Strin
             ],
         });
     }
-    Ok(figure_svg(
+    figure_svg(
         &format!(
             "supine validate: {} (Welch, Hann, {} samples)",
             recording
@@ -233,7 +233,7 @@ pub fn psd_svg(recording: &Recording, predicted: &[Vec<f64>; 9]) -> Result<Strin
         ),
         &panels,
         3,
-    ))
+    )
 }
 
 /// Writes a recording with the input's time and platform columns and predicted sensors.

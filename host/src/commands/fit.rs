@@ -189,7 +189,7 @@ pub fn run(args: &Args) -> Result<()> {
             &subjects,
             &est.geomean,
             &model_h,
-        );
+        )?;
         report::write(dir, &summary, &svg)?;
     }
     eprintln!("{summary}");

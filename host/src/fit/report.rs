@@ -149,7 +149,7 @@ pub fn components_svg(
     subjects: &[Vec<Transmissibility>],
     geomean: &[Transmissibility],
     model: &[Transmissibility],
-) -> String {
+) -> anyhow::Result<String> {
     let mut panels = Vec::with_capacity(2 * COMPONENTS);
     let series = |h: &[Transmissibility], c: usize, phase: bool, color: &str, width: f64, label| {
         let (output, input) = COUPLED_COMPONENTS[c];
