@@ -1,0 +1,103 @@
+//! `supine flash --serial` against the real firmware: the test bridges a pseudo-terminal
+//! to QEMU's UART, so the binary opens a serial port (the pty's slave) and talks to the
+//! monitor image through it, as it would to a board on a USB serial adapter.
+
+use std::fs::File;
+use std::io::{Read, Write};
+use std::process::Command;
+use std::thread;
+use std::time::Duration;
+
+use nix::pty::openpty;
+use nix::sys::termios::{SetArg, cfmakeraw, tcgetattr, tcsetattr};
+use supine_core::model::Preset;
+use supine_host::device_params::{identity, identity_hex};
+use supine_host::firmware::{PRODUCT_BINARY, build_binary};
+use supine_host::flash::qemu_region_image;
+use supine_host::params_file::ParamFile;
+use supine_host::qemu::{Qemu, QemuConfig};
+
+/// Copies bytes from `from` to `to` until either side ends.
+fn pump(mut from: impl Read + Send + 'static, mut to: impl Write + Send + 'static) {
+    thread::spawn(move || {
+        let mut buf = [0u8; 512];
+        while let Ok(n) = from.read(&mut buf) {
+            if n == 0 || to.write_all(&buf[..n]).is_err() {
+                return;
+            }
+        }
+    });
+}
+
+fn flash(port: &str, preset: &str, counter: u32) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_supine"))
+        .args(["flash", "--preset", preset, "--serial", port, "--counter"])
+        .arg(counter.to_string())
+        .args(["--timeout-s", "20"])
+        .output()
+        .expect("supine runs");
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    println!("stdout: {stdout}stderr: {stderr}");
+    (out.status.success(), stdout, stderr)
+}
+
+#[test]
+fn supine_flash_serial_uploads_to_the_firmware_and_names_a_refusal_code() {
+    let kernel = build_binary(PRODUCT_BINARY).unwrap_or_else(|e| panic!("{e}"));
+    let dir = tempfile::tempdir().expect("temp dir");
+    let region = dir.path().join("params.bin");
+    let litter = ParamFile::preset(Preset::PaperLitter);
+    std::fs::write(&region, qemu_region_image(&litter, 500.0).expect("image")).expect("write");
+    let mut qemu = Qemu::start(
+        &QemuConfig::new(kernel)
+            .uart()
+            .params_blob(&region)
+            .timeout(Duration::from_secs(120)),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let uart = qemu.uart().expect("a UART");
+
+    let pty = openpty(None, None).expect("openpty");
+    // Raw from the start: no echo or line editing of the device's bytes before the
+    // binary opens the port.
+    let mut termios = tcgetattr(&pty.slave).expect("tcgetattr");
+    cfmakeraw(&mut termios);
+    tcsetattr(&pty.slave, SetArg::TCSANOW, &termios).expect("tcsetattr");
+    let port = nix::unistd::ttyname(&pty.slave)
+        .expect("slave name")
+        .to_string_lossy()
+        .into_owned();
+    let master = File::from(pty.master);
+    pump(
+        uart.try_clone().expect("clone"),
+        master.try_clone().expect("clone"),
+    );
+    pump(master, uart.try_clone().expect("clone"));
+
+    let rigid_hex = identity_hex(&identity(&ParamFile::preset(Preset::PaperRigid)).expect("id"));
+    let (ok, stdout, stderr) = flash(&port, "paper-rigid", 1_000);
+    assert!(ok, "{stderr}");
+    assert!(
+        stdout.contains(&format!(
+            "parameters {rigid_hex} committed to slot 1 and running"
+        )),
+        "{stdout}"
+    );
+
+    // The same counter again is a replay: refused with its code, on one line.
+    let (ok, _, stderr) = flash(&port, "paper-litter", 1_000);
+    assert!(!ok);
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("(code 5)"), "{stderr}");
+
+    // A higher counter goes to the other slot.
+    let litter_hex = identity_hex(&identity(&litter).expect("id"));
+    let (ok, stdout, stderr) = flash(&port, "paper-litter", 1_001);
+    assert!(ok, "{stderr}");
+    assert!(
+        stdout.contains(&format!("parameters {litter_hex} committed to slot 0")),
+        "{stdout}"
+    );
+    drop(pty.slave);
+}
