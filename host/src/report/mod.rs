@@ -284,11 +284,11 @@ pub fn render(data: &DemoData, summary: &Summary) -> Result<String> {
     let _ = write!(
         h,
         "<h2>What the alert levels mean</h2>\n<table>\n\
-         <tr><th>level</th><th>running rms (1 s, vector)</th><th>VDV (vector)</th><th class=\"text\">borrowed from</th></tr>\n\
+         <tr><th>level</th><th>running rms<br>(1 s, vector sum)</th><th>VDV<br>(vector sum)</th><th class=\"text\">borrowed from</th></tr>\n\
          <tr><td>{}</td><td>below {} m/s&sup2;</td><td>below {} m/s<sup>1.75</sup></td><td class=\"text\">nothing to do</td></tr>\n\
-         <tr><td>{}</td><td>{} m/s&sup2;</td><td>{} m/s<sup>1.75</sup></td><td class=\"text\">&ldquo;fairly uncomfortable&rdquo; (ISO 2631-1 Annex C); VDV entering the health guidance caution zone (Annex B)</td></tr>\n\
-         <tr><td>{}</td><td>{} m/s&sup2;</td><td>{} m/s<sup>1.75</sup></td><td class=\"text\">&ldquo;uncomfortable&rdquo;; VDV leaving the caution zone: health risks likely</td></tr>\n\
-         <tr><td>{}</td><td>{} m/s&sup2;</td><td>{} m/s<sup>1.75</sup></td><td class=\"text\">&ldquo;very uncomfortable&rdquo;; VDV at the EU daily exposure limit for the crew (2002/44/EC)</td></tr>\n\
+         <tr><td>{}</td><td>from {} m/s&sup2;</td><td>from {} m/s<sup>1.75</sup></td><td class=\"text\">&ldquo;fairly uncomfortable&rdquo; (ISO 2631-1 Annex C); VDV entering the health guidance caution zone (Annex B)</td></tr>\n\
+         <tr><td>{}</td><td>from {} m/s&sup2;</td><td>from {} m/s<sup>1.75</sup></td><td class=\"text\">&ldquo;uncomfortable&rdquo;; VDV leaving the caution zone: health risks likely</td></tr>\n\
+         <tr><td>{}</td><td>from {} m/s&sup2;</td><td>from {} m/s<sup>1.75</sup></td><td class=\"text\">&ldquo;very uncomfortable&rdquo;; VDV at the EU daily exposure limit for the crew (2002/44/EC)</td></tr>\n\
          </table>\n\
          <p>The level is the higher of the two criteria. A running-rms level clears once the running rms has stayed below \
          {}&nbsp;% of its threshold for {} s; the VDV only grows, so a VDV level lasts to the end of the evaluation. \
