@@ -25,7 +25,7 @@ use crate::weighting::WeightingError;
 /// First four bytes of every blob.
 pub const BLOB_MAGIC: [u8; 4] = *b"SUPB";
 /// Version of the header and payload encoding.
-pub const BLOB_FORMAT_VERSION: u16 = 1;
+pub const BLOB_FORMAT_VERSION: u16 = 2;
 /// Header length, bytes.
 pub const BLOB_HEADER_LEN: usize = 16;
 /// Largest blob the device accepts (header and payload), bytes.
@@ -126,7 +126,7 @@ impl DeviceParams {
             RealizationError::NotFinite => BlobError::NonFinite,
             RealizationError::Unstable => BlobError::Unstable,
             RealizationError::SampleRate => BlobError::SampleRate,
-            RealizationError::TooManyBlocks => BlobError::Malformed,
+            RealizationError::TooManyBlocks | RealizationError::Layout => BlobError::Malformed,
         })?;
         let fs = self.sample_rate_hz();
         let rates = [

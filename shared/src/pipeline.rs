@@ -12,6 +12,7 @@ use heapless::Vec;
 use crate::alerts::{AlertEvent, AlertState, Level, SensorCheckState, SensorFault};
 use crate::blob::DeviceParams;
 use crate::exposure::{ExposureSample, ExposureState};
+use crate::fpu::sqrt_f32;
 use crate::model::ModalState;
 use crate::protocol::Telemetry;
 
@@ -199,13 +200,13 @@ impl DeviceParams {
         state: &PipelineState,
     ) -> Telemetry {
         let k = self.exposure.config.axes.axes().map(|a| a.k);
-        let running = |i: usize| libm::sqrtf(exposure.axis_ms_m2_s4[i]) / k[i];
+        let running = |i: usize| sqrt_f32(exposure.axis_ms_m2_s4[i]) / k[i];
         Telemetry {
             sample_index,
             head_acc_m_s2,
             running_rms_m_s2: [running(0), running(1), running(2)],
-            vector_running_rms_m_s2: libm::sqrtf(exposure.running_ms_m2_s4),
-            vdv_m_s175: libm::sqrtf(libm::sqrtf(exposure.vdv4_m4_s7)),
+            vector_running_rms_m_s2: sqrt_f32(exposure.running_ms_m2_s4),
+            vdv_m_s175: sqrt_f32(sqrt_f32(exposure.vdv4_m4_s7)),
             alert_level: state.level,
             fault_flags: state.faults,
             valid: exposure.valid,

@@ -1,6 +1,8 @@
 //! Bad blobs and bad frames are refused with a distinct error, never a panic.
 
-use supine_core::blob::{BLOB_HEADER_LEN, BlobError, DeviceParams, MAX_BLOB_LEN, crc32};
+use supine_core::blob::{
+    BLOB_FORMAT_VERSION, BLOB_HEADER_LEN, BlobError, DeviceParams, MAX_BLOB_LEN, crc32,
+};
 use supine_core::model::{ModelParams, Preset, device_realization};
 use supine_core::protocol::golden::{BLOB, HOST_TO_DEVICE, blob_example};
 use supine_core::protocol::{
@@ -44,7 +46,7 @@ fn each_kind_of_bad_blob_gets_its_own_error() {
     magic[0] = b'X';
     cases.push(("magic", magic, BlobError::BadMagic));
     let mut version = good.clone();
-    version[4] = 2;
+    version[4..6].copy_from_slice(&(BLOB_FORMAT_VERSION + 1).to_le_bytes());
     cases.push(("version", version, BlobError::UnsupportedVersion));
     let mut length = good.clone();
     length[8..12].copy_from_slice(&(MAX_BLOB_LEN as u32).to_le_bytes());

@@ -182,11 +182,28 @@ fn f32_device_stays_within_1e_4_m_s2_of_the_f64_reference_over_60_s_at_500_hz() 
 }
 
 #[test]
-fn the_device_realization_keeps_15_blocks_and_costs_under_200_multiply_adds() {
+fn the_device_realization_keeps_15_blocks_in_three_axis_groups_for_106_multiply_adds() {
     for preset in Preset::ALL {
         let device = model(preset).device_realization(500.0).unwrap();
         assert_eq!(device.block_count, 15);
-        assert_eq!(device.multiply_adds_per_sample(), 9 + 15 * 12);
+        // x drives the 3 longitudinal modes, seen at head x only; y the 6 lateral ones,
+        // seen at head y only; z the 6 vertical-pitch ones, seen at head x and z (the
+        // sensor sits off the pitch axis).
+        let layout: Vec<(u8, Vec<u8>)> = device
+            .groups
+            .iter()
+            .map(|g| (g.block_count, g.outputs().to_vec()))
+            .collect();
+        assert_eq!(
+            layout,
+            vec![(3, vec![0]), (6, vec![1]), (6, vec![0, 2])],
+            "{}",
+            preset.name()
+        );
+        // Per group: one direct term per row, per block 4 for the state, 2 per row.
+        let expected = (1 + 3 * (4 + 2)) + (1 + 6 * (4 + 2)) + (2 + 6 * (4 + 4));
+        assert_eq!(device.multiply_adds_per_sample(), expected);
+        assert_eq!(expected, 106);
         assert!(device.check().is_ok());
     }
 }
@@ -220,6 +237,23 @@ fn the_realization_check_rejects_unstable_and_non_finite_coefficients() {
     let mut too_many = good;
     too_many.block_count = 17;
     assert_eq!(too_many.check(), Err(RealizationError::TooManyBlocks));
+    // Layout: groups that do not add up, an output named twice or out of range, a
+    // coefficient in a row the group does not use.
+    let mut miscounted = good;
+    miscounted.groups[1].block_count -= 1;
+    assert_eq!(miscounted.check(), Err(RealizationError::Layout));
+    let mut twice = good;
+    twice.groups[2].outputs[1] = twice.groups[2].outputs[0];
+    assert_eq!(twice.check(), Err(RealizationError::Layout));
+    let mut out_of_range = good;
+    out_of_range.groups[0].outputs[0] = 3;
+    assert_eq!(out_of_range.check(), Err(RealizationError::Layout));
+    let mut stray_row = good;
+    stray_row.blocks[0].output[2][1] = 1e-3;
+    assert_eq!(stray_row.check(), Err(RealizationError::Layout));
+    let mut stray_direct = good;
+    stray_direct.groups[1].feedthrough[1] = 1e-3;
+    assert_eq!(stray_direct.check(), Err(RealizationError::Layout));
 }
 
 #[test]

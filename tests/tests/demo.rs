@@ -199,6 +199,29 @@ fn supine_demo_writes_a_self_contained_report_whose_summary_matches_its_csv_file
         s.contains("head max |diff| 0 (bit for bit)"),
         "device and host differ"
     );
+    // `supine replay` of the demo's ride.csv (a platform-only ride file) is the same run:
+    // the same telemetry and events, byte for byte.
+    let replayed = dir.path().join("replay.csv");
+    let output = Command::new(supine_binary())
+        .args(["replay", "--qemu", "--preset", "paper-litter", "--input"])
+        .arg(out.join("ride.csv"))
+        .arg("--out")
+        .arg(&replayed)
+        .output()
+        .expect("supine runs");
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(
+        std::fs::read_to_string(&replayed).expect("replay.csv") == telemetry,
+        "replay differs from the demo"
+    );
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("replay.events.csv")).expect("events"),
+        events
+    );
     // Nothing left half-written.
     for entry in std::fs::read_dir(&out).expect("out dir").flatten() {
         let name = entry.file_name().to_string_lossy().into_owned();

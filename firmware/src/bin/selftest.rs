@@ -47,6 +47,7 @@ use cortex_m_semihosting::hio;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use supine_core::blob::{DeviceParams, MAX_BLOB_LEN};
+use supine_core::fpu::sqrt_f32;
 use supine_core::model::{DeviceRealization, ModalState};
 use supine_core::protocol::{FrameAccumulator, FrameEvent, MAX_FRAME_LEN, encode_frame, golden};
 use supine_core::test_vector::TestVector;
@@ -380,12 +381,13 @@ fn time_stages(counter: &InstructionCounter, out: &mut Console) -> Result<(), Fa
     });
     writeln!(out, "sqrtf_instructions: {}", per_sample(t, STAGE_SAMPLES))?;
 
-    // The FPU's square root, for the core's telemetry: as cheap as a multiply and, being
-    // correctly rounded like libm's, bit-identical to it (checked here on 4,096 values).
+    // The core's square root (`supine_core::fpu::sqrt_f32`, the FPU's vsqrt.f32): as cheap
+    // as a multiply and, being correctly rounded like libm's, bit-identical to it (checked
+    // here on 4,096 values; the host's fallback is libm itself).
     let (t, ()) = counter.ticks(|| {
         let mut x = 1.234_f32;
         for _ in 0..STAGE_SAMPLES {
-            x = vsqrt(black_box(x)) + 1.0;
+            x = sqrt_f32(black_box(x)) + 1.0;
         }
         black_box(x);
     });
@@ -393,9 +395,9 @@ fn time_stages(counter: &InstructionCounter, out: &mut Console) -> Result<(), Fa
     let mut bits = 0x3000_0000_u32;
     for index in 0..4096 {
         let x = f32::from_bits(bits);
-        if vsqrt(x).to_bits() != libm::sqrtf(x).to_bits() {
+        if sqrt_f32(x).to_bits() != libm::sqrtf(x).to_bits() {
             return Err(Failure::Golden {
-                what: "vsqrt vs libm::sqrtf",
+                what: "fpu::sqrt_f32 (vsqrt) vs libm::sqrtf",
                 index,
             });
         }
@@ -403,25 +405,4 @@ fn time_stages(counter: &InstructionCounter, out: &mut Console) -> Result<(), Fa
     }
     writeln!(out, "vsqrt_matches_libm: 4096 ok")?;
     Ok(())
-}
-
-/// The FPU's single-precision square root (`vsqrt.f32`, IEEE correctly rounded). Moved
-/// through a core register and a saved `s0`, because Rust's `sreg` operands need a
-/// target feature name this target does not expose; the moves cost a few instructions.
-fn vsqrt(x: f32) -> f32 {
-    let bits: u32;
-    // SAFETY: saves s0 on the stack, computes in it and restores it: no register the
-    // compiler uses changes; the stack is balanced.
-    unsafe {
-        core::arch::asm!(
-            "vpush {{s0}}",
-            "vmov s0, {x}",
-            "vsqrt.f32 s0, s0",
-            "vmov {y}, s0",
-            "vpop {{s0}}",
-            x = in(reg) x.to_bits(),
-            y = lateout(reg) bits,
-        );
-    }
-    f32::from_bits(bits)
 }

@@ -6,8 +6,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Result, bail};
 
+use crate::exposure_report::read_input;
 use crate::params_file::ModelSource;
-use crate::recording::Recording;
 use crate::replay::{events_path, replay, write_events, write_telemetry};
 
 /// Arguments of `supine replay`.
@@ -36,7 +36,8 @@ pub fn run(args: &Args) -> Result<()> {
         bail!("give --qemu: replay runs the firmware in QEMU (no hardware target yet)");
     }
     let file = args.model.load()?;
-    let recording = Recording::read(&args.input)?;
+    // A full recording or a `supine ride` file (platform columns only).
+    let (recording, _) = read_input(&args.input)?;
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
     // A second handler cannot be installed in one process (e.g. a library caller): then

@@ -28,7 +28,7 @@ use supine_core::model::Preset;
 use supine_core::protocol::Status;
 
 use crate::device_params::{self, identity_hex};
-use crate::exposure_report::{AxisReport, run_pipeline};
+use crate::exposure_report::{AxisReport, read_input, run_pipeline};
 use crate::firmware;
 use crate::flash;
 use crate::link::LinkStats;
@@ -248,13 +248,25 @@ pub fn run(
             files.ride.display()
         ),
     );
-    let ride = ride::make(
+    let mut ride = ride::make(
         config.profile,
         config.duration_s,
         SAMPLE_RATE_HZ,
         config.seed,
     )?;
     crate::ride::write_ride(&files.ride, &ride.ride)?;
+    // The device gets exactly what the file holds (accelerations to 1e-6 m/s^2), so that
+    // `supine replay` of ride.csv reproduces device.csv.
+    let (recording, _) = read_input(&files.ride)?;
+    if recording.len() != ride.ride.len() {
+        bail!(
+            "{}: read back {} samples of {}",
+            files.ride.display(),
+            recording.len(),
+            ride.ride.len()
+        );
+    }
+    ride.ride.platform_m_s2 = recording.platform_m_s2;
     let samples = ride.samples();
 
     let file = ParamFile::preset(PRESET);

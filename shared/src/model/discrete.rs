@@ -3,10 +3,19 @@
 //!
 //! Each reachable mode becomes a 2-state block driven by one input axis. A complex pair
 //! lambda = s + j w is stored as the real rotation-scaling block of e^(lambda T); two real
-//! poles of one subsystem share a diagonal block. Per sample and block this costs 6
-//! multiply-adds for the state and 2 per output, against about 1,500 for a dense 36-state
-//! form. States are kept in delta form (x += (Phi - I) x + g u) so that f32 keeps its
-//! precision for poles near z = 1 at high sample rates.
+//! poles of one subsystem share a diagonal block. Each block's states are then scaled (a
+//! 2x2 similarity T = [g0 -g1; g1 g0]) so that the input enters the first state with unit
+//! gain: the input costs one addition instead of two multiply-adds, a pair block keeps its
+//! rotation-scaling form, and the realization's response is unchanged.
+//!
+//! The blocks are grouped by the axis that drives them, and each group keeps only the
+//! output rows its modes reach: in this geometry x reaches head x, y reaches head y, and z
+//! (vertical and pitch) reaches head x and z, so 6 of the 9 rows per block a dense form
+//! would carry are zero. The device's 15 blocks then cost 106 multiply-adds per sample
+//! (4 per block for the state, 2 per block and row, 1 per row for the direct term),
+//! against 159 with dense rows and about 1,500 for a dense 36-state form. States are kept
+//! in delta form (x += (Phi - I) x + e1 u) so that f32 keeps its precision for poles near
+//! z = 1 at high sample rates.
 //!
 //! First-order hold: with u linear between samples, the exact update of a mode
 //! z' = lambda z + g u is z[k+1] = phi z[k] + g (gamma0 u[k] + gamma1 u[k+1]), with
@@ -78,37 +87,67 @@ impl Scalar for f64 {
 pub struct ModalBlock<T, const NY: usize> {
     /// Phi - I over one sample, row-major.
     pub transition_minus_identity: [[T; 2]; 2],
-    /// The support axis that drives the block.
-    pub input_axis: Axis,
-    /// State increment per m/s^2 of input.
-    pub input_gain: [T; 2],
-    /// Output rows (m/s^2 per unit state).
+    /// Output rows (m/s^2 per unit state): row i feeds output `outputs[i]` of the block's
+    /// group; rows from the group's `output_count` on are zero.
     pub output: [[T; 2]; NY],
 }
 
 impl<T: Scalar, const NY: usize> ModalBlock<T, NY> {
     const EMPTY: Self = Self {
         transition_minus_identity: [[T::ZERO; 2]; 2],
-        input_axis: Axis::X,
-        input_gain: [T::ZERO; 2],
         output: [[T::ZERO; 2]; NY],
     };
+}
+
+/// The blocks one support axis drives, and the outputs they reach.
+///
+/// Physics makes most of a dense output matrix zero (x drives only x responses, y only
+/// y, z the z and pitch responses), so each group lists the outputs it feeds and its
+/// blocks carry only those rows, packed first.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(bound(
+    serialize = "T: Serialize, [T; NY]: Serialize, [u8; NY]: Serialize",
+    deserialize = "T: Deserialize<'de>, [T; NY]: Deserialize<'de>, [u8; NY]: Deserialize<'de>"
+))]
+pub struct ModalGroup<T, const NY: usize> {
+    /// Blocks in this group: the next `block_count` after the previous groups'.
+    pub block_count: u8,
+    /// Outputs this group feeds; the first `output_count` entries of `outputs` count.
+    pub output_count: u8,
+    /// Output index (into the realization's outputs) of each packed row.
+    pub outputs: [u8; NY],
+    /// Direct term from the first-order hold, per packed row (output per m/s^2 of input).
+    pub feedthrough: [T; NY],
+}
+
+impl<T: Scalar, const NY: usize> ModalGroup<T, NY> {
+    const EMPTY: Self = Self {
+        block_count: 0,
+        output_count: 0,
+        outputs: [0; NY],
+        feedthrough: [T::ZERO; NY],
+    };
+
+    /// The output indices of the packed rows.
+    pub fn outputs(&self) -> &[u8] {
+        &self.outputs[..usize::from(self.output_count).min(NY)]
+    }
 }
 
 /// A discrete-time realization from the three support accelerations to NY outputs.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(bound(
-    serialize = "T: Serialize, [[T; 2]; NY]: Serialize, [[T; 3]; NY]: Serialize",
-    deserialize = "T: Deserialize<'de>, [[T; 2]; NY]: Deserialize<'de>, [[T; 3]; NY]: Deserialize<'de>"
+    serialize = "T: Serialize, [[T; 2]; NY]: Serialize, [T; NY]: Serialize, [u8; NY]: Serialize",
+    deserialize = "T: Deserialize<'de>, [[T; 2]; NY]: Deserialize<'de>, [T; NY]: Deserialize<'de>, [u8; NY]: Deserialize<'de>"
 ))]
 pub struct DiscreteModal<T, const NY: usize> {
     /// The rate this realization was built for, Hz.
     pub sample_rate_hz: f32,
-    /// Direct input-to-output term from the first-order hold, per output and input axis.
-    pub feedthrough: [[T; 3]; NY],
+    /// One group per support axis, in x, y, z order; their blocks follow each other.
+    pub groups: [ModalGroup<T, NY>; 3],
     /// The modal blocks; only the first `block_count` are used.
     pub blocks: [ModalBlock<T, NY>; MAX_BLOCKS],
-    /// How many blocks are in use.
+    /// How many blocks are in use (the groups' counts add up to it).
     pub block_count: u8,
 }
 
@@ -135,6 +174,9 @@ impl<T: Scalar> Default for ModalState<T> {
 pub enum RealizationError {
     /// More blocks than [`MAX_BLOCKS`].
     TooManyBlocks,
+    /// The groups do not add up to the blocks, name an output twice or out of range, or
+    /// an unused row or direct term is not zero.
+    Layout,
     /// A coefficient is NaN or infinite.
     NotFinite,
     /// A block has a pole on or outside the unit circle.
@@ -147,6 +189,7 @@ impl core::fmt::Display for RealizationError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.write_str(match self {
             RealizationError::TooManyBlocks => "more modal blocks than the device holds",
+            RealizationError::Layout => "block groups and output rows are inconsistent",
             RealizationError::NotFinite => "a coefficient is not a finite number",
             RealizationError::Unstable => "a discrete pole lies on or outside the unit circle",
             RealizationError::SampleRate => "sample rate outside 100..=2000 Hz",
@@ -164,39 +207,64 @@ impl<T: Scalar, const NY: usize> DiscreteModal<T, NY> {
     #[inline]
     pub fn step(&self, state: &mut ModalState<T>, input_m_s2: [T; 3]) -> [T; NY] {
         let mut y = [T::ZERO; NY];
-        for (out, d) in y.iter_mut().zip(self.feedthrough.iter()) {
-            *out = d[0] * input_m_s2[0] + d[1] * input_m_s2[1] + d[2] * input_m_s2[2];
-        }
-        let used = usize::from(self.block_count).min(MAX_BLOCKS);
-        for (block, x) in self.blocks[..used].iter().zip(state.blocks.iter_mut()) {
-            let [x0, x1] = *x;
-            for (out, c) in y.iter_mut().zip(block.output.iter()) {
-                *out = *out + c[0] * x0 + c[1] * x1;
+        let mut first = 0;
+        for (group, u) in self.groups.iter().zip(input_m_s2) {
+            let end = (first + usize::from(group.block_count)).min(self.used_blocks());
+            let blocks = self.blocks.get(first..end).unwrap_or(&[]);
+            let states = state.blocks.get_mut(first..end).unwrap_or(&mut []);
+            first = end;
+            // The accumulators live in registers when their count is known at compile
+            // time: one row (x and y groups) or two (z: vertical and pitch) on the device.
+            match group.output_count {
+                0 => {}
+                1 => group.run::<1>(blocks, states, u, &mut y),
+                2 => group.run::<2>(blocks, states, u, &mut y),
+                _ => group.run::<NY>(blocks, states, u, &mut y),
             }
-            let u = input_m_s2[block.input_axis as usize];
-            let d = &block.transition_minus_identity;
-            let g = &block.input_gain;
-            *x = [
-                x0 + (d[0][0] * x0 + d[0][1] * x1 + g[0] * u),
-                x1 + (d[1][0] * x0 + d[1][1] * x1 + g[1] * u),
-            ];
         }
         y
     }
 
-    /// Multiply-adds per sample: 3 per output for the feedthrough, and per block 6 for the
-    /// state and 2 per output.
+    /// Multiply-adds per sample: per group, one per output for the direct term; per block
+    /// 4 for the state (the input is one addition) and 2 per output row of its group.
     pub fn multiply_adds_per_sample(&self) -> usize {
-        3 * NY + usize::from(self.block_count) * (6 + 2 * NY)
+        self.groups
+            .iter()
+            .map(|g| {
+                let (blocks, rows) = (usize::from(g.block_count), g.outputs().len());
+                rows + blocks * (4 + 2 * rows)
+            })
+            .sum()
+    }
+
+    fn used_blocks(&self) -> usize {
+        usize::from(self.block_count).min(MAX_BLOCKS)
     }
 
     /// The blocks in use.
     pub fn active_blocks(&self) -> &[ModalBlock<T, NY>] {
-        &self.blocks[..usize::from(self.block_count).min(MAX_BLOCKS)]
+        &self.blocks[..self.used_blocks()]
     }
 
-    /// Checks what a loaded realization must satisfy before it runs: block count, finite
-    /// coefficients, sample rate, and every block's poles strictly inside the unit circle.
+    /// Each group with its blocks and the support axis that drives them.
+    pub fn grouped_blocks(
+        &self,
+    ) -> impl Iterator<Item = (Axis, &ModalGroup<T, NY>, &[ModalBlock<T, NY>])> {
+        let mut first = 0;
+        Axis::ALL
+            .into_iter()
+            .zip(self.groups.iter())
+            .map(move |(axis, group)| {
+                let end = (first + usize::from(group.block_count)).min(self.used_blocks());
+                let blocks = self.blocks.get(first..end).unwrap_or(&[]);
+                first = end;
+                (axis, group, blocks)
+            })
+    }
+
+    /// Checks what a loaded realization must satisfy before it runs: block count, layout
+    /// of groups and rows, finite coefficients, sample rate, and every block's poles
+    /// strictly inside the unit circle.
     ///
     /// With Phi = I + D, the Jury conditions for z^2 - tr(Phi) z + det(Phi) read
     /// det D > 0, tr D + det D < 0 and 4 + 2 tr D + det D > 0, which stay precise for poles
@@ -209,20 +277,40 @@ impl<T: Scalar, const NY: usize> DiscreteModal<T, NY> {
         if !(MIN_SAMPLE_RATE_HZ..=MAX_SAMPLE_RATE_HZ).contains(&fs) {
             return Err(RealizationError::SampleRate);
         }
-        let finite = |v: T| v.to_f64().is_finite();
-        if !self.feedthrough.iter().flatten().all(|&v| finite(v)) {
+        let finite = |v: &T| v.to_f64().is_finite();
+        let group_values = self.groups.iter().flat_map(|g| g.feedthrough.iter());
+        let block_values = self.active_blocks().iter().flat_map(|b| {
+            b.transition_minus_identity
+                .iter()
+                .chain(b.output.iter())
+                .flatten()
+        });
+        if !group_values.chain(block_values).all(finite) {
             return Err(RealizationError::NotFinite);
         }
-        for block in self.active_blocks() {
-            let coefficients = block
-                .transition_minus_identity
-                .iter()
-                .flatten()
-                .chain(block.input_gain.iter())
-                .chain(block.output.iter().flatten());
-            if !coefficients.into_iter().all(|&v| finite(v)) {
-                return Err(RealizationError::NotFinite);
+        let grouped: usize = self.groups.iter().map(|g| usize::from(g.block_count)).sum();
+        if grouped != usize::from(self.block_count) {
+            return Err(RealizationError::Layout);
+        }
+        for (_, group, blocks) in self.grouped_blocks() {
+            let rows = usize::from(group.output_count);
+            let mut seen = [false; NY];
+            for &o in group.outputs() {
+                match seen.get_mut(usize::from(o)) {
+                    Some(s) if !*s => *s = true,
+                    _ => return Err(RealizationError::Layout),
+                }
             }
+            let unused_zero = rows <= NY
+                && group.feedthrough[rows..].iter().all(|&v| v == T::ZERO)
+                && blocks
+                    .iter()
+                    .all(|b| b.output[rows..].iter().flatten().all(|&v| v == T::ZERO));
+            if !unused_zero {
+                return Err(RealizationError::Layout);
+            }
+        }
+        for block in self.active_blocks() {
             let d = block
                 .transition_minus_identity
                 .map(|row| row.map(T::to_f64));
@@ -235,28 +323,34 @@ impl<T: Scalar, const NY: usize> DiscreteModal<T, NY> {
         Ok(())
     }
 
-    /// The discrete frequency response D + sum C (zI - Phi)^-1 g at z = e^(j 2 pi f / fs),
+    /// The discrete frequency response D + sum C (zI - Phi)^-1 e1 at z = e^(j 2 pi f / fs),
     /// per output (rows) and input axis (columns), computed in f64.
     pub fn frequency_response(&self, freq_hz: f64) -> [[Complex<f64>; 3]; NY] {
         let theta = 2.0 * PI * freq_hz / f64::from(self.sample_rate_hz);
         let z = Complex::new(libm::cos(theta), libm::sin(theta));
         let mut h = [[Complex::new(0.0, 0.0); 3]; NY];
-        for (row, d) in h.iter_mut().zip(self.feedthrough.iter()) {
-            for (cell, v) in row.iter_mut().zip(d.iter()) {
-                *cell = Complex::new(v.to_f64(), 0.0);
+        for (axis, group, blocks) in self.grouped_blocks() {
+            // Row i of the group's blocks feeds output outputs[i].
+            let mut packed = [Complex::new(0.0, 0.0); NY];
+            for (cell, d) in packed.iter_mut().zip(group.feedthrough.iter()) {
+                *cell = Complex::new(d.to_f64(), 0.0);
             }
-        }
-        for block in self.active_blocks() {
-            let d = block.transition_minus_identity.map(|r| r.map(T::to_f64));
-            // (zI - Phi) = (z - 1) I - D, inverted as a 2x2.
-            let zm1 = z - 1.0;
-            let (a, b, c, e) = (zm1 - d[0][0], -d[0][1], -d[1][0], zm1 - d[1][1]);
-            let det = a * e - b * c;
-            let g = block.input_gain.map(T::to_f64);
-            let s0 = (e * g[0] - b * g[1]) / det;
-            let s1 = (a * g[1] - c * g[0]) / det;
-            for (row, out) in h.iter_mut().zip(block.output.iter()) {
-                row[block.input_axis as usize] += s0 * out[0].to_f64() + s1 * out[1].to_f64();
+            for block in blocks {
+                let d = block.transition_minus_identity.map(|r| r.map(T::to_f64));
+                // (zI - Phi) = (z - 1) I - D, inverted as a 2x2.
+                let zm1 = z - 1.0;
+                let (a, b, c, e) = (zm1 - d[0][0], -d[0][1], -d[1][0], zm1 - d[1][1]);
+                let det = a * e - b * c;
+                // (zI - Phi)^-1 e1: the input enters the first state.
+                let (s0, s1) = (e / det, -c / det);
+                for (cell, out) in packed.iter_mut().zip(block.output.iter()) {
+                    *cell += s0 * out[0].to_f64() + s1 * out[1].to_f64();
+                }
+            }
+            for (&o, value) in group.outputs().iter().zip(packed) {
+                if let Some(row) = h.get_mut(usize::from(o)) {
+                    row[axis.index()] += value;
+                }
             }
         }
         h
@@ -265,20 +359,50 @@ impl<T: Scalar, const NY: usize> DiscreteModal<T, NY> {
     /// The same realization in another arithmetic (f64 reference to f32 device).
     pub fn cast<U: Scalar>(&self) -> DiscreteModal<U, NY> {
         let conv = |v: T| U::from_f64(v.to_f64());
-        let mut blocks = [ModalBlock::<U, NY>::EMPTY; MAX_BLOCKS];
-        for (dst, src) in blocks.iter_mut().zip(self.blocks.iter()) {
-            *dst = ModalBlock {
-                transition_minus_identity: src.transition_minus_identity.map(|r| r.map(conv)),
-                input_axis: src.input_axis,
-                input_gain: src.input_gain.map(conv),
-                output: src.output.map(|r| r.map(conv)),
-            };
-        }
         DiscreteModal {
             sample_rate_hz: self.sample_rate_hz,
-            feedthrough: self.feedthrough.map(|r| r.map(conv)),
-            blocks,
+            groups: self.groups.map(|g| ModalGroup {
+                block_count: g.block_count,
+                output_count: g.output_count,
+                outputs: g.outputs,
+                feedthrough: g.feedthrough.map(conv),
+            }),
+            blocks: self.blocks.map(|b| ModalBlock {
+                transition_minus_identity: b.transition_minus_identity.map(|r| r.map(conv)),
+                output: b.output.map(|r| r.map(conv)),
+            }),
             block_count: self.block_count,
+        }
+    }
+}
+
+impl<T: Scalar, const NY: usize> ModalGroup<T, NY> {
+    /// Runs this group's blocks on input `u` and adds their outputs, with K packed rows.
+    #[inline(always)]
+    fn run<const K: usize>(
+        &self,
+        blocks: &[ModalBlock<T, NY>],
+        states: &mut [[T; 2]],
+        u: T,
+        y: &mut [T; NY],
+    ) {
+        let mut acc: [T; K] =
+            core::array::from_fn(|i| self.feedthrough.get(i).map_or(T::ZERO, |&d| d * u));
+        for (block, x) in blocks.iter().zip(states.iter_mut()) {
+            let [x0, x1] = *x;
+            for (a, c) in acc.iter_mut().zip(block.output.iter()) {
+                *a = *a + c[0] * x0 + c[1] * x1;
+            }
+            let d = &block.transition_minus_identity;
+            *x = [
+                x0 + (d[0][0] * x0 + d[0][1] * x1 + u),
+                x1 + (d[1][0] * x0 + d[1][1] * x1),
+            ];
+        }
+        for (&o, a) in self.outputs().iter().zip(acc) {
+            if let Some(out) = y.get_mut(usize::from(o)) {
+                *out = *out + a;
+            }
         }
     }
 }
@@ -297,7 +421,7 @@ impl<const NY: usize> DiscreteModal<f64, NY> {
         let period_s = 1.0 / sample_rate_hz;
         let mut realization = Self {
             sample_rate_hz: sample_rate_hz as f32,
-            feedthrough: [[0.0; 3]; NY],
+            groups: [ModalGroup::EMPTY; 3],
             blocks: [ModalBlock::EMPTY; MAX_BLOCKS],
             block_count: 0,
         };
@@ -318,57 +442,76 @@ impl<const NY: usize> DiscreteModal<f64, NY> {
                     .map(move |o| modulus(m.output_gain[o.index()] * m.input_gain))
             })
             .fold(0.0, f64::max);
-        let shows = |m: &ModalComponent| {
-            outputs
-                .iter()
-                .any(|o| modulus(m.output_gain[o.index()] * m.input_gain) > 1e-12 * scale)
+        // Whether mode m reaches output o (an index into `outputs`) at all.
+        let reaches = |m: &ModalComponent, o: usize| {
+            modulus(m.output_gain[outputs[o].index()] * m.input_gain) > 1e-12 * scale
         };
         for subsystem in Subsystem::ALL {
             let Some(axis) = subsystem.input_axis() else {
                 continue;
             };
+            let modes = || {
+                analysis
+                    .components
+                    .iter()
+                    .filter(relevant)
+                    .filter(move |m| m.subsystem == subsystem && (0..NY).any(|o| reaches(m, o)))
+            };
+            let group = &mut realization.groups[axis.index()];
+            for o in (0..NY).filter(|&o| modes().any(|m| reaches(m, o))) {
+                group.outputs[usize::from(group.output_count)] = o as u8;
+                group.output_count += 1;
+            }
+            let rows = *group;
             let mut pending_real: Option<DiscreteMode<NY>> = None;
-            let modes = analysis
-                .components
-                .iter()
-                .filter(relevant)
-                .filter(|m| m.subsystem == subsystem && shows(m));
-            for m in modes {
+            for m in modes() {
                 let mode = DiscreteMode::new(m, period_s, outputs);
-                for (row, d) in realization
-                    .feedthrough
-                    .iter_mut()
-                    .zip(mode.feedthrough.iter())
-                {
-                    row[axis.index()] += d;
+                let group = &mut realization.groups[axis.index()];
+                for (cell, &o) in group.feedthrough.iter_mut().zip(rows.outputs()) {
+                    *cell += mode.feedthrough[usize::from(o)];
                 }
                 let block = if m.is_pair {
-                    Some(mode.pair_block(axis))
+                    Some(mode.pair_block())
                 } else if let Some(first) = pending_real.take() {
-                    Some(DiscreteMode::real_block(axis, &first, Some(&mode)))
+                    Some(DiscreteMode::real_block(&first, Some(&mode)))
                 } else {
                     pending_real = Some(mode);
                     None
                 };
                 if let Some(block) = block {
-                    realization.push(block)?;
+                    realization.push(axis, rows.pack(block))?;
                 }
             }
             if let Some(first) = pending_real {
-                realization.push(DiscreteMode::real_block(axis, &first, None))?;
+                realization.push(axis, rows.pack(DiscreteMode::real_block(&first, None)))?;
             }
         }
         Ok(realization)
     }
 
-    fn push(&mut self, block: ModalBlock<f64, NY>) -> Result<(), ModelError> {
+    fn push(&mut self, axis: Axis, block: ModalBlock<f64, NY>) -> Result<(), ModelError> {
         let slot = self
             .blocks
             .get_mut(usize::from(self.block_count))
             .ok_or(ModelError::TooManyModes)?;
         *slot = block;
         self.block_count += 1;
+        self.groups[axis.index()].block_count += 1;
         Ok(())
+    }
+}
+
+impl<const NY: usize> ModalGroup<f64, NY> {
+    /// The block with its output rows packed: row i holds output `outputs[i]`.
+    fn pack(&self, dense: ModalBlock<f64, NY>) -> ModalBlock<f64, NY> {
+        let mut output = [[0.0; 2]; NY];
+        for (row, &o) in output.iter_mut().zip(self.outputs()) {
+            *row = dense.output[usize::from(o)];
+        }
+        ModalBlock {
+            transition_minus_identity: dense.transition_minus_identity,
+            output,
+        }
     }
 }
 
@@ -397,31 +540,48 @@ impl<const NY: usize> DiscreteMode<NY> {
         }
     }
 
-    /// Real form of a complex mode: w = s0 + j s1, y = Re(c w) = Re c s0 - Im c s1.
-    fn pair_block(&self, axis: Axis) -> ModalBlock<f64, NY> {
+    /// Real form of a complex mode, scaled to unit input gain: with w = g v,
+    /// v' = phi v + u and y = Re(c g v) = Re(c g) v0 - Im(c g) v1 for v = v0 + j v1.
+    fn pair_block(&self) -> ModalBlock<f64, NY> {
+        let g = self.input_gain;
         ModalBlock {
             transition_minus_identity: [
                 [self.phi.re - 1.0, -self.phi.im],
                 [self.phi.im, self.phi.re - 1.0],
             ],
-            input_axis: axis,
-            input_gain: [self.input_gain.re, self.input_gain.im],
-            output: self.output_gain.map(|c| [c.re, -c.im]),
+            output: self.output_gain.map(|c| {
+                let cg = c * g;
+                [cg.re, -cg.im]
+            }),
         }
     }
 
-    /// Two real poles side by side; a lone one gets an idle partner (Phi = 0, no gain).
-    fn real_block(axis: Axis, first: &Self, second: Option<&Self>) -> ModalBlock<f64, NY> {
+    /// Two real poles side by side (a lone one gets an idle partner: Phi = 0, no gain),
+    /// scaled to unit input gain by s = T v, T = [g1 -g2; g2 g1], which maps e1 to the
+    /// gains g: v' = T^-1 (Phi - I) T v + v + e1 u and y = C T v. T is invertible because
+    /// a block is only built for a mode the input reaches (g1 != 0).
+    fn real_block(first: &Self, second: Option<&Self>) -> ModalBlock<f64, NY> {
         let (phi2, gain2) = second.map_or((0.0, 0.0), |m| (m.phi.re, m.input_gain.re));
+        let (g1, g2) = (first.input_gain.re, gain2);
+        let (d1, d2) = (first.phi.re - 1.0, phi2 - 1.0);
+        let det = g1 * g1 + g2 * g2;
+        // T^-1 diag(d1, d2) T, with T^-1 = [g1 g2; -g2 g1] / det.
+        let transition_minus_identity = [
+            [
+                (g1 * g1 * d1 + g2 * g2 * d2) / det,
+                g1 * g2 * (d2 - d1) / det,
+            ],
+            [
+                g1 * g2 * (d2 - d1) / det,
+                (g2 * g2 * d1 + g1 * g1 * d2) / det,
+            ],
+        ];
         ModalBlock {
-            transition_minus_identity: [[first.phi.re - 1.0, 0.0], [0.0, phi2 - 1.0]],
-            input_axis: axis,
-            input_gain: [first.input_gain.re, gain2],
+            transition_minus_identity,
             output: core::array::from_fn(|o| {
-                [
-                    first.output_gain[o].re,
-                    second.map_or(0.0, |m| m.output_gain[o].re),
-                ]
+                let c1 = first.output_gain[o].re;
+                let c2 = second.map_or(0.0, |m| m.output_gain[o].re);
+                [c1 * g1 + c2 * g2, c2 * g1 - c1 * g2]
             }),
         }
     }

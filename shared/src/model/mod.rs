@@ -18,7 +18,7 @@ use core::fmt;
 pub use assembly::SystemMatrices;
 pub use discrete::{
     DEFAULT_SAMPLE_RATE_HZ, DeviceRealization, DiscreteModal, MAX_SAMPLE_RATE_HZ,
-    MIN_SAMPLE_RATE_HZ, ModalBlock, ModalState, RealizationError, Scalar,
+    MIN_SAMPLE_RATE_HZ, ModalBlock, ModalGroup, ModalState, RealizationError, Scalar,
 };
 pub use geometry::{Axis, Segment, Subject};
 pub use modal::{ModalAnalysis, ModalComponent, Subsystem};

@@ -10,7 +10,7 @@ use super::{
 };
 use crate::alerts::{AlertEvent, Level, SensorFault};
 use crate::blob::{BlobError, DeviceParams};
-use crate::model::{Axis, DiscreteModal, ModalBlock};
+use crate::model::{DiscreteModal, ModalBlock, ModalGroup};
 
 /// Example host-to-device messages, in [`HOST_TO_DEVICE`] order.
 pub fn host_to_device_examples() -> [HostToDevice; 6] {
@@ -129,22 +129,31 @@ pub const DEVICE_TO_HOST: [&[u8]; 7] = [
 /// A blob built from fixed numbers only (no eigen-solver in the loop), so its bytes
 /// depend on nothing but the encoding and the documented filter designs.
 pub fn blob_example() -> Result<DeviceParams, BlobError> {
+    // One z-driven block feeding head x and head z (rows packed in that order).
     let block = ModalBlock {
         transition_minus_identity: [[-0.01, -0.05], [0.05, -0.01]],
-        input_axis: Axis::Z,
-        input_gain: [0.001, -0.002],
-        output: [[0.5, 0.25], [0.0, 0.0], [1.0, -0.5]],
+        output: [[0.5, 0.25], [1.0, -0.5], [0.0, 0.0]],
     };
     let mut blocks = [ModalBlock {
         transition_minus_identity: [[0.0; 2]; 2],
-        input_axis: Axis::X,
-        input_gain: [0.0; 2],
         output: [[0.0; 2]; 3],
     }; crate::model::discrete::MAX_BLOCKS];
     blocks[0] = block;
+    let empty = ModalGroup {
+        block_count: 0,
+        output_count: 0,
+        outputs: [0; 3],
+        feedthrough: [0.0; 3],
+    };
+    let z_group = ModalGroup {
+        block_count: 1,
+        output_count: 2,
+        outputs: [0, 2, 0],
+        feedthrough: [0.002, 0.003, 0.0],
+    };
     let realization = DiscreteModal {
         sample_rate_hz: 500.0,
-        feedthrough: [[0.001, 0.0, 0.002], [0.0, 0.001, 0.0], [0.0, 0.0, 0.003]],
+        groups: [empty, empty, z_group],
         blocks,
         block_count: 1,
     };
