@@ -17,8 +17,9 @@ use supine_qemu_tests::{
     host_outputs_f64, identity, parse_selftest,
 };
 
-/// Most instructions one model step may take on the device (the project's budget).
-const MAX_INSTRUCTIONS_PER_STEP: u64 = 800;
+/// Most instructions one model step may take on the device: a regression guard over the
+/// 622 measured in BENCHMARKS.md (the project budget was 800).
+const MAX_INSTRUCTIONS_PER_STEP: u64 = 700;
 /// Largest stack decoding the realization and running the model may use.
 const MAX_MODEL_STACK_BYTES: usize = 8 * 1024;
 /// Largest stack the whole self-test may use (the golden blob check holds a 4 KiB buffer
