@@ -209,6 +209,64 @@ pub fn parse_selftest(stdout: &str) -> Result<SelftestReport, String> {
     })
 }
 
+/// The `supine` binary next to the running test's target dir, built or brought up to date
+/// first (an older binary may lack a command under test), in the test's own profile.
+pub fn supine_binary() -> PathBuf {
+    static BUILD: Mutex<()> = Mutex::new(());
+    let _guard = BUILD.lock().unwrap_or_else(|p| p.into_inner());
+    let exe = std::env::current_exe().expect("test executable path");
+    // target/<dir>/<profile>/deps/<test>-<hash> -> target/<dir>/<profile>/supine
+    let profile_dir = exe
+        .parent()
+        .and_then(std::path::Path::parent)
+        .expect("deps/ inside the profile dir");
+    let target_dir = profile_dir.parent().expect("target dir");
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let mut build = std::process::Command::new(cargo);
+    build.args([
+        "build",
+        "-p",
+        "supine-host",
+        "--bin",
+        "supine",
+        "--target-dir",
+    ]);
+    build.arg(target_dir);
+    if profile_dir.file_name().is_some_and(|n| n == "release") {
+        build.arg("--release");
+    }
+    let status = build
+        .current_dir(supine_host::firmware::repository_root())
+        .status()
+        .expect("cargo runs");
+    assert!(status.success(), "building supine failed");
+    profile_dir.join("supine")
+}
+
+/// The process ids of `pid`'s children (Linux `/proc`).
+pub fn child_pids(pid: u32) -> Vec<u32> {
+    let mut out = Vec::new();
+    if let Ok(tasks) = std::fs::read_dir(format!("/proc/{pid}/task")) {
+        for task in tasks.flatten() {
+            if let Ok(text) = std::fs::read_to_string(task.path().join("children")) {
+                out.extend(
+                    text.split_whitespace()
+                        .filter_map(|p| p.parse::<u32>().ok()),
+                );
+            }
+        }
+    }
+    out
+}
+
+/// The command line of process `pid` (arguments joined by spaces) if it is a running
+/// `qemu-system-arm`.
+pub fn qemu_cmdline(pid: u32) -> Option<String> {
+    let cmdline = std::fs::read(format!("/proc/{pid}/cmdline")).ok()?;
+    let text = String::from_utf8_lossy(&cmdline).replace('\0', " ");
+    text.contains("qemu-system-arm").then_some(text)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

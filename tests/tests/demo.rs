@@ -1,47 +1,10 @@
 //! `supine demo` as a user runs it: the binary, its report and the CSV files the report
 //! was made from; the summary's numbers checked against those files.
 
-use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use supine_qemu_tests::firmware;
-
-static BUILD: Mutex<()> = Mutex::new(());
-
-/// The `supine` binary next to this test's target dir, built (or brought up to date:
-/// an older binary may lack `demo`).
-fn supine_binary() -> PathBuf {
-    let _guard = BUILD.lock().unwrap_or_else(|p| p.into_inner());
-    let exe = std::env::current_exe().expect("test executable path");
-    // target/<dir>/<profile>/deps/demo-<hash> -> target/<dir>/<profile>/supine
-    let profile_dir = exe
-        .parent()
-        .and_then(Path::parent)
-        .expect("deps/ inside the profile dir");
-    let target_dir = profile_dir.parent().expect("target dir");
-    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let mut build = Command::new(cargo);
-    build.args([
-        "build",
-        "-p",
-        "supine-host",
-        "--bin",
-        "supine",
-        "--target-dir",
-    ]);
-    build.arg(target_dir);
-    if profile_dir.file_name().is_some_and(|n| n == "release") {
-        build.arg("--release");
-    }
-    let status = build
-        .current_dir(supine_host::firmware::repository_root())
-        .status()
-        .expect("cargo runs");
-    assert!(status.success(), "building supine failed");
-    profile_dir.join("supine")
-}
+use supine_qemu_tests::{child_pids, firmware, qemu_cmdline, supine_binary};
 
 /// The number after `prefix` on the summary line that contains it.
 fn number_after(text: &str, prefix: &str) -> f64 {
@@ -245,27 +208,6 @@ fn a_bad_duration_is_one_line_and_writes_nothing() {
     assert!(!out.join("report.html").exists());
 }
 
-fn children(pid: u32) -> Vec<u32> {
-    let mut out = Vec::new();
-    if let Ok(tasks) = std::fs::read_dir(format!("/proc/{pid}/task")) {
-        for task in tasks.flatten() {
-            if let Ok(text) = std::fs::read_to_string(task.path().join("children")) {
-                out.extend(
-                    text.split_whitespace()
-                        .filter_map(|p| p.parse::<u32>().ok()),
-                );
-            }
-        }
-    }
-    out
-}
-
-fn is_qemu(pid: u32) -> bool {
-    std::fs::read(format!("/proc/{pid}/cmdline"))
-        .map(|c| String::from_utf8_lossy(&c).contains("qemu-system-arm"))
-        .unwrap_or(false)
-}
-
 #[test]
 fn ctrl_c_during_the_demo_leaves_no_qemu_and_no_report() {
     firmware(supine_host::firmware::PRODUCT_BINARY);
@@ -280,7 +222,10 @@ fn ctrl_c_during_the_demo_leaves_no_qemu_and_no_report() {
         .expect("supine runs");
     let start = Instant::now();
     let qemu = loop {
-        if let Some(pid) = children(child.id()).into_iter().find(|p| is_qemu(*p)) {
+        if let Some(pid) = child_pids(child.id())
+            .into_iter()
+            .find(|p| qemu_cmdline(*p).is_some())
+        {
             break pid;
         }
         assert!(
@@ -300,7 +245,7 @@ fn ctrl_c_during_the_demo_leaves_no_qemu_and_no_report() {
     println!("{stderr}");
     assert!(!output.status.success(), "an interrupted demo must fail");
     assert!(stderr.contains("interrupted"), "{stderr}");
-    assert!(!is_qemu(qemu), "QEMU {qemu} still running");
+    assert!(qemu_cmdline(qemu).is_none(), "QEMU {qemu} still running");
     assert!(
         !out.join("report.html").exists(),
         "no report from an interrupted run"

@@ -3,7 +3,7 @@
 //! pipeline (`supine_host::reference`): same telemetry rows, same alert events at the same
 //! samples, head acceleration within 1e-4 m/s^2.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 use std::time::Duration;
 
@@ -13,37 +13,7 @@ use supine_host::exposure_report::read_input;
 use supine_host::params_file::ParamFile;
 use supine_host::reference;
 use supine_host::replay::{EVENTS_HEADER, TELEMETRY_HEADER};
-use supine_qemu_tests::firmware;
-
-/// The `supine` binary next to this test's target dir, built if missing (as replay_cli).
-fn supine_binary() -> PathBuf {
-    let exe = std::env::current_exe().expect("test executable path");
-    // target/<dir>/debug/deps/monitor_cli-<hash> -> target/<dir>/debug/supine
-    let profile_dir = exe
-        .parent()
-        .and_then(Path::parent)
-        .expect("deps/ inside the profile dir");
-    let binary = profile_dir.join("supine");
-    if !binary.is_file() {
-        let target_dir = profile_dir.parent().expect("target dir");
-        let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-        let status = Command::new(cargo)
-            .args([
-                "build",
-                "-p",
-                "supine-host",
-                "--bin",
-                "supine",
-                "--target-dir",
-            ])
-            .arg(target_dir)
-            .current_dir(supine_host::firmware::repository_root())
-            .status()
-            .expect("cargo runs");
-        assert!(status.success(), "building supine failed");
-    }
-    binary
-}
+use supine_qemu_tests::{child_pids, firmware, qemu_cmdline, supine_binary};
 
 /// Runs `supine ARGS`, returning (success, stdout, stderr).
 fn supine(args: &[&str]) -> (bool, String, String) {
@@ -201,26 +171,6 @@ fn monitor_logs_what_the_host_pipeline_predicts_for_a_scripted_ride() {
     assert!(!dir.path().join("log.csv.partial").exists());
 }
 
-fn children(pid: u32) -> Vec<u32> {
-    let mut out = Vec::new();
-    if let Ok(tasks) = std::fs::read_dir(format!("/proc/{pid}/task")) {
-        for task in tasks.flatten() {
-            if let Ok(text) = std::fs::read_to_string(task.path().join("children")) {
-                out.extend(
-                    text.split_whitespace()
-                        .filter_map(|p| p.parse::<u32>().ok()),
-                );
-            }
-        }
-    }
-    out
-}
-
-fn is_qemu(pid: u32) -> bool {
-    std::fs::read(format!("/proc/{pid}/cmdline"))
-        .is_ok_and(|c| String::from_utf8_lossy(&c).contains("qemu-system-arm"))
-}
-
 #[test]
 fn realtime_pacing_and_ctrl_c_keep_the_log_and_leave_no_qemu() {
     firmware(supine_host::firmware::PRODUCT_BINARY);
@@ -246,7 +196,10 @@ fn realtime_pacing_and_ctrl_c_keep_the_log_and_leave_no_qemu() {
         .expect("supine runs");
     let start = std::time::Instant::now();
     let qemu_pid = loop {
-        if let Some(pid) = children(child.id()).into_iter().find(|p| is_qemu(*p)) {
+        if let Some(pid) = child_pids(child.id())
+            .into_iter()
+            .find(|p| qemu_cmdline(*p).is_some())
+        {
             break pid;
         }
         assert!(
@@ -270,7 +223,7 @@ fn realtime_pacing_and_ctrl_c_keep_the_log_and_leave_no_qemu() {
     assert!(stderr.contains("interrupted after"), "{stderr}");
     assert!(stderr.contains("of 30000 samples"), "{stderr}");
     assert!(
-        !Path::new(&format!("/proc/{qemu_pid}")).exists() || !is_qemu(qemu_pid),
+        !Path::new(&format!("/proc/{qemu_pid}")).exists() || qemu_cmdline(qemu_pid).is_none(),
         "QEMU {qemu_pid} still running"
     );
     // The log holds what arrived, renamed into place; real time means at most the

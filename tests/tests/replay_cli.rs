@@ -6,37 +6,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use supine_host::recording::Recording;
-use supine_qemu_tests::firmware;
-
-/// The `supine` binary next to this test's target dir, built if missing.
-fn supine_binary() -> PathBuf {
-    let exe = std::env::current_exe().expect("test executable path");
-    // target/<dir>/debug/deps/replay_cli-<hash> -> target/<dir>/debug/supine
-    let profile_dir = exe
-        .parent()
-        .and_then(Path::parent)
-        .expect("deps/ inside the profile dir");
-    let binary = profile_dir.join("supine");
-    if !binary.is_file() {
-        let target_dir = profile_dir.parent().expect("target dir");
-        let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-        let status = Command::new(cargo)
-            .args([
-                "build",
-                "-p",
-                "supine-host",
-                "--bin",
-                "supine",
-                "--target-dir",
-            ])
-            .arg(target_dir)
-            .current_dir(supine_host::firmware::repository_root())
-            .status()
-            .expect("cargo runs");
-        assert!(status.success(), "building supine failed");
-    }
-    binary
-}
+use supine_qemu_tests::{child_pids, firmware, qemu_cmdline, supine_binary};
 
 /// A recording of `seconds` at 500 Hz with a few sines on the platform columns.
 fn write_ride(dir: &Path, seconds: f64) -> PathBuf {
@@ -54,6 +24,30 @@ fn write_ride(dir: &Path, seconds: f64) -> PathBuf {
         .write(&path)
         .expect("write the ride");
     path
+}
+
+/// Runs `supine replay --qemu --icount MODEL --input RIDE --out OUT` (MODEL: `--preset N`
+/// or `--params F`); returns its stderr and the instructions per sample it printed.
+fn replay_with_icount(model: [&std::ffi::OsStr; 2], ride: &Path, out: &Path) -> (String, f64) {
+    let output = Command::new(supine_binary())
+        .args(["replay", "--qemu", "--icount"])
+        .args(model)
+        .arg("--input")
+        .arg(ride)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .expect("supine runs");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    println!("stdout: {stdout}\nstderr: {stderr}");
+    assert!(output.status.success());
+    let ips: f64 = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("instructions_per_sample: "))
+        .and_then(|n| n.parse().ok())
+        .expect("an instructions_per_sample line");
+    (stderr, ips)
 }
 
 /// Issue 5's budget, 1,200 instructions per sample at 500 Hz for the whole pipeline with
@@ -77,24 +71,7 @@ fn the_pipeline_fits_1200_instructions_per_sample_with_telemetry_at_100_hz() {
     };
     save(&params, &file).expect("parameter file");
     let out = dir.path().join("device.csv");
-    let output = Command::new(supine_binary())
-        .args(["replay", "--qemu", "--icount", "--params"])
-        .arg(&params)
-        .arg("--input")
-        .arg(&ride)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .expect("supine runs");
-    let stdout = String::from_utf8_lossy(&output.stdout);
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    println!("stdout: {stdout}\nstderr: {stderr}");
-    assert!(output.status.success());
-    let ips: f64 = stdout
-        .lines()
-        .find_map(|l| l.strip_prefix("instructions_per_sample: "))
-        .and_then(|n| n.parse().ok())
-        .expect("an instructions_per_sample line");
+    let (_, ips) = replay_with_icount(["--params".as_ref(), params.as_ref()], &ride, &out);
     assert!(
         ips > 500.0 && ips <= 1200.0,
         "{ips} instructions per sample"
@@ -109,29 +86,8 @@ fn supine_replay_writes_telemetry_and_events_and_counts_instructions() {
     let dir = tempfile::tempdir().expect("temp dir");
     let ride = write_ride(dir.path(), 4.0);
     let out = dir.path().join("device.csv");
-    let output = Command::new(supine_binary())
-        .args([
-            "replay",
-            "--qemu",
-            "--preset",
-            "paper-litter",
-            "--icount",
-            "--input",
-        ])
-        .arg(&ride)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .expect("supine runs");
-    let stdout = String::from_utf8_lossy(&output.stdout);
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    println!("stdout: {stdout}\nstderr: {stderr}");
-    assert!(output.status.success());
-    let ips: f64 = stdout
-        .lines()
-        .find_map(|l| l.strip_prefix("instructions_per_sample: "))
-        .and_then(|n| n.parse().ok())
-        .expect("an instructions_per_sample line");
+    let (stderr, ips) =
+        replay_with_icount(["--preset".as_ref(), "paper-litter".as_ref()], &ride, &out);
     assert!(ips > 500.0 && ips < 5000.0, "{ips}");
     assert!(stderr.contains("replayed 2000 samples"), "{stderr}");
     assert!(stderr.contains("frames lost 0, bad 0"), "{stderr}");
@@ -141,27 +97,6 @@ fn supine_replay_writes_telemetry_and_events_and_counts_instructions() {
     assert_eq!(lines.count(), 2000);
     let events = std::fs::read_to_string(dir.path().join("device.events.csv")).expect("events");
     assert!(events.starts_with(supine_host::replay::EVENTS_HEADER));
-}
-
-fn children(pid: u32) -> Vec<u32> {
-    let mut out = Vec::new();
-    if let Ok(tasks) = std::fs::read_dir(format!("/proc/{pid}/task")) {
-        for task in tasks.flatten() {
-            if let Ok(text) = std::fs::read_to_string(task.path().join("children")) {
-                out.extend(
-                    text.split_whitespace()
-                        .filter_map(|p| p.parse::<u32>().ok()),
-                );
-            }
-        }
-    }
-    out
-}
-
-fn is_qemu(pid: u32) -> Option<String> {
-    let cmdline = std::fs::read(format!("/proc/{pid}/cmdline")).ok()?;
-    let text = String::from_utf8_lossy(&cmdline).replace('\0', " ");
-    text.contains("qemu-system-arm").then_some(text)
 }
 
 #[test]
@@ -181,9 +116,9 @@ fn ctrl_c_during_replay_leaves_no_qemu_and_no_socket_folder() {
     // Wait until QEMU runs under it, then a little longer so samples are streaming.
     let start = Instant::now();
     let (qemu_pid, cmdline) = loop {
-        if let Some(found) = children(child.id())
+        if let Some(found) = child_pids(child.id())
             .into_iter()
-            .find_map(|p| is_qemu(p).map(|c| (p, c)))
+            .find_map(|p| qemu_cmdline(p).map(|c| (p, c)))
         {
             break found;
         }
@@ -216,7 +151,7 @@ fn ctrl_c_during_replay_leaves_no_qemu_and_no_socket_folder() {
     assert!(!output.status.success(), "an interrupted replay must fail");
     assert!(stderr.contains("interrupted"), "{stderr}");
     assert!(
-        !Path::new(&format!("/proc/{qemu_pid}")).exists() || is_qemu(qemu_pid).is_none(),
+        !Path::new(&format!("/proc/{qemu_pid}")).exists() || qemu_cmdline(qemu_pid).is_none(),
         "QEMU {qemu_pid} still running"
     );
     assert!(!socket_dir.exists(), "{} left behind", socket_dir.display());
