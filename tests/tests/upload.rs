@@ -541,29 +541,7 @@ fn a_cut_while_the_new_slot_is_written_boots_the_running_slot() {
 
 /// The `supine` binary of this test's target dir, built (or found up to date) first.
 fn supine() -> std::process::Command {
-    let exe = std::env::current_exe().expect("test executable path");
-    // target/<dir>/debug/deps/upload-<hash> -> target/<dir>/debug/supine
-    let profile_dir = exe
-        .parent()
-        .and_then(Path::parent)
-        .expect("deps/ inside the profile dir");
-    let target_dir = profile_dir.parent().expect("target dir");
-    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let status = std::process::Command::new(cargo)
-        .args([
-            "build",
-            "-p",
-            "supine-host",
-            "--bin",
-            "supine",
-            "--target-dir",
-        ])
-        .arg(target_dir)
-        .current_dir(supine_host::firmware::repository_root())
-        .status()
-        .expect("cargo runs");
-    assert!(status.success(), "building supine failed");
-    std::process::Command::new(profile_dir.join("supine"))
+    std::process::Command::new(supine_qemu_tests::supine_binary())
 }
 
 fn run_cli(cmd: &mut std::process::Command) -> (bool, String, String) {
