@@ -52,7 +52,7 @@ fn replay_with_icount(model: [&std::ffi::OsStr; 2], ride: &Path, out: &Path) -> 
 
 /// Issue 5's budget, 1,200 instructions per sample at 500 Hz for the whole pipeline with
 /// its frame encoding, holds with telemetry every 5th sample (100 Hz), the rate a monitor
-/// needs; every sample's frame (the replay default) costs about 340 more (BENCHMARKS.md).
+/// needs; a frame for every sample (the replay default) costs about 300 more (BENCHMARKS.md).
 #[test]
 fn the_pipeline_fits_1200_instructions_per_sample_with_telemetry_at_100_hz() {
     use supine_core::model::{ModelParams, Preset};
