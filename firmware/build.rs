@@ -14,11 +14,8 @@ use std::env;
 use std::fs;
 use std::path::PathBuf;
 
-use supine_core::alerts::{AlertConfig, SensorCheckConfig};
-use supine_core::blob::{DeviceParams, MAX_BLOB_LEN, TelemetryConfig};
-use supine_core::exposure::ExposureConfig;
+use supine_core::blob::{DeviceParams, MAX_BLOB_LEN};
 use supine_core::model::{DEFAULT_SAMPLE_RATE_HZ, ModelParams, Preset, device_realization};
-use supine_core::mounting::Mounting;
 
 /// Identity of the built-in default parameters (not a SHA-256: a fixed, readable name that
 /// the host prints as "built-in").
@@ -108,16 +105,8 @@ fn write_default_blob(out_dir: &std::path::Path) {
         DEFAULT_SAMPLE_RATE_HZ,
     )
     .unwrap_or_else(|err| panic!("the paper-litter preset does not discretize: {err}"));
-    let params = DeviceParams::new(
-        BUILTIN_IDENTITY,
-        realization,
-        ExposureConfig::DEFAULT,
-        AlertConfig::DEFAULT,
-        SensorCheckConfig::DEFAULT,
-        Mounting::LEVEL,
-        TelemetryConfig::EVERY_SAMPLE,
-    )
-    .unwrap_or_else(|err| panic!("the default device parameters are refused: {err}"));
+    let params = DeviceParams::with_defaults(BUILTIN_IDENTITY, realization)
+        .unwrap_or_else(|err| panic!("the default device parameters are refused: {err}"));
     let mut buf = vec![0u8; MAX_BLOB_LEN];
     let len = params
         .encode(&mut buf)

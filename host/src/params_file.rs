@@ -158,6 +158,26 @@ pub fn load(path: &Path) -> Result<ParamFile> {
     ParamFile::from_toml(&text, path)
 }
 
+/// The model parameters of the file at `path`, with the subject's height (m) and mass (kg)
+/// replaced where given, validated.
+pub fn load_for_subject(
+    path: &Path,
+    height_m: Option<f64>,
+    mass_kg: Option<f64>,
+) -> Result<ModelParams> {
+    let mut params = load(path)?.params;
+    if let Some(h) = height_m {
+        params.subject.height_m = h;
+    }
+    if let Some(m) = mass_kg {
+        params.subject.mass_kg = m;
+    }
+    params
+        .validate()
+        .map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    Ok(params)
+}
+
 /// Writes a parameter file, complete or not at all.
 pub fn save(path: &Path, file: &ParamFile) -> Result<()> {
     let text = file.to_toml()?;

@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Result, anyhow};
+use anyhow::Result;
 
 use crate::params_file;
 use crate::recording::Recording;
@@ -31,14 +31,7 @@ pub struct Args {
 
 /// Predicts and writes the CSV.
 pub fn run(args: &Args) -> Result<()> {
-    let mut params = params_file::load(&args.params)?.params;
-    if let Some(h) = args.height_m {
-        params.subject.height_m = h;
-    }
-    if let Some(m) = args.mass_kg {
-        params.subject.mass_kg = m;
-    }
-    params.validate().map_err(|e| anyhow!("{e}"))?;
+    let params = params_file::load_for_subject(&args.params, args.height_m, args.mass_kg)?;
     let recording = Recording::read(&args.input)?;
     let predicted = predict(&params, &recording)?;
     write_prediction(&recording, predicted, &args.out)?;

@@ -36,14 +36,7 @@ pub struct Args {
 
 /// Predicts, compares, prints.
 pub fn run(args: &Args) -> Result<()> {
-    let mut params = params_file::load(&args.params)?.params;
-    if let Some(h) = args.height_m {
-        params.subject.height_m = h;
-    }
-    if let Some(m) = args.mass_kg {
-        params.subject.mass_kg = m;
-    }
-    params.validate().map_err(|e| anyhow!("{e}"))?;
+    let params = params_file::load_for_subject(&args.params, args.height_m, args.mass_kg)?;
     let recording = Recording::read(&args.recording)?;
     let predicted = predict(&params, &recording)?;
     let result = validate(&recording, &predicted);
