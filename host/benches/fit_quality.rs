@@ -119,7 +119,7 @@ fn main() {
         let all_truth = Objective::new(truth_litter, Vec::new(), litter_target);
         let litter_truth_cost = all_truth.cost(&[]).unwrap();
         println!(
-            "| {seed} | {:.4} | {:.4} | {:.3} | {:.4} | {:.4} | {:.4} | {:.3} | {:.3} |",
+            "| {seed} | {:.6} | {:.4} | {:.3} | {:.6} | {:.4} | {:.4} | {:.3} | {:.3} |",
             rigid.solution.cost,
             truth_rigid_cost,
             rigid_s,

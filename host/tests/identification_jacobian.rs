@@ -4,7 +4,7 @@
 use nalgebra::{Complex, DMatrix};
 use supine_core::model::{ModelParams, ParamId, Preset, SystemMatrices, Transmissibility};
 use supine_host::fit::objective::{Objective, Target};
-use supine_host::fit::solver::{Problem, SolverSettings, solve};
+use supine_host::fit::solver::{Problem, SolverSettings, Termination, solve};
 
 /// A target that differs from the paper's model (so residuals are not zero) on a coarse grid.
 fn target() -> Target {
@@ -246,4 +246,70 @@ fn structured_gram_equals_the_dense_normal_matrix() {
     let gram = objective.gram(&jac);
     let scale = dense.amax();
     assert!((dense - gram).amax() < 1e-12 * scale);
+}
+
+#[test]
+fn solver_finds_the_rosenbrock_minimum_with_and_without_geodesic_acceleration() {
+    for geodesic_alpha in [0.0, 0.75, 1.0] {
+        let settings = SolverSettings {
+            geodesic_alpha,
+            ..SolverSettings::default()
+        };
+        let s = solve(
+            &Rosenbrock,
+            &[-1.2, 1.0],
+            &[-10.0, -10.0],
+            &[10.0, 10.0],
+            &settings,
+            &mut |_, _| {},
+        )
+        .unwrap();
+        assert!(
+            (s.x[0] - 1.0).abs() < 1e-6 && (s.x[1] - 1.0).abs() < 1e-6,
+            "alpha {geodesic_alpha}: {:?}",
+            s.x
+        );
+        assert!(s.cost < 1e-12, "alpha {geodesic_alpha}: {}", s.cost);
+        if geodesic_alpha > 0.0 {
+            // One extra residual evaluation per solved step.
+            assert!(s.evaluations > s.iterations, "{s:?}");
+        }
+    }
+}
+
+#[test]
+fn solver_abandons_a_run_that_stagnates_far_above_another_starts_cost() {
+    // Another start reached 1e-3; this run (from cost 12.1) must fall by the whole gap on
+    // every accepted step or stop: Rosenbrock's valley does not allow that.
+    let settings = SolverSettings {
+        best_elsewhere: 1e-3,
+        stagnation_window: 1,
+        stagnation_share: 1.0,
+        ..SolverSettings::default()
+    };
+    let s = solve(
+        &Rosenbrock,
+        &[-1.2, 1.0],
+        &[-10.0, -10.0],
+        &[10.0, 10.0],
+        &settings,
+        &mut |_, _| {},
+    )
+    .unwrap();
+    assert_eq!(s.termination, Termination::Abandoned, "{s:?}");
+    assert!(s.cost > 2e-3);
+    // Below abandon_ratio times the other start's cost nothing is abandoned.
+    let s = solve(
+        &Rosenbrock,
+        &[-1.2, 1.0],
+        &[-10.0, -10.0],
+        &[10.0, 10.0],
+        &SolverSettings {
+            best_elsewhere: 1e3,
+            ..settings
+        },
+        &mut |_, _| {},
+    )
+    .unwrap();
+    assert!(s.cost < 1e-12, "{s:?}");
 }

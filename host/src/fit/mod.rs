@@ -222,7 +222,9 @@ pub struct FitResult {
     pub best: usize,
 }
 
-/// Runs the solver from every start and keeps the lowest cost.
+/// Runs the solver from every start and keeps the lowest cost. The second start (the
+/// paper's values) runs first; each later start may be abandoned when it stagnates far
+/// above the best cost so far (see [`SolverSettings::best_elsewhere`]).
 ///
 /// `progress(start, iteration, cost)` is called after every accepted step.
 pub fn run(
@@ -231,20 +233,32 @@ pub fn run(
     progress: &mut dyn FnMut(usize, usize, f64),
 ) -> Result<FitResult> {
     let mut best: Option<(usize, Solution)> = None;
-    let mut starts = Vec::with_capacity(setup.starts.len());
-    for (index, (label, theta0)) in setup.starts.iter().enumerate() {
+    let mut outcomes: Vec<Option<StartOutcome>> = vec![None; setup.starts.len()];
+    // The paper's values run before the all-ones start: the best cost so far then lets
+    // a start that stagnates far above it stop early (`SolverSettings::best_elsewhere`).
+    // Outcomes are reported in the setup's order.
+    let mut order: Vec<usize> = (0..setup.starts.len()).collect();
+    if order.len() > 1 {
+        order.swap(0, 1);
+    }
+    for index in order {
+        let (label, theta0) = &setup.starts[index];
         let initial_cost = setup.objective.cost(theta0).map_err(|e| anyhow!("{e}"))?;
         let started = std::time::Instant::now();
+        let mut start_settings = settings.solver;
+        if let Some((_, b)) = &best {
+            start_settings.best_elsewhere = start_settings.best_elsewhere.min(b.cost);
+        }
         let solution = solver::solve(
             &setup.objective,
             theta0,
             &setup.lower,
             &setup.upper,
-            &settings.solver,
+            &start_settings,
             &mut |iteration, cost| progress(index, iteration, cost),
         )
         .map_err(|e| anyhow!("start {label}: {e}"))?;
-        starts.push(StartOutcome {
+        outcomes[index] = Some(StartOutcome {
             label: label.clone(),
             initial_cost,
             final_cost: solution.cost,
@@ -257,6 +271,7 @@ pub fn run(
             best = Some((index, solution));
         }
     }
+    let starts: Vec<StartOutcome> = outcomes.into_iter().flatten().collect();
     let Some((best, solution)) = best else {
         bail!("no start to fit from");
     };

@@ -1,22 +1,36 @@
-//! A bounded Levenberg-Marquardt solver for small nonlinear least-squares problems:
-//! minimize 0.5 |r(x)|^2 subject to lower <= x <= upper.
+//! A bounded Levenberg-Marquardt solver with geodesic acceleration for small nonlinear
+//! least-squares problems: minimize 0.5 |r(x)|^2 subject to lower <= x <= upper.
 //!
-//! Each iteration solves (J_F^T J_F + lambda D) d = -J_F^T r over the free variables F,
+//! Each iteration solves (J_F^T J_F + lambda D) v = -J_F^T r over the free variables F,
 //! where a variable is held (not free) when it sits on a bound and the gradient pushes it
 //! outward, or when it sits on a bound and the solved step would leave the box (it then
 //! joins the held set and the step is solved again: the binding set of projected Newton
 //! methods). D = max(diag J^T J) I: Levenberg's damping, scaled so that lambda is
 //! dimensionless; a parameter without effect gets a zero step, not a singular system.
-//! (Marquardt's D = diag J^T J and a Moré-style trust region on |d| were both tried on
-//! the fit's benchmark and found worse minima.) The trial point is projected onto the
-//! box; the step is accepted when the actual reduction is at least 1e-4 of the reduction
-//! the local quadratic model predicts for the projected step, and lambda follows
-//! Nielsen's update (lambda *= max(1/3, 1 - (2 rho - 1)^3) on success, *= nu with nu
-//! doubling on failure).
+//! (Marquardt's D = diag J^T J and a More-style trust region on |d| were both tried on
+//! the fit's benchmark and found worse minima.)
+//!
+//! Geodesic acceleration (Transtrum, Machta and Sethna, Phys. Rev. E 83, 036701 (2011);
+//! Transtrum and Sethna, arXiv:1201.5885 (2012)): the second directional derivative of the
+//! residuals along v, r_vv = (2 / h) ((r(x + h v) - r(x)) / h - J v), one extra residual
+//! evaluation without Jacobian, gives the acceleration a from the same factorized system
+//! with right-hand side -J_F^T r_vv; the step is v + a / 2, and it is refused (lambda
+//! grows as on a failed step) when 2 |a| / |v| exceeds `geodesic_alpha`; it is skipped
+//! while the last accepted step's gain ratio was within `geodesic_skip_band` of 1 and
+//! when lambda is below `geodesic_min_lambda` (Gauss-Newton's endgame). This
+//! follows the curved valleys of sloppy models (the rigid fit's paper start reaches a
+//! lower minimum on the benchmark's seed 3: 18.167 against 18.826).
+//!
+//! The trial point is projected onto the box; the step is accepted when the actual
+//! reduction is at least 1e-4 of the reduction the local quadratic model predicts for the
+//! projected step, and lambda follows Nielsen's update (lambda *= max(lambda_min_factor,
+//! 1 - (2 rho - 1)^3) on success, *= nu with nu doubling on failure).
 //!
 //! Stops (as scipy's `least_squares`) when an accepted step reduces the cost by less than
 //! `ftol` times the cost, when the step is shorter than `xtol (xtol + |x|)`, when the
-//! projected gradient's largest entry is below `gtol`, or after `max_iterations`.
+//! projected gradient's largest entry is below `gtol`, or after `max_iterations`; and, in
+//! a multi-start fit, when the run stagnates far above another start's best cost
+//! (`best_elsewhere`).
 
 use nalgebra::{DMatrix, DVector};
 
@@ -52,6 +66,33 @@ pub struct SolverSettings {
     pub gtol: f64,
     /// Most iterations (accepted or not).
     pub max_iterations: usize,
+    /// Geodesic acceleration (Transtrum and Sethna 2012): the largest accepted ratio
+    /// 2 |a| / |v| of the acceleration's contribution to the velocity; 0 turns it off.
+    pub geodesic_alpha: f64,
+    /// The finite-difference step h (along the velocity) of the second derivative.
+    pub geodesic_h: f64,
+    /// The acceleration is skipped (no extra evaluation) while the last accepted step's
+    /// gain ratio rho is within this of 1: the quadratic model was accurate there, so the
+    /// path is nearly straight (this also keeps Levenberg-Marquardt's fast endgame on
+    /// zero-residual problems).
+    pub geodesic_skip_band: f64,
+    /// The acceleration is skipped when lambda is below this (Gauss-Newton regime: the
+    /// accelerated step's gain ratio stays below 1, which would keep lambda from falling
+    /// and turn the quadratic endgame of a zero-residual problem into a linear one).
+    pub geodesic_min_lambda: f64,
+    /// Smallest factor of Nielsen's lambda update on a successful step.
+    pub lambda_min_factor: f64,
+    /// The lowest cost another start reached (a multi-start fit sets it; infinity, the
+    /// default, never abandons). A run is abandoned when its cost is above
+    /// `abandon_ratio` times this and it stagnates: over its last `stagnation_window`
+    /// accepted steps the cost fell by less than `stagnation_share` of the gap to it.
+    pub best_elsewhere: f64,
+    /// See `best_elsewhere`.
+    pub abandon_ratio: f64,
+    /// See `best_elsewhere`.
+    pub stagnation_window: usize,
+    /// See `best_elsewhere`.
+    pub stagnation_share: f64,
 }
 
 impl Default for SolverSettings {
@@ -61,6 +102,15 @@ impl Default for SolverSettings {
             xtol: 1e-8,
             gtol: 1e-8,
             max_iterations: 1000,
+            geodesic_alpha: 1.0,
+            geodesic_h: 0.3,
+            geodesic_skip_band: 0.1,
+            geodesic_min_lambda: 1e-7,
+            lambda_min_factor: 0.1,
+            best_elsewhere: f64::INFINITY,
+            abandon_ratio: 2.0,
+            stagnation_window: 25,
+            stagnation_share: 0.1,
         }
     }
 }
@@ -78,6 +128,8 @@ pub enum Termination {
     Stalled,
     /// The iteration limit.
     MaxIterations,
+    /// The cost stagnated above `abandon_above`.
+    Abandoned,
 }
 
 impl Termination {
@@ -89,6 +141,7 @@ impl Termination {
             Termination::Gtol => "projected gradient below gtol",
             Termination::Stalled => "no step reduces the cost",
             Termination::MaxIterations => "iteration limit",
+            Termination::Abandoned => "stagnated far above the best start",
         }
     }
 }
@@ -157,6 +210,11 @@ pub fn solve(
         return Err("the cost at the start is not finite".into());
     }
     let mut trial_x = vec![0.0; n];
+    // Residuals at x + h v for the second directional derivative; accepted costs.
+    let mut r_h = vec![0.0; m];
+    let mut history: Vec<f64> = Vec::new();
+    // Gain ratio of the last accepted step (none yet: the acceleration is computed).
+    let mut last_rho = f64::NEG_INFINITY;
     let mut trial_r = vec![0.0; m];
     let mut trial_jac = DMatrix::zeros(m, n);
     let mut lambda = -1.0;
@@ -212,7 +270,38 @@ pub fn solve(
                 let Some(ch) = system.cholesky() else {
                     break None;
                 };
-                let step = ch.solve(&rhs);
+                let mut step = ch.solve(&rhs);
+                if settings.geodesic_alpha > 0.0
+                    && (last_rho - 1.0).abs() >= settings.geodesic_skip_band
+                    && lambda >= settings.geodesic_min_lambda
+                {
+                    let mut velocity = DVector::zeros(n);
+                    for (a, &i) in free.iter().enumerate() {
+                        velocity[i] = step[a];
+                    }
+                    match geodesic_acceleration(
+                        problem,
+                        &x,
+                        &r,
+                        &jac,
+                        &velocity,
+                        settings.geodesic_h,
+                        &mut r_h,
+                    ) {
+                        Some(g_vv) => {
+                            evaluations += 1;
+                            let rhs_acc =
+                                DVector::from_iterator(nf, free.iter().map(|&i| -g_vv[i]));
+                            let acc = ch.solve(&rhs_acc);
+                            if 2.0 * acc.norm() > settings.geodesic_alpha * step.norm() {
+                                // The path bends too much for this step: shorten it.
+                                break None;
+                            }
+                            step += 0.5 * acc;
+                        }
+                        None => evaluations += 1,
+                    }
+                }
                 let leaving: Vec<usize> = free
                     .iter()
                     .enumerate()
@@ -261,11 +350,26 @@ pub fn solve(
                 std::mem::swap(&mut x, &mut trial_x);
                 std::mem::swap(&mut r, &mut trial_r);
                 std::mem::swap(&mut jac, &mut trial_jac);
+                last_rho = rho;
                 let previous = cost;
                 cost = trial_cost;
-                lambda *= (1.0f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3));
+                lambda *= settings
+                    .lambda_min_factor
+                    .max(1.0 - (2.0 * rho - 1.0).powi(3));
                 nu = 2.0;
                 progress(iterations, cost);
+                history.push(cost);
+                let w = settings.stagnation_window;
+                let best = settings.best_elsewhere;
+                if cost > settings.abandon_ratio * best
+                    && w > 0
+                    && history.len() > w
+                    && history[history.len() - 1 - w] - cost
+                        < settings.stagnation_share * (cost - best)
+                {
+                    termination = Termination::Abandoned;
+                    break 'outer;
+                }
                 if actual < settings.ftol * previous {
                     termination = Termination::Ftol;
                     break 'outer;
@@ -289,4 +393,36 @@ pub fn solve(
         evaluations,
         termination,
     })
+}
+
+/// J^T r_vv, where r_vv = (2 / h) ((r(x + h v) - r(x)) / h - J v) is the second
+/// directional derivative of the residuals along the velocity v (zero off the free set):
+/// minus the right-hand side of the geodesic acceleration's system. x + h v is not projected onto
+/// the box (the derivative is the model's, not the box's); None when it cannot be
+/// evaluated (the plain step is then taken).
+fn geodesic_acceleration(
+    problem: &dyn Problem,
+    x: &[f64],
+    r: &[f64],
+    jac: &DMatrix<f64>,
+    velocity: &DVector<f64>,
+    h: f64,
+    r_h: &mut [f64],
+) -> Option<DVector<f64>> {
+    let x_h: Vec<f64> = x
+        .iter()
+        .zip(velocity.iter())
+        .map(|(x, v)| x + h * v)
+        .collect();
+    problem.evaluate(&x_h, r_h, None).ok()?;
+    let jv = jac * velocity;
+    let scale = 2.0 / (h * h);
+    let dev = DVector::from_iterator(
+        r.len(),
+        r_h.iter()
+            .zip(r)
+            .zip(jv.iter())
+            .map(|((rh, r0), jv)| scale * (rh - r0 - h * jv)),
+    );
+    Some(jac.tr_mul(&dev))
 }
