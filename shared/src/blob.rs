@@ -137,18 +137,10 @@ impl DeviceParams {
         if rates.iter().any(|r| *r != fs) {
             return Err(BlobError::SampleRate);
         }
-        self.exposure.validate().map_err(BlobError::from_exposure)?;
-        let alert_numbers = self
-            .alerts
-            .raise_ms_m2_s4
-            .iter()
-            .chain(&self.alerts.clear_ms_m2_s4);
-        if !alert_numbers
-            .chain(&self.alerts.vdv4_m4_s7)
-            .all(|v| v.is_finite())
-        {
+        if !self.config_numbers().all(f32::is_finite) {
             return Err(BlobError::NonFinite);
         }
+        self.exposure.validate().map_err(BlobError::from_exposure)?;
         self.alerts.validate().map_err(|_| BlobError::BadConfig)?;
         self.sensor_checks
             .validate()
@@ -161,6 +153,28 @@ impl DeviceParams {
             return Err(BlobError::BadConfig);
         }
         Ok(())
+    }
+
+    /// Every number of the exposure, alert and sensor-check configurations and the tables
+    /// derived from them: a NaN anywhere is `NonFinite`, whichever stage would trip on it.
+    fn config_numbers(&self) -> impl Iterator<Item = f32> + '_ {
+        let (e, a, c) = (
+            &self.exposure.config,
+            &self.alerts.config,
+            &self.sensor_checks.config,
+        );
+        let axes = e.axes.axes().into_iter().map(|axis| axis.k);
+        let exposure = [e.running_tau_s, e.warmup_s];
+        let alerts = [a.hysteresis, a.raise_dwell_s, a.clear_dwell_s];
+        let checks = [c.full_scale_m_s2, c.stuck_after_s, c.clear_after_s];
+        axes.chain(exposure)
+            .chain(a.running_rms_m_s2)
+            .chain(a.vdv_m_s175)
+            .chain(alerts)
+            .chain(checks)
+            .chain(self.alerts.raise_ms_m2_s4)
+            .chain(self.alerts.clear_ms_m2_s4)
+            .chain(self.alerts.vdv4_m4_s7)
     }
 
     /// Writes header and payload into `buf`; returns the blob's length.

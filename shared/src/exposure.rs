@@ -393,16 +393,25 @@ impl ExposureSettings {
         let fs = self.sample_rate_hz;
         let band = &self.weighting[0].band;
         for (w, axis) in self.weighting.iter().zip(self.config.axes.axes()) {
-            w.validate()?;
-            if w.sample_rate_hz != fs || w.kind != axis.kind || w.band != *band {
-                return Err(ExposureError::Mismatch);
-            }
             if !(axis.k.is_finite() && axis.k > 0.0) {
                 return Err(ExposureError::AxisFactor);
             }
+            w.validate_gain(axis.k)?;
+            if w.sample_rate_hz != fs || w.kind != axis.kind || w.band != *band {
+                return Err(ExposureError::Mismatch);
+            }
         }
-        if !(self.running_gain > 0.0 && self.running_gain < 1.0) {
+        let tau_samples = self.config.running_tau_s * fs;
+        if !(self.running_gain > 0.0
+            && self.running_gain < 1.0
+            && tau_samples.is_finite()
+            && tau_samples >= 2.0)
+        {
             return Err(ExposureError::TimeConstant);
+        }
+        let warmup_s = self.config.warmup_s;
+        if !(warmup_s.is_finite() && (0.0..=MAX_WARMUP_S).contains(&warmup_s)) {
+            return Err(ExposureError::Warmup);
         }
         let period_error = self.sample_period_s * fs - 1.0;
         if period_error.is_nan() || period_error.abs() >= 1e-4 {

@@ -257,6 +257,21 @@ impl AnalogSection {
 }
 
 impl AnalogParams {
+    /// How many frequency-shaping sections (transition, upward step) this weighting has.
+    pub const fn shaping_sections(&self) -> usize {
+        self.transition.is_some() as usize + self.step.is_some() as usize
+    }
+
+    /// Gain at DC of everything after the band-limiting high-pass: `K`, times `(f5/f6)^2`
+    /// when there is an upward step (the transition passes DC unchanged).
+    pub fn dc_gain_after_high_pass(&self) -> f64 {
+        let step = self.step.map_or(1.0, |s| {
+            let r = s.f5_hz / s.f6_hz;
+            r * r
+        });
+        self.gain * step
+    }
+
     /// The sections after the high-pass: low-pass, then transition and upward step when present.
     fn sections(&self) -> ([Option<AnalogSection>; 3], AnalogSection) {
         let w1 = TAU * self.f1_hz;
@@ -313,8 +328,10 @@ pub enum WeightingError {
     Unstable,
     /// The magnitude-matched numerator has no real solution (not seen for 100..=2000 Hz).
     DesignFailed,
-    /// More sections are marked active than the settings hold.
-    TooManySections,
+    /// The number of active shaping sections is not the one this kind has.
+    WrongSectionCount,
+    /// The pass-band gain differs from the kind's gain times the axis factor `k`.
+    GainMismatch,
 }
 
 impl fmt::Display for WeightingError {
@@ -328,12 +345,23 @@ impl fmt::Display for WeightingError {
                 "weighting section is unstable (pole on or outside |z| = 1)"
             }
             WeightingError::DesignFailed => "weighting section design has no real solution",
-            WeightingError::TooManySections => "weighting holds more sections than it can",
+            WeightingError::WrongSectionCount => {
+                "weighting has a different number of shaping sections than its kind"
+            }
+            WeightingError::GainMismatch => {
+                "weighting gain differs from its kind's gain times the axis factor k"
+            }
         })
     }
 }
 
 impl core::error::Error for WeightingError {}
+
+/// Both roots of `z^2 + a1 z + a2` strictly inside the unit circle (the stability
+/// triangle `|a2| < 1`, `|a1| < 1 + a2`); false for NaN.
+fn stable_quadratic([a1, a2]: [f64; 2]) -> bool {
+    a2.abs() < 1.0 && a1.abs() < 1.0 + a2
+}
 
 /// The 0.4 Hz band-limiting high-pass as a topology-preserving (trapezoidal) SVF, f32.
 ///
@@ -388,12 +416,22 @@ impl HighPassSvf {
         Complex64::ONE / Complex64::new(1.0 / d, 0.0).add(t1).add(t2)
     }
 
+    /// The recurrences' own denominator `z^2 + a1 z + a2`, from the stored values (which need
+    /// not be consistent with one another in a stored blob): multiplying the transfer
+    /// function above by `d (z-1)^2` gives `a1 = 2 d g c + 2 d g^2 - 2`, `a2 = 1 - 2 d g k`.
+    fn denominator(&self) -> [f64; 2] {
+        let (g, c, d) = (self.g as f64, self.k_plus_g as f64, self.d as f64);
+        let k = c - g;
+        [2.0 * d * g * (c + g) - 2.0, 1.0 - 2.0 * d * g * k]
+    }
+
     fn validate(&self) -> Result<(), WeightingError> {
         if !(self.g.is_finite() && self.k_plus_g.is_finite() && self.d.is_finite()) {
             return Err(WeightingError::NonFiniteCoefficient);
         }
-        // Stable iff g > 0 and k = k_plus_g - g > 0 (analog prototype poles in the left half plane).
-        if !(self.g > 0.0 && self.k_plus_g > self.g && self.d > 0.0) {
+        // The poles of what actually runs, not of the analog prototype: a blob whose g, k + g
+        // and d each look plausible can still combine into a pole outside |z| = 1.
+        if !stable_quadratic(self.denominator()) {
             return Err(WeightingError::Unstable);
         }
         Ok(())
@@ -444,12 +482,16 @@ impl Biquad {
         if !self.b.iter().chain(self.a.iter()).all(|c| c.is_finite()) {
             return Err(WeightingError::NonFiniteCoefficient);
         }
-        // Stability triangle of 1 + a1 z^-1 + a2 z^-2: |a2| < 1 and |a1| < 1 + a2.
-        let (a1, a2) = (self.a[0], self.a[1]);
-        if !(a2.abs() < 1.0 && a1.abs() < 1.0 + a2) {
+        if !stable_quadratic([self.a[0] as f64, self.a[1] as f64]) {
             return Err(WeightingError::Unstable);
         }
         Ok(())
+    }
+
+    /// `H(1)`: the section's gain at DC, from its coefficients, with no trigonometry.
+    fn dc_gain(&self) -> f64 {
+        let num: f64 = self.b.iter().map(|&b| b as f64).sum();
+        num / (1.0 + self.a[0] as f64 + self.a[1] as f64)
     }
 
     /// Magnitude-matched design of one analog section at `fs_hz` (see the module doc).
@@ -604,7 +646,7 @@ impl WeightingSettings {
             shaping,
             n_shaping: n as u8,
         };
-        settings.validate()?;
+        settings.validate_gain(1.0)?;
         Ok(settings)
     }
 
@@ -615,12 +657,30 @@ impl WeightingSettings {
         {
             return Err(WeightingError::SampleRateOutOfRange);
         }
-        if !(1..=MAX_SHAPING).contains(&(self.n_shaping as usize)) {
-            return Err(WeightingError::TooManySections);
+        if self.n_shaping as usize != self.kind.params().shaping_sections() {
+            return Err(WeightingError::WrongSectionCount);
         }
         self.band.high_pass.validate()?;
         self.band.low_pass.validate()?;
         self.shaping.iter().try_for_each(Biquad::validate)
+    }
+
+    /// [`validate`](Self::validate), then checks that the filter's gain is its kind's times
+    /// `k` (the axis factor [`scaled`](Self::scaled) folded in). Compared at DC past the
+    /// high-pass, where the magnitude-matched sections equal the analog exactly and `H(1)`
+    /// needs no trigonometry on the device; 1 % covers the f32 coefficients' rounding.
+    pub fn validate_gain(&self, k: f32) -> Result<(), WeightingError> {
+        self.validate()?;
+        let n = self.n_shaping as usize;
+        let stored = self.shaping[..n]
+            .iter()
+            .fold(self.band.low_pass.dc_gain(), |g, q| g * q.dc_gain());
+        let expected = self.kind.params().dc_gain_after_high_pass() * k as f64;
+        let ratio = stored / expected;
+        if !(ratio.is_finite() && (ratio - 1.0).abs() <= 0.01) {
+            return Err(WeightingError::GainMismatch);
+        }
+        Ok(())
     }
 
     /// One acceleration sample (m/s^2, at `sample_rate_hz`) in, the weighted sample (m/s^2) out.

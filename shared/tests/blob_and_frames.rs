@@ -86,18 +86,38 @@ fn a_sealed_blob_with_a_nan_or_an_unstable_pole_is_refused_behind_the_crc() {
     bad_rate.alerts.sample_rate_hz = 1000.0;
     let mut bad_decimation = example;
     bad_decimation.telemetry.decimation = 0;
-    for (params, expected) in [
-        (nan, BlobError::NonFinite),
-        (unstable, BlobError::Unstable),
-        (bad_rate, BlobError::SampleRate),
-        (bad_decimation, BlobError::BadConfig),
+    // The band-limiting high-pass with plausible positive values that recur unstably.
+    let mut unstable_weighting = example;
+    for w in unstable_weighting.exposure.weighting.iter_mut() {
+        w.band.high_pass.d = 400.0;
+    }
+    let mut nan_config = example;
+    nan_config.alerts.config.hysteresis = f32::NAN;
+    let mut nan_factor = example;
+    nan_factor.exposure.config.axes.z.k = f32::NAN;
+    let mut nan_tau = example;
+    nan_tau.exposure.config.running_tau_s = f32::NAN;
+    // A weighting whose gain is not its axis factor's (k = 1.4 on x, filters for k = 1).
+    let mut wrong_gain = example;
+    wrong_gain.exposure.config.axes.x.k *= 1.5;
+    for (name, params, expected) in [
+        ("nan", nan, BlobError::NonFinite),
+        ("unstable model", unstable, BlobError::Unstable),
+        ("bad rate", bad_rate, BlobError::SampleRate),
+        ("bad decimation", bad_decimation, BlobError::BadConfig),
+        ("unstable weighting", unstable_weighting, BlobError::Unstable),
+        ("nan hysteresis", nan_config, BlobError::NonFinite),
+        ("nan axis factor", nan_factor, BlobError::NonFinite),
+        ("nan time constant", nan_tau, BlobError::NonFinite),
+        ("wrong weighting gain", wrong_gain, BlobError::BadConfig),
     ] {
         // Encode bypasses validation on purpose: the validator must catch it on load.
         let mut buf = vec![0u8; MAX_BLOB_LEN];
         let len = params.encode(&mut buf).unwrap();
         assert_eq!(
             DeviceParams::decode(&reseal(buf[..len].to_vec())).unwrap_err(),
-            expected
+            expected,
+            "{name}"
         );
     }
     let mut trailing = BLOB.to_vec();

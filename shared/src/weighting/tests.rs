@@ -298,9 +298,55 @@ fn stored_settings_with_an_unstable_or_non_finite_section_are_refused() {
     let mut bad = good;
     bad.band.high_pass.k_plus_g = 0.0;
     assert_eq!(bad.validate(), Err(WeightingError::Unstable));
+    for n in [0, 2, 3] {
+        let mut bad = good;
+        bad.n_shaping = n;
+        assert_eq!(bad.validate(), Err(WeightingError::WrongSectionCount), "{n}");
+    }
+}
+
+/// Impulse response energy of the stored high-pass after `n` samples, relative to the first.
+fn high_pass_energy_growth(svf: &HighPassSvf, n: usize) -> f64 {
+    let mut st = [0.0f32; 2];
+    let first = svf.step(&mut st, 1.0) as f64;
+    let mut last = 0.0f64;
+    for _ in 0..n {
+        last = svf.step(&mut st, 0.0) as f64;
+    }
+    (last * last) / (first * first)
+}
+
+#[test]
+fn a_high_pass_whose_plausible_coefficients_combine_into_an_unstable_recursion_is_refused() {
+    let good = WeightingSettings::new(WeightingKind::Wk, 500.0).unwrap();
+    assert!(high_pass_energy_growth(&good.band.high_pass, 20_000) < 1e-6);
+    // Each value positive and finite, k = k_plus_g - g > 0 (what an analog check accepts),
+    // but d no longer 1 / (1 + g k + g^2): a2 = 1 - 2 d g k falls below -1.
     let mut bad = good;
-    bad.n_shaping = 3;
-    assert_eq!(bad.validate(), Err(WeightingError::TooManySections));
+    bad.band.high_pass.d = 400.0;
+    assert!(high_pass_energy_growth(&bad.band.high_pass, 50) > 1e6);
+    assert_eq!(bad.validate(), Err(WeightingError::Unstable));
+}
+
+#[test]
+fn the_gain_check_accepts_the_axis_factor_folded_in_and_nothing_else() {
+    for kind in [WeightingKind::Wk, WeightingKind::Wd, WeightingKind::Wj] {
+        for fs in [100.0, 500.0, 2000.0] {
+            let w = WeightingSettings::new(kind, fs).unwrap();
+            assert_eq!(w.validate_gain(1.0), Ok(()), "{kind} at {fs} Hz");
+            assert_eq!(w.scaled(1.4).validate_gain(1.4), Ok(()), "{kind} at {fs} Hz");
+            assert_eq!(
+                w.scaled(1.4).validate_gain(1.0),
+                Err(WeightingError::GainMismatch),
+                "{kind} at {fs} Hz"
+            );
+            assert_eq!(
+                w.scaled(1.02).validate_gain(1.0),
+                Err(WeightingError::GainMismatch),
+                "{kind} at {fs} Hz"
+            );
+        }
+    }
 }
 
 /// Runs a sine of amplitude 1 m/s^2 through the f32 filter and returns the output rms
