@@ -105,7 +105,11 @@ fn a_sealed_blob_with_a_nan_or_an_unstable_pole_is_refused_behind_the_crc() {
         ("unstable model", unstable, BlobError::Unstable),
         ("bad rate", bad_rate, BlobError::SampleRate),
         ("bad decimation", bad_decimation, BlobError::BadConfig),
-        ("unstable weighting", unstable_weighting, BlobError::Unstable),
+        (
+            "unstable weighting",
+            unstable_weighting,
+            BlobError::Unstable,
+        ),
         ("nan hysteresis", nan_config, BlobError::NonFinite),
         ("nan axis factor", nan_factor, BlobError::NonFinite),
         ("nan time constant", nan_tau, BlobError::NonFinite),
