@@ -331,6 +331,7 @@ impl<U: ByteLink, F: ParamFlash> App<U, F> {
                 self.process_buffered();
                 let mut status = self.status;
                 status.stack_used_bytes = stack::high_water_bytes() as u32;
+                status.params_source = self.boot.source;
                 self.send(DeviceToHost::Status(status));
             }
             HostToDevice::ParamBegin(begin) => {

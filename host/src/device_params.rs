@@ -37,9 +37,10 @@ pub fn build(file: &ParamFile, sample_rate_hz: f64) -> Result<DeviceParams> {
         device.alerts,
         device.sensor_checks,
         device.mounting,
-        TelemetryConfig {
-            decimation: device.telemetry_decimation,
-        },
+        device
+            .telemetry_decimation
+            .map(|decimation| TelemetryConfig { decimation })
+            .unwrap_or_else(|| TelemetryConfig::default_for(sample_rate_hz as f32)),
     )
     .map_err(|e| anyhow!("device configuration: {e}"))
 }

@@ -46,17 +46,14 @@ pub struct DeviceSection {
     /// Sensor-to-litter rotation and gravity, from `supine calibrate` or level by default.
     #[serde(default = "level_mounting")]
     pub mounting: Mounting,
-    /// Telemetry every this many samples.
-    #[serde(default = "every_sample")]
-    pub telemetry_decimation: u16,
+    /// Telemetry every this many samples; absent, about 100 Hz at the blob's sample rate
+    /// ([`TelemetryConfig::default_for`](supine_core::blob::TelemetryConfig::default_for)).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub telemetry_decimation: Option<u16>,
 }
 
 fn level_mounting() -> Mounting {
     Mounting::LEVEL
-}
-
-fn every_sample() -> u16 {
-    1
 }
 
 impl Default for DeviceSection {
@@ -66,7 +63,7 @@ impl Default for DeviceSection {
             alerts: AlertConfig::DEFAULT,
             sensor_checks: SensorCheckConfig::DEFAULT,
             mounting: Mounting::LEVEL,
-            telemetry_decimation: 1,
+            telemetry_decimation: None,
         }
     }
 }

@@ -21,6 +21,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, anyhow, bail};
 use supine_core::alerts::AlertEvent;
+use supine_core::blob::TelemetryConfig;
 use supine_core::protocol::{
     DeviceToHost, Greeting, HostToDevice, MAX_SAMPLES_PER_FRAME, SampleBatch, Status, Telemetry,
 };
@@ -251,6 +252,7 @@ pub struct ReplayResult {
 pub fn replay(
     file: &ParamFile,
     recording: &Recording,
+    telemetry: TelemetryConfig,
     icount: bool,
     stop: &Arc<AtomicBool>,
 ) -> Result<ReplayResult> {
@@ -258,7 +260,10 @@ pub fn replay(
         bail!("{} has fewer than two samples", recording.path.display());
     }
     let sample_rate_hz = recording.sample_rate_hz();
-    let params = device_params::build(file, sample_rate_hz)?;
+    // The telemetry rate is the replay's (a transport setting), not the file's: the
+    // identity stays the parameter file's, as `supine flash` would report it.
+    let mut params = device_params::build(file, sample_rate_hz)?;
+    params.telemetry = telemetry;
     let blob = device_params::encode(&params)?;
     let samples: Vec<[f32; 3]> = (0..recording.len())
         .map(|k| recording.platform_m_s2.each_ref().map(|c| c[k] as f32))

@@ -48,8 +48,30 @@ pub struct TelemetryConfig {
 }
 
 impl TelemetryConfig {
-    /// Every sample: what replay and the tests want.
+    /// Every sample: what replay and the tests want, to compare each sample with the host.
     pub const EVERY_SAMPLE: Self = Self { decimation: 1 };
+
+    /// The telemetry rate of a device in service, Hz. Exposure values move with a 1 s time
+    /// constant, so 100 Hz is plenty for a display or a log; it fits a 115,200-baud UART
+    /// (a frame per sample at 500 Hz would not), and it keeps the pipeline within its
+    /// instruction budget (BENCHMARKS.md).
+    pub const DEFAULT_RATE_HZ: f32 = 100.0;
+
+    /// Telemetry at the nearest whole fraction of `sample_rate_hz` to `rate_hz`, at most
+    /// every sample.
+    pub fn at_rate(sample_rate_hz: f32, rate_hz: f32) -> Self {
+        // `as` saturates and maps NaN to 0; `max(1)` keeps at least every sample.
+        let decimation = (sample_rate_hz / rate_hz + 0.5) as u16;
+        Self {
+            decimation: decimation.max(1),
+        }
+    }
+
+    /// [`DEFAULT_RATE_HZ`](Self::DEFAULT_RATE_HZ) at `sample_rate_hz`: every 5th sample at
+    /// 500 Hz, every sample at 100 Hz, every 20th at 2 kHz.
+    pub fn default_for(sample_rate_hz: f32) -> Self {
+        Self::at_rate(sample_rate_hz, Self::DEFAULT_RATE_HZ)
+    }
 }
 
 /// Everything the device runs, for one sample rate.
@@ -99,7 +121,7 @@ impl DeviceParams {
 
     /// A realization with the documented default configuration: weighting and axes
     /// ([`ExposureConfig::DEFAULT`]), alert thresholds, sensor checks, a level mounting,
-    /// and telemetry for every sample.
+    /// and telemetry at [`TelemetryConfig::DEFAULT_RATE_HZ`].
     pub fn with_defaults(
         identity: ParamsIdentity,
         realization: DeviceRealization,
@@ -111,7 +133,7 @@ impl DeviceParams {
             AlertConfig::DEFAULT,
             SensorCheckConfig::DEFAULT,
             Mounting::LEVEL,
-            TelemetryConfig::EVERY_SAMPLE,
+            TelemetryConfig::default_for(realization.sample_rate_hz),
         )
     }
 

@@ -18,7 +18,7 @@ use crate::blob::BlobError;
 pub use framing::{FrameAccumulator, FrameError, FrameEvent, encode_frame};
 
 /// Version of this module's encodings; the host refuses a device that speaks another.
-pub const PROTOCOL_VERSION: u16 = 1;
+pub const PROTOCOL_VERSION: u16 = 2;
 /// Largest encoded frame, including COBS overhead and the terminating zero, bytes.
 pub const MAX_FRAME_LEN: usize = 256;
 /// Samples carried by one [`HostToDevice::Samples`] frame at most.
@@ -141,6 +141,15 @@ pub enum ParamsSource {
     },
 }
 
+impl Default for ParamsSource {
+    /// Nothing loaded yet: what a blank flash gives.
+    fn default() -> Self {
+        ParamsSource::BuiltInDefault {
+            reason: BlobError::Empty,
+        }
+    }
+}
+
 /// How the device last stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum ResetCause {
@@ -206,6 +215,9 @@ pub struct Status {
     pub busy_ticks: u64,
     /// Deepest stack use since boot (painted stack), bytes.
     pub stack_used_bytes: u32,
+    /// Where the running parameters came from now (after uploads too), and, for the
+    /// built-in default, why the flash blob was refused.
+    pub params_source: ParamsSource,
 }
 
 /// A step of a parameter upload that the device accepted.

@@ -45,7 +45,7 @@ fn test_params_file() -> ParamFile {
             },
             sensor_checks: SensorCheckConfig::DEFAULT,
             mounting: Mounting::LEVEL,
-            telemetry_decimation: 1,
+            telemetry_decimation: Some(1),
         }),
     }
 }
@@ -230,7 +230,7 @@ fn builtin_params() -> DeviceParams {
         AlertConfig::DEFAULT,
         SensorCheckConfig::DEFAULT,
         Mounting::LEVEL,
-        TelemetryConfig::EVERY_SAMPLE,
+        TelemetryConfig::default_for(500.0),
     )
     .expect("defaults valid")
 }
@@ -353,10 +353,13 @@ fn garbage_sensor_faults_and_uploads_are_counted_and_the_device_keeps_running() 
             bad_frames: bad,
             samples_processed: (n - 10) as u32,
             samples_dropped: 10,
-            telemetry_sent: (n - 10) as u32,
+            telemetry_sent: host.telemetry.len() as u32,
             uploads_rejected: 1,
             busy_ticks: status.busy_ticks,
             stack_used_bytes: status.stack_used_bytes,
+            params_source: ParamsSource::BuiltInDefault {
+                reason: BlobError::Empty
+            },
         }
     );
     assert_eq!(
@@ -383,16 +386,32 @@ fn garbage_sensor_faults_and_uploads_are_counted_and_the_device_keeps_running() 
             .any(|e| matches!(*e, AlertEvent::Fault { fault: f, active: true, .. } if f == fault));
         assert!(raised, "{fault} not raised");
     }
-    // It kept running: the last sample's telemetry arrived and is finite.
+    // It kept running: telemetry (every 5th sample, the built-in default's 100 Hz) up to
+    // the last samples arrived and is finite.
     let last = s.telemetry.last().expect("telemetry");
-    assert_eq!(last.sample_index, n as u32 - 1);
+    let decimation = u32::from(params.telemetry.decimation);
+    assert_eq!(decimation, 5);
+    assert!(
+        last.sample_index >= n as u32 - decimation,
+        "{}",
+        last.sample_index
+    );
     assert!(last.head_acc_m_s2.iter().all(|v| v.is_finite()));
 }
 
+/// Where the device says its parameters came from, in its greeting and in its status.
 fn source_for(blob: Option<Vec<u8>>) -> ParamsSource {
+    // The session ends with a GetStatus, which the device answers.
     let s = run(blob, false, Vec::new(), 60);
     assert_eq!(s.greetings.len(), 1);
-    s.greetings[0].params_source
+    let source = s.greetings[0].params_source;
+    assert_eq!(s.statuses.len(), 1);
+    assert_eq!(
+        s.status().params_source,
+        source,
+        "status and greeting differ"
+    );
+    source
 }
 
 #[test]

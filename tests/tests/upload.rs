@@ -55,7 +55,7 @@ fn file(preset: Preset) -> ParamFile {
             },
             sensor_checks: SensorCheckConfig::DEFAULT,
             mounting: Mounting::LEVEL,
-            telemetry_decimation: 1,
+            telemetry_decimation: Some(1),
         }),
     }
 }
@@ -702,7 +702,7 @@ fn power_cuts_during_the_device_own_flash_update_boot_the_last_committed_slot() 
     // C: the litter preset with telemetry every other sample, another identity.
     let mut file_c = file(Preset::PaperLitter);
     if let Some(d) = file_c.device.as_mut() {
-        d.telemetry_decimation = 2;
+        d.telemetry_decimation = Some(2);
     }
     let (c, blob_c) = flash::device_blob(&file_c, FS_HZ).expect("blob builds");
     assert_ne!(c.identity, a.identity);

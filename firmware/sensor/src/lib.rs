@@ -5,8 +5,9 @@
 //! - [`Lis3dhSource`]: the real litter-frame accelerometer, an ST LIS3DH on I2C through
 //!   the `lis3dh` driver crate (embedded-hal 1.0). Generic over `embedded_hal::i2c::I2c`,
 //!   so it runs on any board's HAL and is tested here with embedded-hal-mock transactions.
-//! - Replay (in the firmware image): samples the host streams over the UART as protocol
-//!   frames, already in litter axes with gravity removed (a recording's platform columns).
+//! - [`ReplaySource`]: samples the host streams over the UART as protocol frames (what
+//!   runs in QEMU), each batch with the index of its first sample, already in litter axes
+//!   with gravity removed (a recording's platform columns).
 //!
 //! Gravity, consistently with the model: the accelerometer measures specific force
 //! (at rest +g along the litter's up axis); the model's input is the kinematic
@@ -15,7 +16,10 @@
 //! stay raw until this edge ([`AccelCounts`]).
 #![cfg_attr(not(test), no_std)]
 
+use core::convert::Infallible;
+
 use embedded_hal::i2c::I2c;
+use heapless::Deque;
 use lis3dh::accelerometer::RawAccelerometer;
 use lis3dh::{Configuration, DataRate, Lis3dh, Lis3dhI2C, Mode, Range, SlaveAddr};
 use supine_core::mounting::{Mounting, STANDARD_GRAVITY_M_S2};
@@ -106,10 +110,57 @@ where
         if !self.sensor.is_data_ready().map_err(map_error)? {
             return Ok(None);
         }
-        let sensor_m_s2 = self.read_sensor_m_s2()?;
+        // A sample exists from here on: if reading it fails, its index is used up, so the
+        // next good sample arrives after a gap and the pipeline raises the gap fault.
         let index = self.next_index;
         self.next_index = index.wrapping_add(1);
+        let sensor_m_s2 = self.read_sensor_m_s2()?;
         Ok(Some((index, self.mounting.to_litter_m_s2(sensor_m_s2))))
+    }
+}
+
+impl<I2C> Lis3dhSource<I2C> {
+    /// Uses `mounting` from the next sample on (after new parameters were uploaded).
+    pub fn set_mounting(&mut self, mounting: Mounting) {
+        self.mounting = mounting;
+    }
+}
+
+/// Replay: the samples of `Samples` frames from the host, queued in arrival order with
+/// their indices. Holding a whole frame's worth (`N`) is enough, since the firmware drains
+/// the queue after each frame.
+#[derive(Debug, Default)]
+pub struct ReplaySource<const N: usize> {
+    queue: Deque<(u32, [f32; 3]), N>,
+}
+
+impl<const N: usize> ReplaySource<N> {
+    /// An empty queue.
+    pub const fn new() -> Self {
+        Self {
+            queue: Deque::new(),
+        }
+    }
+
+    /// Queues `accel_m_s2` (litter axes, gravity removed, m/s^2) as the samples numbered
+    /// from `first_sample_index`; returns how many did not fit and were dropped.
+    pub fn push_batch(&mut self, first_sample_index: u32, accel_m_s2: &[[f32; 3]]) -> usize {
+        let mut dropped = 0;
+        for (offset, &sample) in (0u32..).zip(accel_m_s2) {
+            let index = first_sample_index.wrapping_add(offset);
+            if self.queue.push_back((index, sample)).is_err() {
+                dropped += 1;
+            }
+        }
+        dropped
+    }
+}
+
+impl<const N: usize> SampleSource for ReplaySource<N> {
+    type Error = Infallible;
+
+    fn poll(&mut self) -> Result<Option<(u32, [f32; 3])>, Self::Error> {
+        Ok(self.queue.pop_front())
     }
 }
 

@@ -94,3 +94,75 @@ fn one_count_is_2_mg_over_16() {
     assert!((a[0] - 0.002 * 9.806_65).abs() < 1e-7);
     assert!((a[1] + 0.002 * 9.806_65).abs() < 1e-7);
 }
+
+#[test]
+fn a_failed_read_uses_up_its_index_so_the_pipeline_sees_a_gap() {
+    let mut expected = init();
+    expected.push(Transaction::write_read(ADDR, vec![0x27], vec![0x08])); // ready
+    expected.push(
+        Transaction::write_read(ADDR, vec![0x28 | 0x80], vec![0; 6])
+            .with_error(embedded_hal::i2c::ErrorKind::Other),
+    );
+    expected.extend(sample([0, 0, 500 * 16]));
+    let mut i2c = Mock::new(&expected);
+    let mut source = Lis3dhSource::new(i2c.clone(), Mounting::LEVEL).expect("sensor found");
+    assert!(matches!(source.poll(), Err(SensorError::Bus(_))));
+    let (index, _) = source.poll().expect("bus ok").expect("a sample");
+    assert_eq!(index, 1, "the lost sample's index 0 is not reused");
+    i2c.done();
+}
+
+#[test]
+fn new_mounting_applies_from_the_next_sample() {
+    let mut expected = init();
+    expected.extend(sample([1000 * 16, 0, 0]));
+    expected.extend(sample([1000 * 16, 0, 0]));
+    let mut i2c = Mock::new(&expected);
+    let no_gravity = Mounting {
+        gravity_m_s2: 0.0,
+        ..Mounting::LEVEL
+    };
+    let mut source = Lis3dhSource::new(i2c.clone(), no_gravity).expect("sensor found");
+    let (_, level) = source.poll().expect("bus").expect("sample");
+    // Turned a quarter about z: sensor x is litter y.
+    source.set_mounting(Mounting {
+        sensor_to_litter: [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
+        gravity_m_s2: 0.0,
+    });
+    let (_, turned) = source.poll().expect("bus").expect("sample");
+    let two_g = 2.0 * STANDARD_GRAVITY_M_S2 as f32;
+    assert!(
+        (level[0] - two_g).abs() < 1e-4 && level[1].abs() < 1e-6,
+        "{level:?}"
+    );
+    assert!(
+        (turned[1] - two_g).abs() < 1e-4 && turned[0].abs() < 1e-6,
+        "{turned:?}"
+    );
+    i2c.done();
+}
+
+#[test]
+fn replay_yields_each_batch_in_order_with_its_indices_and_counts_what_does_not_fit() {
+    let mut replay = ReplaySource::<4>::new();
+    assert_eq!(replay.poll(), Ok(None));
+    assert_eq!(
+        replay.push_batch(10, &[[1.0, 0.0, 0.0], [2.0, 0.0, 0.0]]),
+        0
+    );
+    assert_eq!(replay.poll(), Ok(Some((10, [1.0, 0.0, 0.0]))));
+    assert_eq!(
+        replay.push_batch(u32::MAX, &[[3.0; 3], [4.0; 3], [5.0; 3], [6.0; 3]]),
+        1
+    );
+    let rest: Vec<_> = core::iter::from_fn(|| replay.poll().unwrap()).collect();
+    assert_eq!(
+        rest,
+        vec![
+            (11, [2.0, 0.0, 0.0]),
+            (u32::MAX, [3.0; 3]),
+            (0, [4.0; 3]),
+            (1, [5.0; 3]),
+        ]
+    );
+}

@@ -294,16 +294,28 @@ fn time_stages(counter: &InstructionCounter, out: &mut Console) -> Result<(), Fa
         (u64::from(ticks) * u64::from(INSTRUCTIONS_PER_TICK) + samples as u64 / 2) / samples as u64
     };
 
-    // Exposure and alerts, on the model's typical outputs (the test vector scaled down).
+    // Exposure and alerts, on the model's typical outputs (the test vector scaled down),
+    // timed after the warm-up: before it the alert stage skips its comparisons.
     let mut exposure_state = ExposureState::new();
     let mut alert_state = AlertState::new();
     let mut samples = [ExposureSample::default(); BLOCK_LEN];
+    let warmup_rounds = device.exposure.warmup_samples / BLOCK_LEN as u32 + 1;
     let mut ticks = 0u32;
-    for round in 0..rounds {
+    let mut timed_valid = true;
+    for round in 0..warmup_rounds + rounds {
         for slot in inputs.iter_mut() {
             *slot = vector.next().unwrap_or_default().map(|v| 0.5 * v);
         }
         let first = round * BLOCK_LEN as u32;
+        if round < warmup_rounds {
+            device
+                .exposure
+                .step_block(&mut exposure_state, &inputs, first, &mut samples);
+            device
+                .alerts
+                .step_block(&mut alert_state, &samples, first, |_| {});
+            continue;
+        }
         let (t, ()) = counter.ticks(|| {
             device.exposure.step_block(
                 black_box(&mut exposure_state),
@@ -318,19 +330,29 @@ fn time_stages(counter: &InstructionCounter, out: &mut Console) -> Result<(), Fa
                 });
         });
         ticks = ticks.wrapping_add(t);
+        timed_valid &= samples.iter().all(|s| s.valid);
     }
     writeln!(
         out,
         "exposure_stage_instructions_per_sample: {}",
         per_sample(ticks, STAGE_SAMPLES)
     )?;
+    writeln!(
+        out,
+        "exposure_stage_timed_after_warmup: {}",
+        u8::from(timed_valid)
+    )?;
 
     let mut state = PipelineState::new();
     let mut ticks = 0u32;
-    for round in 0..rounds {
+    for round in 0..warmup_rounds + rounds {
         for (k, (slot, index)) in inputs.iter_mut().zip(indices.iter_mut()).enumerate() {
             *slot = vector.next().unwrap_or_default();
             *index = round * BLOCK_LEN as u32 + k as u32;
+        }
+        if round < warmup_rounds {
+            device.process(&mut state, &indices, &inputs, |_| {});
+            continue;
         }
         let (t, ()) = counter.ticks(|| {
             device.process(black_box(&mut state), &indices, black_box(&inputs), |o| {

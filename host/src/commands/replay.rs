@@ -5,6 +5,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Result, bail};
+use supine_core::blob::TelemetryConfig;
 
 use crate::exposure_report::read_input;
 use crate::params_file::ModelSource;
@@ -28,6 +29,11 @@ pub struct Args {
     /// Count instructions (QEMU -icount) and print `instructions_per_sample: N`.
     #[arg(long)]
     pub icount: bool,
+    /// Telemetry every this many samples. Replay compares samples, so it overrides the
+    /// file's `telemetry_decimation` (which `supine flash` uses) with this.
+    #[arg(long, value_name = "N", default_value_t = 1,
+          value_parser = clap::value_parser!(u16).range(1..))]
+    pub telemetry_decimation: u16,
 }
 
 /// Replays and writes the CSVs; Ctrl-C stops QEMU and removes its socket folder.
@@ -43,7 +49,10 @@ pub fn run(args: &Args) -> Result<()> {
     // A second handler cannot be installed in one process (e.g. a library caller): then
     // Ctrl-C keeps its default, which also ends QEMU through the guard's process group.
     let _ = ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed));
-    let result = replay(&file, &recording, args.icount, &stop)?;
+    let telemetry = TelemetryConfig {
+        decimation: args.telemetry_decimation,
+    };
+    let result = replay(&file, &recording, telemetry, args.icount, &stop)?;
     let s = &result.session;
     write_telemetry(&args.out, &s.telemetry, result.sample_rate_hz)?;
     let events = events_path(&args.out);

@@ -36,7 +36,7 @@ use crate::monitor::device_line;
 use crate::monitor::log::MonitorLog;
 use crate::monitor::session::{Ending, QemuRun, run_qemu};
 use crate::monitor::view::View;
-use crate::params_file::{self, ParamFile};
+use crate::params_file::{self, DeviceSection, ParamFile};
 use crate::reference;
 use crate::replay::{write_events, write_telemetry};
 use ride::{DemoProfile, DemoRide};
@@ -269,7 +269,14 @@ pub fn run(
     ride.ride.platform_m_s2 = recording.platform_m_s2;
     let samples = ride.samples();
 
-    let file = ParamFile::preset(PRESET);
+    // Telemetry for every sample (a device in service sends 100 Hz): the report overlays
+    // the host's computation on each of the device's samples, and `supine replay` of
+    // ride.csv with these parameters reproduces device.csv.
+    let mut file = ParamFile::preset(PRESET);
+    file.device = Some(DeviceSection {
+        telemetry_decimation: Some(1),
+        ..DeviceSection::default()
+    });
     let params = device_params::build(&file, SAMPLE_RATE_HZ)?;
     let identity = identity_hex(&params.identity);
     steps.start(
