@@ -21,13 +21,16 @@
 //! raised by the pipeline's sensor checks as an index-gap fault).
 
 use supine_core::blob::DeviceParams;
+use supine_core::mounting::Mounting;
 use supine_core::pipeline::{BLOCK_LEN, PipelineOutput, PipelineState};
 use supine_core::protocol::{
     DeviceFrame, DeviceToHost, FrameAccumulator, FrameEvent, Greeting, HostToDevice, MAX_FRAME_LEN,
-    PANIC_MESSAGE_LEN, PROTOCOL_VERSION, ParamAck, ParamsSource, ResetCause, SampleBatch, Status,
-    Telemetry, UploadError, encode_frame,
+    MAX_SAMPLES_PER_FRAME, PANIC_MESSAGE_LEN, PROTOCOL_VERSION, ParamAck, ParamsSource, ResetCause,
+    SampleBatch, Status, Telemetry, UploadError, encode_frame,
 };
 use supine_core::upload::{KEY_LEN, ParamFlash, Upload, last_counter};
+
+use supine_sensor::{ReplaySource, SampleSource};
 
 use crate::cycles::InstructionCounter;
 use crate::stack;
@@ -216,6 +219,7 @@ pub struct App<U: ByteLink, F: ParamFlash = NoUpdates> {
     buffered: usize,
     next_index: Option<u32>,
     last_byte: u32,
+    replay: ReplaySource<MAX_SAMPLES_PER_FRAME>,
 }
 
 impl<U: ByteLink> App<U> {
@@ -265,7 +269,14 @@ impl<U: ByteLink, F: ParamFlash> App<U, F> {
             buffered: 0,
             next_index: None,
             last_byte: 0,
+            replay: ReplaySource::new(),
         }
+    }
+
+    /// The running parameters' mounting calibration (it changes with an upload), for a
+    /// sample source that converts sensor readings itself.
+    pub fn mounting(&self) -> Mounting {
+        self.boot.params.mounting
     }
 
     /// Greets, then serves the host forever (replay: samples arrive over the link).
@@ -396,9 +407,15 @@ impl<U: ByteLink, F: ParamFlash> App<U, F> {
         }
     }
 
+    /// Replay: the batch goes through the same [`SampleSource`] interface as the board's
+    /// accelerometer, drained at once.
     fn on_samples(&mut self, batch: &SampleBatch) {
-        for (offset, &sample) in (0u32..).zip(batch.accel_m_s2.iter()) {
-            self.accept_sample(batch.first_sample_index.wrapping_add(offset), sample);
+        let dropped = self
+            .replay
+            .push_batch(batch.first_sample_index, &batch.accel_m_s2);
+        self.status.samples_dropped = self.status.samples_dropped.saturating_add(dropped as u32);
+        while let Ok(Some((index, sample))) = self.replay.poll() {
+            self.accept_sample(index, sample);
         }
     }
 

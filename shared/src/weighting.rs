@@ -488,10 +488,12 @@ impl Biquad {
         Ok(())
     }
 
-    /// `H(1)`: the section's gain at DC, from its coefficients, with no trigonometry.
-    fn dc_gain(&self) -> f64 {
-        let num: f64 = self.b.iter().map(|&b| b as f64).sum();
-        num / (1.0 + self.a[0] as f64 + self.a[1] as f64)
+    /// `H(1)`: the section's gain at DC, from its coefficients, with no trigonometry; in
+    /// f32 (hardware on the device), where `1 + a1 + a2` is exact for poles near `z = 1`
+    /// (Sterbenz), so a low corner at a high rate costs no precision.
+    fn dc_gain(&self) -> f32 {
+        let [b0, b1, b2] = self.b;
+        ((b0 + b2) + b1) / ((1.0 + self.a[0]) + self.a[1])
     }
 
     /// Magnitude-matched design of one analog section at `fs_hz` (see the module doc).
@@ -675,7 +677,7 @@ impl WeightingSettings {
         let stored = self.shaping[..n]
             .iter()
             .fold(self.band.low_pass.dc_gain(), |g, q| g * q.dc_gain());
-        let expected = self.kind.params().dc_gain_after_high_pass() * k as f64;
+        let expected = self.kind.params().dc_gain_after_high_pass() as f32 * k;
         let ratio = stored / expected;
         if !(ratio.is_finite() && (ratio - 1.0).abs() <= 0.01) {
             return Err(WeightingError::GainMismatch);
