@@ -47,6 +47,8 @@ pub enum Command {
     Replay(commands::replay::Args),
     /// Follow a device live (serial port, or the firmware in QEMU fed a ride); log to CSV.
     Monitor(commands::monitor::Args),
+    /// Print the `[device.mounting]` calibration for an accelerometer reading at rest.
+    Calibrate(commands::calibrate::Args),
     /// Put parameters on a device: QEMU region image, signed upload over serial, probe-rs.
     Flash(commands::flash::Args),
     /// The whole product on this machine: ride, firmware in QEMU, monitor, check, HTML report.
@@ -81,6 +83,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Ride(args) => commands::ride::run(&args),
         Command::Replay(args) => commands::replay::run(&args),
         Command::Monitor(args) => commands::monitor::run(&args),
+        Command::Calibrate(args) => commands::calibrate::run(&args),
         Command::Flash(args) => commands::flash::run(&args),
         Command::Demo(args) => commands::demo::run(&args),
     }

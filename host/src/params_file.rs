@@ -43,7 +43,8 @@ pub struct DeviceSection {
     /// Sensor full scale, stuck time, fault clear time.
     #[serde(default)]
     pub sensor_checks: SensorCheckConfig,
-    /// Sensor-to-litter rotation and gravity, from `supine calibrate` or level by default.
+    /// Sensor-to-litter rotation and gravity (`supine calibrate` prints this table), level
+    /// by default.
     #[serde(default = "level_mounting")]
     pub mounting: Mounting,
     /// Telemetry every this many samples; absent, about 100 Hz at the blob's sample rate

@@ -36,8 +36,10 @@ use crate::recording::Recording;
 /// Instructions per SysTick tick under `-icount shift=0` on mps2 (25 MHz SysTick).
 pub const INSTRUCTIONS_PER_TICK: f64 = 40.0;
 
-/// Header of the telemetry CSV.
-pub const TELEMETRY_HEADER: &str = "sample,time_s,head_x_m_s2,head_y_m_s2,head_z_m_s2,running_rms_x_m_s2,running_rms_y_m_s2,running_rms_z_m_s2,running_rms_vector_m_s2,vdv_m_s175,alert_level,fault_flags,valid";
+/// Header of the telemetry CSV. The first five columns are named as issue 5 and the
+/// recording format name them (`head_x`: predicted head acceleration, m/s^2, litter axes);
+/// the rest carry their units.
+pub const TELEMETRY_HEADER: &str = "sample,time_s,head_x,head_y,head_z,running_rms_x_m_s2,running_rms_y_m_s2,running_rms_z_m_s2,running_rms_vector_m_s2,vdv_m_s175,alert_level,fault_flags,valid";
 /// Header of the alert events CSV.
 pub const EVENTS_HEADER: &str = "sample,time_s,kind,name,raised";
 

@@ -40,7 +40,13 @@ fn the_product_image_fits_64_kib_of_flash_and_16_kib_of_static_ram() {
     let (flash, ram) = footprint(&image);
     println!("supine-firmware: flash {flash} B, static RAM {ram} B");
     // Something must be there: a parse that finds nothing would pass any budget.
-    assert!(flash > 16 * 1024 && ram > 0, "flash {flash} B, static RAM {ram} B");
+    assert!(
+        flash > 16 * 1024 && ram > 0,
+        "flash {flash} B, static RAM {ram} B"
+    );
     assert!(flash <= FLASH_BUDGET_BYTES, "flash {flash} B over 64 KiB");
-    assert!(ram <= STATIC_RAM_BUDGET_BYTES, "static RAM {ram} B over 16 KiB");
+    assert!(
+        ram <= STATIC_RAM_BUDGET_BYTES,
+        "static RAM {ram} B over 16 KiB"
+    );
 }

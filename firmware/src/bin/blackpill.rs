@@ -12,7 +12,7 @@
 
 use cortex_m_rt::entry;
 use defmt_rtt as _;
-use stm32f4xx_hal::i2c::{I2c, Mode as I2cMode};
+use stm32f4xx_hal::i2c::{DutyCycle, I2c, Mode as I2cMode};
 use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::rcc::Config;
@@ -54,6 +54,10 @@ fn main() -> ! {
         // Only reachable if something took the peripherals before main.
         cortex_m::peripheral::SCB::sys_reset()
     };
+    // Why the last run ended, before the clock setup takes RCC: the watchdog's flag, then
+    // cleared so a later power-on reads as one.
+    let watchdog_reset = dp.RCC.csr().read().wdgrstf().bit_is_set();
+    dp.RCC.csr().modify(|_, w| w.rmvf().set_bit());
     let mut watchdog = IndependentWatchdog::new(dp.IWDG);
     watchdog.start(250.millis());
 
@@ -93,7 +97,7 @@ fn main() -> ! {
     let i2c = I2c::new(
         dp.I2C1,
         (gpiob.pb8, gpiob.pb9),
-        I2cMode::standard(400.kHz()),
+        I2cMode::fast(400.kHz(), DutyCycle::Ratio2to1),
         &mut rcc,
     );
     let mut sensor = match Lis3dhSource::new(i2c, mounting) {
@@ -109,8 +113,12 @@ fn main() -> ! {
         build: "+blackpill",
         params,
         source,
+        // A panic resets through software after recording its message; the watchdog
+        // flag alone means the loop hung.
         reset_cause: if last_panic.is_some() {
             ResetCause::Panic
+        } else if watchdog_reset {
+            ResetCause::Watchdog
         } else {
             ResetCause::PowerOn
         },
@@ -123,6 +131,8 @@ fn main() -> ! {
     loop {
         app.poll();
         if let Some(source) = sensor.as_mut() {
+            // An upload may have brought another mounting calibration.
+            source.set_mounting(app.mounting());
             match source.poll() {
                 Ok(Some((index, accel_m_s2))) => app.push_sample(index, accel_m_s2),
                 Ok(None) => {}

@@ -1,5 +1,6 @@
 //! One module per `supine` subcommand.
 
+pub mod calibrate;
 pub mod demo;
 pub mod exposure;
 pub mod fit;
