@@ -56,8 +56,9 @@ fn the_rigid_fit_recovers_every_determined_parameter_from_exact_data_within_2_pe
     let paper = ModelParams::preset(Preset::PaperRigid);
     setup.starts = vec![("paper".into(), setup.objective.theta(&paper))];
     let result = fit::run(&setup, &settings, &mut |_, _, _| {}).unwrap();
+    // Exact data: zero residual, up to where the default gtol (1e-6, model.md) stops.
     assert!(
-        result.solution.cost < 1e-12,
+        result.solution.cost < 1e-10,
         "cost {}",
         result.solution.cost
     );
@@ -113,8 +114,9 @@ fn the_litter_fit_recovers_the_contacts_with_the_joints_fixed() {
     let setup = fit::litter_setup(exact_target(&truth), truth.subject, &rigid, &settings).unwrap();
     assert_eq!(setup.objective.free.len(), 18);
     let result = fit::run(&setup, &settings, &mut |_, _, _| {}).unwrap();
+    // Exact data: zero residual, up to where the default gtol (1e-6, model.md) stops.
     assert!(
-        result.solution.cost < 1e-12,
+        result.solution.cost < 1e-10,
         "cost {}",
         result.solution.cost
     );

@@ -8,7 +8,7 @@ use crate::commands::transmissibility::estimate;
 use crate::dataset::{Case, Dataset};
 use crate::fit::objective::Target;
 use crate::fit::report;
-use crate::fit::solver::SolverSettings;
+use crate::fit::solver::{DEFAULT_TOLERANCE, SolverSettings};
 use crate::fit::{self, Determination, FitSettings};
 use crate::params_file::{self, ParamFile};
 use crate::spectral::DEFAULT_RESOLUTION_HZ;
@@ -35,12 +35,15 @@ pub struct Args {
     /// Number of starts (the paper's start, the paper's values, then random ones).
     #[arg(long, default_value_t = 4)]
     pub starts: usize,
-    /// Stop when an accepted step lowers the cost by less than this fraction.
-    #[arg(long, default_value_t = 1e-8)]
+    /// Stop when an accepted step lowers the cost by less than this fraction (model.md: 1e-6).
+    #[arg(long, default_value_t = DEFAULT_TOLERANCE)]
     pub ftol: f64,
-    /// Stop when a step in ln p is shorter than this (relative).
-    #[arg(long, default_value_t = 1e-8)]
+    /// Stop when a step in ln p is shorter than this (relative; model.md: 1e-6).
+    #[arg(long, default_value_t = DEFAULT_TOLERANCE)]
     pub xtol: f64,
+    /// Stop when the projected gradient's largest entry (in ln p) is below this (model.md: 1e-6).
+    #[arg(long, default_value_t = DEFAULT_TOLERANCE)]
+    pub gtol: f64,
     /// Most solver iterations per start.
     #[arg(long, default_value_t = 1000)]
     pub max_iterations: usize,
@@ -58,6 +61,15 @@ pub struct Args {
 /// Fits and writes the parameter file (and the report).
 pub fn run(args: &Args) -> Result<()> {
     let started = Instant::now();
+    for (flag, value) in [
+        ("--ftol", args.ftol),
+        ("--xtol", args.xtol),
+        ("--gtol", args.gtol),
+    ] {
+        if !(value.is_finite() && value >= 0.0) {
+            bail!("{flag}: expected a finite number >= 0, found {value}");
+        }
+    }
     let dataset = Dataset::load(&args.dataset)?;
     let joints = match (args.case, &args.joints) {
         (Case::Litter, Some(path)) => Some(params_file::load(path)?),
@@ -83,6 +95,7 @@ pub fn run(args: &Args) -> Result<()> {
         solver: SolverSettings {
             ftol: args.ftol,
             xtol: args.xtol,
+            gtol: args.gtol,
             max_iterations: args.max_iterations,
             ..SolverSettings::default()
         },
