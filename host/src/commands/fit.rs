@@ -1,6 +1,7 @@
 //! `supine fit`: identifies the model's parameters from a dataset (see `fit` for the
 //! method) and writes the parameter file that `--params` reads everywhere.
 
+use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -10,6 +11,7 @@ use crate::fit::objective::Target;
 use crate::fit::report;
 use crate::fit::solver::{DEFAULT_TOLERANCE, SolverSettings};
 use crate::fit::{self, Determination, FitSettings};
+use crate::output::write_all_atomically;
 use crate::params_file::{self, ParamFile};
 use crate::spectral::DEFAULT_RESOLUTION_HZ;
 use anyhow::{Result, bail};
@@ -56,6 +58,23 @@ pub struct Args {
     /// A folder for the SVG plots and the summary table.
     #[arg(long)]
     pub report: Option<PathBuf>,
+}
+
+/// A bar over every start's iterations on stderr; hidden when stderr is not a terminal
+/// (a log or a pipe gets the summary only).
+fn progress_bar(starts: usize, max_iterations: usize) -> indicatif::ProgressBar {
+    if !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new((starts * max_iterations) as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "fit [{bar:30}] {elapsed_precise} {msg} (at most {len} iterations)",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+        .progress_chars("=> "),
+    );
+    bar
 }
 
 /// Fits and writes the parameter file (and the report).
@@ -109,21 +128,26 @@ pub fn run(args: &Args) -> Result<()> {
         Some(rigid) => fit::litter_setup(target, subject, &rigid.params, &settings)?,
         None => fit::rigid_setup(target, subject, &settings)?,
     };
-    let bar = indicatif::ProgressBar::new_spinner();
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{spinner} fit {elapsed} {msg}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
-    );
     let total = setup.starts.len();
+    let bar = progress_bar(total, settings.solver.max_iterations);
     let solver_started = Instant::now();
-    let result = fit::run(&setup, &settings, &mut |start, iteration, cost| {
+    // Length: every start's iteration limit. A start that stops early jumps to its end.
+    let per_start = settings.solver.max_iterations as u64;
+    let (mut current, mut finished) = (None, 0u64);
+    let fitted = fit::run(&setup, &settings, &mut |start, iteration, cost| {
+        if current != Some(start) {
+            finished += u64::from(current.is_some());
+            current = Some(start);
+        }
+        bar.set_position(finished * per_start + iteration as u64);
         bar.set_message(format!(
-            "start {}/{total}: iteration {iteration}, cost {cost:.6}",
-            start + 1
+            "start {}/{total} ({}), iteration {iteration}, cost {cost:.6}",
+            finished + 1,
+            setup.starts[start].0
         ));
-        bar.tick();
-    })?;
+    });
     bar.finish_and_clear();
+    let result = fitted?;
     let solver_s = solver_started.elapsed().as_secs_f64();
     let ident = fit::identifiability(&setup, &result);
     let errors = fit::component_errors(
@@ -179,14 +203,16 @@ pub fn run(args: &Args) -> Result<()> {
         .map(|p| p.id.to_string().into())
         .collect();
     table.insert("at_bound".into(), at_bound.into());
-    params_file::save(
-        &args.out,
-        &ParamFile {
-            params: result.params,
-            fit: Some(table),
-            device: None,
-        },
-    )?;
+    // Everything is computed before anything is written: the report and the parameter
+    // file are written together, the parameter file last, or not at all.
+    let params_text = ParamFile {
+        params: result.params,
+        fit: Some(table),
+        device: None,
+    }
+    .to_toml()?;
+    let mut outputs = Vec::new();
+    let mut created_report_dir = None;
     if let Some(dir) = &args.report {
         let model_h = setup
             .objective
@@ -203,7 +229,20 @@ pub fn run(args: &Args) -> Result<()> {
             &est.geomean,
             &model_h,
         )?;
-        report::write(dir, &summary, &svg)?;
+        if !dir.is_dir() {
+            std::fs::create_dir_all(dir)
+                .map_err(|e| anyhow::anyhow!("{}: --report: cannot create: {e}", dir.display()))?;
+            created_report_dir = Some(dir);
+        }
+        outputs.extend(report::files(dir, &summary, &svg));
+    }
+    outputs.push((args.out.clone(), params_text.into_bytes()));
+    if let Err(e) = write_all_atomically(&outputs) {
+        if let Some(dir) = created_report_dir {
+            // Only removes the folder if nothing landed in it.
+            let _ = std::fs::remove_dir(dir);
+        }
+        return Err(e);
     }
     eprintln!("{summary}");
     let unknown: Vec<String> = ident
