@@ -68,11 +68,9 @@ fn progress_bar(starts: usize, max_iterations: usize) -> indicatif::ProgressBar 
     }
     let bar = indicatif::ProgressBar::new((starts * max_iterations) as u64);
     bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "fit [{bar:30}] {elapsed_precise} {msg} (at most {len} iterations)",
-        )
-        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-        .progress_chars("=> "),
+        indicatif::ProgressStyle::with_template("fit [{bar:25}] {elapsed} {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
     );
     bar
 }
@@ -141,9 +139,8 @@ pub fn run(args: &Args) -> Result<()> {
         }
         bar.set_position(finished * per_start + iteration as u64);
         bar.set_message(format!(
-            "start {}/{total} ({}), iteration {iteration}, cost {cost:.6}",
-            finished + 1,
-            setup.starts[start].0
+            "start {}/{total}, iteration {iteration}, cost {cost:.6}",
+            finished + 1
         ));
     });
     bar.finish_and_clear();
