@@ -9,7 +9,8 @@
 //! litter = "s1_litter.csv"
 //! ```
 //!
-//! Errors name `dataset.toml`'s line (or the recording's file, line and column) in one line.
+//! Errors are one line: `dataset.toml:LINE:COLUMN: field NAME: expected ...` (a recording's
+//! errors name its file, line and column).
 
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -21,6 +22,7 @@ use supine_core::model::Subject;
 
 use crate::output::write_atomically;
 use crate::recording::Recording;
+use crate::text_position::line_column;
 
 /// The dataset description's file name inside the dataset folder.
 pub const DATASET_FILE: &str = "dataset.toml";
@@ -60,6 +62,8 @@ pub struct SubjectEntry {
     pub litter: Option<PathBuf>,
     /// The line of `dataset.toml` where this subject's table starts (1-based).
     pub line: usize,
+    /// The column of that line where the table starts (1-based).
+    pub column: usize,
 }
 
 impl SubjectEntry {
@@ -91,8 +95,8 @@ struct DatasetRepr {
 #[serde(deny_unknown_fields)]
 struct SubjectRepr {
     id: toml::Spanned<String>,
-    height_m: f64,
-    mass_kg: f64,
+    height_m: toml::Spanned<f64>,
+    mass_kg: toml::Spanned<f64>,
     rigid: Option<String>,
     litter: Option<String>,
 }
@@ -122,59 +126,61 @@ impl Dataset {
     /// Parses the text of `dataset.toml` of the dataset in `dir`.
     pub fn parse(text: &str, dir: &Path) -> Result<Self> {
         let path = dir.join(DATASET_FILE);
-        let repr: DatasetRepr = toml::from_str(text).map_err(|e| {
-            let line = e.span().map_or(1, |s| line_of(text, s.start));
+        let at = |offset: usize, field: &str, message: &str| -> anyhow::Error {
+            let (line, column) = line_column(text, offset);
             anyhow!(
-                "{}: line {line}: {}",
-                path.display(),
-                e.message().trim().replace('\n', " ")
+                "{}:{line}:{column}: field {field}: {message}",
+                path.display()
             )
+        };
+        let repr: DatasetRepr = toml::from_str(text).map_err(|e| {
+            let offset = e.span().map_or(0, |s| s.start);
+            let message = e.message().trim().replace('\n', " ");
+            at(offset, &toml_error_field(text, offset, &message), &message)
         })?;
         let mut subjects: Vec<SubjectEntry> = Vec::with_capacity(repr.subject.len());
         for spanned in repr.subject {
-            let line = line_of(text, spanned.span().start);
+            let (line, column) = line_column(text, spanned.span().start);
             let s = spanned.into_inner();
-            let id_line = line_of(text, s.id.span().start);
+            let id_offset = s.id.span().start;
             let id = s.id.into_inner();
-            let at =
-                |field: &str| format!("{}: line {line}, subject {id}, {field}", path.display());
             if id.trim().is_empty() {
-                bail!(
-                    "{}: line {id_line}, id: expected a non-empty subject id",
-                    path.display()
-                );
+                return Err(at(id_offset, "id", "expected a non-empty subject id"));
             }
             if let Some(first) = subjects.iter().find(|e| e.id == id) {
-                bail!(
-                    "{}: line {id_line}, id: expected unique subject ids, found \"{id}\" again (its first table starts on line {})",
-                    path.display(),
-                    first.line
-                );
+                return Err(at(
+                    id_offset,
+                    "id",
+                    &format!(
+                        "expected unique subject ids, found \"{id}\" again (its first table starts on line {})",
+                        first.line
+                    ),
+                ));
             }
-            for (field, value) in [("height_m", s.height_m), ("mass_kg", s.mass_kg)] {
-                if !(value.is_finite() && value > 0.0) {
-                    bail!(
-                        "{}: expected a positive finite number, found {value}",
-                        at(field)
-                    );
+            for (field, value) in [("height_m", &s.height_m), ("mass_kg", &s.mass_kg)] {
+                let v = *value.get_ref();
+                if !(v.is_finite() && v > 0.0) {
+                    return Err(at(
+                        value.span().start,
+                        &format!("{field} (subject {id})"),
+                        &format!("expected a positive finite number, found {v}"),
+                    ));
                 }
             }
             subjects.push(SubjectEntry {
                 id,
                 subject: Subject {
-                    height_m: s.height_m,
-                    mass_kg: s.mass_kg,
+                    height_m: s.height_m.into_inner(),
+                    mass_kg: s.mass_kg.into_inner(),
                 },
                 rigid: s.rigid.map(|r| dir.join(r)),
                 litter: s.litter.map(|r| dir.join(r)),
                 line,
+                column,
             });
         }
         if subjects.is_empty() {
-            bail!(
-                "{}: expected at least one [[subject]] table",
-                path.display()
-            );
+            return Err(at(0, "subject", "expected at least one [[subject]] table"));
         }
         Ok(Self {
             dir: dir.to_path_buf(),
@@ -222,9 +228,11 @@ impl Dataset {
         for entry in &chosen {
             if entry.recording(case).is_none() {
                 bail!(
-                    "{}: line {}, subject {}: expected a `{}` recording for --case {}, found none",
+                    "{}:{}:{}: field {} (subject {}): expected a `{}` recording for --case {}, found none",
                     path.display(),
                     entry.line,
+                    entry.column,
+                    case.name(),
                     entry.id,
                     case.name(),
                     case.name()
@@ -292,6 +300,21 @@ fn toml_string(s: &str) -> String {
     toml::Value::String(s.to_string()).to_string()
 }
 
-fn line_of(text: &str, offset: usize) -> usize {
-    text[..offset.min(text.len())].matches('\n').count() + 1
+/// The field a TOML error is about: the one a serde message names in backquotes (missing or
+/// unknown field), else the key of the line the error points into, else the table header.
+fn toml_error_field(text: &str, offset: usize, message: &str) -> String {
+    if let Some(name) = message.split('`').nth(1).filter(|n| !n.is_empty()) {
+        return name.to_string();
+    }
+    let (line, _) = line_column(text, offset);
+    let line_text = text.lines().nth(line - 1).unwrap_or("").trim();
+    if let Some((key, _)) = line_text.split_once('=') {
+        return key.trim().to_string();
+    }
+    let header = line_text.trim_matches(|c| c == '[' || c == ']').trim();
+    if header.is_empty() {
+        "(none)".to_string()
+    } else {
+        header.to_string()
+    }
 }

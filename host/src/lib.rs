@@ -28,5 +28,6 @@ pub mod resample;
 pub mod ride;
 pub mod spectral;
 pub mod synth;
+pub mod text_position;
 pub mod upload_client;
 pub mod validate;

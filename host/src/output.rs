@@ -2,7 +2,7 @@
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Result, anyhow};
 
@@ -11,6 +11,44 @@ pub fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<File>) -> Result<()>,
 ) -> Result<()> {
+    let tmp = stage(path, write)?;
+    std::fs::rename(&tmp, path).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        anyhow!("{}: cannot write: {e}", path.display())
+    })
+}
+
+/// Writes several files as one output: every file is first staged beside its target, and
+/// only when all are staged are they renamed into place, in the given order. A failure
+/// while staging leaves no file at all; put the file whose presence means "complete" last
+/// (a rename that fails then leaves it unwritten).
+pub fn write_all_atomically(files: &[(PathBuf, Vec<u8>)]) -> Result<()> {
+    let mut staged: Vec<(PathBuf, &Path)> = Vec::with_capacity(files.len());
+    let discard = |staged: &[(PathBuf, &Path)]| {
+        for (tmp, _) in staged {
+            let _ = std::fs::remove_file(tmp);
+        }
+    };
+    for (path, bytes) in files {
+        match stage(path, |w| Ok(w.write_all(bytes)?)) {
+            Ok(tmp) => staged.push((tmp, path)),
+            Err(e) => {
+                discard(&staged);
+                return Err(e);
+            }
+        }
+    }
+    for (k, (tmp, path)) in staged.iter().enumerate() {
+        if let Err(e) = std::fs::rename(tmp, path) {
+            discard(&staged[k..]);
+            return Err(anyhow!("{}: cannot write: {e}", path.display()));
+        }
+    }
+    Ok(())
+}
+
+/// Writes the temporary file beside `path` and returns its name; removes it on failure.
+fn stage(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> Result<()>) -> Result<PathBuf> {
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -26,11 +64,13 @@ pub fn write_atomically(
         let mut w = BufWriter::new(file);
         write(&mut w)?;
         w.flush()
-            .map_err(|e| anyhow!("{}: cannot write: {e}", path.display()))?;
-        std::fs::rename(&tmp, path).map_err(|e| anyhow!("{}: cannot write: {e}", path.display()))
+            .map_err(|e| anyhow!("{}: cannot write: {e}", path.display()))
     })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
+    match result {
+        Ok(()) => Ok(tmp),
+        Err(e) => {
+            let _ = std::fs::remove_file(&tmp);
+            Err(e)
+        }
     }
-    result
 }

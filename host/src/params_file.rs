@@ -17,6 +17,7 @@ use supine_core::model::{ModelParams, ParamError, Preset, Subject};
 use supine_core::mounting::Mounting;
 
 use crate::output::write_atomically;
+use crate::text_position::line_column;
 
 /// A parameter set and where it came from.
 #[derive(Clone, Debug, PartialEq)]
@@ -180,13 +181,6 @@ pub fn load_for_subject(
 pub fn save(path: &Path, file: &ParamFile) -> Result<()> {
     let text = file.to_toml()?;
     write_atomically(path, |w| Ok(w.write_all(text.as_bytes())?))
-}
-
-fn line_column(text: &str, offset: usize) -> (usize, usize) {
-    let before = &text[..offset.min(text.len())];
-    let line = before.matches('\n').count() + 1;
-    let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
-    (line, column)
 }
 
 /// Names the line of the offending key: the table header, then the key under it.

@@ -22,6 +22,11 @@ use supine_core::model::Transmissibility;
 
 /// The fewest Welch segments an estimate accepts.
 pub const MIN_SEGMENTS: usize = 4;
+/// The largest condition number (largest over smallest eigenvalue) of the 3 x 3 input
+/// matrix S_xx at which H1 is still computed: beyond it an input axis is dead or two axes
+/// carry the same signal (an input amplitude ratio of 1e4, 80 dB), and S_xx^-1 S_xy
+/// would be dominated by rounding instead of the data.
+pub const MAX_INPUT_CONDITION: f64 = 1e8;
 /// The default frequency resolution, Hz (the issue asks for at most 0.1 Hz).
 pub const DEFAULT_RESOLUTION_HZ: f64 = 0.1;
 
@@ -58,6 +63,22 @@ pub enum SpectralError {
     /// Channels of different lengths.
     #[error("expected channels of equal length")]
     Lengths,
+    /// S_xx is singular or ill-conditioned at some bins: H1 cannot separate the inputs.
+    #[error(
+        "the inputs' cross-spectral matrix Sxx is singular or ill-conditioned (condition number {condition:.1e}, limit {MAX_INPUT_CONDITION:.0e}) at {bins} of {of} bins in {from_hz:.3}-{to_hz:.3} Hz: an input axis is dead or two axes carry the same signal"
+    )]
+    IllConditioned {
+        /// The lowest bad bin's frequency, Hz.
+        from_hz: f64,
+        /// The highest bad bin's frequency, Hz.
+        to_hz: f64,
+        /// How many bins are bad.
+        bins: usize,
+        /// How many bins were estimated.
+        of: usize,
+        /// The worst condition number (infinite when singular).
+        condition: f64,
+    },
     /// Invalid settings (zero length, overlap not below the segment length).
     #[error("invalid Welch settings: segment length {segment_len}, overlap {overlap}")]
     Settings {
@@ -302,12 +323,19 @@ pub fn h1(
         coherence: Vec::with_capacity(nb),
         segments,
     };
+    check_conditioning(&sxx, |b| settings.bin_hz(bins.start + b, sample_rate_hz))?;
     for (b, k) in bins.enumerate() {
         // The common scale factor cancels in H and in the coherence.
-        let ht = sxx[b]
-            .lu()
-            .solve(&sxy[b])
-            .unwrap_or_else(|| SMatrix::from_element(Complex::new(f64::NAN, f64::NAN)));
+        let Some(ht) = sxx[b].lu().solve(&sxy[b]) else {
+            let f = settings.bin_hz(k, sample_rate_hz);
+            return Err(SpectralError::IllConditioned {
+                from_hz: f,
+                to_hz: f,
+                bins: 1,
+                of: nb,
+                condition: f64::INFINITY,
+            });
+        };
         let mut coherence = [0.0; 9];
         for (j, c) in coherence.iter_mut().enumerate() {
             let mut num = 0.0;
@@ -325,4 +353,39 @@ pub fn h1(
         estimate.coherence.push(coherence);
     }
     Ok(estimate)
+}
+
+/// The condition number of a Hermitian positive semi-definite S_xx: largest over smallest
+/// eigenvalue (infinite when singular, NaN-free).
+pub fn input_condition(sxx: &Matrix3<Complex<f64>>) -> f64 {
+    let eigen = sxx.symmetric_eigenvalues();
+    let max = eigen.iter().copied().fold(0.0, f64::max);
+    let min = eigen.iter().copied().fold(f64::INFINITY, f64::min);
+    if min > 0.0 && max.is_finite() && !eigen.iter().any(|v| v.is_nan()) {
+        max / min
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// Fails when S_xx is worse conditioned than [`MAX_INPUT_CONDITION`] at any bin, naming
+/// the band of the bad bins.
+fn check_conditioning(
+    sxx: &[Matrix3<Complex<f64>>],
+    bin_hz: impl Fn(usize) -> f64,
+) -> Result<(), SpectralError> {
+    let conditions: Vec<f64> = sxx.iter().map(input_condition).collect();
+    let bad: Vec<usize> = (0..conditions.len())
+        .filter(|&b| conditions[b] > MAX_INPUT_CONDITION)
+        .collect();
+    match (bad.first(), bad.last()) {
+        (Some(&first), Some(&last)) => Err(SpectralError::IllConditioned {
+            from_hz: bin_hz(first),
+            to_hz: bin_hz(last),
+            bins: bad.len(),
+            of: sxx.len(),
+            condition: bad.iter().map(|&b| conditions[b]).fold(0.0, f64::max),
+        }),
+        _ => Ok(()),
+    }
 }

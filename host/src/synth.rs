@@ -292,6 +292,7 @@ pub fn write_dataset(
             rigid: Some(rigid),
             litter: Some(litter),
             line: 0,
+            column: 0,
         });
     }
     Dataset {

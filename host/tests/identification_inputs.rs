@@ -222,9 +222,10 @@ fn a_subject_without_the_requested_case_is_named() {
     let text = std::fs::read_to_string(&toml_path).unwrap();
     std::fs::write(&toml_path, text.replace("rigid = \"s2_rigid.csv\"\n", "")).unwrap();
     let e = transmissibility_error(&ds, &[]);
-    assert!(e.contains("dataset.toml: line"), "{e}");
     assert!(
-        e.contains("subject s2: expected a `rigid` recording for --case rigid, found none"),
+        e.ends_with(
+            "dataset.toml:11:1: field rigid (subject s2): expected a `rigid` recording for --case rigid, found none"
+        ),
         "{e}"
     );
 }
@@ -236,10 +237,9 @@ fn a_duplicate_subject_id_names_both_lines() {
     let text = std::fs::read_to_string(&toml_path).unwrap();
     std::fs::write(&toml_path, text.replace("id = \"s2\"", "id = \"s1\"")).unwrap();
     let e = transmissibility_error(&ds, &[]);
-    assert!(e.contains("dataset.toml: line"), "{e}");
     assert!(
-        e.contains(
-            "line 12, id: expected unique subject ids, found \"s1\" again (its first table starts on line 4)"
+        e.ends_with(
+            "dataset.toml:12:6: field id: expected unique subject ids, found \"s1\" again (its first table starts on line 4)"
         ),
         "{e}"
     );
@@ -285,7 +285,53 @@ fn a_malformed_dataset_description_names_the_line() {
     )
     .unwrap();
     let e = transmissibility_error(&ds, &[]);
-    assert!(e.contains("dataset.toml: line 7"), "{e}");
+    // Line 7 is s1's `mass_kg = ...`; the value starts in column 11.
+    assert!(e.contains("dataset.toml:7:11: field mass_kg: "), "{e}");
+    assert!(e.contains("expected f64"), "{e}");
+}
+
+/// Rewrites dataset.toml with `from` replaced by `to` (once) and returns the error.
+fn dataset_toml_error(from: &str, to: &str) -> String {
+    let (_dir, ds) = dataset();
+    let toml_path = ds.join("dataset.toml");
+    let text = std::fs::read_to_string(&toml_path).unwrap();
+    assert!(text.contains(from));
+    std::fs::write(&toml_path, text.replacen(from, to, 1)).unwrap();
+    let e = transmissibility_error(&ds, &[]);
+    let prefix = format!("{}:", toml_path.display());
+    assert!(e.starts_with(&prefix), "{e}");
+    e[prefix.len()..].to_string()
+}
+
+#[test]
+fn a_non_positive_height_names_line_column_and_field() {
+    // Line 6 of s1's table is `height_m = ...`: the value starts in column 12.
+    let e = dataset_toml_error("height_m = ", "height_m = -1.0 # ");
+    assert_eq!(
+        e,
+        "6:12: field height_m (subject s1): expected a positive finite number, found -1"
+    );
+}
+
+#[test]
+fn an_unknown_key_names_line_column_and_field() {
+    let e = dataset_toml_error("mass_kg = ", "weight_kg = ");
+    assert!(
+        e.starts_with("7:1: field weight_kg: unknown field `weight_kg`"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_missing_key_names_the_subjects_table_and_field() {
+    let e = dataset_toml_error("id = \"s2\"\n", "");
+    assert!(e.starts_with("11:1: field id: missing field `id`"), "{e}");
+}
+
+#[test]
+fn an_empty_subject_id_names_line_column_and_field() {
+    let e = dataset_toml_error("id = \"s2\"", "id = \" \"");
+    assert_eq!(e, "12:6: field id: expected a non-empty subject id");
 }
 
 #[test]
@@ -310,4 +356,25 @@ fn the_binary_exits_non_zero_with_one_line_on_stderr() {
             .contains("s2_rigid.csv: line 17, column platform_y: expected a number, found \"abc\"")
     );
     assert!(!out.exists());
+}
+
+#[test]
+fn a_dead_platform_axis_names_the_recording_and_the_band() {
+    let (_dir, ds) = dataset();
+    let file = ds.join("s2_rigid.csv");
+    let text = std::fs::read_to_string(&file).unwrap();
+    let mut out = vec![text.lines().next().unwrap().to_string()];
+    for line in text.lines().skip(1) {
+        let mut cells: Vec<&str> = line.split(',').collect();
+        cells[2] = "0";
+        out.push(cells.join(","));
+    }
+    std::fs::write(&file, out.join("\n") + "\n").unwrap();
+    let e = transmissibility_error(&ds, &[]);
+    // 2048-sample segments at 200 Hz: bins of 0.0977 Hz, the 158 in 0.5-16 Hz span 0.586-15.918.
+    assert!(
+        e.contains("s2_rigid.csv: columns platform_x,y,z: the inputs' cross-spectral matrix Sxx is singular or ill-conditioned"),
+        "{e}"
+    );
+    assert!(e.contains("at 158 of 158 bins in 0.586-15.918 Hz"), "{e}");
 }

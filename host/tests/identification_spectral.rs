@@ -8,7 +8,9 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use supine_host::geomean::{geometric_mean, wrap_pi};
-use supine_host::spectral::{WelchSettings, h1, psd};
+use supine_host::spectral::{
+    MAX_INPUT_CONDITION, SpectralError, WelchSettings, h1, input_condition, psd,
+};
 
 const FS_HZ: f64 = 200.0;
 
@@ -202,4 +204,97 @@ fn wrap_pi_maps_into_minus_pi_exclusive_to_pi_inclusive() {
     assert!((wrap_pi(3.0 * PI) - PI).abs() < 1e-12);
     assert!((wrap_pi(-PI) - PI).abs() < 1e-12);
     assert!((wrap_pi(0.5 - 4.0 * PI) - 0.5).abs() < 1e-12);
+}
+
+/// Three inputs of white noise (seed 11), `n` samples, with nine outputs that sum them.
+fn white_inputs(n: usize) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let unit = Normal::new(0.0, 1.0).unwrap();
+    let x: Vec<Vec<f64>> = (0..3)
+        .map(|_| (0..n).map(|_| unit.sample(&mut rng)).collect())
+        .collect();
+    let y: Vec<Vec<f64>> = (0..9)
+        .map(|j| {
+            (0..n)
+                .map(|i| x[0][i] + 0.5 * x[1][i] + 0.1 * j as f64 * x[2][i])
+                .collect()
+        })
+        .collect();
+    (x, y)
+}
+
+fn h1_of(
+    x: &[Vec<f64>],
+    y: &[Vec<f64>],
+) -> Result<supine_host::spectral::H1Estimate, SpectralError> {
+    let settings = WelchSettings::for_resolution(FS_HZ, 1.0);
+    h1(
+        [&x[0], &x[1], &x[2]],
+        core::array::from_fn(|j| y[j].as_slice()),
+        FS_HZ,
+        &settings,
+        0.5,
+        16.0,
+    )
+}
+
+#[test]
+fn well_conditioned_inputs_give_a_finite_h1_with_the_known_gains() {
+    let (x, y) = white_inputs(60 * FS_HZ as usize);
+    let est = h1_of(&x, &y).unwrap();
+    for h in &est.h {
+        assert!((h[(0, 0)].re - 1.0).abs() < 1e-9 && (h[(0, 1)].re - 0.5).abs() < 1e-9);
+    }
+}
+
+#[test]
+fn a_dead_input_axis_is_an_error_naming_the_band_not_nan() {
+    let (mut x, y) = white_inputs(60 * FS_HZ as usize);
+    x[1] = vec![0.0; x[1].len()];
+    let err = h1_of(&x, &y).unwrap_err();
+    // 256-sample segments at 200 Hz: bins of 0.78125 Hz, 0.781-15.625 Hz in 0.5-16 Hz.
+    let SpectralError::IllConditioned {
+        from_hz,
+        to_hz,
+        bins,
+        of,
+        condition,
+    } = err
+    else {
+        panic!("expected IllConditioned, found {err}");
+    };
+    assert_eq!((from_hz, to_hz, bins, of), (0.78125, 15.625, 20, 20));
+    assert!(condition.is_infinite());
+    assert!(
+        err.to_string()
+            .contains("at 20 of 20 bins in 0.781-15.625 Hz")
+    );
+}
+
+#[test]
+fn two_identical_input_axes_are_an_error() {
+    let (mut x, y) = white_inputs(60 * FS_HZ as usize);
+    x[2] = x[0].clone();
+    let err = h1_of(&x, &y).unwrap_err();
+    assert!(
+        matches!(err, SpectralError::IllConditioned { condition, .. } if condition > MAX_INPUT_CONDITION),
+        "{err}"
+    );
+}
+
+#[test]
+fn the_condition_number_of_a_diagonal_input_matrix_is_its_eigenvalue_ratio() {
+    let c = |v: f64| Complex::new(v, 0.0);
+    let sxx = nalgebra::Matrix3::new(
+        c(4.0),
+        c(0.0),
+        c(0.0),
+        c(0.0),
+        c(2.0),
+        c(0.0),
+        c(0.0),
+        c(0.0),
+        c(1e-3),
+    );
+    assert!((input_condition(&sxx) / 4e3 - 1.0).abs() < 1e-12);
 }

@@ -1,6 +1,7 @@
 //! `supine fit`: identifies the model's parameters from a dataset (see `fit` for the
 //! method) and writes the parameter file that `--params` reads everywhere.
 
+use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -8,8 +9,9 @@ use crate::commands::transmissibility::estimate;
 use crate::dataset::{Case, Dataset};
 use crate::fit::objective::Target;
 use crate::fit::report;
-use crate::fit::solver::SolverSettings;
+use crate::fit::solver::{DEFAULT_TOLERANCE, SolverSettings};
 use crate::fit::{self, Determination, FitSettings};
+use crate::output::write_all_atomically;
 use crate::params_file::{self, ParamFile};
 use crate::spectral::DEFAULT_RESOLUTION_HZ;
 use anyhow::{Result, bail};
@@ -35,12 +37,15 @@ pub struct Args {
     /// Number of starts (the paper's start, the paper's values, then random ones).
     #[arg(long, default_value_t = 4)]
     pub starts: usize,
-    /// Stop when an accepted step lowers the cost by less than this fraction.
-    #[arg(long, default_value_t = 1e-8)]
+    /// Stop when an accepted step lowers the cost by less than this fraction (model.md: 1e-6).
+    #[arg(long, default_value_t = DEFAULT_TOLERANCE)]
     pub ftol: f64,
-    /// Stop when a step in ln p is shorter than this (relative).
-    #[arg(long, default_value_t = 1e-8)]
+    /// Stop when a step in ln p is shorter than this (relative; model.md: 1e-6).
+    #[arg(long, default_value_t = DEFAULT_TOLERANCE)]
     pub xtol: f64,
+    /// Stop when the projected gradient's largest entry (in ln p) is below this (model.md: 1e-6).
+    #[arg(long, default_value_t = DEFAULT_TOLERANCE)]
+    pub gtol: f64,
     /// Most solver iterations per start.
     #[arg(long, default_value_t = 1000)]
     pub max_iterations: usize,
@@ -55,9 +60,33 @@ pub struct Args {
     pub report: Option<PathBuf>,
 }
 
+/// A bar over every start's iterations on stderr; hidden when stderr is not a terminal
+/// (a log or a pipe gets the summary only).
+fn progress_bar(starts: usize, max_iterations: usize) -> indicatif::ProgressBar {
+    if !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new((starts * max_iterations) as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("fit [{bar:25}] {elapsed} {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar
+}
+
 /// Fits and writes the parameter file (and the report).
 pub fn run(args: &Args) -> Result<()> {
     let started = Instant::now();
+    for (flag, value) in [
+        ("--ftol", args.ftol),
+        ("--xtol", args.xtol),
+        ("--gtol", args.gtol),
+    ] {
+        if !(value.is_finite() && value >= 0.0) {
+            bail!("{flag}: expected a finite number >= 0, found {value}");
+        }
+    }
     let dataset = Dataset::load(&args.dataset)?;
     let joints = match (args.case, &args.joints) {
         (Case::Litter, Some(path)) => Some(params_file::load(path)?),
@@ -83,6 +112,7 @@ pub fn run(args: &Args) -> Result<()> {
         solver: SolverSettings {
             ftol: args.ftol,
             xtol: args.xtol,
+            gtol: args.gtol,
             max_iterations: args.max_iterations,
             ..SolverSettings::default()
         },
@@ -96,21 +126,25 @@ pub fn run(args: &Args) -> Result<()> {
         Some(rigid) => fit::litter_setup(target, subject, &rigid.params, &settings)?,
         None => fit::rigid_setup(target, subject, &settings)?,
     };
-    let bar = indicatif::ProgressBar::new_spinner();
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{spinner} fit {elapsed} {msg}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
-    );
     let total = setup.starts.len();
+    let bar = progress_bar(total, settings.solver.max_iterations);
     let solver_started = Instant::now();
-    let result = fit::run(&setup, &settings, &mut |start, iteration, cost| {
+    // Length: every start's iteration limit. A start that stops early jumps to its end.
+    let per_start = settings.solver.max_iterations as u64;
+    let (mut current, mut finished) = (None, 0u64);
+    let fitted = fit::run(&setup, &settings, &mut |start, iteration, cost| {
+        if current != Some(start) {
+            finished += u64::from(current.is_some());
+            current = Some(start);
+        }
+        bar.set_position(finished * per_start + iteration as u64);
         bar.set_message(format!(
-            "start {}/{total}: iteration {iteration}, cost {cost:.6}",
-            start + 1
+            "start {}/{total}, iteration {iteration}, cost {cost:.6}",
+            finished + 1
         ));
-        bar.tick();
-    })?;
+    });
     bar.finish_and_clear();
+    let result = fitted?;
     let solver_s = solver_started.elapsed().as_secs_f64();
     let ident = fit::identifiability(&setup, &result);
     let errors = fit::component_errors(
@@ -166,14 +200,16 @@ pub fn run(args: &Args) -> Result<()> {
         .map(|p| p.id.to_string().into())
         .collect();
     table.insert("at_bound".into(), at_bound.into());
-    params_file::save(
-        &args.out,
-        &ParamFile {
-            params: result.params,
-            fit: Some(table),
-            device: None,
-        },
-    )?;
+    // Everything is computed before anything is written: the report and the parameter
+    // file are written together, the parameter file last, or not at all.
+    let params_text = ParamFile {
+        params: result.params,
+        fit: Some(table),
+        device: None,
+    }
+    .to_toml()?;
+    let mut outputs = Vec::new();
+    let mut created_report_dir = None;
     if let Some(dir) = &args.report {
         let model_h = setup
             .objective
@@ -190,7 +226,20 @@ pub fn run(args: &Args) -> Result<()> {
             &est.geomean,
             &model_h,
         )?;
-        report::write(dir, &summary, &svg)?;
+        if !dir.is_dir() {
+            std::fs::create_dir_all(dir)
+                .map_err(|e| anyhow::anyhow!("{}: --report: cannot create: {e}", dir.display()))?;
+            created_report_dir = Some(dir);
+        }
+        outputs.extend(report::files(dir, &summary, &svg));
+    }
+    outputs.push((args.out.clone(), params_text.into_bytes()));
+    if let Err(e) = write_all_atomically(&outputs) {
+        if let Some(dir) = created_report_dir {
+            // Only removes the folder if nothing landed in it.
+            let _ = std::fs::remove_dir(dir);
+        }
+        return Err(e);
     }
     eprintln!("{summary}");
     let unknown: Vec<String> = ident

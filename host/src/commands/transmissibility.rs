@@ -11,7 +11,7 @@ use supine_core::model::{Axis, Output, Subject, Transmissibility};
 use crate::dataset::{Case, Dataset};
 use crate::geomean::geometric_mean_h;
 use crate::h_csv::{self, HRow};
-use crate::spectral::{self, DEFAULT_RESOLUTION_HZ, H1Estimate, WelchSettings};
+use crate::spectral::{self, DEFAULT_RESOLUTION_HZ, H1Estimate, SpectralError, WelchSettings};
 
 /// Arguments of `supine transmissibility`.
 #[derive(Debug, clap::Args)]
@@ -110,12 +110,13 @@ pub fn estimate(
         let inputs = [0, 1, 2].map(|a| rec.platform_m_s2[a].as_slice());
         let outputs = core::array::from_fn(|j| rec.sensors_m_s2[j].as_slice());
         let estimate = spectral::h1(inputs, outputs, sample_rate_hz, &settings, fmin_hz, fmax_hz)
-            .map_err(|e| {
-                anyhow!(
+            .map_err(|e| match e {
+                SpectralError::TooShort { .. } => anyhow!(
                     "{}: {e} (at {sample_rate_hz:.3} Hz for {resolution_hz} Hz resolution: record {:.2} s)",
                     rec.path.display(),
                     rec.duration_s()
-                )
+                ),
+                _ => anyhow!("{}: columns platform_x,y,z: {e}", rec.path.display()),
             })?;
         if estimate.freqs_hz.is_empty() {
             bail!(

@@ -5,17 +5,14 @@
 
 use std::f64::consts::PI;
 use std::fmt::Write as _;
-use std::io::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-use anyhow::{Result, anyhow};
 use supine_core::model::Transmissibility;
 use supine_core::model::response::COUPLED_COMPONENTS;
 
 use super::objective::COMPONENTS;
 use super::{AtBound, FitResult, Identifiability, Setup};
 use crate::geomean::wrap_pi;
-use crate::output::write_atomically;
 use crate::plot::{Panel, Series, figure_svg};
 
 /// The paper's name of a component, e.g. `H13` (output 1..9, input 1..3).
@@ -218,14 +215,14 @@ pub fn components_svg(
     figure_svg(title, &panels, 4)
 }
 
-/// Writes `DIR/components.svg` and `DIR/summary.md`.
-pub fn write(dir: &Path, summary_md: &str, components: &str) -> Result<()> {
-    std::fs::create_dir_all(dir).map_err(|e| anyhow!("{}: cannot create: {e}", dir.display()))?;
-    write_atomically(&dir.join("components.svg"), |w| {
-        Ok(w.write_all(components.as_bytes())?)
-    })?;
-    write_atomically(&dir.join("summary.md"), |w| {
-        Ok(w.write_all(summary_md.as_bytes())?)
-    })?;
-    Ok(())
+/// The report's files in `dir`, `components.svg` and `summary.md`, with their contents
+/// (written together with the parameter file by `output::write_all_atomically`).
+pub fn files(dir: &Path, summary_md: &str, components_svg: &str) -> Vec<(PathBuf, Vec<u8>)> {
+    vec![
+        (
+            dir.join("components.svg"),
+            components_svg.as_bytes().to_vec(),
+        ),
+        (dir.join("summary.md"), summary_md.as_bytes().to_vec()),
+    ]
 }

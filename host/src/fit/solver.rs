@@ -10,10 +10,16 @@
 //! (Marquardt's D = diag J^T J and a More-style trust region on |d| were both tried on
 //! the fit's benchmark and found worse minima.)
 //!
+//! Derivatives: the Jacobian comes from the problem (the fit's is analytic, exact to
+//! rounding); the second-order term of the geodesic acceleration is not: it is a finite
+//! difference along the step, below. Only the step's curvature correction is approximate,
+//! never the gradient, so the stopping tests and the first-order conditions are exact.
+//!
 //! Geodesic acceleration (Transtrum, Machta and Sethna, Phys. Rev. E 83, 036701 (2011);
 //! Transtrum and Sethna, arXiv:1201.5885 (2012)): the second directional derivative of the
-//! residuals along v, r_vv = (2 / h) ((r(x + h v) - r(x)) / h - J v), one extra residual
-//! evaluation without Jacobian, gives the acceleration a from the same factorized system
+//! residuals along v by a finite difference with step h (`geodesic_h`, in ln p),
+//! r_vv = (2 / h) ((r(x + h v) - r(x)) / h - J v), one extra residual evaluation without
+//! Jacobian (no second derivatives of H are formed), gives the acceleration a from the same factorized system
 //! with right-hand side -J_F^T r_vv; the step is v + a / 2, and it is refused (lambda
 //! grows as on a failed step) when 2 |a| / |v| exceeds `geodesic_alpha`; it is skipped
 //! while the last accepted step's gain ratio was within `geodesic_skip_band` of 1 and
@@ -54,6 +60,10 @@ pub trait Problem {
         jacobian.transpose() * jacobian
     }
 }
+
+/// The default ftol, xtol and gtol: model.md's convention, the paper's tolerances (its
+/// trust-region reflective fit used 1e-6).
+pub const DEFAULT_TOLERANCE: f64 = 1e-6;
 
 /// Tolerances and limits: plain data.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -98,9 +108,9 @@ pub struct SolverSettings {
 impl Default for SolverSettings {
     fn default() -> Self {
         Self {
-            ftol: 1e-8,
-            xtol: 1e-8,
-            gtol: 1e-8,
+            ftol: DEFAULT_TOLERANCE,
+            xtol: DEFAULT_TOLERANCE,
+            gtol: DEFAULT_TOLERANCE,
             max_iterations: 1000,
             geodesic_alpha: 1.0,
             geodesic_h: 0.3,
