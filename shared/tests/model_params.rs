@@ -40,6 +40,55 @@ fn height_and_mass_must_be_positive_and_finite() {
     assert_eq!(err.to_string(), "subject.mass_kg: must be a finite number");
 }
 
+/// Finite and positive is not enough: a subnormal mass or a 1e308 stiffness is a unit
+/// mistake, and the modal analysis need not converge on it. Each is refused by name with
+/// the range it must be in, and the range's own ends are accepted.
+#[test]
+fn implausible_magnitudes_are_refused_with_the_field_and_its_range() {
+    let stiffness = ParamId::ALL[0];
+    let cases: [(fn(&mut ModelParams), ParamField, &str); 5] = [
+        (
+            |p| p.subject.mass_kg = 1e-310,
+            ParamField::MassKg,
+            "subject.mass_kg: must be within 2 to 300",
+        ),
+        (
+            |p| p.subject.height_m = 0.3,
+            ParamField::HeightM,
+            "subject.height_m: must be within 0.5 to 2.5",
+        ),
+        (
+            |p| p.subject.height_m = 18.2,
+            ParamField::HeightM,
+            "subject.height_m: must be within 0.5 to 2.5",
+        ),
+        (
+            |p| p.set(ParamId::ALL[0], 1e308),
+            ParamField::Param(ParamId::ALL[0]),
+            "must be within 0.000001 to 1000000000",
+        ),
+        (
+            |p| p.set(ParamId::ALL[41], 1e-9),
+            ParamField::Param(ParamId::ALL[41]),
+            "must be within 0.000001 to 1000000000",
+        ),
+    ];
+    for (spoil, field, message) in cases {
+        let mut p = paper();
+        spoil(&mut p);
+        let err = p.validate().unwrap_err();
+        assert_eq!((err.field, err.problem), (field, Problem::OutOfRange));
+        assert!(err.to_string().ends_with(message), "{err}");
+        assert_eq!(Model::new(&p).unwrap_err(), ModelError::Params(err));
+    }
+    let mut p = paper();
+    p.set(stiffness, 1e9);
+    p.set(ParamId::ALL[41], 1e-6);
+    p.subject.mass_kg = 300.0;
+    p.subject.height_m = 0.5;
+    assert_eq!(p.validate(), Ok(()));
+}
+
 #[test]
 fn sensor_offsets_must_be_finite_and_within_half_a_metre() {
     let mut p = paper();

@@ -315,13 +315,14 @@ impl ModelParams {
 
     /// Checks every number once, at the boundary, so the model code can assume sane input.
     ///
-    /// Stiffness, damping, height and mass must be finite and strictly positive; sensor
-    /// offsets finite and within [`MAX_SENSOR_OFFSET_M`] of the segment centre.
+    /// Stiffness, damping, height and mass must be finite, strictly positive and within
+    /// their plausible range ([`ParamField::plausible_range`]); sensor offsets finite and
+    /// within [`MAX_SENSOR_OFFSET_M`] of the segment centre.
     pub fn validate(&self) -> Result<(), ParamError> {
-        positive(self.subject.height_m, ParamField::HeightM)?;
-        positive(self.subject.mass_kg, ParamField::MassKg)?;
+        plausible(self.subject.height_m, ParamField::HeightM)?;
+        plausible(self.subject.mass_kg, ParamField::MassKg)?;
         for id in ParamId::ALL {
-            positive(self.get(id), ParamField::Param(id))?;
+            plausible(self.get(id), ParamField::Param(id))?;
         }
         for segment in Segment::ALL {
             let offset = self.sensors.of(segment);
@@ -354,20 +355,28 @@ impl ModelParams {
 /// A sensor further than this from its segment's centre (m) is surely a unit mistake.
 pub const MAX_SENSOR_OFFSET_M: f64 = 0.5;
 
-fn positive(value: f64, field: ParamField) -> Result<(), ParamError> {
-    if !value.is_finite() {
-        Err(ParamError {
-            field,
-            problem: Problem::NotFinite,
-        })
+/// Subject height, m: from a small child to the tallest adults.
+pub const HEIGHT_RANGE_M: (f64, f64) = (0.5, 2.5);
+/// Subject mass, kg.
+pub const MASS_RANGE_KG: (f64, f64) = (2.0, 300.0);
+/// Any stiffness (N/m, N m/rad) or damping (N s/m, N m s/rad): six decades around the
+/// fit's bounds (1e-3 to 1e6). Far outside, a number is a unit mistake, and the modal
+/// analysis of e.g. a 1e308 stiffness or a subnormal mass need not converge.
+pub const COEFFICIENT_RANGE: (f64, f64) = (1e-6, 1e9);
+
+fn plausible(value: f64, field: ParamField) -> Result<(), ParamError> {
+    let problem = if !value.is_finite() {
+        Problem::NotFinite
     } else if value <= 0.0 {
-        Err(ParamError {
-            field,
-            problem: Problem::NotPositive,
-        })
+        Problem::NotPositive
     } else {
-        Ok(())
-    }
+        let (lo, hi) = field.plausible_range();
+        if (lo..=hi).contains(&value) {
+            return Ok(());
+        }
+        Problem::OutOfRange
+    };
+    Err(ParamError { field, problem })
 }
 
 /// Which of the two joints.
@@ -667,14 +676,28 @@ pub struct ParamError {
     pub problem: Problem,
 }
 
+impl ParamField {
+    /// The plausible values of this field, `(min, max)` inclusive, in its unit.
+    pub fn plausible_range(&self) -> (f64, f64) {
+        match self {
+            ParamField::HeightM => HEIGHT_RANGE_M,
+            ParamField::MassKg => MASS_RANGE_KG,
+            ParamField::Param(_) => COEFFICIENT_RANGE,
+            ParamField::SensorOffsetM { .. } => (-MAX_SENSOR_OFFSET_M, MAX_SENSOR_OFFSET_M),
+        }
+    }
+}
+
 impl fmt::Display for ParamError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let what = match self.problem {
-            Problem::NotFinite => "must be a finite number",
-            Problem::NotPositive => "must be greater than zero",
-            Problem::OutOfRange => "is out of range (sensor offsets within 0.5 m of the centre)",
-        };
-        write!(f, "{}: {what}", self.field)
+        match self.problem {
+            Problem::NotFinite => write!(f, "{}: must be a finite number", self.field),
+            Problem::NotPositive => write!(f, "{}: must be greater than zero", self.field),
+            Problem::OutOfRange => {
+                let (lo, hi) = self.field.plausible_range();
+                write!(f, "{}: must be within {lo} to {hi}", self.field)
+            }
+        }
     }
 }
 
