@@ -258,10 +258,23 @@ pub fn blob_payload(bytes: &[u8]) -> Result<&[u8], BlobError> {
         return Err(BlobError::Truncated);
     };
     if crc32(payload) != word32(12) {
+        // A write that stopped early leaves the payload's end blank (0xFF in erased flash,
+        // 0 in QEMU's zeroed memory). A complete payload ends in neither: its last field is
+        // the telemetry decimation (at least 1) as a varint, whose last byte is 0x01-0x7F.
+        let tail = &payload[payload.len().saturating_sub(BLANK_TAIL_LEN)..];
+        if tail.len() == BLANK_TAIL_LEN
+            && (tail.iter().all(|b| *b == 0xFF) || tail.iter().all(|b| *b == 0))
+        {
+            return Err(BlobError::Truncated);
+        }
         return Err(BlobError::BadCrc);
     }
     Ok(payload)
 }
+
+/// Blank bytes at the payload's end that mark an unfinished write (one would do; four
+/// keep a flipped bit of a final 0x7F or 0x01 from reading as a truncation).
+const BLANK_TAIL_LEN: usize = 4;
 
 /// Total length (header and payload) the header announces, if the header is sane.
 pub fn announced_len(bytes: &[u8]) -> Option<usize> {
@@ -282,7 +295,8 @@ pub enum BlobError {
     UnsupportedVersion,
     /// The announced payload length is zero or larger than a blob can be.
     BadLength,
-    /// Fewer bytes than the header announces.
+    /// Fewer bytes than the header announces, or the payload's end still erased (a write
+    /// that stopped early).
     Truncated,
     /// The payload's CRC-32 does not match.
     BadCrc,

@@ -60,6 +60,17 @@ fn each_kind_of_bad_blob_gets_its_own_error() {
     let mut flipped = good.clone();
     flipped[BLOB_HEADER_LEN + 40] ^= 0x04;
     cases.push(("flipped bit", flipped, BlobError::BadCrc));
+    // A write cut short in a flash slot: the announced length is there, its end erased.
+    let mut cut = good[..good.len() / 2].to_vec();
+    cut.resize(8192, 0xFF);
+    cases.push(("cut write in a slot", cut, BlobError::Truncated));
+    let mut cut_zeroed = good[..good.len() / 2].to_vec();
+    cut_zeroed.resize(8192, 0);
+    cases.push(("cut write in zeroed memory", cut_zeroed, BlobError::Truncated));
+    // A flipped bit in the final byte stays a CRC error, not a truncation.
+    let mut last = good.clone();
+    *last.last_mut().unwrap() ^= 0x80;
+    cases.push(("flipped last byte", last, BlobError::BadCrc));
     for (name, bytes, expected) in &cases {
         assert_eq!(
             DeviceParams::decode(bytes).unwrap_err(),
@@ -70,8 +81,8 @@ fn each_kind_of_bad_blob_gets_its_own_error() {
     let codes: std::collections::BTreeSet<u8> = cases.iter().map(|c| c.2.code()).collect();
     assert_eq!(
         codes.len(),
-        cases.len() - 1,
-        "truncations share a code, the rest differ"
+        cases.len() - 4,
+        "the four truncations share a code, as do the two CRC errors; the rest differ"
     );
 }
 

@@ -432,8 +432,8 @@ fn a_corrupted_blob_in_flash_runs_the_default_and_names_the_reason() {
     magic[0] = b'X';
     for (name, blob, reason) in [
         ("a flipped bit", flipped, BlobError::BadCrc),
-        // The rest of the 64 KiB slot reads as blank, so the payload's CRC fails.
-        ("a truncated blob", truncated, BlobError::BadCrc),
+        // The rest of the 64 KiB slot reads as erased: the payload's end is blank.
+        ("a truncated blob", truncated, BlobError::Truncated),
         ("a wrong version", version, BlobError::UnsupportedVersion),
         ("a wrong magic", magic, BlobError::BadMagic),
     ] {
