@@ -196,15 +196,23 @@ fn talk(
         }
         if Instant::now() >= deadline {
             break Err(anyhow!(
-                "the device did not finish within {:.0} s ({} telemetry records so far)",
-                (deadline - started).as_secs_f64(),
+                "the device did not finish within {} ({} telemetry records so far)",
+                crate::link::format_duration(deadline - started),
                 s.telemetry.len()
             ));
         }
         let step = (Instant::now() + Duration::from_millis(100)).min(deadline);
-        match reader.next_before(step) {
+        let message = reader.next_before(step);
+        if s.greetings.is_empty()
+            && let Err(e) = reader.check_foreign_greeting()
+        {
+            break Err(e);
+        }
+        match message {
             Ok(Some(DeviceToHost::Greeting(g))) => {
-                crate::link::check_protocol(g.protocol_version)?;
+                if let Err(e) = crate::link::check_protocol(g.protocol_version) {
+                    break Err(e);
+                }
                 s.greetings.push(g);
             }
             Ok(Some(DeviceToHost::Telemetry(t))) => s.telemetry.push(t),
