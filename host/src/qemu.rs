@@ -306,6 +306,27 @@ impl Qemu {
         self.uart.as_mut()
     }
 
+    /// QEMU's exit status if it has exited on its own, waiting up to `grace` for it (a
+    /// link that just failed may be QEMU dying).
+    pub fn exited_within(&mut self, grace: Duration) -> Option<ExitStatus> {
+        let until = Instant::now() + grace;
+        loop {
+            match self.child.try_wait() {
+                Ok(Some(status)) => return Some(status),
+                Ok(None) if Instant::now() < until => thread::sleep(POLL),
+                _ => return None,
+            }
+        }
+    }
+
+    /// Adds to a failed run's error that QEMU itself had exited, and how, if it had.
+    pub fn explain_failure(&mut self, err: anyhow::Error) -> anyhow::Error {
+        match self.exited_within(Duration::from_millis(200)) {
+            Some(status) => err.context(format!("QEMU exited during the run ({status})")),
+            None => err,
+        }
+    }
+
     /// QEMU's process id.
     pub fn id(&self) -> u32 {
         self.child.id()

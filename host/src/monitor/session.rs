@@ -186,7 +186,7 @@ pub fn run_qemu(
         .params_blob(blob_path)
         .timeout(run.timeout());
     let mut qemu = Qemu::start(&config)?;
-    let result = talk(&mut qemu, run, view, log, stop);
+    let result = talk(&mut qemu, run, view, log, stop).map_err(|e| qemu.explain_failure(e));
     // Killing QEMU also ends a writer blocked on the socket.
     let _ = qemu.stop();
     result
