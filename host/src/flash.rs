@@ -28,7 +28,7 @@ use crate::upload_client::{self, Uploaded};
 pub const REGION_LEN: usize = SLOT_COUNT * SLOT_LEN;
 
 /// Update counter of the commit record in a region image from [`qemu_region_image`].
-/// Uploads over the link use larger counters (by default the Unix time in seconds).
+/// Uploads over the link use larger counters (by default from [`choose_counter`]).
 pub const REGION_IMAGE_COUNTER: u32 = 1;
 
 /// The development device key, committed for QEMU and tests (never for a real device).
@@ -119,13 +119,110 @@ impl ParamFlash for RegionView<'_> {
     }
 }
 
-/// The default update counter: the Unix time in seconds, which only grows.
-pub fn counter_now() -> Result<u32> {
+/// The Unix time in seconds as an update counter.
+pub fn unix_seconds() -> Result<u32> {
     let secs = SystemTime::now()
         .duration_since(UNIX_EPOCH)
         .map_err(|_| anyhow!("the clock is before 1970: give --counter"))?
         .as_secs();
     u32::try_from(secs).map_err(|_| anyhow!("the Unix time no longer fits 32 bits: give --counter"))
+}
+
+/// Overrides where [`CounterState`] keeps the last counter (tests, several users).
+pub const STATE_DIR_ENV: &str = "SUPINE_STATE_DIR";
+
+/// The last update counter this host used, kept in a file so that the next one is above
+/// it even within the same second.
+///
+/// The wire counter is a u32 (Unix seconds fit until 2106; milliseconds would not), and
+/// the device reports no counter of its own, so the host remembers: the next counter is
+/// max(Unix seconds, last + 1). Two flashes within one second then get t and t + 1
+/// instead of colliding as a replay.
+#[derive(Clone, Debug)]
+pub struct CounterState {
+    path: std::path::PathBuf,
+}
+
+impl CounterState {
+    /// `$SUPINE_STATE_DIR/upload-counter`, else under `$XDG_STATE_HOME/supine` or
+    /// `~/.local/state/supine`; `None` when none of those is set.
+    pub fn default_location() -> Option<Self> {
+        let env = |name: &str| std::env::var_os(name).filter(|v| !v.is_empty());
+        let dir = env(STATE_DIR_ENV)
+            .map(std::path::PathBuf::from)
+            .or_else(|| env("XDG_STATE_HOME").map(|d| Path::new(&d).join("supine")))
+            .or_else(|| env("HOME").map(|h| Path::new(&h).join(".local/state/supine")))?;
+        Some(Self::at(dir.join("upload-counter")))
+    }
+
+    /// The state in the file `path`.
+    pub fn at(path: impl Into<std::path::PathBuf>) -> Self {
+        Self { path: path.into() }
+    }
+
+    /// The last counter recorded (0 if none yet).
+    pub fn last(&self) -> Result<u32> {
+        match std::fs::read_to_string(&self.path) {
+            Ok(text) => text.trim().parse().map_err(|_| {
+                anyhow!(
+                    "{}: expected the last update counter (a number up to {}), found {:?}: \
+                     delete the file or give --counter",
+                    self.path.display(),
+                    u32::MAX,
+                    text.trim()
+                )
+            }),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(0),
+            Err(e) => bail!("{}: cannot read: {e}", self.path.display()),
+        }
+    }
+
+    /// Records `counter` as used if it is above the last one.
+    pub fn record(&self, counter: u32) -> Result<()> {
+        if counter <= self.last()? {
+            return Ok(());
+        }
+        if let Some(dir) = self.path.parent() {
+            std::fs::create_dir_all(dir)
+                .map_err(|e| anyhow!("{}: cannot create: {e}", dir.display()))?;
+        }
+        crate::output::write_atomically(&self.path, |w| Ok(writeln!(w, "{counter}")?))
+    }
+
+    /// The next counter, max(`now_s`, last + 1), recorded before it is returned.
+    pub fn next(&self, now_s: u32) -> Result<u32> {
+        let last = self.last()?;
+        let next = now_s.max(last.checked_add(1).ok_or_else(|| {
+            anyhow!(
+                "{}: the last update counter is {last}, the largest there is: reprovision the device",
+                self.path.display()
+            )
+        })?);
+        self.record(next)?;
+        Ok(next)
+    }
+}
+
+/// The counter for an upload: `given` (recorded, so later defaults exceed it) or the next
+/// one from [`CounterState`]; the Unix time alone (with a warning) when there is no place
+/// to keep the state.
+pub fn choose_counter(given: Option<u32>) -> Result<u32> {
+    let state = CounterState::default_location();
+    match (given, state) {
+        (Some(counter), Some(state)) => {
+            state.record(counter)?;
+            Ok(counter)
+        }
+        (Some(counter), None) => Ok(counter),
+        (None, Some(state)) => state.next(unix_seconds()?),
+        (None, None) => {
+            eprintln!(
+                "supine flash: no HOME, XDG_STATE_HOME or {STATE_DIR_ENV} to remember the last \
+                 counter: using the Unix time (two updates within a second collide)"
+            );
+            unix_seconds()
+        }
+    }
 }
 
 /// What an upload over a link achieved.
@@ -222,20 +319,28 @@ pub fn upload_qemu(
         .uart()
         .timeout(timeout + Duration::from_secs(30));
     let mut qemu = Qemu::start(&config)?;
+    // Nothing here polls a stop flag: a signal kills QEMU, which ends the blocked read,
+    // and the guard removes the socket folder. Declared after `qemu`, so dropped first.
+    let _kill_on_signal = crate::signals::KillOnSignal::new(qemu.id());
     let uart = qemu.uart().ok_or_else(|| anyhow!("QEMU has no UART"))?;
     uart.set_read_timeout(Some(Duration::from_millis(50)))?;
     let mut reader = FrameReader::new(uart.try_clone()?);
     let mut writer = FrameWriter::new(uart.try_clone()?);
-    reader.greeting(timeout)?;
-    upload_over_link(
-        &mut reader,
-        &mut writer,
-        params,
-        blob,
-        key,
-        counter,
-        timeout,
-    )
+    let result = reader.greeting(timeout).and_then(|_| {
+        upload_over_link(
+            &mut reader,
+            &mut writer,
+            params,
+            blob,
+            key,
+            counter,
+            timeout,
+        )
+    });
+    if crate::signals::stop_requested() {
+        bail!("interrupted: QEMU stopped and its folder removed");
+    }
+    result
 }
 
 /// Programs a region image into a board's flash at `base_address` with probe-rs.
@@ -302,6 +407,38 @@ mod tests {
         assert!(image[BLACKPILL_SLOT_STRIDE..].iter().all(|&b| b == 0xFF));
         let active = select(&RegionView::new(&image, BLACKPILL_SLOT_STRIDE)).unwrap();
         assert_eq!((active.slot, active.counter), (0, 77));
+    }
+
+    #[test]
+    fn counters_within_one_second_still_increase_and_survive_a_restart() {
+        let dir = tempfile::tempdir().unwrap();
+        let state = CounterState::at(dir.path().join("state/upload-counter"));
+        assert_eq!(state.last().unwrap(), 0);
+        let now_s = 1_800_000_000;
+        assert_eq!(state.next(now_s).unwrap(), now_s);
+        assert_eq!(state.next(now_s).unwrap(), now_s + 1);
+        // Another process (a new CounterState on the same file) continues from there.
+        let again = CounterState::at(dir.path().join("state/upload-counter"));
+        assert_eq!(again.next(now_s).unwrap(), now_s + 2);
+        // The clock moving on takes over again; a given counter above it is remembered.
+        assert_eq!(again.next(now_s + 10).unwrap(), now_s + 10);
+        again.record(now_s + 100).unwrap();
+        again.record(5).unwrap();
+        assert_eq!(again.next(now_s + 11).unwrap(), now_s + 101);
+        // A damaged state file is named, with what to do.
+        std::fs::write(dir.path().join("state/upload-counter"), "soon\n").unwrap();
+        let err = again.next(now_s).unwrap_err().to_string();
+        assert!(
+            err.contains("upload-counter: expected the last update counter"),
+            "{err}"
+        );
+        assert!(err.contains("delete the file or give --counter"), "{err}");
+        std::fs::write(
+            dir.path().join("state/upload-counter"),
+            format!("{}", u32::MAX),
+        )
+        .unwrap();
+        assert!(again.next(now_s).is_err());
     }
 
     #[test]

@@ -56,18 +56,27 @@ pub fn write(path: &Path, rows: &[HRow]) -> Result<()> {
     })
 }
 
-/// `count` frequencies from `fmin_hz` in steps of `df_hz` up to `fmax_hz` (inclusive within
-/// a millionth of a step).
+/// Most frequencies a grid may hold: 100,000 (27 CSV rows each).
+pub const MAX_GRID_POINTS: usize = 100_000;
+
+/// The frequencies from `fmin_hz` in steps of `df_hz` up to `fmax_hz` (inclusive within
+/// a millionth of a step). Needs 0 < fmin < fmax, df > 0 and at most
+/// [`MAX_GRID_POINTS`]; the errors name the flags of `supine model`.
 pub fn frequency_grid(fmin_hz: f64, fmax_hz: f64, df_hz: f64) -> Result<Vec<f64>> {
-    let valid = fmin_hz.is_finite() && fmax_hz.is_finite() && df_hz.is_finite();
-    if !valid || fmin_hz < 0.0 || fmax_hz < fmin_hz || df_hz <= 0.0 {
-        anyhow::bail!(
-            "frequency grid: expected 0 <= --fmin <= --fmax and --df > 0, got fmin {fmin_hz}, fmax {fmax_hz}, df {df_hz}"
-        );
+    for (flag, value) in [("--fmin", fmin_hz), ("--fmax", fmax_hz), ("--df", df_hz)] {
+        if !(value.is_finite() && value > 0.0) {
+            anyhow::bail!("{flag} {value}: expected a frequency above 0 Hz");
+        }
+    }
+    if fmax_hz <= fmin_hz {
+        anyhow::bail!("--fmax {fmax_hz}: expected a frequency above --fmin {fmin_hz} Hz");
     }
     let steps = ((fmax_hz - fmin_hz) / df_hz + 1e-6).floor();
-    if steps > 1e6 {
-        anyhow::bail!("frequency grid: more than a million frequencies; raise --df");
+    if steps + 1.0 > MAX_GRID_POINTS as f64 {
+        anyhow::bail!(
+            "--df {df_hz}: {fmin_hz}..{fmax_hz} Hz would need {} frequencies, expected at most {MAX_GRID_POINTS}: raise --df",
+            steps + 1.0
+        );
     }
     Ok((0..=steps as usize)
         .map(|i| fmin_hz + i as f64 * df_hz)

@@ -26,6 +26,7 @@ pub mod replay;
 pub mod report;
 pub mod resample;
 pub mod ride;
+pub mod signals;
 pub mod spectral;
 pub mod synth;
 pub mod text_position;

@@ -152,7 +152,7 @@ pub enum QemuError {
         stderr: String,
     },
     /// The deadline passed; QEMU was killed.
-    #[error("QEMU did not finish within {:.1} s and was killed; last output: {}", timeout.as_secs_f64(), last_line(stdout))]
+    #[error("QEMU did not finish within {} and was killed; last output: {}", crate::link::format_duration(*timeout), last_line(stdout))]
     Timeout {
         /// The deadline.
         timeout: Duration,
@@ -304,6 +304,27 @@ impl Qemu {
     /// The host end of UART0 (present when the config asked for a UART).
     pub fn uart(&mut self) -> Option<&mut UnixStream> {
         self.uart.as_mut()
+    }
+
+    /// QEMU's exit status if it has exited on its own, waiting up to `grace` for it (a
+    /// link that just failed may be QEMU dying).
+    pub fn exited_within(&mut self, grace: Duration) -> Option<ExitStatus> {
+        let until = Instant::now() + grace;
+        loop {
+            match self.child.try_wait() {
+                Ok(Some(status)) => return Some(status),
+                Ok(None) if Instant::now() < until => thread::sleep(POLL),
+                _ => return None,
+            }
+        }
+    }
+
+    /// Adds to a failed run's error that QEMU itself had exited, and how, if it had.
+    pub fn explain_failure(&mut self, err: anyhow::Error) -> anyhow::Error {
+        match self.exited_within(Duration::from_millis(200)) {
+            Some(status) => err.context(format!("QEMU exited during the run ({status})")),
+            None => err,
+        }
     }
 
     /// QEMU's process id.

@@ -140,7 +140,13 @@ pub fn session(
     }
     let started = Instant::now();
     let mut qemu = Qemu::start(&qemu_config)?;
-    let result = talk(&mut qemu, script, stop, started);
+    let result = talk(&mut qemu, script, stop, started).map_err(|e| {
+        if stop.load(Ordering::Relaxed) {
+            e
+        } else {
+            qemu.explain_failure(e)
+        }
+    });
     let output = qemu.stop();
     let mut session = result?;
     if let Ok(output) = output {
@@ -165,14 +171,17 @@ fn talk(
         .filter(|o| matches!(o, Outgoing::Message(HostToDevice::GetStatus)))
         .count()
         + 1;
-    let writer_stop = Arc::clone(stop);
+    // The writer's own flag: a failed session stops it without touching `stop`, which
+    // is the caller's (the process's signal flag for `supine replay`).
+    let writer_done = Arc::new(AtomicBool::new(false));
+    let (writer_stop, done) = (Arc::clone(stop), Arc::clone(&writer_done));
     let writer = thread::spawn(move || -> Result<()> {
         let mut writer = FrameWriter::new(std::io::BufWriter::with_capacity(4096, tx));
         for item in script
             .into_iter()
             .chain([Outgoing::Message(HostToDevice::GetStatus)])
         {
-            if writer_stop.load(Ordering::Relaxed) {
+            if writer_stop.load(Ordering::Relaxed) || done.load(Ordering::Relaxed) {
                 return Ok(());
             }
             match item {
@@ -199,15 +208,23 @@ fn talk(
         }
         if Instant::now() >= deadline {
             break Err(anyhow!(
-                "the device did not finish within {:.0} s ({} telemetry records so far)",
-                (deadline - started).as_secs_f64(),
+                "the device did not finish within {} ({} telemetry records so far)",
+                crate::link::format_duration(deadline - started),
                 s.telemetry.len()
             ));
         }
         let step = (Instant::now() + Duration::from_millis(100)).min(deadline);
-        match reader.next_before(step) {
+        let message = reader.next_before(step);
+        if s.greetings.is_empty()
+            && let Err(e) = reader.check_foreign_greeting()
+        {
+            break Err(e);
+        }
+        match message {
             Ok(Some(DeviceToHost::Greeting(g))) => {
-                crate::link::check_protocol(g.protocol_version)?;
+                if let Err(e) = crate::link::check_protocol(g.protocol_version) {
+                    break Err(e);
+                }
                 s.greetings.push(g);
             }
             Ok(Some(DeviceToHost::Telemetry(t))) => s.telemetry.push(t),
@@ -227,7 +244,7 @@ fn talk(
     s.elapsed = started.elapsed();
     if result.is_err() {
         // Unblock the writer: it may wait on a socket the device no longer drains.
-        stop.store(true, Ordering::Relaxed);
+        writer_done.store(true, Ordering::Relaxed);
         let _ = uart.shutdown(std::net::Shutdown::Both);
     }
     let written = writer

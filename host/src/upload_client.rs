@@ -97,8 +97,8 @@ fn expect_ack<R: Read>(
             Some(DeviceToHost::ParamNack(e)) => return Err(Refused(e).into()),
             Some(_) => {}
             None => bail!(
-                "no answer from the device within {:.0} s",
-                timeout.as_secs_f64()
+                "no answer from the device within {}",
+                crate::link::format_duration(timeout)
             ),
         }
     }

@@ -29,13 +29,22 @@ fn pump(mut from: impl Read + Send + 'static, mut to: impl Write + Send + 'stati
     });
 }
 
-fn flash(port: &str, preset: &str, counter: u32) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_supine"))
-        .args(["flash", "--preset", preset, "--serial", port, "--counter"])
-        .arg(counter.to_string())
+/// `supine flash --serial PORT` with `--counter N` if given, else the default counter
+/// (state kept in `state_dir`).
+fn flash_with(
+    port: &str,
+    preset: &str,
+    counter: Option<u32>,
+    state_dir: &std::path::Path,
+) -> (bool, String, String) {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_supine"));
+    cmd.args(["flash", "--preset", preset, "--serial", port])
         .args(["--timeout-s", "20"])
-        .output()
-        .expect("supine runs");
+        .env(supine_host::flash::STATE_DIR_ENV, state_dir);
+    if let Some(counter) = counter {
+        cmd.arg("--counter").arg(counter.to_string());
+    }
+    let out = cmd.output().expect("supine runs");
     let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
     println!("stdout: {stdout}stderr: {stderr}");
@@ -75,6 +84,10 @@ fn supine_flash_serial_uploads_to_the_firmware_and_names_a_refusal_code() {
     );
     pump(master, uart.try_clone().expect("clone"));
 
+    let state_dir = dir.path().join("state");
+    let flash = |port: &str, preset: &str, counter: u32| {
+        flash_with(port, preset, Some(counter), &state_dir)
+    };
     let rigid_hex = identity_hex(&identity(&ParamFile::preset(Preset::PaperRigid)).expect("id"));
     let (ok, stdout, stderr) = flash(&port, "paper-rigid", 1_000);
     assert!(ok, "{stderr}");
@@ -98,6 +111,28 @@ fn supine_flash_serial_uploads_to_the_firmware_and_names_a_refusal_code() {
     assert!(
         stdout.contains(&format!("parameters {litter_hex} committed to slot 0")),
         "{stdout}"
+    );
+
+    // Default counters, back to back (well within a second of each other on the same
+    // Unix second): both accepted, the second one above the first.
+    let counter_of = |stdout: &str| -> u32 {
+        stdout
+            .trim()
+            .rsplit_once("counter ")
+            .and_then(|(_, n)| n.trim_end_matches(')').parse().ok())
+            .unwrap_or_else(|| panic!("no counter in {stdout}"))
+    };
+    let mut counters = Vec::new();
+    for preset in ["paper-rigid", "paper-litter", "paper-rigid"] {
+        let (ok, stdout, stderr) = flash_with(&port, preset, None, &state_dir);
+        assert!(ok, "{stderr}");
+        counters.push(counter_of(&stdout));
+    }
+    assert!(counters.windows(2).all(|w| w[1] > w[0]), "{counters:?}");
+    let now_s = supine_host::flash::unix_seconds().expect("clock");
+    assert!(
+        (now_s - 120..=now_s).contains(&counters[0]),
+        "{counters:?} vs {now_s}"
     );
     drop(pty.slave);
 }

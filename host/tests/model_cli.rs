@@ -54,7 +54,7 @@ fn model_applies_height_and_mass_overrides() {
         "--fmin",
         "5",
         "--fmax",
-        "5",
+        "6",
         "--df",
         "1",
     ];
@@ -89,13 +89,144 @@ fn model_refuses_a_bad_frequency_grid_and_writes_nothing() {
         out.to_str().unwrap(),
     ])
     .unwrap_err();
-    assert!(one_line(&err).contains("--fmin"), "{err}");
+    assert_eq!(
+        one_line(&err),
+        "--fmax 1: expected a frequency above --fmin 5 Hz"
+    );
     assert!(!out.exists());
     assert_eq!(
         std::fs::read_dir(dir.path()).unwrap().count(),
         0,
         "no partial file left"
     );
+}
+
+/// `supine model` with `extra` grid flags: the error's one line.
+fn model_grid_error(extra: &[&str]) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("H.csv");
+    let mut args = vec![
+        "model",
+        "--preset",
+        "paper-rigid",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let err = supine(&args).unwrap_err();
+    assert!(!out.exists(), "{extra:?} wrote {}", out.display());
+    one_line(&err)
+}
+
+#[test]
+fn model_needs_a_grid_above_zero_hz_with_a_positive_step_and_bounded_size() {
+    for (extra, flag, expected) in [
+        (
+            &["--fmin", "0"][..],
+            "--fmin <HZ>",
+            "expected a frequency above 0 Hz, got 0",
+        ),
+        (
+            &["--fmin=-1"],
+            "--fmin <HZ>",
+            "expected a frequency above 0 Hz, got -1",
+        ),
+        (
+            &["--fmax", "NaN"],
+            "--fmax <HZ>",
+            "expected a frequency above 0 Hz, got NaN",
+        ),
+        (
+            &["--df", "0"],
+            "--df <HZ>",
+            "expected a frequency above 0 Hz, got 0",
+        ),
+        (
+            &["--df", "inf"],
+            "--df <HZ>",
+            "expected a frequency above 0 Hz, got inf",
+        ),
+    ] {
+        let msg = model_grid_error(extra);
+        assert!(
+            msg.contains(flag) && msg.contains(expected),
+            "{extra:?}: {msg}"
+        );
+    }
+    assert_eq!(
+        model_grid_error(&["--fmin", "2", "--fmax", "2"]),
+        "--fmax 2: expected a frequency above --fmin 2 Hz"
+    );
+    let msg = model_grid_error(&["--df", "1e-6"]);
+    assert!(
+        msg.starts_with(
+            "--df 0.000001: 0.5..16 Hz would need 15500001 frequencies, expected at most 100000"
+        ),
+        "{msg}"
+    );
+}
+
+#[test]
+fn modes_prints_every_mode_of_the_modal_analysis_to_printed_precision() {
+    use supine_core::model::{DEFAULT_SAMPLE_RATE_HZ, Model, Subsystem};
+    for preset in Preset::ALL {
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_supine"))
+            .args(["modes", "--preset", preset.name()])
+            .output()
+            .unwrap();
+        assert!(output.status.success(), "{output:?}");
+        let text = String::from_utf8(output.stdout).unwrap();
+        let mut lines = text.lines();
+        assert_eq!(
+            lines.next(),
+            Some("subsystem      frequency_hz  damping_ratio  kind           reachable")
+        );
+        let model = Model::new(&ModelParams::preset(preset)).unwrap();
+        let modes = &model.modes.components;
+        let rows: Vec<Vec<&str>> = lines
+            .by_ref()
+            .take(modes.len())
+            .map(|l| l.split_whitespace().collect())
+            .collect();
+        assert_eq!(rows.len(), modes.len());
+        for (row, mode) in rows.iter().zip(modes) {
+            let (zeta, kind) = match mode.damping_ratio() {
+                Some(z) => (format!("{z:.4}"), ["oscillatory"].as_slice()),
+                None => ("-".into(), ["real", "pole"].as_slice()),
+            };
+            let mut expected = vec![
+                mode.subsystem.name().to_string(),
+                format!("{:.4}", mode.natural_frequency_hz()),
+                zeta,
+            ];
+            expected.extend(kind.iter().map(|k| k.to_string()));
+            expected.push(if mode.reachable { "yes" } else { "no" }.into());
+            assert_eq!(row, &expected, "{}", preset.name());
+            // Nothing drives roll; every other subsystem has a support axis.
+            assert_eq!(
+                mode.subsystem == Subsystem::Roll,
+                row.last() == Some(&"no"),
+                "{row:?}"
+            );
+        }
+        // 18 degrees of freedom: 18 oscillatory pairs unless some are overdamped.
+        let pairs = modes.iter().filter(|m| m.damping_ratio().is_some()).count();
+        let reals = modes.len() - pairs;
+        assert_eq!(2 * pairs + reals, 36, "{}", preset.name());
+        let device = model.device_realization(DEFAULT_SAMPLE_RATE_HZ).unwrap();
+        assert_eq!(
+            lines.next(),
+            Some(
+                format!(
+                    "device realization at {DEFAULT_SAMPLE_RATE_HZ} Hz: {} modal blocks (2 states each), {} multiply-adds per sample for head x, y, z",
+                    device.block_count,
+                    device.multiply_adds_per_sample()
+                )
+                .as_str()
+            )
+        );
+        assert_eq!(lines.next(), None);
+    }
 }
 
 #[test]

@@ -86,3 +86,41 @@ fn an_unwritable_log_is_refused_before_connecting() {
         "supine: /nonexistent-dir/log.csv.partial: cannot create: No such file or directory (os error 2)\n"
     );
 }
+
+/// `Duration::from_secs_f64` panics on huge, negative or NaN seconds: the timeouts of
+/// `monitor` and `flash` are refused by clap first, naming the flag and the range.
+#[test]
+fn timeouts_out_of_range_are_refused_by_name_without_a_panic() {
+    for (command, flag) in [
+        (
+            &["monitor", "--serial", "/dev/null"][..],
+            "--greeting-timeout-s",
+        ),
+        (
+            &[
+                "flash",
+                "--preset",
+                "paper-rigid",
+                "--qemu-image",
+                "/nonexistent/p.bin",
+            ],
+            "--timeout-s",
+        ),
+    ] {
+        for bad in ["1e30", "NaN", "inf", "0", "86401"] {
+            let output = Command::new(env!("CARGO_BIN_EXE_supine"))
+                .args(command)
+                .arg(format!("{flag}={bad}"))
+                .output()
+                .expect("supine runs");
+            let stderr = String::from_utf8_lossy(&output.stderr);
+            assert_eq!(output.status.code(), Some(2), "{flag}={bad}: {stderr}");
+            assert!(!stderr.contains("panicked"), "{stderr}");
+            assert!(
+                stderr.contains(&format!("invalid value '{bad}' for '{flag} <"))
+                    && stderr.contains("expected seconds above 0 and at most 86400 (one day)"),
+                "{flag}={bad}: {stderr}"
+            );
+        }
+    }
+}

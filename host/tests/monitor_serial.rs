@@ -132,9 +132,46 @@ fn a_device_in_another_protocol_version_is_refused_with_what_to_do() {
     assert_eq!(
         stderr.trim_end(),
         format!(
-            "supine: {} at 921600 baud: the device speaks protocol version {}, this host speaks {PROTOCOL_VERSION}: update this host tool to the firmware's release",
+            "supine: {} at 921600 baud: the device speaks protocol version {}, this supine speaks {PROTOCOL_VERSION}: update this host tool to the firmware's release (`cargo install --path host` from the same checkout)",
             device.path,
             PROTOCOL_VERSION + 1
+        )
+    );
+}
+
+/// A greeting as an older firmware might have sent it: the sequence number, variant 0 and
+/// the protocol version lead as in every version, then fields this host has never known.
+#[derive(serde::Serialize)]
+struct OldGreeting {
+    seq: u32,
+    variant: u32,
+    protocol_version: u16,
+    uptime_ms: u64,
+    board: [u8; 4],
+}
+
+#[test]
+fn a_greeting_that_does_not_decode_is_refused_for_its_version_not_as_garbage() {
+    let mut device = FakeDevice::new();
+    let child = monitor(&device, &["--greeting-timeout-s", "20"]);
+    device.expect_hello();
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let old = OldGreeting {
+        seq: 0,
+        variant: 0,
+        protocol_version: 0,
+        uptime_ms: u64::MAX,
+        board: *b"bp41",
+    };
+    let frame = postcard::to_slice_cobs(&old, &mut buf).expect("encodes");
+    device.master.write_all(frame).expect("write to the pty");
+    let (output, _, stderr) = finish(child);
+    assert!(!output.status.success());
+    assert_eq!(
+        stderr.trim_end(),
+        format!(
+            "supine: {} at 921600 baud: the device speaks protocol version 0, this supine speaks {PROTOCOL_VERSION}: reflash the device with this release's firmware (`cargo fw-board` and probe-rs, see the README; `cargo fw` for QEMU)",
+            device.path,
         )
     );
 }

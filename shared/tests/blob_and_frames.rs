@@ -66,7 +66,11 @@ fn each_kind_of_bad_blob_gets_its_own_error() {
     cases.push(("cut write in a slot", cut, BlobError::Truncated));
     let mut cut_zeroed = good[..good.len() / 2].to_vec();
     cut_zeroed.resize(8192, 0);
-    cases.push(("cut write in zeroed memory", cut_zeroed, BlobError::Truncated));
+    cases.push((
+        "cut write in zeroed memory",
+        cut_zeroed,
+        BlobError::Truncated,
+    ));
     // A flipped bit in the final byte stays a CRC error, not a truncation.
     let mut last = good.clone();
     *last.last_mut().unwrap() ^= 0x80;

@@ -267,6 +267,45 @@ pub fn qemu_cmdline(pid: u32) -> Option<String> {
     text.contains("qemu-system-arm").then_some(text)
 }
 
+/// Running `qemu-system-arm` processes whose command line mentions `path` (e.g. the
+/// private TMPDIR a test gave `supine`, where each run's socket folder lives).
+pub fn qemu_processes_mentioning(path: &std::path::Path) -> Vec<u32> {
+    let needle = path.to_string_lossy().into_owned();
+    let Ok(entries) = std::fs::read_dir("/proc") else {
+        return Vec::new();
+    };
+    entries
+        .flatten()
+        .filter_map(|e| e.file_name().to_str()?.parse::<u32>().ok())
+        .filter(|&pid| qemu_cmdline(pid).is_some_and(|c| c.contains(&needle)))
+        .collect()
+}
+
+/// What is left in folder `dir` (names), for checks that a run cleaned up after itself.
+pub fn entries(dir: &std::path::Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .map(|rd| {
+            rd.flatten()
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    names.sort();
+    names
+}
+
+/// A stand-in for `qemu-system-arm` (for `SUPINE_QEMU`): a shell script in `dir` that runs
+/// the real QEMU as `body` says, e.g. `exec qemu-system-arm -S "$@"` (never starts the
+/// guest) or `exec timeout -s KILL 2 qemu-system-arm "$@"` (dies mid-run).
+pub fn qemu_wrapper(dir: &std::path::Path, name: &str, body: &str) -> PathBuf {
+    use std::os::unix::fs::PermissionsExt as _;
+    let path = dir.join(name);
+    std::fs::write(&path, format!("#!/bin/sh\n{body}\n")).expect("write the wrapper");
+    std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755))
+        .expect("make the wrapper executable");
+    path
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

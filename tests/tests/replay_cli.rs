@@ -1,12 +1,16 @@
 //! `supine replay` as a user runs it: the binary, its CSV files, its instruction count,
-//! and Ctrl-C leaving no QEMU process and no socket folder behind.
+//! and no QEMU process and no socket folder left behind: after a finished run, a failed
+//! one, and Ctrl-C, SIGTERM or SIGHUP.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use supine_host::recording::Recording;
-use supine_qemu_tests::{child_pids, firmware, qemu_cmdline, supine_binary};
+use supine_qemu_tests::{
+    child_pids, entries, firmware, qemu_cmdline, qemu_processes_mentioning, qemu_wrapper,
+    supine_binary,
+};
 
 /// A recording of `seconds` at 500 Hz with a few sines on the platform columns.
 fn write_ride(dir: &Path, seconds: f64) -> PathBuf {
@@ -95,61 +99,154 @@ fn supine_replay_writes_telemetry_and_events_and_counts_instructions() {
     assert!(events.starts_with(supine_host::replay::EVENTS_HEADER));
 }
 
+/// `supine replay --qemu --preset paper-litter --input RIDE --out DIR/device.csv` with its
+/// own TMPDIR (where QEMU's socket folder goes), so that leftovers can be listed.
+fn replay_command(dir: &Path, ride: &Path, tmp: &Path) -> Command {
+    std::fs::create_dir_all(tmp).expect("private TMPDIR");
+    let mut cmd = Command::new(supine_binary());
+    cmd.args(["replay", "--qemu", "--preset", "paper-litter", "--input"])
+        .arg(ride)
+        .arg("--out")
+        .arg(dir.join("device.csv"))
+        .env("TMPDIR", tmp);
+    cmd
+}
+
+/// Nothing of a finished `supine` run is left: no QEMU, no socket folder.
+fn assert_nothing_left(tmp: &Path, what: &str) {
+    assert_eq!(
+        qemu_processes_mentioning(tmp),
+        Vec::<u32>::new(),
+        "{what}: QEMU still running"
+    );
+    assert_eq!(entries(tmp), Vec::<String>::new(), "{what}: left in TMPDIR");
+}
+
 #[test]
-fn ctrl_c_during_replay_leaves_no_qemu_and_no_socket_folder() {
+fn ctrl_c_sigterm_and_sighup_during_replay_leave_no_qemu_and_no_socket_folder() {
     firmware(supine_host::firmware::PRODUCT_BINARY);
     let dir = tempfile::tempdir().expect("temp dir");
     let ride = write_ride(dir.path(), 120.0);
-    let child = Command::new(supine_binary())
-        .args(["replay", "--qemu", "--preset", "paper-litter", "--input"])
-        .arg(&ride)
-        .arg("--out")
-        .arg(dir.path().join("device.csv"))
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("supine runs");
-    // Wait until QEMU runs under it, then a little longer so samples are streaming.
-    let start = Instant::now();
-    let (qemu_pid, cmdline) = loop {
-        if let Some(found) = child_pids(child.id())
-            .into_iter()
-            .find_map(|p| qemu_cmdline(p).map(|c| (p, c)))
-        {
-            break found;
-        }
+    for signal in ["INT", "TERM", "HUP"] {
+        let tmp = dir.path().join(format!("tmp-{signal}"));
+        let child = replay_command(dir.path(), &ride, &tmp)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("supine runs");
+        // Wait until QEMU runs under it, then a little longer so samples are streaming.
+        let start = Instant::now();
+        let (qemu_pid, cmdline) = loop {
+            if let Some(found) = child_pids(child.id())
+                .into_iter()
+                .find_map(|p| qemu_cmdline(p).map(|c| (p, c)))
+            {
+                break found;
+            }
+            assert!(
+                start.elapsed() < Duration::from_secs(120),
+                "no QEMU started"
+            );
+            std::thread::sleep(Duration::from_millis(50));
+        };
+        std::thread::sleep(Duration::from_secs(2));
+        let socket_dir = cmdline
+            .split(['=', ','])
+            .find(|p| p.ends_with("uart.sock"))
+            .map(|p| {
+                PathBuf::from(p)
+                    .parent()
+                    .expect("socket in a folder")
+                    .to_path_buf()
+            })
+            .expect("QEMU's UART socket path");
+        assert!(socket_dir.starts_with(&tmp), "{}", socket_dir.display());
+        assert!(socket_dir.exists());
+        let status = Command::new("kill")
+            .args([&format!("-{signal}"), &child.id().to_string()])
+            .status()
+            .expect("kill runs");
+        assert!(status.success());
+        let output = child.wait_with_output().expect("supine exits");
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        println!("SIG{signal}: {stderr}");
         assert!(
-            start.elapsed() < Duration::from_secs(120),
-            "no QEMU started"
+            !output.status.success(),
+            "SIG{signal}: an interrupted replay must fail"
         );
-        std::thread::sleep(Duration::from_millis(50));
-    };
-    std::thread::sleep(Duration::from_secs(2));
-    let socket_dir = cmdline
-        .split(['=', ','])
-        .find(|p| p.ends_with("uart.sock"))
-        .map(|p| {
-            PathBuf::from(p)
-                .parent()
-                .expect("socket in a folder")
-                .to_path_buf()
-        })
-        .expect("QEMU's UART socket path");
-    assert!(socket_dir.exists());
-    let status = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .expect("kill runs");
-    assert!(status.success());
-    let output = child.wait_with_output().expect("supine exits");
+        assert!(stderr.contains("interrupted"), "SIG{signal}: {stderr}");
+        assert!(
+            !Path::new(&format!("/proc/{qemu_pid}")).exists() || qemu_cmdline(qemu_pid).is_none(),
+            "SIG{signal}: QEMU {qemu_pid} still running"
+        );
+        assert!(!socket_dir.exists(), "{} left behind", socket_dir.display());
+        assert_nothing_left(&tmp, &format!("SIG{signal}"));
+        assert!(!dir.path().join("device.csv").exists(), "no partial output");
+    }
+}
+
+#[test]
+fn a_finished_replay_leaves_no_qemu_and_no_socket_folder() {
+    firmware(supine_host::firmware::PRODUCT_BINARY);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let ride = write_ride(dir.path(), 2.0);
+    let tmp = dir.path().join("tmp");
+    let output = replay_command(dir.path(), &ride, &tmp)
+        .output()
+        .expect("supine runs");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert!(stderr.contains("replayed 1000 samples"), "{stderr}");
+    assert_nothing_left(&tmp, "a finished replay");
+}
+
+#[test]
+fn a_replay_whose_qemu_dies_midway_fails_on_one_line_and_leaves_nothing() {
+    firmware(supine_host::firmware::PRODUCT_BINARY);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let ride = write_ride(dir.path(), 120.0);
+    let tmp = dir.path().join("tmp");
+    // The device "loses power" 3 s in: QEMU killed under the running replay.
+    let qemu = qemu_wrapper(
+        dir.path(),
+        "dying-qemu",
+        "exec timeout -s KILL 3 qemu-system-arm \"$@\"",
+    );
+    let output = replay_command(dir.path(), &ride, &tmp)
+        .env(supine_host::qemu::QEMU_ENV, &qemu)
+        .output()
+        .expect("supine runs");
     let stderr = String::from_utf8_lossy(&output.stderr);
     println!("{stderr}");
-    assert!(!output.status.success(), "an interrupted replay must fail");
-    assert!(stderr.contains("interrupted"), "{stderr}");
+    assert!(!output.status.success(), "a replay cut short must fail");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
     assert!(
-        !Path::new(&format!("/proc/{qemu_pid}")).exists() || qemu_cmdline(qemu_pid).is_none(),
-        "QEMU {qemu_pid} still running"
+        stderr.starts_with("supine: QEMU exited during the run (signal: 9 (SIGKILL))"),
+        "{stderr}"
     );
-    assert!(!socket_dir.exists(), "{} left behind", socket_dir.display());
+    assert_nothing_left(&tmp, "a replay whose QEMU died");
+    assert!(!dir.path().join("device.csv").exists(), "no partial output");
+}
+
+#[test]
+fn a_bad_row_midway_in_the_ride_is_named_and_leaves_nothing() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let ride = write_ride(dir.path(), 2.0);
+    let text = std::fs::read_to_string(&ride).expect("ride");
+    let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
+    lines[500] = lines[500].replacen(',', ",oops", 1);
+    std::fs::write(&ride, lines.join("\n")).expect("damaged ride");
+    let tmp = dir.path().join("tmp");
+    let output = replay_command(dir.path(), &ride, &tmp)
+        .output()
+        .expect("supine runs");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success());
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains(&format!("{}: line 501", ride.display())),
+        "{stderr}"
+    );
+    assert_nothing_left(&tmp, "a refused ride");
     assert!(!dir.path().join("device.csv").exists(), "no partial output");
 }

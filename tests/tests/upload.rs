@@ -789,3 +789,70 @@ fn power_cuts_during_the_device_own_flash_update_boot_the_last_committed_slot() 
         (c.identity, ParamsSource::Flash { slot: 0 })
     );
 }
+
+/// `supine flash --qemu` blocks on the device's answers rather than polling: SIGTERM must
+/// still stop QEMU and remove its socket folder. The guest is never started (`-S`), so
+/// the command is certainly still waiting for the greeting when the signal arrives.
+#[test]
+fn sigterm_during_supine_flash_qemu_leaves_no_qemu_and_no_socket_folder() {
+    use supine_qemu_tests::{child_pids, entries, qemu_cmdline, qemu_processes_mentioning};
+    supine_qemu_tests::firmware(supine_host::firmware::PRODUCT_BINARY);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let tmp = dir.path().join("tmp");
+    std::fs::create_dir(&tmp).expect("private TMPDIR");
+    let paused = supine_qemu_tests::qemu_wrapper(
+        dir.path(),
+        "paused-qemu",
+        "exec qemu-system-arm -S \"$@\"",
+    );
+    let child = supine()
+        .args([
+            "flash",
+            "--preset",
+            "paper-rigid",
+            "--qemu",
+            "--timeout-s",
+            "60",
+        ])
+        .env("TMPDIR", &tmp)
+        .env(supine_host::qemu::QEMU_ENV, &paused)
+        .env(supine_host::flash::STATE_DIR_ENV, dir.path())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("supine runs");
+    let start = std::time::Instant::now();
+    while !child_pids(child.id())
+        .into_iter()
+        .any(|p| qemu_cmdline(p).is_some())
+    {
+        assert!(
+            start.elapsed() < Duration::from_secs(120),
+            "no QEMU started"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    std::thread::sleep(Duration::from_millis(500));
+    assert_eq!(qemu_processes_mentioning(&tmp).len(), 1);
+    let signalled = std::time::Instant::now();
+    let status = std::process::Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .expect("kill runs");
+    assert!(status.success());
+    let output = child.wait_with_output().expect("supine exits");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    println!("{stderr}");
+    assert!(
+        signalled.elapsed() < Duration::from_secs(10),
+        "took {:?} to stop",
+        signalled.elapsed()
+    );
+    assert!(!output.status.success());
+    assert_eq!(
+        stderr.trim(),
+        "supine: interrupted: QEMU stopped and its folder removed"
+    );
+    assert_eq!(qemu_processes_mentioning(&tmp), Vec::<u32>::new());
+    assert_eq!(entries(&tmp), Vec::<String>::new());
+}

@@ -3,8 +3,6 @@
 
 use std::io::IsTerminal as _;
 use std::path::PathBuf;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::Result;
 
@@ -35,11 +33,8 @@ pub struct Args {
 /// Runs the demo: step lines and the summary on standard output, the live view on
 /// standard error; Ctrl-C stops QEMU and removes its folder.
 pub fn run(args: &Args) -> Result<()> {
-    let stop = Arc::new(AtomicBool::new(false));
-    let flag = Arc::clone(&stop);
-    // A second handler cannot be installed in one process (a library caller): then Ctrl-C
-    // keeps its default, which ends QEMU through its guard's process group.
-    let _ = ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed));
+    // Ctrl-C, SIGTERM and SIGHUP: QEMU stopped and its folder removed on the way out.
+    let stop = crate::signals::stop_flag();
     let config = DemoConfig {
         out_dir: args.out.clone(),
         profile: args.profile,

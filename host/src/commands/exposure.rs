@@ -44,8 +44,8 @@ pub struct Args {
     #[arg(long, value_enum, requires = "channel")]
     pub weighting: Option<Kind>,
     /// Resample to this rate first, Hz (100..=2000; Kaiser-windowed sinc, zero phase).
-    #[arg(long, value_name = "HZ")]
-    pub fs: Option<f64>,
+    #[arg(long = "fs", value_name = "HZ")]
+    pub fs_hz: Option<f64>,
     /// Print one JSON object instead of the table.
     #[arg(long)]
     pub json: bool,
@@ -58,7 +58,7 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
     let text = match (&args.channel, args.weighting) {
         (Some(channel), Some(kind)) => {
             let index = channel_index(channel, layout, &args.input)?;
-            let prepared = prepare(&recording, &[column(&recording, index)], args.fs)?;
+            let prepared = prepare(&recording, &[column(&recording, index)], args.fs_hz)?;
             let report = channel_exposure(kind.into(), &prepared, &input, channel)?;
             if args.json {
                 serde_json::to_string(&report)? + "\n"
@@ -80,7 +80,7 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
                 (None, None) => "?".to_string(),
             };
             let [x, y, z] = &recording.platform_m_s2;
-            let prepared: Prepared = prepare(&recording, &[x, y, z], args.fs)?;
+            let prepared: Prepared = prepare(&recording, &[x, y, z], args.fs_hz)?;
             let params = device_params::build(&file, prepared.sample_rate_hz)?;
             let identity = device_params::identity_hex(&params.identity);
             let report = model_exposure(&params, &prepared, &input, layout, model, identity)?;

@@ -2,10 +2,10 @@
 //! authenticated upload over a serial port (or into QEMU), or with probe-rs.
 
 use std::path::PathBuf;
-use std::time::Duration;
 
-use anyhow::{Result, anyhow, bail};
+use anyhow::{Result, anyhow};
 
+use crate::commands::values;
 use crate::device_params::identity_hex;
 use crate::flash::{self, UploadOutcome};
 use crate::params_file::ModelSource;
@@ -28,14 +28,15 @@ pub struct Args {
     /// Device key file (64 hex digits) that signs the upload; default: the development key.
     #[arg(long, value_name = "FILE")]
     pub key: Option<PathBuf>,
-    /// Update counter; must exceed every one the device accepted (default: Unix time, s).
+    /// Update counter; must exceed every one the device accepted (default: the Unix time in
+    /// seconds, or one above the last counter this host used if that is larger).
     #[arg(long, value_name = "N")]
     pub counter: Option<u32>,
     /// Flash address of the PARAMS region for --probe (the Black Pill's sectors 6 and 7).
     #[arg(long, value_name = "ADDR", default_value = "0x08040000", value_parser = parse_address)]
     pub base_address: u32,
-    /// Longest wait for each answer of the device, seconds.
-    #[arg(long, value_name = "S", default_value_t = 10.0)]
+    /// Longest wait for each answer of the device, s (above 0, at most a day).
+    #[arg(long, value_name = "S", default_value_t = 10.0, value_parser = values::timeout_s)]
     pub timeout_s: f64,
 }
 
@@ -69,16 +70,10 @@ fn parse_address(text: &str) -> Result<u32, String> {
 /// Builds the blob and delivers it.
 pub fn run(args: &Args) -> Result<()> {
     let file = args.model.load()?;
-    if !(args.timeout_s.is_finite() && args.timeout_s > 0.0) {
-        bail!(
-            "--timeout-s: expected a positive number of seconds, got {}",
-            args.timeout_s
-        );
-    }
-    let timeout = Duration::from_secs_f64(args.timeout_s);
+    let timeout = values::timeout("--timeout-s", args.timeout_s)?;
     let (params, blob) = flash::device_blob(&file, args.fs_hz)?;
     let id = identity_hex(&params.identity);
-    let counter = || args.counter.map_or_else(flash::counter_now, Ok);
+    let counter = || flash::choose_counter(args.counter);
     let t = &args.target;
     if let Some(out) = &t.qemu_image {
         let image = flash::qemu_region_image(&file, args.fs_hz)?;
@@ -96,28 +91,33 @@ pub fn run(args: &Args) -> Result<()> {
         );
     } else if let Some(port) = &t.serial {
         let key = flash::load_key(args.key.as_deref())?;
+        let counter = counter()?;
         let outcome =
-            flash::upload_serial(port, args.baud, &params, &blob, &key, counter()?, timeout)?;
-        report(&outcome, port);
+            flash::upload_serial(port, args.baud, &params, &blob, &key, counter, timeout)?;
+        report(&outcome, port, counter);
     } else if let Some(chip) = &t.probe {
         let image =
             flash::region_image_with_stride(&blob, counter()?, flash::BLACKPILL_SLOT_STRIDE)?;
         flash::probe_download(chip, args.base_address, &image)?;
         println!(
-            "flashed parameters {id} at {} Hz to {chip} at {:#010x}",
+            "flashed parameters {id} at {} Hz to {chip} at {:#010x}; now reset the board \
+             (`probe-rs reset --chip {chip}`, its reset button, or a power cycle): it reads \
+             its parameters only at boot",
             args.fs_hz, args.base_address
         );
     } else if t.qemu {
         let key = flash::load_key(args.key.as_deref())?;
-        let outcome = flash::upload_qemu(&params, &blob, &key, counter()?, timeout)?;
-        report(&outcome, "QEMU");
+        // A fresh QEMU device has accepted no counter: nothing to remember.
+        let counter = args.counter.map_or_else(flash::unix_seconds, Ok)?;
+        let outcome = flash::upload_qemu(&params, &blob, &key, counter, timeout)?;
+        report(&outcome, "QEMU", counter);
     }
     Ok(())
 }
 
-fn report(outcome: &UploadOutcome, device: &str) {
+fn report(outcome: &UploadOutcome, device: &str, counter: u32) {
     println!(
-        "{device}: parameters {} committed to slot {} and running (greeting: {} Hz, firmware {})",
+        "{device}: parameters {} committed to slot {} and running (greeting: {} Hz, firmware {}; counter {counter})",
         identity_hex(&outcome.uploaded.identity),
         outcome.uploaded.slot,
         outcome.greeting.sample_rate_hz,

@@ -15,4 +15,5 @@ pub mod ride;
 pub mod synth;
 pub mod transmissibility;
 pub mod validate;
+pub mod values;
 pub mod weighting;

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use anyhow::{Result, anyhow};
 use supine_core::model::{Axis, Output, SystemMatrices};
 
+use crate::commands::values;
 use crate::h_csv::{self, HRow};
 use crate::params_file::ModelSource;
 
@@ -20,15 +21,15 @@ pub struct Args {
     /// Override the subject's mass, kg.
     #[arg(long)]
     pub mass_kg: Option<f64>,
-    /// Lowest frequency, Hz.
-    #[arg(long, default_value_t = 0.5)]
-    pub fmin: f64,
-    /// Highest frequency, Hz.
-    #[arg(long, default_value_t = 16.0)]
-    pub fmax: f64,
-    /// Frequency step, Hz.
-    #[arg(long, default_value_t = 0.05)]
-    pub df: f64,
+    /// Lowest frequency, Hz (above 0: H is the static response there, 1 on matching axes).
+    #[arg(long = "fmin", value_name = "HZ", default_value_t = 0.5, value_parser = values::positive_hz)]
+    pub fmin_hz: f64,
+    /// Highest frequency, Hz (above --fmin).
+    #[arg(long = "fmax", value_name = "HZ", default_value_t = 16.0, value_parser = values::positive_hz)]
+    pub fmax_hz: f64,
+    /// Frequency step, Hz (at most 100,000 frequencies).
+    #[arg(long = "df", value_name = "HZ", default_value_t = 0.05, value_parser = values::positive_hz)]
+    pub df_hz: f64,
     /// Where to write the CSV.
     #[arg(long)]
     pub out: PathBuf,
@@ -44,7 +45,7 @@ pub fn run(args: &Args) -> Result<()> {
         params.subject.mass_kg = m;
     }
     params.validate().map_err(|e| anyhow!("{e}"))?;
-    let freqs = h_csv::frequency_grid(args.fmin, args.fmax, args.df)?;
+    let freqs = h_csv::frequency_grid(args.fmin_hz, args.fmax_hz, args.df_hz)?;
     let matrices = SystemMatrices::assemble(&params);
     let mut rows = Vec::with_capacity(freqs.len() * 27);
     for &freq_hz in &freqs {

@@ -3,13 +3,13 @@
 
 use std::io::IsTerminal as _;
 use std::path::PathBuf;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
 use anyhow::{Context as _, Result, anyhow, bail};
 use clap::ArgGroup;
 
+use crate::commands::values;
 use crate::device_params;
 use crate::exposure_report::read_input;
 use crate::firmware;
@@ -51,8 +51,13 @@ pub struct Args {
     #[arg(long, default_value_t = 60.0, requires = "profile")]
     pub duration_s: f64,
     /// Sample rate of the generated ride, Hz (100..=2000).
-    #[arg(long, default_value_t = 500.0, requires = "profile")]
-    pub fs: f64,
+    #[arg(
+        long = "fs",
+        value_name = "HZ",
+        default_value_t = 500.0,
+        requires = "profile"
+    )]
+    pub fs_hz: f64,
     /// Seed of the generated ride.
     #[arg(long, default_value_t = 0, requires = "profile")]
     pub seed: u64,
@@ -63,30 +68,21 @@ pub struct Args {
     /// (the formats of `supine replay`).
     #[arg(long, value_name = "FILE.csv")]
     pub log: Option<PathBuf>,
-    /// Longest wait for the device's greeting, s.
-    #[arg(long, default_value_t = 10.0)]
+    /// Longest wait for the device's greeting, s (above 0, at most a day).
+    #[arg(long, default_value_t = 10.0, value_parser = values::timeout_s)]
     pub greeting_timeout_s: f64,
 }
 
 /// Runs the monitor until the ride ends (QEMU), Ctrl-C, or the link fails.
 pub fn run(args: &Args) -> Result<()> {
-    if !(args.greeting_timeout_s.is_finite() && args.greeting_timeout_s > 0.0) {
-        bail!(
-            "--greeting-timeout-s {}: expected a positive number of seconds",
-            args.greeting_timeout_s
-        );
-    }
-    let greeting_timeout = Duration::from_secs_f64(args.greeting_timeout_s);
+    let greeting_timeout = values::timeout("--greeting-timeout-s", args.greeting_timeout_s)?;
     let qemu_run = if args.qemu {
         Some(prepare_qemu(args, greeting_timeout)?)
     } else {
         None
     };
-    let stop = Arc::new(AtomicBool::new(false));
-    let flag = Arc::clone(&stop);
-    // A second handler cannot be installed in one process (a library caller): then Ctrl-C
-    // keeps its default, which ends QEMU through its guard's process group.
-    let _ = ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed));
+    // Ctrl-C, SIGTERM and SIGHUP: QEMU stopped and its folder removed on the way out.
+    let stop = crate::signals::stop_flag();
     let mut log = args.log.as_deref().map(MonitorLog::create).transpose()?;
     let stdout = std::io::stdout();
     let mut view: Box<dyn View> = if stdout.is_terminal() {
@@ -163,7 +159,7 @@ fn prepare_qemu(args: &Args, greeting_timeout: Duration) -> Result<QemuRun> {
             (samples, recording.sample_rate_hz())
         }
         (None, Some(profile)) => {
-            let ride = generate(profile, args.duration_s, args.fs, args.seed)?;
+            let ride = generate(profile, args.duration_s, args.fs_hz, args.seed)?;
             let samples = (0..ride.len())
                 .map(|k| ride.platform_m_s2.each_ref().map(|c| c[k] as f32))
                 .collect();

@@ -1,8 +1,6 @@
 //! `supine replay`: a recording through the device image in QEMU, telemetry to CSV.
 
 use std::path::PathBuf;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Result, bail};
 use supine_core::blob::TelemetryConfig;
@@ -44,11 +42,8 @@ pub fn run(args: &Args) -> Result<()> {
     let file = args.model.load()?;
     // A full recording or a `supine ride` file (platform columns only).
     let (recording, _) = read_input(&args.input)?;
-    let stop = Arc::new(AtomicBool::new(false));
-    let flag = Arc::clone(&stop);
-    // A second handler cannot be installed in one process (e.g. a library caller): then
-    // Ctrl-C keeps its default, which also ends QEMU through the guard's process group.
-    let _ = ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed));
+    // Ctrl-C, SIGTERM and SIGHUP: QEMU stopped and its folder removed on the way out.
+    let stop = crate::signals::stop_flag();
     let telemetry = TelemetryConfig {
         decimation: args.telemetry_decimation,
     };

@@ -17,8 +17,8 @@ pub struct Args {
     #[arg(long, default_value_t = 600.0)]
     pub duration_s: f64,
     /// Sample rate, Hz (100..=2000).
-    #[arg(long, default_value_t = 500.0)]
-    pub fs: f64,
+    #[arg(long = "fs", value_name = "HZ", default_value_t = 500.0)]
+    pub fs_hz: f64,
     /// Seed of every random draw (ChaCha8): the same seed gives the same file.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -29,7 +29,7 @@ pub struct Args {
 
 /// Generates and writes the ride, with a one-line summary on standard error.
 pub fn run(args: &Args) -> Result<()> {
-    let ride = generate(args.profile, args.duration_s, args.fs, args.seed)?;
+    let ride = generate(args.profile, args.duration_s, args.fs_hz, args.seed)?;
     write_ride(&args.out, &ride)?;
     let rms = ride
         .platform_m_s2

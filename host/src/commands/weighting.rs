@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use anyhow::{Result, anyhow, bail};
 use supine_core::weighting::{WeightingKind, WeightingSettings, analog_response};
 
+use crate::commands::values;
 use crate::output::write_atomically;
 
 /// The weighting to describe.
@@ -37,14 +38,14 @@ pub struct Args {
     #[arg(long, value_enum)]
     pub kind: Kind,
     /// Sample rate the filter is designed for, Hz (100..=2000).
-    #[arg(long, default_value_t = 500.0)]
-    pub fs: f32,
+    #[arg(long = "fs", value_name = "HZ", default_value_t = 500.0)]
+    pub fs_hz: f32,
     /// Lowest frequency, Hz.
-    #[arg(long, default_value_t = 0.1)]
-    pub fmin: f64,
+    #[arg(long = "fmin", value_name = "HZ", default_value_t = 0.1, value_parser = values::positive_hz)]
+    pub fmin_hz: f64,
     /// Highest frequency, Hz (the grid also stops below fs/2).
-    #[arg(long, default_value_t = 400.0)]
-    pub fmax: f64,
+    #[arg(long = "fmax", value_name = "HZ", default_value_t = 400.0, value_parser = values::positive_hz)]
+    pub fmax_hz: f64,
     /// Frequencies per decade, at the exact centres 10^(n/N) Hz (10: one-third octaves).
     #[arg(long, default_value_t = 10)]
     pub per_decade: u32,
@@ -81,9 +82,14 @@ pub fn centre_frequencies(fmin: f64, fmax: f64, per_decade: u32, fs: f64) -> Res
 /// Writes the response of the device's filter and of the analog weighting on the grid.
 pub fn run(args: &Args) -> Result<()> {
     let kind = WeightingKind::from(args.kind);
-    let filter =
-        WeightingSettings::new(kind, args.fs).map_err(|e| anyhow!("--fs {}: {e}", args.fs))?;
-    let freqs = centre_frequencies(args.fmin, args.fmax, args.per_decade, args.fs as f64)?;
+    let filter = WeightingSettings::new(kind, args.fs_hz)
+        .map_err(|e| anyhow!("--fs {}: {e}", args.fs_hz))?;
+    let freqs = centre_frequencies(
+        args.fmin_hz,
+        args.fmax_hz,
+        args.per_decade,
+        args.fs_hz as f64,
+    )?;
     write_atomically(&args.out, |w| {
         writeln!(w, "freq_hz,magnitude,phase_rad,analog_magnitude")?;
         for &f in &freqs {
@@ -97,7 +103,7 @@ pub fn run(args: &Args) -> Result<()> {
         "wrote {} ({} frequencies, {kind} at {} Hz)",
         args.out.display(),
         freqs.len(),
-        args.fs
+        args.fs_hz
     );
     Ok(())
 }

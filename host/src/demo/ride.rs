@@ -197,14 +197,14 @@ mod tests {
         let z = &trip.ride.platform_m_s2[2];
         let s = |a: f64, b: f64| rms(&z[(a * fs) as usize..(b * fs) as usize]);
         // Paved road: the ambulance's 0.3 m/s^2 vertical; rough road: 1 m/s^2 and more
-        // with shocks (24 s of rough road: one shock window of 20 s).
+        // with shocks (24 s of rough road: 2.3 shocks on average, all inside the segment).
         let paved = generate(Profile::Ambulance, 60.0, fs, 3).expect("paved");
         assert_eq!(&z[..5000], &paved.platform_m_s2[2][..5000]);
         assert_eq!(&z[19000..], &paved.platform_m_s2[2][19000..]);
         assert!(s(14.0, 34.0) > 0.9, "rough {}", s(14.0, 34.0));
         assert!(s(0.0, 11.0) < 0.4 && s(38.0, 60.0) < 0.4);
-        assert_eq!(trip.shocks.len(), 1);
-        assert!((12.0..36.0).contains(&trip.shocks[0].time_s));
+        assert!(!trip.shocks.is_empty());
+        assert!(trip.shocks.iter().all(|s| (12.0..36.0).contains(&s.time_s)));
         assert_eq!(trip.segments.len(), 3);
         assert_eq!(trip.segments[1].start_s, 12.0);
         assert_eq!(trip.segments[1].end_s, 36.0);

@@ -23,7 +23,7 @@ use super::log::MonitorLog;
 use super::state::Monitor;
 use super::view::View;
 use crate::device_params::identity_hex;
-use crate::link::{FrameReader, FrameWriter, check_protocol};
+use crate::link::{FrameReader, FrameWriter, check_protocol, format_duration};
 use crate::qemu::{Qemu, QemuConfig};
 use crate::replay::{Outgoing, sample_messages};
 
@@ -52,15 +52,19 @@ pub fn wait_greeting<R: Read>(
             bail!("interrupted while waiting for the device's greeting");
         }
         let step = (Instant::now() + STEP).min(deadline);
-        match reader.next_before(step)? {
+        let message = reader.next_before(step);
+        // A greeting in another protocol version may not decode at all: its version does
+        // (checked first, in case the device then hung up).
+        reader.check_foreign_greeting()?;
+        match message? {
             Some(DeviceToHost::Greeting(g)) => {
                 check_protocol(g.protocol_version)?;
                 return Ok(g);
             }
             Some(_) => {}
             None if Instant::now() >= deadline => bail!(
-                "no greeting from the device within {:.0} s (is it running supine firmware?)",
-                timeout.as_secs_f64()
+                "no greeting from the device within {} (is it running supine firmware?)",
+                format_duration(timeout)
             ),
             None => {}
         }
@@ -93,8 +97,8 @@ pub fn follow<R: Read>(
                 && Instant::now() >= deadline
             {
                 bail!(
-                    "the device did not finish within {:.0} s ({} telemetry records so far)",
-                    (deadline - started).as_secs_f64(),
+                    "the device did not finish within {} ({} telemetry records so far)",
+                    format_duration(deadline - started),
                     monitor.counters().telemetry
                 );
             }
@@ -182,7 +186,7 @@ pub fn run_qemu(
         .params_blob(blob_path)
         .timeout(run.timeout());
     let mut qemu = Qemu::start(&config)?;
-    let result = talk(&mut qemu, run, view, log, stop);
+    let result = talk(&mut qemu, run, view, log, stop).map_err(|e| qemu.explain_failure(e));
     // Killing QEMU also ends a writer blocked on the socket.
     let _ = qemu.stop();
     result
@@ -465,7 +469,7 @@ mod tests {
             wait_greeting(&mut reader, Duration::from_millis(300), &stop).expect_err("no greeting");
         assert_eq!(
             err.to_string(),
-            "no greeting from the device within 0 s (is it running supine firmware?)"
+            "no greeting from the device within 300 ms (is it running supine firmware?)"
         );
         let bytes = frame(0, greeting(PROTOCOL_VERSION + 1));
         let mut reader = FrameReader::new(Cursor::new(bytes));
@@ -473,5 +477,19 @@ mod tests {
         let text = err.to_string();
         assert!(!text.contains('\n'), "{text}");
         assert!(text.contains("update this host tool"), "{text}");
+        // A newer device's greeting that this host cannot decode at all: refused by the
+        // version it leads with, not reported as a decoding error or a silence.
+        let mut bytes = crate::link::tests::other_greeting_frame(PROTOCOL_VERSION + 1);
+        bytes.extend(frame(1, telemetry(0)));
+        let mut reader = FrameReader::new(Cursor::new(bytes));
+        let err = wait_greeting(&mut reader, Duration::from_secs(1), &stop).expect_err("mismatch");
+        let text = err.to_string();
+        assert!(
+            text.starts_with(&format!(
+                "the device speaks protocol version {}, this supine speaks {PROTOCOL_VERSION}: update",
+                PROTOCOL_VERSION + 1
+            )),
+            "{text}"
+        );
     }
 }

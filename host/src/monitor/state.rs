@@ -435,7 +435,7 @@ mod tests {
             .to_string();
         assert!(
             newer.contains(&format!(
-                "protocol version {}, this host speaks {PROTOCOL_VERSION}",
+                "protocol version {}, this supine speaks {PROTOCOL_VERSION}",
                 PROTOCOL_VERSION + 1
             )),
             "{newer}"
@@ -444,7 +444,7 @@ mod tests {
         let older = Monitor::new(&greeting(PROTOCOL_VERSION - 1))
             .expect_err("refused")
             .to_string();
-        assert!(older.contains("update the firmware"), "{older}");
+        assert!(older.contains("reflash the device"), "{older}");
         // A device that restarts mid-session with another version is refused too.
         let mut m = Monitor::new(&greeting(PROTOCOL_VERSION)).expect("same version");
         let again = DeviceToHost::Greeting(greeting(PROTOCOL_VERSION + 1));
