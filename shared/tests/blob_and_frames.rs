@@ -95,6 +95,9 @@ fn a_sealed_blob_with_a_nan_or_an_unstable_pole_is_refused_behind_the_crc() {
     let example = blob_example().unwrap();
     let mut nan = example;
     nan.realization.blocks[0].output[0][0] = f32::NAN;
+    // In a block past `block_count`, which never runs: still a NaN in the blob.
+    let mut unused_nan = example;
+    unused_nan.realization.blocks[15].output[1][1] = f32::NAN;
     let mut unstable = example;
     unstable.realization.blocks[0].transition_minus_identity[0][0] = 0.5;
     let mut bad_rate = example;
@@ -117,6 +120,7 @@ fn a_sealed_blob_with_a_nan_or_an_unstable_pole_is_refused_behind_the_crc() {
     wrong_gain.exposure.config.axes.x.k *= 1.5;
     for (name, params, expected) in [
         ("nan", nan, BlobError::NonFinite),
+        ("nan in an unused block", unused_nan, BlobError::NonFinite),
         ("unstable model", unstable, BlobError::Unstable),
         ("bad rate", bad_rate, BlobError::SampleRate),
         ("bad decimation", bad_decimation, BlobError::BadConfig),

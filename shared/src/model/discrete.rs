@@ -279,7 +279,9 @@ impl<T: Scalar, const NY: usize> DiscreteModal<T, NY> {
         }
         let finite = |v: &T| v.to_f64().is_finite();
         let group_values = self.groups.iter().flat_map(|g| g.feedthrough.iter());
-        let block_values = self.active_blocks().iter().flat_map(|b| {
+        // Every stored block, the unused ones too: a NaN anywhere in a blob is refused
+        // (found by the blob fuzzer: an unused block's NaN passed and broke round trips).
+        let block_values = self.blocks.iter().flat_map(|b| {
             b.transition_minus_identity
                 .iter()
                 .chain(b.output.iter())
