@@ -197,7 +197,8 @@ impl Chart {
                     )))
                     .map_err(plot_error)?;
             }
-            for instant in &self.instants {
+            let rows = label_rows(&self.instants, (x0, x1));
+            for (instant, row) in self.instants.iter().zip(rows) {
                 chart
                     .draw_series(DashedLineSeries::new(
                         [(instant.t_s, y0), (instant.t_s, y1)],
@@ -209,7 +210,10 @@ impl Chart {
                 chart
                     .draw_series(std::iter::once(Text::new(
                         instant.label.clone(),
-                        (instant.t_s + 0.005 * (x1 - x0), y1 - 0.12 * (y1 - y0)),
+                        (
+                            instant.t_s + 0.005 * (x1 - x0),
+                            y1 - (0.12 + 0.07 * row as f64) * (y1 - y0),
+                        ),
                         ("sans-serif", 12).into_font().color(&RGBColor(90, 90, 90)),
                     )))
                     .map_err(plot_error)?;
@@ -291,6 +295,34 @@ impl Chart {
     }
 }
 
+/// Approximate width of one character of a 12 px sans-serif label, px.
+const LABEL_CHAR_PX: f64 = 6.5;
+
+/// The text row (0 = top) of each instant's label: the first row whose previous label
+/// ends (with a 6 px gap) before this one starts, so that labels of close shocks do not
+/// overprint each other. `instants` are in time order.
+pub fn label_rows(instants: &[Moment], (x0, x1): (f64, f64)) -> Vec<usize> {
+    let px_per_s = PLOT_COLUMNS as f64 / (x1 - x0).max(f64::MIN_POSITIVE);
+    let mut row_ends_px: Vec<f64> = Vec::new();
+    instants
+        .iter()
+        .map(|m| {
+            let start = (m.t_s - x0) * px_per_s;
+            let end = start + 4.0 + LABEL_CHAR_PX * m.label.chars().count() as f64;
+            let row = row_ends_px
+                .iter()
+                .position(|&e| e + 6.0 <= start)
+                .unwrap_or(row_ends_px.len());
+            if row == row_ends_px.len() {
+                row_ends_px.push(end);
+            } else {
+                row_ends_px[row] = end;
+            }
+            row
+        })
+        .collect()
+}
+
 /// A tick label: short, no trailing zeros.
 fn format_tick(v: f64) -> String {
     let s = format!("{v:.3}");
@@ -344,6 +376,26 @@ mod tests {
         // Text is escaped by the backend.
         assert!(svg.contains("device &lt;vector&gt;"));
         assert!(!svg.contains("<script"));
+    }
+
+    #[test]
+    fn labels_of_close_instants_go_to_separate_rows() {
+        let at = |t_s: f64, label: &str| Moment {
+            t_s,
+            label: label.into(),
+        };
+        // 60 s over 1000 px: "speed bump" is about 69 px (4.1 s) wide.
+        let instants = [
+            at(20.5, "speed bump"),
+            at(23.0, "pothole"),
+            at(26.0, "pothole"),
+            at(26.5, "pothole"),
+            at(26.7, "speed bump"),
+            at(40.0, "pothole"),
+        ];
+        assert_eq!(label_rows(&instants, (0.0, 60.0)), [0, 1, 0, 1, 2, 0]);
+        // Zoomed in to 20-30 s (100 px/s), the first three have room on one row.
+        assert_eq!(label_rows(&instants[..3], (20.0, 30.0)), [0, 0, 0]);
     }
 
     #[test]
