@@ -4,8 +4,9 @@
 //!    linker search path) and cortex-m-rt's `link.x`. The link arguments live here, not in a
 //!    `.cargo/config.toml`, so they apply however cargo is invoked (`cargo fw` from the root).
 //! 2. Bakes the default model realization into the image: the paper's litter-board preset,
-//!    discretized at the device's default sample rate on the build machine in f64 by `supine-core` (the same code the host runs)
-//!    and stored as postcard bytes that the firmware decodes and validates at boot.
+//!    discretized at the device's default sample rate on the build machine in f64 by
+//!    `supine-core` (the same code the host runs) and stored as postcard bytes that the
+//!    firmware decodes and validates at boot.
 //! 3. Provisions the device key for authenticated parameter uploads: the file named by
 //!    `SUPINE_DEVICE_KEY_FILE` (64 hex digits), by default the committed development key
 //!    `keys/dev-device.key` (for QEMU and the tests only; see `keys/README.md`).
@@ -97,8 +98,8 @@ fn write_builtin_realization(out_dir: &std::path::Path) {
 
 /// Writes `default_blob.bin` to `OUT_DIR`: the full parameter blob of the built-in default
 /// (paper litter-board preset at the default rate, default exposure, alert and sensor
-/// settings, level mounting, telemetry every sample). The firmware decodes and validates
-/// it at boot exactly like a blob in flash.
+/// settings, level mounting, telemetry at 100 Hz). The firmware decodes and validates it
+/// at boot exactly like a blob in flash.
 fn write_default_blob(out_dir: &std::path::Path) {
     let realization = device_realization(
         &ModelParams::preset(Preset::PaperLitter),
