@@ -29,17 +29,9 @@ fn exact_target(params: &ModelParams) -> Target {
     Target { freqs_hz, h }
 }
 
-/// A truth away from the paper's values, so that starting there is not starting at the answer.
-fn truth() -> ModelParams {
-    let mut p = ModelParams::preset(Preset::PaperRigid);
-    for (i, id) in ParamId::ALL.into_iter().enumerate() {
-        p.set(
-            id,
-            p.get(id) * (1.0 + 0.25 * ((i * 5 % 7) as f64 / 6.0 - 0.5)),
-        );
-    }
-    p
-}
+mod common;
+
+use common::perturbed_truth as truth;
 
 /// Stated tolerance: every parameter the fit calls determined comes back within 2 %.
 const RECOVERY_TOLERANCE: f64 = 0.02;

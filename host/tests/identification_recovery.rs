@@ -4,25 +4,16 @@
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use supine_core::model::{ModelParams, ParamId, Preset, SystemMatrices};
+use supine_core::model::{ModelParams, SystemMatrices};
 use supine_host::fit::objective::Target;
 use supine_host::fit::{self, Determination, FitSettings};
 use supine_host::geomean::geometric_mean_h;
 use supine_host::spectral::{DEFAULT_RESOLUTION_HZ, WelchSettings, h1};
 use supine_host::synth::{SynthSettings, synth_recording};
 
-/// The truth: every parameter the paper's value times a factor in 0.88..1.12, so that the
-/// paper's start is not the answer.
-fn truth() -> ModelParams {
-    let mut p = ModelParams::preset(Preset::PaperRigid);
-    for (i, id) in ParamId::ALL.into_iter().enumerate() {
-        p.set(
-            id,
-            p.get(id) * (1.0 + 0.25 * ((i * 5 % 7) as f64 / 6.0 - 0.5)),
-        );
-    }
-    p
-}
+mod common;
+
+use common::perturbed_truth as truth;
 
 /// Three 120 s recordings of `truth` at 200 Hz with synth's default noise (0.01 m/s^2 on
 /// every channel), each with its own random input; H1 per recording with the default
