@@ -40,13 +40,16 @@ fn height_and_mass_must_be_positive_and_finite() {
     assert_eq!(err.to_string(), "subject.mass_kg: must be a finite number");
 }
 
+/// A change that makes parameters invalid.
+type Spoil = fn(&mut ModelParams);
+
 /// Finite and positive is not enough: a subnormal mass or a 1e308 stiffness is a unit
 /// mistake, and the modal analysis need not converge on it. Each is refused by name with
 /// the range it must be in, and the range's own ends are accepted.
 #[test]
 fn implausible_magnitudes_are_refused_with_the_field_and_its_range() {
     let stiffness = ParamId::ALL[0];
-    let cases: [(fn(&mut ModelParams), ParamField, &str); 5] = [
+    let cases: [(Spoil, ParamField, &str); 5] = [
         (
             |p| p.subject.mass_kg = 1e-310,
             ParamField::MassKg,
