@@ -267,6 +267,25 @@ pub fn qemu_cmdline(pid: u32) -> Option<String> {
     text.contains("qemu-system-arm").then_some(text)
 }
 
+/// Waits (up to 2 minutes, else panics) until process `parent` has a `qemu-system-arm`
+/// child; returns its pid and command line.
+pub fn wait_for_qemu_child(parent: u32) -> (u32, String) {
+    let start = std::time::Instant::now();
+    loop {
+        if let Some(found) = child_pids(parent)
+            .into_iter()
+            .find_map(|p| qemu_cmdline(p).map(|c| (p, c)))
+        {
+            return found;
+        }
+        assert!(
+            start.elapsed() < std::time::Duration::from_secs(120),
+            "no QEMU started"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+}
+
 /// Running `qemu-system-arm` processes whose command line mentions `path` (e.g. the
 /// private TMPDIR a test gave `supine`, where each run's socket folder lives).
 pub fn qemu_processes_mentioning(path: &std::path::Path) -> Vec<u32> {

@@ -2,9 +2,9 @@
 //! was made from; the summary's numbers checked against those files.
 
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use supine_qemu_tests::{child_pids, firmware, qemu_cmdline, supine_binary};
+use supine_qemu_tests::{firmware, qemu_cmdline, supine_binary, wait_for_qemu_child};
 
 /// The number after `prefix` on the summary line that contains it.
 fn number_after(text: &str, prefix: &str) -> f64 {
@@ -220,20 +220,7 @@ fn ctrl_c_during_the_demo_leaves_no_qemu_and_no_report() {
         .stderr(Stdio::piped())
         .spawn()
         .expect("supine runs");
-    let start = Instant::now();
-    let qemu = loop {
-        if let Some(pid) = child_pids(child.id())
-            .into_iter()
-            .find(|p| qemu_cmdline(*p).is_some())
-        {
-            break pid;
-        }
-        assert!(
-            start.elapsed() < Duration::from_secs(120),
-            "no QEMU started"
-        );
-        std::thread::sleep(Duration::from_millis(50));
-    };
+    let (qemu, _) = wait_for_qemu_child(child.id());
     std::thread::sleep(Duration::from_secs(2));
     let status = Command::new("kill")
         .args(["-INT", &child.id().to_string()])

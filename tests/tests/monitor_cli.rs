@@ -13,7 +13,7 @@ use supine_host::exposure_report::read_input;
 use supine_host::params_file::ParamFile;
 use supine_host::reference;
 use supine_host::replay::{EVENTS_HEADER, TELEMETRY_HEADER};
-use supine_qemu_tests::{child_pids, firmware, qemu_cmdline, supine_binary};
+use supine_qemu_tests::{firmware, qemu_cmdline, supine_binary, wait_for_qemu_child};
 
 /// Runs `supine ARGS`, returning (success, stdout, stderr).
 fn supine(args: &[&str]) -> (bool, String, String) {
@@ -194,20 +194,7 @@ fn realtime_pacing_and_ctrl_c_keep_the_log_and_leave_no_qemu() {
         .stderr(std::process::Stdio::piped())
         .spawn()
         .expect("supine runs");
-    let start = std::time::Instant::now();
-    let qemu_pid = loop {
-        if let Some(pid) = child_pids(child.id())
-            .into_iter()
-            .find(|p| qemu_cmdline(*p).is_some())
-        {
-            break pid;
-        }
-        assert!(
-            start.elapsed() < Duration::from_secs(120),
-            "no QEMU started"
-        );
-        std::thread::sleep(Duration::from_millis(50));
-    };
+    let (qemu_pid, _) = wait_for_qemu_child(child.id());
     let qemu_started = std::time::Instant::now();
     std::thread::sleep(Duration::from_secs(3));
     let status = Command::new("kill")

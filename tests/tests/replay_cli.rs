@@ -4,12 +4,12 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use supine_host::recording::Recording;
 use supine_qemu_tests::{
-    child_pids, entries, firmware, qemu_cmdline, qemu_processes_mentioning, qemu_wrapper,
-    supine_binary,
+    entries, firmware, qemu_cmdline, qemu_processes_mentioning, qemu_wrapper, supine_binary,
+    wait_for_qemu_child,
 };
 
 /// A recording of `seconds` at 500 Hz with a few sines on the platform columns.
@@ -135,20 +135,7 @@ fn ctrl_c_sigterm_and_sighup_during_replay_leave_no_qemu_and_no_socket_folder() 
             .spawn()
             .expect("supine runs");
         // Wait until QEMU runs under it, then a little longer so samples are streaming.
-        let start = Instant::now();
-        let (qemu_pid, cmdline) = loop {
-            if let Some(found) = child_pids(child.id())
-                .into_iter()
-                .find_map(|p| qemu_cmdline(p).map(|c| (p, c)))
-            {
-                break found;
-            }
-            assert!(
-                start.elapsed() < Duration::from_secs(120),
-                "no QEMU started"
-            );
-            std::thread::sleep(Duration::from_millis(50));
-        };
+        let (qemu_pid, cmdline) = wait_for_qemu_child(child.id());
         std::thread::sleep(Duration::from_secs(2));
         let socket_dir = cmdline
             .split(['=', ','])

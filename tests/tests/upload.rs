@@ -795,7 +795,7 @@ fn power_cuts_during_the_device_own_flash_update_boot_the_last_committed_slot() 
 /// the command is certainly still waiting for the greeting when the signal arrives.
 #[test]
 fn sigterm_during_supine_flash_qemu_leaves_no_qemu_and_no_socket_folder() {
-    use supine_qemu_tests::{child_pids, entries, qemu_cmdline, qemu_processes_mentioning};
+    use supine_qemu_tests::{entries, qemu_processes_mentioning, wait_for_qemu_child};
     supine_qemu_tests::firmware(supine_host::firmware::PRODUCT_BINARY);
     let dir = tempfile::tempdir().expect("temp dir");
     let tmp = dir.path().join("tmp");
@@ -821,17 +821,7 @@ fn sigterm_during_supine_flash_qemu_leaves_no_qemu_and_no_socket_folder() {
         .stderr(std::process::Stdio::piped())
         .spawn()
         .expect("supine runs");
-    let start = std::time::Instant::now();
-    while !child_pids(child.id())
-        .into_iter()
-        .any(|p| qemu_cmdline(p).is_some())
-    {
-        assert!(
-            start.elapsed() < Duration::from_secs(120),
-            "no QEMU started"
-        );
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    wait_for_qemu_child(child.id());
     std::thread::sleep(Duration::from_millis(500));
     assert_eq!(qemu_processes_mentioning(&tmp).len(), 1);
     let signalled = std::time::Instant::now();
