@@ -267,6 +267,16 @@ pub fn qemu_cmdline(pid: u32) -> Option<String> {
     text.contains("qemu-system-arm").then_some(text)
 }
 
+/// Sends signal `name` (`INT`, `TERM`, `HUP`) to `child` and waits for it to exit.
+pub fn signal_and_wait(child: std::process::Child, name: &str) -> std::process::Output {
+    let status = std::process::Command::new("kill")
+        .args([format!("-{name}"), child.id().to_string()])
+        .status()
+        .expect("kill runs");
+    assert!(status.success(), "kill -{name} failed");
+    child.wait_with_output().expect("the child exits")
+}
+
 /// Waits (up to 2 minutes, else panics) until process `parent` has a `qemu-system-arm`
 /// child; returns its pid and command line.
 pub fn wait_for_qemu_child(parent: u32) -> (u32, String) {

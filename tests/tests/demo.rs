@@ -4,7 +4,9 @@
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-use supine_qemu_tests::{firmware, qemu_cmdline, supine_binary, wait_for_qemu_child};
+use supine_qemu_tests::{
+    firmware, qemu_cmdline, signal_and_wait, supine_binary, wait_for_qemu_child,
+};
 
 /// The number after `prefix` on the summary line that contains it.
 fn number_after(text: &str, prefix: &str) -> f64 {
@@ -222,12 +224,7 @@ fn ctrl_c_during_the_demo_leaves_no_qemu_and_no_report() {
         .expect("supine runs");
     let (qemu, _) = wait_for_qemu_child(child.id());
     std::thread::sleep(Duration::from_secs(2));
-    let status = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .expect("kill runs");
-    assert!(status.success());
-    let output = child.wait_with_output().expect("supine exits");
+    let output = signal_and_wait(child, "INT");
     let stderr = String::from_utf8_lossy(&output.stderr);
     println!("{stderr}");
     assert!(!output.status.success(), "an interrupted demo must fail");

@@ -13,7 +13,9 @@ use supine_host::exposure_report::read_input;
 use supine_host::params_file::ParamFile;
 use supine_host::reference;
 use supine_host::replay::{EVENTS_HEADER, TELEMETRY_HEADER};
-use supine_qemu_tests::{firmware, qemu_cmdline, supine_binary, wait_for_qemu_child};
+use supine_qemu_tests::{
+    firmware, qemu_cmdline, signal_and_wait, supine_binary, wait_for_qemu_child,
+};
 
 /// Runs `supine ARGS`, returning (success, stdout, stderr).
 fn supine(args: &[&str]) -> (bool, String, String) {
@@ -197,12 +199,7 @@ fn realtime_pacing_and_ctrl_c_keep_the_log_and_leave_no_qemu() {
     let (qemu_pid, _) = wait_for_qemu_child(child.id());
     let qemu_started = std::time::Instant::now();
     std::thread::sleep(Duration::from_secs(3));
-    let status = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .expect("kill runs");
-    assert!(status.success());
-    let output = child.wait_with_output().expect("supine exits");
+    let output = signal_and_wait(child, "INT");
     let streamed_s = qemu_started.elapsed().as_secs_f64();
     let stderr = String::from_utf8_lossy(&output.stderr);
     println!("{stderr}");

@@ -8,8 +8,8 @@ use std::time::Duration;
 
 use supine_host::recording::Recording;
 use supine_qemu_tests::{
-    entries, firmware, qemu_cmdline, qemu_processes_mentioning, qemu_wrapper, supine_binary,
-    wait_for_qemu_child,
+    entries, firmware, qemu_cmdline, qemu_processes_mentioning, qemu_wrapper, signal_and_wait,
+    supine_binary, wait_for_qemu_child,
 };
 
 /// A recording of `seconds` at 500 Hz with a few sines on the platform columns.
@@ -149,12 +149,7 @@ fn ctrl_c_sigterm_and_sighup_during_replay_leave_no_qemu_and_no_socket_folder() 
             .expect("QEMU's UART socket path");
         assert!(socket_dir.starts_with(&tmp), "{}", socket_dir.display());
         assert!(socket_dir.exists());
-        let status = Command::new("kill")
-            .args([&format!("-{signal}"), &child.id().to_string()])
-            .status()
-            .expect("kill runs");
-        assert!(status.success());
-        let output = child.wait_with_output().expect("supine exits");
+        let output = signal_and_wait(child, signal);
         let stderr = String::from_utf8_lossy(&output.stderr);
         println!("SIG{signal}: {stderr}");
         assert!(

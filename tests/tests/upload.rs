@@ -795,7 +795,9 @@ fn power_cuts_during_the_device_own_flash_update_boot_the_last_committed_slot() 
 /// the command is certainly still waiting for the greeting when the signal arrives.
 #[test]
 fn sigterm_during_supine_flash_qemu_leaves_no_qemu_and_no_socket_folder() {
-    use supine_qemu_tests::{entries, qemu_processes_mentioning, wait_for_qemu_child};
+    use supine_qemu_tests::{
+        entries, qemu_processes_mentioning, signal_and_wait, wait_for_qemu_child,
+    };
     supine_qemu_tests::firmware(supine_host::firmware::PRODUCT_BINARY);
     let dir = tempfile::tempdir().expect("temp dir");
     let tmp = dir.path().join("tmp");
@@ -825,12 +827,7 @@ fn sigterm_during_supine_flash_qemu_leaves_no_qemu_and_no_socket_folder() {
     std::thread::sleep(Duration::from_millis(500));
     assert_eq!(qemu_processes_mentioning(&tmp).len(), 1);
     let signalled = std::time::Instant::now();
-    let status = std::process::Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status()
-        .expect("kill runs");
-    assert!(status.success());
-    let output = child.wait_with_output().expect("supine exits");
+    let output = signal_and_wait(child, "TERM");
     let stderr = String::from_utf8_lossy(&output.stderr);
     println!("{stderr}");
     assert!(
