@@ -135,6 +135,30 @@ impl ExposureConfig {
     };
 }
 
+impl ExposureConfig {
+    /// The numbers a configuration must hold at `sample_rate_hz`, whether it is about to be
+    /// built or was read from a blob: finite positive axis factors, a running-rms time
+    /// constant of at least two samples, a warm-up within 0..=120 s.
+    fn check(&self, sample_rate_hz: f32) -> Result<(), ExposureError> {
+        if !self
+            .axes
+            .axes()
+            .iter()
+            .all(|a| a.k.is_finite() && a.k > 0.0)
+        {
+            return Err(ExposureError::AxisFactor);
+        }
+        let tau = self.running_tau_s as f64;
+        if !(tau.is_finite() && tau * sample_rate_hz as f64 >= 2.0) {
+            return Err(ExposureError::TimeConstant);
+        }
+        if !(self.warmup_s.is_finite() && (0.0..=MAX_WARMUP_S).contains(&self.warmup_s)) {
+            return Err(ExposureError::Warmup);
+        }
+        Ok(())
+    }
+}
+
 impl Default for ExposureConfig {
     fn default() -> Self {
         Self::DEFAULT
@@ -354,22 +378,14 @@ pub struct ExposureValues {
 impl ExposureSettings {
     /// Builds the evaluation for `sample_rate_hz` (100..=2000 Hz); validates `config`.
     pub fn new(config: ExposureConfig, sample_rate_hz: f32) -> Result<Self, ExposureError> {
+        config.check(sample_rate_hz)?;
         let axes = config.axes.axes();
-        if !axes.iter().all(|a| a.k.is_finite() && a.k > 0.0) {
-            return Err(ExposureError::AxisFactor);
-        }
         let mut weighting = [WeightingSettings::new(axes[0].kind, sample_rate_hz)?; 3];
         for (w, a) in weighting.iter_mut().zip(axes.iter()) {
             *w = WeightingSettings::new(a.kind, sample_rate_hz)?.scaled(a.k);
         }
         let fs = sample_rate_hz as f64;
         let tau = config.running_tau_s as f64;
-        if !(tau.is_finite() && tau * fs >= 2.0) {
-            return Err(ExposureError::TimeConstant);
-        }
-        if !(config.warmup_s.is_finite() && (0.0..=MAX_WARMUP_S).contains(&config.warmup_s)) {
-            return Err(ExposureError::Warmup);
-        }
         let running_gain = -libm::expm1(-1.0 / (fs * tau)) as f32;
         let warmup_samples = libm::round(config.warmup_s as f64 * fs) as u32;
         let sample_period_s = (1.0 / fs) as f32;
@@ -391,27 +407,16 @@ impl ExposureSettings {
         // design (tan, exp, cos in software) into the device image. The blob's CRC and
         // signature vouch that the coefficients are the host's; this vouches they are sane.
         let fs = self.sample_rate_hz;
+        self.config.check(fs)?;
         let band = &self.weighting[0].band;
         for (w, axis) in self.weighting.iter().zip(self.config.axes.axes()) {
-            if !(axis.k.is_finite() && axis.k > 0.0) {
-                return Err(ExposureError::AxisFactor);
-            }
             w.validate_gain(axis.k)?;
             if w.sample_rate_hz != fs || w.kind != axis.kind || w.band != *band {
                 return Err(ExposureError::Mismatch);
             }
         }
-        let tau_samples = self.config.running_tau_s * fs;
-        if !(self.running_gain > 0.0
-            && self.running_gain < 1.0
-            && tau_samples.is_finite()
-            && tau_samples >= 2.0)
-        {
+        if !(self.running_gain > 0.0 && self.running_gain < 1.0) {
             return Err(ExposureError::TimeConstant);
-        }
-        let warmup_s = self.config.warmup_s;
-        if !(warmup_s.is_finite() && (0.0..=MAX_WARMUP_S).contains(&warmup_s)) {
-            return Err(ExposureError::Warmup);
         }
         let period_error = self.sample_period_s * fs - 1.0;
         if period_error.is_nan() || period_error.abs() >= 1e-4 {
