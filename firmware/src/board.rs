@@ -8,7 +8,7 @@ use cortex_m::peripheral::SYST;
 use crate::cmsdk_uart::CmsdkUart;
 
 /// Core and peripheral clock, Hz. SysTick counts at this rate from the core clock.
-pub const SYSCLK_HZ: u32 = 25_000_000;
+pub const SYSCLK_HZ: u32 = supine_core::timing::MPS2_AN386_SYSCLK_HZ;
 
 /// Base address of UART0, the one QEMU connects to its first `-serial`.
 pub const UART0_BASE: usize = 0x4000_4000;

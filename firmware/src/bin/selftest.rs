@@ -51,9 +51,10 @@ use supine_core::fpu::sqrt_f32;
 use supine_core::model::{DeviceRealization, ModalState};
 use supine_core::protocol::{FrameAccumulator, FrameEvent, MAX_FRAME_LEN, encode_frame, golden};
 use supine_core::test_vector::TestVector;
+use supine_core::timing::INSTRUCTIONS_PER_TICK;
 use supine_firmware::board::Board;
 use supine_firmware::console::Console;
-use supine_firmware::cycles::{INSTRUCTIONS_PER_TICK, InstructionCounter};
+use supine_firmware::cycles::InstructionCounter;
 use supine_firmware::{VERSION, exit, params, stack};
 
 /// Seed of the test vector; the host test reads it from the output.
