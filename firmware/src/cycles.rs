@@ -9,6 +9,7 @@
 
 use cortex_m::peripheral::SYST;
 use cortex_m::peripheral::syst::SystClkSource;
+use supine_app::TickCounter;
 use supine_core::timing::INSTRUCTIONS_PER_TICK;
 
 /// SysTick is a 24-bit down-counter.
@@ -46,6 +47,16 @@ impl InstructionCounter {
         let start = self.now();
         let result = f();
         (self.ticks_since(start), result)
+    }
+}
+
+/// The monitor's clock: times its pipeline and its idle flush.
+impl TickCounter for InstructionCounter {
+    fn now(&self) -> u32 {
+        InstructionCounter::now(self)
+    }
+    fn ticks_since(&self, start: u32) -> u32 {
+        InstructionCounter::ticks_since(self, start)
     }
 }
 
