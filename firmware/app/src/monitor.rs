@@ -16,9 +16,9 @@
 //!
 //! Frames are encoded into a RAM ring while the pipeline runs and written to the link from
 //! the loop, so [`Status::busy_ticks`] (the tick counter around `process`, frame encoding
-//! included) excludes waiting on the link. Every byte of every input is handled without a panic
-//! path: bad frames are counted and dropped, index gaps counted as dropped samples (and
-//! raised by the pipeline's sensor checks as an index-gap fault).
+//! included) excludes waiting on the link. Every byte of every input is handled without a
+//! panic path: bad frames are counted and dropped, index gaps counted as dropped samples
+//! (and raised by the pipeline's sensor checks as an index-gap fault).
 
 use supine_core::mounting::Mounting;
 use supine_core::pipeline::{BLOCK_LEN, PipelineOutput, PipelineState};
