@@ -2,15 +2,15 @@
 //!
 //! Under QEMU with `-icount shift=0,align=off,sleep=off` every guest instruction takes
 //! 1 ns of virtual time and the mps2 SysTick (25 MHz core clock) advances exactly one tick
-//! per [`INSTRUCTIONS_PER_TICK`] instructions, identically from run to run. These are
+//! per [`INSTRUCTIONS_PER_TICK`] instructions (`supine_core::timing`), identically from run
+//! to run. These are
 //! instruction counts, not Cortex-M cycles. Without `-icount` the counts follow the host's
 //! wall clock and mean nothing.
 
 use cortex_m::peripheral::SYST;
 use cortex_m::peripheral::syst::SystClkSource;
-
-/// Instructions per SysTick tick under `-icount shift=0` (1 ns each, 40 ns per tick).
-pub const INSTRUCTIONS_PER_TICK: u32 = 40;
+use supine_app::TickCounter;
+use supine_core::timing::INSTRUCTIONS_PER_TICK;
 
 /// SysTick is a 24-bit down-counter.
 const RELOAD: u32 = 0x00FF_FFFF;
@@ -47,6 +47,16 @@ impl InstructionCounter {
         let start = self.now();
         let result = f();
         (self.ticks_since(start), result)
+    }
+}
+
+/// The monitor's clock: times its pipeline and its idle flush.
+impl TickCounter for InstructionCounter {
+    fn now(&self) -> u32 {
+        InstructionCounter::now(self)
+    }
+    fn ticks_since(&self, start: u32) -> u32 {
+        InstructionCounter::ticks_since(self, start)
     }
 }
 

@@ -1,26 +1,27 @@
-//! supine-firmware: the device side of supine on QEMU's mps2-an386 (Cortex-M4F).
+//! supine-firmware: the device side of supine, on QEMU's mps2-an386 (Cortex-M4F) and on
+//! the STM32F411 Black Pill.
 //!
-//! The library holds what every image shares; the images themselves are thin:
-//! `src/main.rs` is the product, `src/bin/selftest.rs` runs the model core on the
-//! built-in test vector for the QEMU tests, and `src/bin/panics.rs` and
-//! `src/bin/hardfault.rs` prove that a panic and a fault end a run with a failing status.
-//!
-//! `src/main.rs` runs [`app::App`], the monitor's main loop, with replayed samples from
-//! the UART; `src/bin/panic_reset.rs` is the same monitor that panics once at first boot,
-//! to test the panic record across a reset; `src/bin/power_cut.rs` is the same monitor
-//! whose power fails mid flash update, to test the A/B slots; `src/bin/blackpill.rs` (feature
+//! The library holds the boards, the drivers and the startup that every image shares; the
+//! monitor itself, independent of any board, is the `supine-app` crate ([`supine_app::App`]),
+//! which these images run. The images are thin: `src/main.rs` is the product, running the
+//! monitor with replayed samples from UART0; `src/bin/selftest.rs` runs the model core on
+//! the built-in test vector for the QEMU tests; `src/bin/panics.rs` and
+//! `src/bin/hardfault.rs` prove that a panic and a fault end a run with a failing status;
+//! `src/bin/panic_reset.rs` is the monitor that panics once at first boot, to test the
+//! panic record across a reset; `src/bin/power_cut.rs` is the monitor whose power fails
+//! mid flash update, to test the A/B slots; `src/bin/blackpill.rs` (feature
 //! `board-blackpill`, `cargo fw-board`) is the monitor on an STM32F411 with an LIS3DH.
 //!
-//! Each module has one job: [`board`] names the board's types, [`cmsdk_uart`] drives its
-//! UART, [`console`] writes lines to the debugger's stdout (semihosting), [`exit`] ends a
-//! run with a status, [`cycles`] counts instructions, [`stack`] measures the stack's
-//! high-water mark, [`params`] loads the model parameters, [`param_flash`] reads and writes
-//! their A/B slots, [`panic_record`] keeps the last panic across a reset,
-//! [`telemetry_frame`] encodes the per-sample frame and [`app`] is the monitor.
+//! Each module has one job: [`boards`] holds one module per board (peripherals, clocks,
+//! writing the parameter slots, what a fault does), [`cmsdk_uart`] drives the mps2 UART,
+//! [`console`] writes lines to the debugger's stdout (semihosting), [`exit`] ends a run
+//! with a status, [`cycles`] counts instructions (the monitor's clock), [`stack`] measures
+//! the stack's high-water mark, [`params`] loads the model parameters, [`param_flash`]
+//! owns and reads their A/B slots, and [`panic_record`] keeps the last panic across a
+//! reset.
 #![no_std]
 
-pub mod app;
-pub mod board;
+pub mod boards;
 pub mod cmsdk_uart;
 pub mod console;
 pub mod cycles;
@@ -30,9 +31,6 @@ pub mod panic_record;
 pub mod param_flash;
 pub mod params;
 pub mod stack;
-pub mod telemetry_frame;
 
 pub use fault::reset_on_panic;
-
-/// The firmware's version, reported in its greeting and in the self-test output.
-pub const VERSION: &str = env!("CARGO_PKG_VERSION");
+pub use supine_app::VERSION;

@@ -2,17 +2,18 @@
 //!
 //! At boot it reads the last panic's record, loads the parameter blob from the PARAMS
 //! region's A/B slots (or the built-in default, with the reason), greets the host on UART0
-//! and then serves it (see [`supine_firmware::app`]): replayed samples in, telemetry and
+//! and then serves it (see [`supine_app::App`]): replayed samples in, telemetry and
 //! alerts out, authenticated parameter updates into the slot not running.
 #![no_std]
 #![no_main]
 
 use cortex_m_rt::entry;
+use supine_app::{App, Boot};
 use supine_core::protocol::ResetCause;
-use supine_firmware::app::{App, Boot};
-use supine_firmware::board::Board;
+use supine_firmware::boards::mps2_an386::{Board, SsramFlash};
 use supine_firmware::cycles::InstructionCounter;
 use supine_firmware::param_flash::{self, ParamRegion};
+use supine_firmware::stack::PaintedStack;
 use supine_firmware::{exit, panic_record, params};
 
 #[entry]
@@ -27,7 +28,8 @@ fn main() -> ! {
         // Only reachable if memory.x gives PARAMS fewer than two slots: a build error.
         exit::exit(exit::FAILURE)
     };
-    let Ok((params, source)) = params::load_from(&region) else {
+    let flash = SsramFlash::new(region);
+    let Ok((params, source)) = params::load_from(&flash) else {
         // The built-in default was validated when it was built: a broken build.
         exit::exit(exit::FAILURE)
     };
@@ -46,8 +48,9 @@ fn main() -> ! {
     App::with_updates(
         board.uart0,
         counter,
+        PaintedStack,
         boot,
-        region,
+        flash,
         param_flash::device_key(),
     )
     .run()

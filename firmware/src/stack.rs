@@ -6,6 +6,7 @@
 //! bottom, that no longer holds the paint.
 
 use cortex_m_rt::STACK_PAINT_VALUE;
+use supine_app::StackGauge;
 
 unsafe extern "C" {
     /// Lowest address of the stack region (from cortex-m-rt's `link.x`).
@@ -44,4 +45,13 @@ pub fn high_water_bytes() -> usize {
         addr += 4;
     }
     high - addr
+}
+
+/// The painted stack as the monitor's gauge (its status reports the high-water mark).
+pub struct PaintedStack;
+
+impl StackGauge for PaintedStack {
+    fn high_water_bytes(&self) -> usize {
+        high_water_bytes()
+    }
 }

@@ -15,6 +15,7 @@ pub mod flash;
 pub mod geomean;
 pub mod h_csv;
 pub mod link;
+pub mod memory_map;
 pub mod monitor;
 pub mod output;
 pub mod params_file;

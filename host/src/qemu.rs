@@ -28,9 +28,9 @@ pub const QEMU_PROGRAM: &str = "qemu-system-arm";
 /// The emulated board: Cortex-M4 with FPU.
 pub const MACHINE: &str = "mps2-an386";
 /// Where the parameter blob is loaded: the PARAMS region of `memory.x`.
-pub const PARAMS_ADDR: u32 = 0x0007_0000;
+pub const PARAMS_ADDR: u32 = crate::memory_map::PARAMS_ORIGIN;
 /// Largest parameter blob: the PARAMS region's size.
-pub const PARAMS_MAX_BYTES: u64 = 64 * 1024;
+pub const PARAMS_MAX_BYTES: u64 = crate::memory_map::PARAMS_LENGTH_BYTES as u64;
 
 /// How often a waiting run checks on QEMU.
 const POLL: Duration = Duration::from_millis(5);
@@ -221,7 +221,7 @@ impl Qemu {
         Ok(qemu)
     }
 
-    /// Runs an HMP monitor command (e.g. `stop`, `pmemsave 0x70000 65536 FILE`) and
+    /// Runs an HMP monitor command (e.g. `stop`, `pmemsave <PARAMS_ADDR> 65536 FILE`) and
     /// returns what QEMU answered; it has completed when this returns.
     pub fn monitor(&mut self, command: &str) -> Result<String, QemuError> {
         use std::io::Write;
@@ -602,7 +602,9 @@ mod tests {
         );
         // The comma in the blob's path is doubled, QEMU's escape.
         assert!(
-            line.contains("-device loader,file=/data/a,,b.bin,addr=0x70000"),
+            line.contains(&format!(
+                "-device loader,file=/data/a,,b.bin,addr={PARAMS_ADDR:#x}"
+            )),
             "{line}"
         );
         assert!(

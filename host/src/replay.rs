@@ -25,6 +25,7 @@ use supine_core::blob::TelemetryConfig;
 use supine_core::protocol::{
     DeviceToHost, Greeting, HostToDevice, MAX_SAMPLES_PER_FRAME, SampleBatch, Status, Telemetry,
 };
+use supine_core::timing::INSTRUCTIONS_PER_TICK;
 
 use crate::device_params;
 use crate::firmware;
@@ -32,9 +33,6 @@ use crate::link::{FrameReader, FrameWriter, LinkStats};
 use crate::params_file::ParamFile;
 use crate::qemu::{Qemu, QemuConfig};
 use crate::recording::Recording;
-
-/// Instructions per SysTick tick under `-icount shift=0` on mps2 (25 MHz SysTick).
-pub const INSTRUCTIONS_PER_TICK: f64 = 40.0;
 
 /// Header of the telemetry CSV. The first five columns are named as issue 5 and the
 /// recording format name them (`head_x`: predicted head acceleration, m/s^2, litter axes);
@@ -95,7 +93,8 @@ impl Session {
     /// Mean instructions per processed sample of the pipeline (meaningful with `icount`).
     pub fn instructions_per_sample(&self) -> f64 {
         let s = self.status();
-        s.busy_ticks as f64 * INSTRUCTIONS_PER_TICK / f64::from(s.samples_processed.max(1))
+        s.busy_ticks as f64 * f64::from(INSTRUCTIONS_PER_TICK)
+            / f64::from(s.samples_processed.max(1))
     }
 }
 

@@ -20,5 +20,6 @@ pub mod mounting;
 pub mod pipeline;
 pub mod protocol;
 pub mod test_vector;
+pub mod timing;
 pub mod upload;
 pub mod weighting;

@@ -7,9 +7,9 @@ use object::{Object, ObjectSegment};
 use supine_qemu_tests::firmware;
 
 /// `memory.x`: RAM starts here; everything below is flash (code, then the PARAMS region).
-const RAM_ORIGIN: u64 = 0x2000_0000;
+const RAM_ORIGIN: u64 = supine_host::memory_map::RAM_ORIGIN as u64;
 /// `memory.x`: the parameter blob's region, loaded separately, not part of the image.
-const PARAMS_ORIGIN: u64 = 0x0007_0000;
+const PARAMS_ORIGIN: u64 = supine_host::memory_map::PARAMS_ORIGIN as u64;
 const FLASH_BUDGET_BYTES: u64 = 64 * 1024;
 const STATIC_RAM_BUDGET_BYTES: u64 = 16 * 1024;
 

@@ -16,35 +16,16 @@ use stm32f4xx_hal::i2c::{DutyCycle, I2c, Mode as I2cMode};
 use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::rcc::Config;
-use stm32f4xx_hal::serial::{Rx, Serial, Tx};
+use stm32f4xx_hal::serial::Serial;
 use stm32f4xx_hal::watchdog::IndependentWatchdog;
+use supine_app::{App, Boot};
 use supine_core::protocol::ResetCause;
-use supine_firmware::app::{App, Boot, ByteLink};
+use supine_firmware::boards::blackpill::{BoardFlash, Usart1Link};
 use supine_firmware::cycles::InstructionCounter;
-use supine_firmware::param_flash::{self, ParamRegion, board::BoardFlash};
+use supine_firmware::param_flash::{self, ParamRegion};
+use supine_firmware::stack::PaintedStack;
 use supine_firmware::{panic_record, params};
 use supine_sensor::{Lis3dhSource, SampleSource};
-
-/// USART1 as the monitor's byte link.
-struct Usart1 {
-    tx: Tx<pac::USART1>,
-    rx: Rx<pac::USART1>,
-}
-
-impl ByteLink for Usart1 {
-    fn try_read_byte(&mut self) -> Option<u8> {
-        // Overrun and framing errors drop the byte: the frame's CRC-less COBS/postcard
-        // decode then fails and the frame is counted as bad.
-        embedded_hal_nb::serial::Read::read(&mut self.rx).ok()
-    }
-
-    fn try_write_byte(&mut self, byte: u8) -> bool {
-        !matches!(
-            embedded_hal_nb::serial::Write::write(&mut self.tx, byte),
-            Err(nb::Error::WouldBlock)
-        )
-    }
-}
 
 #[entry]
 fn main() -> ! {
@@ -92,7 +73,7 @@ fn main() -> ! {
         defmt::error!("USART1 configuration refused");
         cortex_m::peripheral::SCB::sys_reset()
     };
-    let (tx, rx) = serial.split();
+    let link = Usart1Link::new(serial);
 
     let i2c = I2c::new(
         dp.I2C1,
@@ -126,7 +107,7 @@ fn main() -> ! {
     };
     let counter = InstructionCounter::new(cp.SYST);
     let key = param_flash::device_key();
-    let mut app = App::with_updates(Usart1 { tx, rx }, counter, boot, flash, key);
+    let mut app = App::with_updates(link, counter, PaintedStack, boot, flash, key);
     app.greet();
     loop {
         app.poll();

@@ -8,10 +8,11 @@
 #![no_main]
 
 use cortex_m_rt::entry;
+use supine_app::{App, Boot};
 use supine_core::protocol::ResetCause;
-use supine_firmware::app::{App, Boot};
-use supine_firmware::board::Board;
+use supine_firmware::boards::mps2_an386::Board;
 use supine_firmware::cycles::InstructionCounter;
+use supine_firmware::stack::PaintedStack;
 use supine_firmware::{exit, panic_record, params};
 
 #[entry]
@@ -34,5 +35,11 @@ fn main() -> ! {
         reset_cause: ResetCause::Panic,
         last_panic,
     };
-    App::new(board.uart0, InstructionCounter::new(board.syst), boot).run()
+    App::new(
+        board.uart0,
+        InstructionCounter::new(board.syst),
+        PaintedStack,
+        boot,
+    )
+    .run()
 }

@@ -10,17 +10,18 @@
 #![no_main]
 
 use cortex_m_rt::entry;
+use supine_app::{App, Boot};
 use supine_core::protocol::ResetCause;
 use supine_core::upload::{FlashError, ParamFlash, SLOT_LEN};
-use supine_firmware::app::{App, Boot};
-use supine_firmware::board::Board;
+use supine_firmware::boards::mps2_an386::{Board, SsramFlash};
 use supine_firmware::cycles::InstructionCounter;
 use supine_firmware::param_flash::{self, ParamRegion};
+use supine_firmware::stack::PaintedStack;
 use supine_firmware::{console, exit, params};
 
 /// The PARAMS slots with a budget of bytes erased or programmed before the power fails.
 struct PowerCut {
-    region: ParamRegion,
+    slots: SsramFlash,
     budget_bytes: usize,
 }
 
@@ -43,14 +44,14 @@ fn power_lost() -> ! {
 
 impl ParamFlash for PowerCut {
     fn slot(&self, slot: usize) -> &[u8] {
-        self.region.slot(slot)
+        self.slots.slot(slot)
     }
 
     fn erase(&mut self, slot: usize) -> Result<(), FlashError> {
         match self.spend(SLOT_LEN) {
-            (_, true) => self.region.erase(slot),
+            (_, true) => self.slots.erase(slot),
             (done, false) => {
-                let _ = self.region.erase_prefix(slot, done);
+                let _ = self.slots.erase_prefix(slot, done);
                 power_lost()
             }
         }
@@ -58,10 +59,10 @@ impl ParamFlash for PowerCut {
 
     fn write(&mut self, slot: usize, offset: usize, bytes: &[u8]) -> Result<(), FlashError> {
         match self.spend(bytes.len()) {
-            (_, true) => self.region.write(slot, offset, bytes),
+            (_, true) => self.slots.write(slot, offset, bytes),
             (done, false) => {
                 let _ = self
-                    .region
+                    .slots
                     .write(slot, offset, bytes.get(..done).unwrap_or(&[]));
                 power_lost()
             }
@@ -106,7 +107,8 @@ fn main() -> ! {
         say("power_cut: give the byte budget on the semihosting command line\n");
         exit::exit(exit::FAILURE)
     };
-    let Ok((params, source)) = params::load_from(&region) else {
+    let slots = SsramFlash::new(region);
+    let Ok((params, source)) = params::load_from(&slots) else {
         exit::exit(exit::FAILURE)
     };
     let boot = Boot {
@@ -117,9 +119,17 @@ fn main() -> ! {
         last_panic: Default::default(),
     };
     let flash = PowerCut {
-        region,
+        slots,
         budget_bytes,
     };
     let counter = InstructionCounter::new(board.syst);
-    App::with_updates(board.uart0, counter, boot, flash, param_flash::device_key()).run()
+    App::with_updates(
+        board.uart0,
+        counter,
+        PaintedStack,
+        boot,
+        flash,
+        param_flash::device_key(),
+    )
+    .run()
 }

@@ -51,9 +51,10 @@ use supine_core::fpu::sqrt_f32;
 use supine_core::model::{DeviceRealization, ModalState};
 use supine_core::protocol::{FrameAccumulator, FrameEvent, MAX_FRAME_LEN, encode_frame, golden};
 use supine_core::test_vector::TestVector;
-use supine_firmware::board::Board;
+use supine_core::timing::INSTRUCTIONS_PER_TICK;
+use supine_firmware::boards::mps2_an386::Board;
 use supine_firmware::console::Console;
-use supine_firmware::cycles::{INSTRUCTIONS_PER_TICK, InstructionCounter};
+use supine_firmware::cycles::InstructionCounter;
 use supine_firmware::{VERSION, exit, params, stack};
 
 /// Seed of the test vector; the host test reads it from the output.
@@ -275,11 +276,11 @@ const STAGE_SAMPLES: usize = 1024;
 /// `DeviceParams::process` with a no-op `emit`, one telemetry frame's encoding and one
 /// `libm::sqrtf` (the telemetry's six square roots are in software on this target).
 fn time_stages(counter: &InstructionCounter, out: &mut Console) -> Result<(), Failure> {
+    use supine_app::telemetry_frame;
     use supine_core::alerts::AlertState;
     use supine_core::exposure::{ExposureSample, ExposureState};
     use supine_core::pipeline::{BLOCK_LEN, PipelineState};
     use supine_core::protocol::Telemetry;
-    use supine_firmware::telemetry_frame;
 
     let failure = Failure::Golden {
         what: "default blob",

@@ -1,8 +1,8 @@
-//! The monitor's main loop: UART0 in, the pipeline, UART0 out.
+//! The monitor's main loop: the link in, the pipeline, the link out.
 //!
 //! ```text
 //! loop:
-//!   poll UART0 RX -> FrameAccumulator -> HostToDevice
+//!   poll the link (UART0 under QEMU) -> FrameAccumulator -> HostToDevice
 //!     Samples  -> sample buffer (index + litter-frame acceleration, m/s^2)
 //!                 16 buffered -> DeviceParams::process -> DeviceFrame{seq, Telemetry|Alert}
 //!     Hello    -> (flush the buffer) Greeting
@@ -11,203 +11,51 @@
 //!                 -> ParamAck(Committed) + Greeting, pipeline restarted on the new blob;
 //!                 any refusal -> ParamNack(code), counted, nothing changed
 //!   RX idle for 100 ms (IDLE_FLUSH_TICKS) -> process what is buffered
-//!   drain the TX ring into UART0 TX
+//!   drain the TX ring into the link
 //! ```
 //!
-//! Frames are encoded into a RAM ring while the pipeline runs and written to the UART from
-//! the loop, so [`Status::busy_ticks`] (SysTick around `process`, frame encoding included)
-//! excludes waiting on the UART. Every byte of every input is handled without a panic
-//! path: bad frames are counted and dropped, index gaps counted as dropped samples (and
-//! raised by the pipeline's sensor checks as an index-gap fault).
+//! Frames are encoded into a RAM ring while the pipeline runs and written to the link from
+//! the loop, so [`Status::busy_ticks`] (the tick counter around `process`, frame encoding
+//! included) excludes waiting on the link. Every byte of every input is handled without a
+//! panic path: bad frames are counted and dropped, index gaps counted as dropped samples
+//! (and raised by the pipeline's sensor checks as an index-gap fault).
 
-use supine_core::blob::DeviceParams;
 use supine_core::mounting::Mounting;
 use supine_core::pipeline::{BLOCK_LEN, PipelineOutput, PipelineState};
 use supine_core::protocol::{
     DeviceFrame, DeviceToHost, FrameAccumulator, FrameEvent, Greeting, HostToDevice, MAX_FRAME_LEN,
-    MAX_SAMPLES_PER_FRAME, PANIC_MESSAGE_LEN, PROTOCOL_VERSION, ParamAck, ParamsSource, ResetCause,
-    SampleBatch, Status, Telemetry, UploadError, encode_frame,
+    MAX_SAMPLES_PER_FRAME, PROTOCOL_VERSION, ParamAck, ParamsSource, SampleBatch, Status,
+    UploadError, encode_frame,
 };
+use supine_core::timing::MPS2_AN386_SYSCLK_HZ;
 use supine_core::upload::{KEY_LEN, ParamFlash, Upload, last_counter};
-
 use supine_sensor::{ReplaySource, SampleSource};
 
-use crate::cycles::InstructionCounter;
-use crate::stack;
-use crate::telemetry_frame;
-
-/// Bytes of the transmit ring: more than one block's worst-case output. A power of two,
-/// so `i & TX_MASK` indexes it without a bounds check.
-const TX_RING_LEN: usize = 4096;
-const TX_MASK: usize = TX_RING_LEN - 1;
+use crate::boot::Boot;
+use crate::counter::TickCounter;
+use crate::link::{self, Link};
+use crate::stack_gauge::StackGauge;
+use crate::tx_ring::TxRing;
+use crate::updates::{NoUpdates, Updates};
 
 /// Free ring space required before a block is processed, so the pipeline never waits on
-/// the UART: 16 telemetry frames and a few alert frames need about 1 KiB.
+/// the link: 16 telemetry frames and a few alert frames need about 1 KiB.
 const TX_HEADROOM: usize = 2048;
 
-/// SysTick ticks (25 MHz: 100 ms) without a received byte after which a partial block
-/// is processed: the host paused or the stream ended. Shorter waits would cut blocks
-/// between two sample frames, and partial blocks run one sample at a time (about twice
-/// the instructions per sample). Under QEMU -icount one tick is 40 instructions of
-/// virtual time; an end of stream is flushed by `GetStatus` anyway.
-const IDLE_FLUSH_TICKS: u32 = 2_500_000;
+/// Ticks (100 ms of mps2-an386's 25 MHz SysTick) without a received byte after which a
+/// partial block is processed: the host paused or the stream ended. Shorter waits would
+/// cut blocks between two sample frames, and partial blocks run one sample at a time
+/// (about twice the instructions per sample). Under QEMU -icount one tick is 40
+/// instructions of virtual time; an end of stream is flushed by `GetStatus` anyway.
+pub const IDLE_FLUSH_TICKS: u32 = MPS2_AN386_SYSCLK_HZ / 10;
 
-/// The byte link to the host: UART0 (CMSDK) under QEMU, USART1 on the board.
-pub trait ByteLink {
-    /// The received byte, if there is one.
-    fn try_read_byte(&mut self) -> Option<u8>;
-    /// Sends `byte` if the transmitter has room; returns whether it was sent.
-    fn try_write_byte(&mut self, byte: u8) -> bool;
-    /// Sends `byte`, waiting for room.
-    fn write_byte(&mut self, byte: u8) {
-        while !self.try_write_byte(byte) {}
-    }
-}
-
-impl ByteLink for crate::cmsdk_uart::CmsdkUart {
-    fn try_read_byte(&mut self) -> Option<u8> {
-        crate::cmsdk_uart::CmsdkUart::try_read_byte(self)
-    }
-    fn try_write_byte(&mut self, byte: u8) -> bool {
-        crate::cmsdk_uart::CmsdkUart::try_write_byte(self, byte)
-    }
-}
-
-/// Where the running parameters came from and how the device last stopped.
-pub struct Boot {
-    /// Appended to the firmware version in the greeting (`+qemu`, `+blackpill`).
-    pub build: &'static str,
-    /// The parameters in use.
-    pub params: DeviceParams,
-    /// Flash slot or built-in default (with the reason the flash blob was refused).
-    pub source: ParamsSource,
-    /// How the device last stopped.
-    pub reset_cause: ResetCause,
-    /// The last panic's message (empty if none).
-    pub last_panic: heapless::String<PANIC_MESSAGE_LEN>,
-}
-
-/// A byte ring for outgoing frames.
-struct TxRing {
-    buf: [u8; TX_RING_LEN],
-    head: usize,
-    len: usize,
-}
-
-impl TxRing {
-    const fn new() -> Self {
-        Self {
-            buf: [0; TX_RING_LEN],
-            head: 0,
-            len: 0,
-        }
-    }
-
-    fn free(&self) -> usize {
-        TX_RING_LEN - self.len
-    }
-
-    /// Appends `bytes`, first writing the oldest bytes to `uart` (waiting) if room lacks.
-    fn push(&mut self, bytes: &[u8], uart: &mut impl ByteLink) {
-        while self.free() < bytes.len() && self.len > 0 {
-            self.drain_blocking_one(uart);
-        }
-        if bytes.len() > self.free() {
-            // Only if a frame were longer than the ring: send it straight through.
-            bytes.iter().for_each(|&b| uart.write_byte(b));
-            return;
-        }
-        let tail = (self.head + self.len) % TX_RING_LEN;
-        // At most two contiguous pieces: up to the end of the buffer, then from its start.
-        let first = bytes.len().min(TX_RING_LEN - tail);
-        let (a, b) = bytes.split_at(first);
-        if let Some(dst) = self.buf.get_mut(tail..tail + a.len()) {
-            dst.copy_from_slice(a);
-        }
-        if let Some(dst) = self.buf.get_mut(..b.len()) {
-            dst.copy_from_slice(b);
-        }
-        self.len += bytes.len();
-    }
-
-    /// Encodes a telemetry frame straight into the ring (the hot path: no copy), or,
-    /// where the free space wraps around the ring's end (one frame in about 80), into a
-    /// scratch frame copied in two pieces. Kept out of line: the pipeline's per-sample
-    /// loop stays smaller.
-    #[inline(never)]
-    fn push_telemetry(&mut self, seq: u32, t: &Telemetry, uart: &mut impl ByteLink) {
-        while self.free() < telemetry_frame::MAX_FRAME && self.len > 0 {
-            self.drain_blocking_one(uart);
-        }
-        let tail = (self.head + self.len) & TX_MASK;
-        let contiguous = self
-            .buf
-            .get_mut(tail..tail + telemetry_frame::MAX_FRAME)
-            .and_then(|s| <&mut [u8; telemetry_frame::MAX_FRAME]>::try_from(s).ok());
-        if let Some(frame) = contiguous {
-            self.len += telemetry_frame::encode(seq, t, frame);
-        } else {
-            let mut frame = [0u8; telemetry_frame::MAX_FRAME];
-            let len = telemetry_frame::encode(seq, t, &mut frame);
-            self.push(frame.get(..len).unwrap_or(&[]), uart);
-        }
-    }
-
-    fn drain_blocking_one(&mut self, uart: &mut impl ByteLink) {
-        if let Some(&b) = self.buf.get(self.head) {
-            uart.write_byte(b);
-        }
-        self.head = (self.head + 1) % TX_RING_LEN;
-        self.len -= 1;
-    }
-
-    /// Writes to `uart` while it takes bytes without waiting.
-    fn drain(&mut self, uart: &mut impl ByteLink) {
-        while self.len > 0 {
-            let Some(&b) = self.buf.get(self.head) else {
-                return;
-            };
-            if !uart.try_write_byte(b) {
-                return;
-            }
-            self.head = (self.head + 1) % TX_RING_LEN;
-            self.len -= 1;
-        }
-    }
-}
-
-/// Parameter updates over the link: the slots, the update being received, the key.
-struct Updates<F> {
-    flash: F,
-    upload: Upload,
-    key: &'static [u8; KEY_LEN],
-}
-
-/// Stands for the flash of an image that takes no updates over the link.
-pub struct NoUpdates;
-
-impl ParamFlash for NoUpdates {
-    fn slot(&self, _slot: usize) -> &[u8] {
-        &[]
-    }
-    fn erase(&mut self, _slot: usize) -> Result<(), supine_core::upload::FlashError> {
-        Err(supine_core::upload::FlashError)
-    }
-    fn write(
-        &mut self,
-        _slot: usize,
-        _offset: usize,
-        _bytes: &[u8],
-    ) -> Result<(), supine_core::upload::FlashError> {
-        Err(supine_core::upload::FlashError)
-    }
-}
-
-/// The running monitor.
-pub struct App<U: ByteLink, F: ParamFlash = NoUpdates> {
-    uart: U,
+/// The running monitor, on the link `L`, timed by `C`, its stack measured by `S`,
+/// storing parameter updates in `F`.
+pub struct App<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash = NoUpdates> {
+    link: L,
     updates: Option<Updates<F>>,
-    counter: InstructionCounter,
+    counter: C,
+    stack: S,
     boot: Boot,
     state: PipelineState,
     rx: FrameAccumulator,
@@ -222,20 +70,22 @@ pub struct App<U: ByteLink, F: ParamFlash = NoUpdates> {
     replay: ReplaySource<MAX_SAMPLES_PER_FRAME>,
 }
 
-impl<U: ByteLink> App<U> {
-    /// A monitor on `uart`, timing its pipeline with `counter`, running `boot.params`,
-    /// that refuses parameter updates over the link (`UploadError::Flash`).
-    pub fn new(uart: U, counter: InstructionCounter, boot: Boot) -> Self {
-        App::build(uart, counter, boot, None)
+impl<L: Link, C: TickCounter, S: StackGauge> App<L, C, S> {
+    /// A monitor on `link`, timing its pipeline with `counter`, reporting `stack`'s depth,
+    /// running `boot.params`, that refuses parameter updates over the link
+    /// (`UploadError::Flash`).
+    pub fn new(link: L, counter: C, stack: S, boot: Boot) -> Self {
+        App::build(link, counter, stack, boot, None)
     }
 }
 
-impl<U: ByteLink, F: ParamFlash> App<U, F> {
+impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
     /// A monitor that accepts updates signed with `key` into `flash`'s slots (the ones
     /// `boot` was chosen from).
     pub fn with_updates(
-        uart: U,
-        counter: InstructionCounter,
+        link: L,
+        counter: C,
+        stack: S,
         boot: Boot,
         flash: F,
         key: &'static [u8; KEY_LEN],
@@ -245,19 +95,15 @@ impl<U: ByteLink, F: ParamFlash> App<U, F> {
             upload: Upload::new(),
             key,
         };
-        Self::build(uart, counter, boot, Some(updates))
+        Self::build(link, counter, stack, boot, Some(updates))
     }
 
-    fn build(
-        uart: U,
-        counter: InstructionCounter,
-        boot: Boot,
-        updates: Option<Updates<F>>,
-    ) -> Self {
+    fn build(link: L, counter: C, stack: S, boot: Boot, updates: Option<Updates<F>>) -> Self {
         Self {
-            uart,
+            link,
             updates,
             counter,
+            stack,
             boot,
             state: PipelineState::new(),
             rx: FrameAccumulator::new(),
@@ -296,7 +142,7 @@ impl<U: ByteLink, F: ParamFlash> App<U, F> {
     /// One pass of the main loop: take a received byte (or process a partial block after
     /// a pause), then send what the link takes without waiting.
     pub fn poll(&mut self) {
-        match self.uart.try_read_byte() {
+        match link::try_read_byte(&mut self.link) {
             Some(byte) => {
                 self.last_byte = self.counter.now();
                 self.on_byte(byte);
@@ -308,7 +154,7 @@ impl<U: ByteLink, F: ParamFlash> App<U, F> {
                 }
             }
         }
-        self.tx.drain(&mut self.uart);
+        self.tx.drain(&mut self.link);
     }
 
     /// A sample from a local sensor (litter axes, gravity removed, m/s^2), as if the host
@@ -341,7 +187,7 @@ impl<U: ByteLink, F: ParamFlash> App<U, F> {
             HostToDevice::GetStatus => {
                 self.process_buffered();
                 let mut status = self.status;
-                status.stack_used_bytes = stack::high_water_bytes() as u32;
+                status.stack_used_bytes = self.stack.high_water_bytes() as u32;
                 status.params_source = self.boot.source;
                 self.send(DeviceToHost::Status(status));
             }
@@ -450,12 +296,12 @@ impl<U: ByteLink, F: ParamFlash> App<U, F> {
             return;
         }
         self.buffered = 0;
-        // Make room first, so the timed span never waits on the UART.
+        // Make room first, so the timed span never waits on the link.
         while self.tx.free() < TX_HEADROOM {
-            self.tx.drain_blocking_one(&mut self.uart);
+            self.tx.drain_blocking_one(&mut self.link);
         }
         let Self {
-            uart,
+            link,
             counter,
             boot,
             state,
@@ -475,10 +321,10 @@ impl<U: ByteLink, F: ParamFlash> App<U, F> {
             .process(state, indices, samples, |output| match output {
                 PipelineOutput::Telemetry(t) => {
                     status.telemetry_sent = status.telemetry_sent.wrapping_add(1);
-                    tx.push_telemetry(*seq, &t, uart);
+                    tx.push_telemetry(*seq, &t, link);
                     *seq = seq.wrapping_add(1);
                 }
-                PipelineOutput::Alert(e) => queue_frame(tx, uart, seq, DeviceToHost::Alert(e)),
+                PipelineOutput::Alert(e) => queue_frame(tx, link, seq, DeviceToHost::Alert(e)),
             });
         status.busy_ticks = status
             .busy_ticks
@@ -505,18 +351,18 @@ impl<U: ByteLink, F: ParamFlash> App<U, F> {
     }
 
     fn send(&mut self, message: DeviceToHost) {
-        queue_frame(&mut self.tx, &mut self.uart, &mut self.seq, message);
+        queue_frame(&mut self.tx, &mut self.link, &mut self.seq, message);
     }
 }
 
 /// Encodes `message` with the next sequence number into the TX ring. A message that does
 /// not encode (none can: every one fits [`MAX_FRAME_LEN`]) is skipped, its number kept, so
 /// the host counts it as lost rather than the device stopping.
-fn queue_frame(tx: &mut TxRing, uart: &mut impl ByteLink, seq: &mut u32, message: DeviceToHost) {
+fn queue_frame(tx: &mut TxRing, link: &mut impl Link, seq: &mut u32, message: DeviceToHost) {
     let mut buf = [0u8; MAX_FRAME_LEN];
     let frame = DeviceFrame { seq: *seq, message };
     *seq = seq.wrapping_add(1);
     if let Ok(bytes) = encode_frame(&frame, &mut buf) {
-        tx.push(bytes, uart);
+        tx.push(bytes, link);
     }
 }
