@@ -36,7 +36,7 @@ fn footprint(path: &std::path::Path) -> (u64, u64) {
 
 #[test]
 fn the_product_image_fits_64_kib_of_flash_and_16_kib_of_static_ram() {
-    let image = firmware(supine_host::firmware::PRODUCT_BINARY);
+    let image = firmware(supine_host::device::firmware::PRODUCT_BINARY);
     let (flash, ram) = footprint(&image);
     println!("supine-firmware: flash {flash} B, static RAM {ram} B");
     // Something must be there: a parse that finds nothing would pass any budget.

@@ -1,12 +1,12 @@
 //! `supine exposure`: ISO 2631-1 exposure of a recording, in two forms.
 //! - Model form (`--preset NAME | --params FILE`): the predicted head exposure of a ride,
 //!   the device's own pipeline over the recording's platform columns, with the alert
-//!   timeline (see [`crate::exposure_report::model_exposure`]).
+//!   timeline (see [`crate::exposure::report::model_exposure`]).
 //! - Channel form (`--channel COLUMN --weighting wk|wd|wj`): one recorded channel,
 //!   weighted and evaluated without a model.
 //!
 //! The recording's own sample rate is used; `--fs HZ` converts it first with the
-//! band-limited, zero-phase resampler of [`crate::resample`].
+//! band-limited, zero-phase resampler of [`crate::exposure::resample`].
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -15,11 +15,11 @@ use anyhow::{Result, anyhow};
 use clap::{ArgGroup, ValueEnum};
 
 use crate::commands::weighting::Kind;
-use crate::device_params;
-use crate::exposure_report::{
+use crate::device::device_params;
+use crate::exposure::report::{
     Prepared, channel_exposure, channel_index, column, model_exposure, prepare, read_input,
 };
-use crate::params_file::{ModelSource, PresetArg};
+use crate::io::params_file::{ModelSource, PresetArg};
 
 /// Arguments of `supine exposure`.
 #[derive(Debug, clap::Args)]

@@ -6,9 +6,9 @@ use std::path::PathBuf;
 use anyhow::{Result, anyhow};
 
 use crate::commands::values;
-use crate::device_params::identity_hex;
-use crate::flash::{self, UploadOutcome};
-use crate::params_file::ModelSource;
+use crate::device::device_params::identity_hex;
+use crate::device::flash::{self, UploadOutcome};
+use crate::io::params_file::ModelSource;
 
 /// Arguments of `supine flash`.
 #[derive(Debug, clap::Args)]
@@ -77,7 +77,7 @@ pub fn run(args: &Args) -> Result<()> {
     let t = &args.target;
     if let Some(out) = &t.qemu_image {
         let image = flash::qemu_region_image(&file, args.fs_hz)?;
-        crate::output::write_atomically(out, |w| {
+        crate::io::output::write_atomically(out, |w| {
             std::io::Write::write_all(w, &image)
                 .map_err(|e| anyhow!("{}: cannot write: {e}", out.display()))
         })?;
@@ -87,7 +87,7 @@ pub fn run(args: &Args) -> Result<()> {
             image.len(),
             args.fs_hz,
             out.display(),
-            crate::qemu::PARAMS_ADDR
+            crate::device::qemu::PARAMS_ADDR
         );
     } else if let Some(port) = &t.serial {
         let key = flash::load_key(args.key.as_deref())?;

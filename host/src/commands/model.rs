@@ -6,8 +6,8 @@ use anyhow::{Result, anyhow};
 use supine_core::model::{Axis, Output, SystemMatrices};
 
 use crate::commands::values;
-use crate::h_csv::{self, HRow};
-use crate::params_file::ModelSource;
+use crate::io::h_csv::{self, HRow};
+use crate::io::params_file::ModelSource;
 
 /// Arguments of `supine model`.
 #[derive(Debug, clap::Args)]

@@ -10,16 +10,16 @@ use anyhow::{Context as _, Result, anyhow, bail};
 use clap::ArgGroup;
 
 use crate::commands::values;
-use crate::device_params;
-use crate::exposure_report::read_input;
-use crate::firmware;
-use crate::link::FrameReader;
+use crate::device::device_params;
+use crate::device::firmware;
+use crate::device::link::FrameReader;
+use crate::exposure::report::read_input;
+use crate::exposure::ride::{Profile, generate};
+use crate::io::params_file::{ModelSource, PresetArg};
 use crate::monitor::log::MonitorLog;
 use crate::monitor::session::{Ending, QemuRun, follow, open_serial, run_qemu, wait_greeting};
 use crate::monitor::view::{LiveView, PlainView, View};
 use crate::monitor::{Monitor, device_line};
-use crate::params_file::{ModelSource, PresetArg};
-use crate::ride::{Profile, generate};
 
 /// Arguments of `supine monitor`.
 #[derive(Debug, clap::Args)]
@@ -82,7 +82,7 @@ pub fn run(args: &Args) -> Result<()> {
         None
     };
     // Ctrl-C, SIGTERM and SIGHUP: QEMU stopped and its folder removed on the way out.
-    let stop = crate::signals::stop_flag();
+    let stop = crate::device::signals::stop_flag();
     let mut log = args.log.as_deref().map(MonitorLog::create).transpose()?;
     let stdout = std::io::stdout();
     let mut view: Box<dyn View> = if stdout.is_terminal() {

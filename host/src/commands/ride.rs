@@ -1,11 +1,11 @@
 //! `supine ride`: a realistic litter-frame acceleration recording (platform columns only)
-//! for one of the profiles of [`crate::ride`], deterministic for a seed.
+//! for one of the profiles of [`crate::exposure::ride`], deterministic for a seed.
 
 use std::path::PathBuf;
 
 use anyhow::Result;
 
-use crate::ride::{Profile, generate, write_ride};
+use crate::exposure::ride::{Profile, generate, write_ride};
 
 /// Arguments of `supine ride`.
 #[derive(Debug, clap::Args)]

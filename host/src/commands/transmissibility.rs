@@ -8,10 +8,12 @@ use std::path::PathBuf;
 use anyhow::{Result, anyhow, bail};
 use supine_core::model::{Axis, Output, Subject, Transmissibility};
 
-use crate::dataset::{Case, Dataset};
-use crate::geomean::geometric_mean_h;
-use crate::h_csv::{self, HRow};
-use crate::spectral::{self, DEFAULT_RESOLUTION_HZ, H1Estimate, SpectralError, WelchSettings};
+use crate::identify::geomean::geometric_mean_h;
+use crate::identify::spectral::{
+    self, DEFAULT_RESOLUTION_HZ, H1Estimate, SpectralError, WelchSettings,
+};
+use crate::io::dataset::{Case, Dataset};
+use crate::io::h_csv::{self, HRow};
 
 /// Arguments of `supine transmissibility`.
 #[derive(Debug, clap::Args)]

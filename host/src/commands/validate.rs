@@ -6,10 +6,10 @@ use std::path::PathBuf;
 
 use anyhow::{Result, anyhow};
 
-use crate::output::write_atomically;
-use crate::params_file;
-use crate::recording::Recording;
-use crate::validate::{predict, psd_svg, table, validate};
+use crate::identify::validate::{predict, psd_svg, table, validate};
+use crate::io::output::write_atomically;
+use crate::io::params_file;
+use crate::io::recording::Recording;
 
 /// Arguments of `supine validate`.
 #[derive(Debug, clap::Args)]

@@ -8,7 +8,7 @@ use anyhow::{Result, anyhow, bail};
 use supine_core::weighting::{WeightingKind, WeightingSettings, analog_response};
 
 use crate::commands::values;
-use crate::output::write_atomically;
+use crate::io::output::write_atomically;
 
 /// The weighting to describe.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

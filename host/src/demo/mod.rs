@@ -5,14 +5,15 @@
 //! region image `supine flash` makes); run the image in QEMU with the ride streamed over
 //! its UART, followed live by the monitor ([`crate::monitor`]) which logs the device's
 //! telemetry and events to CSV; run the host's own computation on the same samples
-//! ([`crate::reference`]: the device's f32 pipeline and the f64 model); write the report
-//! ([`crate::report`]) from the CSV files; summarize ([`summary`]).
+//! ([`crate::exposure::reference`]: the device's f32 pipeline and the f64 model); write the report
+//! ([`crate::demo::report`]) from the CSV files; summarize ([`summary`]).
 //!
 //! The output folder gets `ride.csv`, `device.csv` and `device.events.csv` (what the
 //! device sent), `host.csv` and `host.events.csv` (the host's reference), `params.toml`
 //! (the parameters flashed) and `report.html`. A previous `report.html` is removed first,
 //! so a failed run never leaves an older report that looks like this run's.
 
+pub mod report;
 pub mod ride;
 pub mod summary;
 pub mod trace;
@@ -27,18 +28,18 @@ use supine_core::alerts::AlertConfig;
 use supine_core::model::Preset;
 use supine_core::protocol::Status;
 
-use crate::device_params::{self, identity_hex};
-use crate::exposure_report::{AxisReport, read_input, run_pipeline};
-use crate::firmware;
-use crate::flash;
-use crate::link::LinkStats;
+use crate::device::device_params::{self, identity_hex};
+use crate::device::firmware;
+use crate::device::flash;
+use crate::device::link::LinkStats;
+use crate::device::replay::{write_events, write_telemetry};
+use crate::exposure::reference;
+use crate::exposure::report::{AxisReport, read_input, run_pipeline};
+use crate::io::params_file::{self, DeviceSection, ParamFile};
 use crate::monitor::device_line;
 use crate::monitor::log::MonitorLog;
 use crate::monitor::session::{Ending, QemuRun, run_qemu};
 use crate::monitor::view::View;
-use crate::params_file::{self, DeviceSection, ParamFile};
-use crate::reference;
-use crate::replay::{write_events, write_telemetry};
 use ride::{DemoProfile, DemoRide};
 use summary::Summary;
 use trace::{EventRow, Trace, read_events};
@@ -254,7 +255,7 @@ pub fn run(
         SAMPLE_RATE_HZ,
         config.seed,
     )?;
-    crate::ride::write_ride(&files.ride, &ride.ride)?;
+    crate::exposure::ride::write_ride(&files.ride, &ride.ride)?;
     // The device gets exactly what the file holds (accelerations to 1e-6 m/s^2), so that
     // `supine replay` of ride.csv reproduces device.csv.
     let (recording, _) = read_input(&files.ride)?;
@@ -390,8 +391,8 @@ pub fn run(
     steps.finish();
     data.info.step_times = steps.times.clone();
     let summary = Summary::new(&data);
-    let html = crate::report::render(&data, &summary)?;
-    crate::output::write_atomically(&files.report, |w| {
+    let html = crate::demo::report::render(&data, &summary)?;
+    crate::io::output::write_atomically(&files.report, |w| {
         use std::io::Write as _;
         w.write_all(html.as_bytes())
             .with_context(|| format!("writing {}", files.report.display()))

@@ -11,7 +11,7 @@ use supine_core::alerts::Level;
 
 use super::DemoData;
 use super::trace::{EventRow, level_from_name};
-use crate::exposure_report::AxisReport;
+use crate::exposure::report::AxisReport;
 
 /// What the demo found.
 #[derive(Clone, Debug, PartialEq)]

@@ -10,7 +10,7 @@ use anyhow::{Result, anyhow, bail};
 use supine_core::alerts::{AlertEvent, Level};
 use supine_core::protocol::Telemetry;
 
-use crate::replay::{EVENTS_HEADER, TELEMETRY_HEADER};
+use crate::device::replay::{EVENTS_HEADER, TELEMETRY_HEADER};
 
 /// Telemetry records as columns, in sample order.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -161,7 +161,7 @@ pub struct EventRow {
 }
 
 impl EventRow {
-    /// The row [`crate::replay::event_row`] writes for `e`, at `sample_rate_hz`.
+    /// The row [`crate::device::replay::event_row`] writes for `e`, at `sample_rate_hz`.
     pub fn from_event(e: &AlertEvent, sample_rate_hz: f64) -> Self {
         let (kind, name) = match *e {
             AlertEvent::Level { to, .. } => ("level", to.name()),
@@ -233,7 +233,7 @@ pub fn read_events(path: &Path, sample_rate_hz: f64) -> Result<Vec<EventRow>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::replay::{event_row, telemetry_row};
+    use crate::device::replay::{event_row, telemetry_row};
     use supine_core::alerts::SensorFault;
 
     #[test]

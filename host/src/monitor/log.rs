@@ -14,7 +14,9 @@ use std::time::{Duration, Instant};
 use anyhow::{Result, anyhow};
 use supine_core::protocol::DeviceToHost;
 
-use crate::replay::{EVENTS_HEADER, TELEMETRY_HEADER, event_row, events_path, telemetry_row};
+use crate::device::replay::{
+    EVENTS_HEADER, TELEMETRY_HEADER, event_row, events_path, telemetry_row,
+};
 
 /// Longest time between flushes.
 pub const FLUSH_INTERVAL: Duration = Duration::from_secs(1);

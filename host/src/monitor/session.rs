@@ -22,10 +22,10 @@ use supine_core::protocol::{DeviceToHost, Greeting, HostToDevice};
 use super::log::MonitorLog;
 use super::state::Monitor;
 use super::view::View;
-use crate::device_params::identity_hex;
-use crate::link::{FrameReader, FrameWriter, check_protocol, format_duration};
-use crate::qemu::{Qemu, QemuConfig};
-use crate::replay::{Outgoing, sample_messages};
+use crate::device::device_params::identity_hex;
+use crate::device::link::{FrameReader, FrameWriter, check_protocol, format_duration};
+use crate::device::qemu::{Qemu, QemuConfig};
+use crate::device::replay::{Outgoing, sample_messages};
 
 /// Longest wait for a message before the loop checks the stop flag and redraws.
 const STEP: Duration = Duration::from_millis(50);
@@ -479,7 +479,7 @@ mod tests {
         assert!(text.contains("update this host tool"), "{text}");
         // A newer device's greeting that this host cannot decode at all: refused by the
         // version it leads with, not reported as a decoding error or a silence.
-        let mut bytes = crate::link::tests::other_greeting_frame(PROTOCOL_VERSION + 1);
+        let mut bytes = crate::device::link::tests::other_greeting_frame(PROTOCOL_VERSION + 1);
         bytes.extend(frame(1, telemetry(0)));
         let mut reader = FrameReader::new(Cursor::new(bytes));
         let err = wait_greeting(&mut reader, Duration::from_secs(1), &stop).expect_err("mismatch");

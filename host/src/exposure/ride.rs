@@ -38,8 +38,8 @@ use realfft::RealFftPlanner;
 use realfft::num_complex::Complex;
 use serde::Serialize;
 
-use crate::exposure_report::{PLATFORM_HEADER_LINE, rate_supported};
-use crate::output::write_atomically;
+use crate::exposure::report::{PLATFORM_HEADER_LINE, rate_supported};
+use crate::io::output::write_atomically;
 
 // ---- Ground ambulance, paved road -------------------------------------------------------
 

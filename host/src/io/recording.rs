@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Result;
 
-use crate::output::write_atomically;
+use crate::io::output::write_atomically;
 
 /// The exact first line of a recording.
 pub const HEADER_LINE: &str = "time_s,platform_x,platform_y,platform_z,head_x,head_y,head_z,torso_x,torso_y,torso_z,pelvis_x,pelvis_y,pelvis_z";

@@ -8,7 +8,7 @@ use anyhow::Result;
 use nalgebra::Complex;
 use supine_core::model::{Axis, Output};
 
-use crate::output::write_atomically;
+use crate::io::output::write_atomically;
 
 /// One component of H at one frequency.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -152,7 +152,7 @@ pub enum QemuError {
         stderr: String,
     },
     /// The deadline passed; QEMU was killed.
-    #[error("QEMU did not finish within {} and was killed; last output: {}", crate::link::format_duration(*timeout), last_line(stdout))]
+    #[error("QEMU did not finish within {} and was killed; last output: {}", crate::device::link::format_duration(*timeout), last_line(stdout))]
     Timeout {
         /// The deadline.
         timeout: Duration,

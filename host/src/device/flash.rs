@@ -18,11 +18,11 @@ use supine_core::upload::{
     COMMIT_LEN, KEY_LEN, ParamFlash, SLOT_COUNT, SLOT_LEN, commit_record, select,
 };
 
-use crate::device_params::{self, identity_hex};
-use crate::link::{FrameReader, FrameWriter};
-use crate::params_file::ParamFile;
-use crate::qemu::{Qemu, QemuConfig};
-use crate::upload_client::{self, Uploaded};
+use crate::device::device_params::{self, identity_hex};
+use crate::device::link::{FrameReader, FrameWriter};
+use crate::device::qemu::{Qemu, QemuConfig};
+use crate::device::upload_client::{self, Uploaded};
+use crate::io::params_file::ParamFile;
 
 /// Bytes of the PARAMS region image: both slots.
 pub const REGION_LEN: usize = SLOT_COUNT * SLOT_LEN;
@@ -186,7 +186,7 @@ impl CounterState {
             std::fs::create_dir_all(dir)
                 .map_err(|e| anyhow!("{}: cannot create: {e}", dir.display()))?;
         }
-        crate::output::write_atomically(&self.path, |w| Ok(writeln!(w, "{counter}")?))
+        crate::io::output::write_atomically(&self.path, |w| Ok(writeln!(w, "{counter}")?))
     }
 
     /// The next counter, max(`now_s`, last + 1), recorded before it is returned.
@@ -264,7 +264,9 @@ pub fn upload_over_link<R: Read, W: Write>(
 pub fn load_key(path: Option<&Path>) -> Result<[u8; KEY_LEN]> {
     match path {
         Some(p) => upload_client::read_key(p),
-        None => upload_client::read_key(&crate::firmware::repository_root().join(DEV_KEY_PATH)),
+        None => {
+            upload_client::read_key(&crate::device::firmware::repository_root().join(DEV_KEY_PATH))
+        }
     }
 }
 
@@ -314,14 +316,14 @@ pub fn upload_qemu(
     counter: u32,
     timeout: Duration,
 ) -> Result<UploadOutcome> {
-    let kernel = crate::firmware::build_binary(crate::firmware::PRODUCT_BINARY)?;
+    let kernel = crate::device::firmware::build_binary(crate::device::firmware::PRODUCT_BINARY)?;
     let config = QemuConfig::new(kernel)
         .uart()
         .timeout(timeout + Duration::from_secs(30));
     let mut qemu = Qemu::start(&config)?;
     // Nothing here polls a stop flag: a signal kills QEMU, which ends the blocked read,
     // and the guard removes the socket folder. Declared after `qemu`, so dropped first.
-    let _kill_on_signal = crate::signals::KillOnSignal::new(qemu.id());
+    let _kill_on_signal = crate::device::signals::KillOnSignal::new(qemu.id());
     let uart = qemu.uart().ok_or_else(|| anyhow!("QEMU has no UART"))?;
     uart.set_read_timeout(Some(Duration::from_millis(50)))?;
     let mut reader = FrameReader::new(uart.try_clone()?);
@@ -337,7 +339,7 @@ pub fn upload_qemu(
             timeout,
         )
     });
-    if crate::signals::stop_requested() {
+    if crate::device::signals::stop_requested() {
         bail!("interrupted: QEMU stopped and its folder removed");
     }
     result

@@ -1,13 +1,15 @@
 //! The report's charts, built from a demo's data: what each shows is decided here, how it
-//! is drawn in [`super::charts`].
+//! is drawn in [`crate::plot::time_chart`].
 
 use supine_core::alerts::Level;
 
-use super::charts::{Band, Chart, Line, Marker, Moment, PLOT_COLUMNS, Rgb, Threshold, y_range};
-use super::downsample::min_max;
 use crate::demo::DemoData;
 use crate::demo::trace::{Trace, level_from_name};
-use crate::ride::ShockKind;
+use crate::exposure::ride::ShockKind;
+use crate::plot::downsample::min_max;
+use crate::plot::time_chart::{
+    Band, Chart, Line, Marker, Moment, PLOT_COLUMNS, Rgb, Threshold, y_range,
+};
 
 /// Axis colours: x, y, z.
 pub const AXIS_COLORS: [Rgb; 3] = [(31, 119, 180), (44, 160, 44), (214, 39, 40)];

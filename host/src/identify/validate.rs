@@ -19,9 +19,9 @@ use supine_core::model::{
     MAX_SAMPLE_RATE_HZ, MIN_SAMPLE_RATE_HZ, ModalState, Model, ModelParams, Output,
 };
 
+use crate::identify::spectral::{DEFAULT_RESOLUTION_HZ, WelchSettings, psd};
+use crate::io::recording::Recording;
 use crate::plot::{Panel, Series, figure_svg};
-use crate::recording::Recording;
-use crate::spectral::{DEFAULT_RESOLUTION_HZ, WelchSettings, psd};
 
 /// The model runs at no less than this rate, Hz (upsampling slower recordings).
 pub const MIN_SIMULATION_RATE_HZ: f64 = 1000.0;

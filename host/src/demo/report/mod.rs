@@ -1,14 +1,11 @@
 //! The demo's report: one self-contained HTML file (inline CSS, inline SVG; no script, no
 //! external font, style or image), readable by someone who has not seen the code.
 //!
-//! - [`downsample`]: min/max per pixel column, so long series stay small and peaks stay.
-//! - [`charts`]: a time chart as data, drawn to SVG by `plotters`.
-//! - [`figures`]: which charts the report has and what goes on each.
+//! - [`figures`]: which charts the report has and what goes on each (drawn by
+//!   [`crate::plot::time_chart`]).
 //! - this module: the page around them (summary, tables, explanations), with every piece
 //!   of text that did not come from this file escaped.
 
-pub mod charts;
-pub mod downsample;
 pub mod figures;
 
 use std::fmt::Write as _;
@@ -372,7 +369,7 @@ pub fn render(data: &DemoData, summary: &Summary) -> Result<String> {
     Ok(h)
 }
 
-fn figure(h: &mut String, chart: &charts::Chart, caption: &str) -> Result<()> {
+fn figure(h: &mut String, chart: &crate::plot::time_chart::Chart, caption: &str) -> Result<()> {
     let svg = chart.to_svg()?;
     let _ = write!(h, "<figure>\n{svg}\n");
     if !caption.is_empty() {
@@ -388,7 +385,7 @@ mod tests {
     use crate::demo::ride::{DemoProfile, make};
     use crate::demo::trace::{EventRow, Trace};
     use crate::demo::{HostExposure, RunInfo};
-    use crate::exposure_report::AxisReport;
+    use crate::exposure::report::AxisReport;
     use supine_core::alerts::{AlertConfig, AlertEvent};
     use supine_core::exposure::AxisValues;
     use supine_core::protocol::Telemetry;

@@ -9,10 +9,10 @@
 //!   channel and whose other axes carry zeros, so the x axis' values are the channel's.
 //!
 //! Both need the sample rate within the weightings' 100..=2000 Hz; a recording at another
-//! rate is converted first by the band-limited [`crate::resample`] (zero phase), at the
+//! rate is converted first by the band-limited [`crate::exposure::resample`] (zero phase), at the
 //! user's request only.
 //!
-//! Recordings are read by [`crate::recording`]. A file with only the platform columns
+//! Recordings are read by [`crate::io::recording`]. A file with only the platform columns
 //! (what `supine ride` writes: [`PLATFORM_HEADER_LINE`]) is read by the same reader, its
 //! sensor columns filled with zeros that no evaluation here reads; see [`read_input`].
 
@@ -29,8 +29,8 @@ use supine_core::exposure::{
 use supine_core::pipeline::{PipelineOutput, PipelineState};
 use supine_core::weighting::{MAX_SAMPLE_RATE_HZ, MIN_SAMPLE_RATE_HZ, WeightingKind};
 
-use crate::recording::{COLUMNS, HEADER_LINE, Recording, RecordingError};
-use crate::resample::Resampler;
+use crate::exposure::resample::Resampler;
+use crate::io::recording::{COLUMNS, HEADER_LINE, Recording, RecordingError};
 
 /// The header of a recording that holds only the support (platform) accelerations.
 pub const PLATFORM_HEADER_LINE: &str = "time_s,platform_x,platform_y,platform_z";
@@ -103,7 +103,7 @@ pub struct Prepared {
 }
 
 /// Brings `channels` of `recording` to `fs_hz` if given (band-limited, see
-/// [`crate::resample`]), else checks that the recording's own rate is within 100..=2000 Hz.
+/// [`crate::exposure::resample`]), else checks that the recording's own rate is within 100..=2000 Hz.
 pub fn prepare(recording: &Recording, channels: &[&[f64]], fs_hz: Option<f64>) -> Result<Prepared> {
     let own_hz = recording.sample_rate_hz();
     let path = recording.path.display();

@@ -26,12 +26,12 @@ use supine_core::protocol::{
     DeviceToHost, Greeting, HostToDevice, MAX_SAMPLES_PER_FRAME, SampleBatch, Status, Telemetry,
 };
 
-use crate::device_params;
-use crate::firmware;
-use crate::link::{FrameReader, FrameWriter, LinkStats};
-use crate::params_file::ParamFile;
-use crate::qemu::{Qemu, QemuConfig};
-use crate::recording::Recording;
+use crate::device::device_params;
+use crate::device::firmware;
+use crate::device::link::{FrameReader, FrameWriter, LinkStats};
+use crate::device::qemu::{Qemu, QemuConfig};
+use crate::io::params_file::ParamFile;
+use crate::io::recording::Recording;
 
 /// Instructions per SysTick tick under `-icount shift=0` on mps2 (25 MHz SysTick).
 pub const INSTRUCTIONS_PER_TICK: f64 = 40.0;
@@ -209,7 +209,7 @@ fn talk(
         if Instant::now() >= deadline {
             break Err(anyhow!(
                 "the device did not finish within {} ({} telemetry records so far)",
-                crate::link::format_duration(deadline - started),
+                crate::device::link::format_duration(deadline - started),
                 s.telemetry.len()
             ));
         }
@@ -222,7 +222,7 @@ fn talk(
         }
         match message {
             Ok(Some(DeviceToHost::Greeting(g))) => {
-                if let Err(e) = crate::link::check_protocol(g.protocol_version) {
+                if let Err(e) = crate::device::link::check_protocol(g.protocol_version) {
                     break Err(e);
                 }
                 s.greetings.push(g);

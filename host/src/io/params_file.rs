@@ -16,8 +16,8 @@ use supine_core::model::params::{Contacts, Joints, SensorOffsets};
 use supine_core::model::{ModelParams, ParamError, Preset, Subject};
 use supine_core::mounting::Mounting;
 
-use crate::output::write_atomically;
-use crate::text_position::line_column;
+use crate::io::output::write_atomically;
+use crate::io::text_position::line_column;
 
 /// A parameter set and where it came from.
 #[derive(Clone, Debug, PartialEq)]
