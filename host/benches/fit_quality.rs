@@ -13,11 +13,11 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use supine_core::model::{ModelParams, ParamId};
-use supine_host::commands::transmissibility::estimate;
 use supine_host::identify::fit::objective::{Objective, Target};
 use supine_host::identify::fit::solver::SolverSettings;
 use supine_host::identify::fit::{self, FitSettings};
 use supine_host::identify::synth::{SynthSettings, write_dataset};
+use supine_host::identify::transmissibility::estimate;
 use supine_host::io::dataset::{Case, Dataset};
 use supine_host::io::params_file;
 

@@ -84,7 +84,7 @@ fn supine_demo_writes_a_self_contained_report_whose_summary_matches_its_csv_file
     let mut lines = telemetry.lines();
     assert_eq!(
         lines.next(),
-        Some(supine_host::device::replay::TELEMETRY_HEADER)
+        Some(supine_host::io::telemetry_csv::TELEMETRY_HEADER)
     );
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     assert_eq!(rows.len(), 15_000, "one record per sample at 500 Hz");

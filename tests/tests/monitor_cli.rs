@@ -9,10 +9,10 @@ use std::time::Duration;
 
 use supine_core::alerts::AlertEvent;
 use supine_core::model::Preset;
-use supine_host::device::replay::{EVENTS_HEADER, TELEMETRY_HEADER};
 use supine_host::exposure::reference;
-use supine_host::exposure::report::read_input;
 use supine_host::io::params_file::ParamFile;
+use supine_host::io::recording::read_input;
+use supine_host::io::telemetry_csv::{EVENTS_HEADER, TELEMETRY_HEADER};
 use supine_qemu_tests::{
     firmware, qemu_cmdline, signal_and_wait, supine_binary, wait_for_qemu_child,
 };

@@ -95,11 +95,11 @@ fn supine_replay_writes_telemetry_and_events_and_counts_instructions() {
     let mut lines = csv.lines();
     assert_eq!(
         lines.next(),
-        Some(supine_host::device::replay::TELEMETRY_HEADER)
+        Some(supine_host::io::telemetry_csv::TELEMETRY_HEADER)
     );
     assert_eq!(lines.count(), 2000);
     let events = std::fs::read_to_string(dir.path().join("device.events.csv")).expect("events");
-    assert!(events.starts_with(supine_host::device::replay::EVENTS_HEADER));
+    assert!(events.starts_with(supine_host::io::telemetry_csv::EVENTS_HEADER));
 }
 
 /// `supine replay --qemu --preset paper-litter --input RIDE --out DIR/device.csv` with its

@@ -17,9 +17,10 @@ use clap::{ArgGroup, ValueEnum};
 use crate::commands::weighting::Kind;
 use crate::device::device_params;
 use crate::exposure::report::{
-    Prepared, channel_exposure, channel_index, column, model_exposure, prepare, read_input,
+    Prepared, channel_exposure, channel_index, column, model_exposure, prepare,
 };
 use crate::io::params_file::{ModelSource, PresetArg};
+use crate::io::recording::read_input;
 
 /// Arguments of `supine exposure`.
 #[derive(Debug, clap::Args)]

@@ -5,9 +5,10 @@ use std::path::PathBuf;
 use anyhow::{Result, bail};
 use supine_core::blob::TelemetryConfig;
 
-use crate::device::replay::{events_path, replay, write_events, write_telemetry};
-use crate::exposure::report::read_input;
+use crate::device::replay::replay;
 use crate::io::params_file::ModelSource;
+use crate::io::recording::read_input;
+use crate::io::telemetry_csv::{events_path, write_events, write_telemetry};
 
 /// Arguments of `supine replay`.
 #[derive(Debug, clap::Args)]

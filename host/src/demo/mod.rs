@@ -32,17 +32,20 @@ use crate::device::device_params::{self, identity_hex};
 use crate::device::firmware;
 use crate::device::flash;
 use crate::device::link::LinkStats;
-use crate::device::replay::{write_events, write_telemetry};
 use crate::exposure::reference;
-use crate::exposure::report::{AxisReport, read_input, run_pipeline};
+use crate::exposure::report::{AxisReport, run_pipeline};
 use crate::io::params_file::{self, DeviceSection, ParamFile};
+use crate::io::recording::read_input;
+use crate::io::telemetry_csv::{
+    EventRow, read_events, read_telemetry, write_events, write_telemetry,
+};
 use crate::monitor::device_line;
 use crate::monitor::log::MonitorLog;
 use crate::monitor::session::{Ending, QemuRun, run_qemu};
 use crate::monitor::view::View;
 use ride::{DemoProfile, DemoRide};
 use summary::Summary;
-use trace::{EventRow, Trace, read_events};
+use trace::Trace;
 
 /// The output folder when none is given.
 pub const DEFAULT_OUT_DIR: &str = "supine-demo";
@@ -334,7 +337,7 @@ pub fn run(
         );
     }
     log.finish()?;
-    let device = Trace::read_csv(&files.device, SAMPLE_RATE_HZ)?;
+    let device = Trace::from_telemetry(&read_telemetry(&files.device)?, SAMPLE_RATE_HZ);
     let device_events = read_events(&files.device_events, SAMPLE_RATE_HZ)?;
 
     steps.start(

@@ -38,8 +38,9 @@ use realfft::RealFftPlanner;
 use realfft::num_complex::Complex;
 use serde::Serialize;
 
-use crate::exposure::report::{PLATFORM_HEADER_LINE, rate_supported};
+use crate::exposure::report::rate_supported;
 use crate::io::output::write_atomically;
+use crate::io::recording::PLATFORM_HEADER_LINE;
 
 // ---- Ground ambulance, paved road -------------------------------------------------------
 

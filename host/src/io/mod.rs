@@ -6,10 +6,12 @@
 //! - [`dataset`]: a dataset folder (`dataset.toml` and its recordings).
 //! - [`recording`]: the recording CSV (13 columns, or the platform columns of a ride).
 //! - [`h_csv`]: the transmissibility CSV of `supine model` and `supine transmissibility`.
+//! - [`telemetry_csv`]: a device's telemetry and alert events as CSV (replay, monitor, demo).
 
 pub mod dataset;
 pub mod h_csv;
 pub mod output;
 pub mod params_file;
 pub mod recording;
+pub mod telemetry_csv;
 pub mod text_position;

@@ -7,12 +7,16 @@
 //! lie within [`UNIFORM_TOLERANCE`] (1 %) of the mean step. A 1 % timing jitter is a phase
 //! error of at most 0.01 x 360 x f / fs degrees (0.3 degrees at 16 Hz and 200 Hz).
 //!
+//! A ride (what `supine ride` writes) holds only time and the platform columns
+//! ([`PLATFORM_HEADER_LINE`]); [`read_input`] reads either kind through the same reader.
+//!
 //! Every error is one line naming the file, the line and column, and what was expected.
 
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
-use anyhow::Result;
+use anyhow::{Result, anyhow};
+use serde::Serialize;
 
 use crate::io::output::write_atomically;
 
@@ -328,6 +332,54 @@ impl Recording {
             }
             Ok(())
         })
+    }
+}
+
+/// The header of a recording that holds only the support (platform) accelerations.
+pub const PLATFORM_HEADER_LINE: &str = "time_s,platform_x,platform_y,platform_z";
+
+/// Which columns a recording file holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Layout {
+    /// All 13 columns of the recording format.
+    Full,
+    /// Time and the three platform columns only ([`PLATFORM_HEADER_LINE`]).
+    PlatformOnly,
+}
+
+/// Reads a recording through [`Recording::parse`], accepting also a platform-only file.
+///
+/// A platform-only file is handed to the reader line for line with nine zero cells appended
+/// to every data line, so line numbers, column names and every check (numbers, finiteness,
+/// strictly increasing and uniform time) are the reader's own; only the cell count is
+/// restated for four columns.
+pub fn read_input(path: &Path) -> Result<(Recording, Layout)> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| anyhow!("{}: cannot read the recording: {e}", path.display()))?;
+    let first = text.lines().next().map(|l| l.trim_end_matches('\r'));
+    if first != Some(PLATFORM_HEADER_LINE) {
+        return Ok((Recording::parse(&text, path)?, Layout::Full));
+    }
+    let mut padded = String::with_capacity(text.len() * 2);
+    padded.push_str(HEADER_LINE);
+    padded.push('\n');
+    for line in text.lines().skip(1) {
+        let line = line.trim_end_matches('\r');
+        padded.push_str(line);
+        if !line.trim().is_empty() {
+            padded.push_str(",0,0,0,0,0,0,0,0,0");
+        }
+        padded.push('\n');
+    }
+    match Recording::parse(&padded, path) {
+        Ok(rec) => Ok((rec, Layout::PlatformOnly)),
+        Err(RecordingError::CellCount { path, line, found }) => Err(anyhow!(
+            "{}: line {line}: expected 4 comma-separated cells (header \"{PLATFORM_HEADER_LINE}\"), found {}",
+            path.display(),
+            found.saturating_sub(9)
+        )),
+        Err(e) => Err(e.into()),
     }
 }
 

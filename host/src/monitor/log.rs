@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Result, anyhow};
 use supine_core::protocol::DeviceToHost;
 
-use crate::device::replay::{
+use crate::io::telemetry_csv::{
     EVENTS_HEADER, TELEMETRY_HEADER, event_row, events_path, telemetry_row,
 };
 

@@ -4,8 +4,9 @@
 use supine_core::alerts::Level;
 
 use crate::demo::DemoData;
-use crate::demo::trace::{Trace, level_from_name};
+use crate::demo::trace::Trace;
 use crate::exposure::ride::ShockKind;
+use crate::io::telemetry_csv::level_from_name;
 use crate::plot::downsample::min_max;
 use crate::plot::time_chart::{
     Band, Chart, Line, Marker, Moment, PLOT_COLUMNS, Rgb, Threshold, y_range,

@@ -191,7 +191,7 @@ pub fn render(data: &DemoData, summary: &Summary) -> Result<String> {
     for e in data.device_events.iter().take(MAX_EVENT_ROWS) {
         let cell = match (
             e.kind.as_str(),
-            crate::demo::trace::level_from_name(&e.name),
+            crate::io::telemetry_csv::level_from_name(&e.name),
         ) {
             ("level", Some(l)) => format!(
                 "{} {}",
@@ -383,9 +383,10 @@ fn figure(h: &mut String, chart: &crate::plot::time_chart::Chart, caption: &str)
 mod tests {
     use super::*;
     use crate::demo::ride::{DemoProfile, make};
-    use crate::demo::trace::{EventRow, Trace};
+    use crate::demo::trace::Trace;
     use crate::demo::{HostExposure, RunInfo};
     use crate::exposure::report::AxisReport;
+    use crate::io::telemetry_csv::EventRow;
     use supine_core::alerts::{AlertConfig, AlertEvent};
     use supine_core::exposure::AxisValues;
     use supine_core::protocol::Telemetry;
