@@ -8,9 +8,11 @@
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result, anyhow, bail};
+use anyhow::{Result, anyhow, bail};
 use supine_core::alerts::{AlertEvent, Level};
 use supine_core::protocol::Telemetry;
+
+use super::output::write_atomically;
 
 /// Header of the telemetry CSV. The first five columns are named as issue 5 and the
 /// recording format name them (`head_x`: predicted head acceleration, m/s^2, litter axes);
@@ -53,47 +55,26 @@ pub fn event_row(e: &AlertEvent, sample_rate_hz: f64) -> String {
     EventRow::from_event(e, sample_rate_hz).to_line()
 }
 
-/// Writes the telemetry CSV ([`TELEMETRY_HEADER`]) through a temporary file.
+/// Writes the telemetry CSV ([`TELEMETRY_HEADER`]), whole or not at all.
 pub fn write_telemetry(path: &Path, telemetry: &[Telemetry], sample_rate_hz: f64) -> Result<()> {
-    let mut text = String::with_capacity(telemetry.len() * 120 + 200);
-    text.push_str(TELEMETRY_HEADER);
-    text.push('\n');
-    for t in telemetry {
-        text.push_str(&telemetry_row(t, sample_rate_hz));
-    }
-    write_atomically(path, &text)
+    write_atomically(path, |w| {
+        writeln!(w, "{TELEMETRY_HEADER}")?;
+        for t in telemetry {
+            w.write_all(telemetry_row(t, sample_rate_hz).as_bytes())?;
+        }
+        Ok(())
+    })
 }
 
-/// Writes the alert events CSV ([`EVENTS_HEADER`]) through a temporary file.
+/// Writes the alert events CSV ([`EVENTS_HEADER`]), whole or not at all.
 pub fn write_events(path: &Path, events: &[AlertEvent], sample_rate_hz: f64) -> Result<()> {
-    let mut text = String::from(EVENTS_HEADER);
-    text.push('\n');
-    for e in events {
-        text.push_str(&event_row(e, sample_rate_hz));
-    }
-    write_atomically(path, &text)
-}
-
-fn write_atomically(path: &Path, text: &str) -> Result<()> {
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    // Readable like any file the user creates (a temporary file is private by default).
-    let mut builder = tempfile::Builder::new();
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        builder.permissions(std::fs::Permissions::from_mode(0o644));
-    }
-    let mut tmp = builder
-        .tempfile_in(dir)
-        .with_context(|| format!("cannot write in {}", dir.display()))?;
-    tmp.write_all(text.as_bytes())
-        .with_context(|| format!("writing {}", path.display()))?;
-    tmp.persist(path)
-        .map_err(|e| anyhow!("cannot write {}: {}", path.display(), e.error))?;
-    Ok(())
+    write_atomically(path, |w| {
+        writeln!(w, "{EVENTS_HEADER}")?;
+        for e in events {
+            w.write_all(event_row(e, sample_rate_hz).as_bytes())?;
+        }
+        Ok(())
+    })
 }
 
 /// The file's header line, or an error naming the one expected.
