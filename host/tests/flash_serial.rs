@@ -13,7 +13,7 @@ use nix::sys::termios::{SetArg, cfmakeraw, tcgetattr, tcsetattr};
 use supine_core::model::Preset;
 use supine_host::device::device_params::{identity, identity_hex};
 use supine_host::device::firmware::{PRODUCT_BINARY, build_binary};
-use supine_host::device::flash::qemu_region_image;
+use supine_host::device::flash::{device_blob, qemu_region_image};
 use supine_host::device::qemu::{Qemu, QemuConfig};
 use supine_host::io::params_file::ParamFile;
 
@@ -57,7 +57,8 @@ fn supine_flash_serial_uploads_to_the_firmware_and_names_a_refusal_code() {
     let dir = tempfile::tempdir().expect("temp dir");
     let region = dir.path().join("params.bin");
     let litter = ParamFile::preset(Preset::PaperLitter);
-    std::fs::write(&region, qemu_region_image(&litter, 500.0).expect("image")).expect("write");
+    let (_, blob) = device_blob(&litter, 500.0).expect("blob");
+    std::fs::write(&region, qemu_region_image(&blob).expect("image")).expect("write");
     let mut qemu = Qemu::start(
         &QemuConfig::new(kernel)
             .uart()

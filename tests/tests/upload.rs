@@ -118,7 +118,8 @@ fn run(region: &[u8], script: Vec<Outgoing>) -> Session {
 
 /// The region image slot A of which holds parameters A (counter 1).
 fn region_a() -> Vec<u8> {
-    flash::qemu_region_image(&file(Preset::PaperLitter), FS_HZ).expect("region image")
+    let (_, blob) = flash::device_blob(&file(Preset::PaperLitter), FS_HZ).expect("blob");
+    flash::qemu_region_image(&blob).expect("region image")
 }
 
 fn acks(s: &Session) -> Vec<Result<ParamAck, UploadError>> {

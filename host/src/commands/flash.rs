@@ -76,7 +76,7 @@ pub fn run(args: &Args) -> Result<()> {
     let counter = || flash::choose_counter(args.counter);
     let t = &args.target;
     if let Some(out) = &t.qemu_image {
-        let image = flash::qemu_region_image(&file, args.fs_hz)?;
+        let image = flash::qemu_region_image(&blob)?;
         crate::io::output::write_atomically(out, |w| {
             std::io::Write::write_all(w, &image)
                 .map_err(|e| anyhow!("{}: cannot write: {e}", out.display()))

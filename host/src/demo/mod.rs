@@ -28,7 +28,7 @@ use supine_core::alerts::AlertConfig;
 use supine_core::model::Preset;
 use supine_core::protocol::Status;
 
-use crate::device::device_params::{self, identity_hex};
+use crate::device::device_params::identity_hex;
 use crate::device::firmware;
 use crate::device::flash;
 use crate::device::link::LinkStats;
@@ -281,7 +281,8 @@ pub fn run(
         telemetry_decimation: Some(1),
         ..DeviceSection::default()
     });
-    let params = device_params::build(&file, SAMPLE_RATE_HZ)?;
+    // One build: the identity announced and checked is the one of the blob flashed.
+    let (params, blob) = flash::device_blob(&file, SAMPLE_RATE_HZ)?;
     let identity = identity_hex(&params.identity);
     steps.start(
         "parameters",
@@ -292,7 +293,7 @@ pub fn run(
         ),
     );
     params_file::save(&files.params, &file)?;
-    let region = flash::qemu_region_image(&file, SAMPLE_RATE_HZ)?;
+    let region = flash::qemu_region_image(&blob)?;
 
     steps.start(
         "device",

@@ -81,11 +81,10 @@ pub fn region_image_with_stride(blob: &[u8], counter: u32, slot_stride: usize) -
 }
 
 /// The PARAMS region image that QEMU's `-device loader,file=...,addr=0x70000` places so
-/// that the device boots `file`'s parameters at `sample_rate_hz` (counter
-/// [`REGION_IMAGE_COUNTER`]).
-pub fn qemu_region_image(file: &ParamFile, sample_rate_hz: f64) -> Result<Vec<u8>> {
-    let (_, blob) = device_blob(file, sample_rate_hz)?;
-    region_image(&blob, REGION_IMAGE_COUNTER)
+/// that the device boots `blob` (from [`device_blob`], whose parameters give the identity
+/// the device will greet with), counter [`REGION_IMAGE_COUNTER`].
+pub fn qemu_region_image(blob: &[u8]) -> Result<Vec<u8>> {
+    region_image(blob, REGION_IMAGE_COUNTER)
 }
 
 /// A region image seen as the device's two slots (read only).
@@ -389,9 +388,9 @@ mod tests {
     #[test]
     fn a_region_image_boots_slot_a_with_its_counter_and_blob() {
         let file = ParamFile::preset(Preset::PaperLitter);
-        let image = qemu_region_image(&file, 500.0).unwrap();
-        assert_eq!(image.len(), 64 * 1024);
         let (params, blob) = device_blob(&file, 500.0).unwrap();
+        let image = qemu_region_image(&blob).unwrap();
+        assert_eq!(image.len(), 64 * 1024);
         assert_eq!(&image[..blob.len()], &blob[..]);
         assert_eq!(&image[blob.len()..blob.len() + 4], b"CMIT");
         assert!(image[blob.len() + COMMIT_LEN..].iter().all(|&b| b == 0xFF));
@@ -446,8 +445,8 @@ mod tests {
     #[test]
     fn a_bad_rate_is_refused_with_the_option_named() {
         let file = ParamFile::preset(Preset::PaperLitter);
-        let err = qemu_region_image(&file, 0.0).unwrap_err().to_string();
+        let err = device_blob(&file, 0.0).unwrap_err().to_string();
         assert!(err.contains("--fs"), "{err}");
-        assert!(qemu_region_image(&file, f64::NAN).is_err());
+        assert!(device_blob(&file, f64::NAN).is_err());
     }
 }
