@@ -137,8 +137,12 @@ mod tests {
         );
         assert_eq!(parse_address("458752"), Ok(0x70000));
         assert!(parse_address("0x8zz").unwrap_err().contains("0x8zz"));
-        let cli = <crate::cli::Cli as clap::Parser>::try_parse_from([
-            "supine",
+        #[derive(clap::Parser)]
+        struct Flash {
+            #[command(flatten)]
+            args: Args,
+        }
+        let Flash { args } = <Flash as clap::Parser>::try_parse_from([
             "flash",
             "--preset",
             "paper-litter",
@@ -146,9 +150,6 @@ mod tests {
             "X",
         ])
         .unwrap();
-        let crate::cli::Command::Flash(args) = cli.command else {
-            panic!("not flash")
-        };
         assert_eq!(args.base_address, flash::BLACKPILL_PARAMS_ADDR);
         assert_eq!(args.fs_hz, 500.0);
     }
