@@ -112,9 +112,7 @@ pub fn run(args: &Args) -> Result<()> {
                     e.context(format!("the log so far is in {}", t.display()))
                 }
                 Some(log) => {
-                    let (t, ev) = log.abandon();
-                    let _ = std::fs::remove_file(t);
-                    let _ = std::fs::remove_file(ev);
+                    log.discard();
                     e
                 }
                 None => e,

@@ -9,7 +9,7 @@ use std::fmt::Write as _;
 
 use supine_core::alerts::Level;
 
-use super::DemoData;
+use super::data::DemoData;
 use crate::exposure::report::AxisReport;
 use crate::io::telemetry_csv::{EventRow, level_from_name};
 

@@ -142,6 +142,13 @@ impl MonitorLog {
         let _ = self.events.flush();
         (self.telemetry.partial, self.events.partial)
     }
+
+    /// Removes both files (the session failed and nothing in them is worth keeping).
+    pub fn discard(self) {
+        let (telemetry, events) = self.abandon();
+        let _ = std::fs::remove_file(telemetry);
+        let _ = std::fs::remove_file(events);
+    }
 }
 
 #[cfg(test)]

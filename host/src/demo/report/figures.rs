@@ -3,7 +3,7 @@
 
 use supine_core::alerts::Level;
 
-use crate::demo::DemoData;
+use crate::demo::data::DemoData;
 use crate::demo::trace::Trace;
 use crate::exposure::ride::ShockKind;
 use crate::io::telemetry_csv::level_from_name;

@@ -13,7 +13,7 @@ use std::fmt::Write as _;
 use anyhow::Result;
 use supine_core::alerts::Level;
 
-use crate::demo::DemoData;
+use crate::demo::data::DemoData;
 use crate::demo::summary::{Summary, difference};
 
 /// Most alert events listed in the report's table (all are in the CSV file).
@@ -382,9 +382,9 @@ fn figure(h: &mut String, chart: &crate::plot::time_chart::Chart, caption: &str)
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::demo::data::{HostExposure, RunInfo};
     use crate::demo::ride::{DemoProfile, make};
     use crate::demo::trace::Trace;
-    use crate::demo::{HostExposure, RunInfo};
     use crate::exposure::report::AxisReport;
     use crate::io::telemetry_csv::EventRow;
     use supine_core::alerts::{AlertConfig, AlertEvent};
