@@ -94,9 +94,7 @@ impl DemoRide {
 
     /// The samples as the device takes them (f32, litter axes).
     pub fn samples(&self) -> Vec<[f32; 3]> {
-        (0..self.ride.len())
-            .map(|k| self.ride.platform_m_s2.each_ref().map(|c| c[k] as f32))
-            .collect()
+        self.ride.samples()
     }
 }
 

@@ -276,9 +276,7 @@ pub fn replay(
     let mut params = device_params::build(file, sample_rate_hz)?;
     params.telemetry = telemetry;
     let blob = device_params::encode(&params)?;
-    let samples: Vec<[f32; 3]> = (0..recording.len())
-        .map(|k| recording.platform_m_s2.each_ref().map(|c| c[k] as f32))
-        .collect();
+    let samples = recording.platform_samples();
     let kernel = firmware::build_binary(firmware::PRODUCT_BINARY)?;
     // Generous: the device runs at tens of thousands of samples per second.
     let timeout = Duration::from_secs(60 + samples.len() as u64 / 1000);

@@ -29,7 +29,9 @@ use supine_core::exposure::{
 use supine_core::pipeline::{PipelineOutput, PipelineState};
 use supine_core::weighting::{MAX_SAMPLE_RATE_HZ, MIN_SAMPLE_RATE_HZ, WeightingKind};
 
+use crate::device::device_params;
 use crate::exposure::resample::Resampler;
+use crate::io::params_file::ParamFile;
 use crate::io::recording::{COLUMNS, Layout, Recording};
 
 /// Samples handed to the device pipeline per call (bounds the index buffer, not the result).
@@ -590,6 +592,39 @@ impl ChannelExposure {
         let _ = writeln!(s, "{}", self.values.row(&self.channel));
         s
     }
+}
+
+/// `supine exposure`'s model form on `recording` (with the columns of `layout`): its
+/// platform columns at `fs_hz` (else its own rate) through the device parameters of
+/// `file`, built at that rate; `model` names the parameters in the report.
+pub fn evaluate_model(
+    recording: &Recording,
+    layout: Layout,
+    file: &ParamFile,
+    model: String,
+    fs_hz: Option<f64>,
+) -> Result<ModelExposure> {
+    let [x, y, z] = &recording.platform_m_s2;
+    let prepared = prepare(recording, &[x, y, z], fs_hz)?;
+    let params = device_params::build(file, prepared.sample_rate_hz)?;
+    let identity = device_params::identity_hex(&params.identity);
+    let input = recording.path.display().to_string();
+    model_exposure(&params, &prepared, &input, layout, model, identity)
+}
+
+/// `supine exposure`'s channel form on `recording` (with the columns of `layout`): the
+/// column named `channel`, at `fs_hz` (else its own rate), weighted with `kind`.
+pub fn evaluate_channel(
+    recording: &Recording,
+    layout: Layout,
+    channel: &str,
+    kind: WeightingKind,
+    fs_hz: Option<f64>,
+) -> Result<ChannelExposure> {
+    let index = channel_index(channel, layout, &recording.path)?;
+    let prepared = prepare(recording, &[column(recording, index)], fs_hz)?;
+    let input = recording.path.display().to_string();
+    channel_exposure(kind, &prepared, &input, channel)
 }
 
 /// The column index (0-based, in [`COLUMNS`]) of an acceleration column; an error that

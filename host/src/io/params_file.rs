@@ -183,6 +183,22 @@ pub fn save(path: &Path, file: &ParamFile) -> Result<()> {
     write_atomically(path, |w| Ok(w.write_all(text.as_bytes())?))
 }
 
+/// `mounting` as the `[device.mounting]` table of a parameter file (what `supine
+/// calibrate` prints, to paste into one).
+pub fn mounting_toml(mounting: Mounting) -> Result<String> {
+    #[derive(Serialize)]
+    struct MountingTable {
+        device: DeviceTable,
+    }
+    #[derive(Serialize)]
+    struct DeviceTable {
+        mounting: Mounting,
+    }
+    Ok(toml::to_string(&MountingTable {
+        device: DeviceTable { mounting },
+    })?)
+}
+
 /// Names the line of the offending key: the table header, then the key under it.
 fn validation_error(text: &str, path: &Path, err: &ParamError) -> anyhow::Error {
     let field = err.field.to_string();

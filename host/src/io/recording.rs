@@ -184,6 +184,11 @@ impl Recording {
         self.len() as f64 / self.sample_rate_hz()
     }
 
+    /// The platform columns as the samples a device is streamed ([`device_samples`]).
+    pub fn platform_samples(&self) -> Vec<[f32; 3]> {
+        device_samples(&self.platform_m_s2)
+    }
+
     /// Reads and checks a recording.
     pub fn read(path: &Path) -> Result<Self, RecordingError> {
         let text = std::fs::read_to_string(path).map_err(|e| RecordingError::Read {
@@ -333,6 +338,15 @@ impl Recording {
             Ok(())
         })
     }
+}
+
+/// Platform accelerations x, y, z (m/s^2, one column each) as the device's samples: one
+/// f32 triple per instant, as the wire protocol carries them.
+pub fn device_samples(platform_m_s2: &[Vec<f64>; 3]) -> Vec<[f32; 3]> {
+    let n = platform_m_s2.iter().map(Vec::len).min().unwrap_or(0);
+    (0..n)
+        .map(|k| platform_m_s2.each_ref().map(|c| c[k] as f32))
+        .collect()
 }
 
 /// The header of a recording that holds only the support (platform) accelerations.
