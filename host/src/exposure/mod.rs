@@ -5,7 +5,7 @@
 //! - [`weighting_response`]: the device's weighting filters against the analog ones.
 //! - [`resample`]: band-limited sample-rate conversion of recordings.
 //! - [`report`]: exposure reports of recordings (`supine exposure`).
-//! - [`reference`]: what the device must produce for given inputs (f32 pipeline, f64 model).
+//! - [`reference`](mod@reference): what the device must produce for given inputs (f32 pipeline, f64 model).
 
 pub mod reference;
 pub mod report;
