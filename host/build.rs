@@ -4,7 +4,7 @@
 //! `memory.x` is what the QEMU images link with (`firmware/build.rs` copies it), so it is
 //! the one place the regions are defined. This reads each region's origin and length from
 //! its `MEMORY` block and writes them as constants to `OUT_DIR/memory_map.rs`, which
-//! `src/memory_map.rs` includes: the host loads parameter blobs where the firmware reads
+//! `src/device/memory_map.rs` includes: the host loads parameter blobs where the firmware reads
 //! them, and the tests check the image against the same map.
 
 use std::env;

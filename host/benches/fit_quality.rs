@@ -13,13 +13,13 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use supine_core::model::{ModelParams, ParamId};
-use supine_host::commands::transmissibility::estimate;
-use supine_host::dataset::{Case, Dataset};
-use supine_host::fit::objective::{Objective, Target};
-use supine_host::fit::solver::SolverSettings;
-use supine_host::fit::{self, FitSettings};
-use supine_host::params_file;
-use supine_host::synth::{SynthSettings, write_dataset};
+use supine_host::identify::fit::objective::{Objective, Target};
+use supine_host::identify::fit::solver::SolverSettings;
+use supine_host::identify::fit::{self, FitSettings};
+use supine_host::identify::synth::{SynthSettings, write_dataset};
+use supine_host::identify::transmissibility::estimate;
+use supine_host::io::dataset::{Case, Dataset};
+use supine_host::io::params_file;
 
 /// ftol = xtol = gtol of the recorded table (and of `scipy_fit.py`): tighter than the
 /// defaults (model.md's 1e-6), so the figures in BENCHMARKS.md stay reproducible.

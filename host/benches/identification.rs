@@ -12,9 +12,9 @@ use nalgebra::DMatrix;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use supine_core::model::{ModelParams, ParamId, Preset, SystemMatrices};
-use supine_host::fit::objective::{Objective, Target};
-use supine_host::spectral::{WelchSettings, h1};
-use supine_host::synth::{SynthSettings, synth_recording};
+use supine_host::identify::fit::objective::{Objective, Target};
+use supine_host::identify::spectral::{WelchSettings, h1};
+use supine_host::identify::synth::{SynthSettings, synth_recording};
 
 fn benches(c: &mut Criterion) {
     let params = ModelParams::preset(Preset::PaperRigid);

@@ -4,7 +4,7 @@
 use std::process::Command;
 
 use supine_core::mounting::Mounting;
-use supine_host::params_file::DeviceSection;
+use supine_host::io::params_file::DeviceSection;
 
 fn calibrate(reading: &str) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_supine"))

@@ -12,9 +12,9 @@ use supine_core::exposure::ExposureState;
 use supine_core::model::ModalState;
 use supine_core::weighting::{WeightingKind, analog_response};
 use supine_host::cli::{Cli, Command, one_line, run};
-use supine_host::params_file::ParamFile;
-use supine_host::recording::HEADER_LINE;
-use supine_host::ride::{Profile, generate, write_ride};
+use supine_host::exposure::ride::{Profile, generate, write_ride};
+use supine_host::io::params_file::ParamFile;
+use supine_host::io::recording::HEADER_LINE;
 
 /// Runs `supine exposure ...` in-process and returns what it printed.
 fn exposure(args: &[&str]) -> anyhow::Result<String> {
@@ -95,7 +95,7 @@ fn a_sine_evaluates_to_the_closed_form_rms_vdv_mtvv_peak_and_crest_factor() {
         write_recording(&path, fs, 65 * fs as usize, column, |t| {
             amplitude * (2.0 * PI * f * t).sin()
         });
-        let channel = supine_host::recording::COLUMNS[column];
+        let channel = supine_host::io::recording::COLUMNS[column];
         let v = json(&[
             "--input",
             s(&path),
@@ -187,7 +187,7 @@ fn the_model_form_equals_the_device_stages_stepped_by_hand() {
 
     // By hand: the model, the exposure stage and the alert stage, one sample at a time.
     let file = ParamFile::preset(supine_core::model::Preset::PaperLitter);
-    let params = supine_host::device_params::build(&file, fs).unwrap();
+    let params = supine_host::device::device_params::build(&file, fs).unwrap();
     let input = read_platform(&path);
     let mut model = ModalState::default();
     let mut exposure = ExposureState::new();
@@ -258,11 +258,11 @@ fn a_parameter_files_device_table_sets_the_thresholds() {
     let dir = tempfile::tempdir().unwrap();
     let path = ride_file(dir.path(), Profile::Ambulance, 30.0, 500.0, 1);
     let mut file = ParamFile::preset(supine_core::model::Preset::PaperLitter);
-    let mut device = supine_host::params_file::DeviceSection::default();
+    let mut device = supine_host::io::params_file::DeviceSection::default();
     device.alerts.running_rms_m_s2 = [0.05, 0.08, 0.1];
     file.device = Some(device);
     let params = dir.path().join("p.toml");
-    supine_host::params_file::save(&params, &file).unwrap();
+    supine_host::io::params_file::save(&params, &file).unwrap();
     let v = json(&["--params", s(&params), "--input", s(&path)]);
     assert_eq!(v["max_level"], "alarm", "tiny thresholds on a real ride");
     assert_eq!(v["thresholds"]["running_rms_m_s2"][0].as_f64(), Some(0.05));

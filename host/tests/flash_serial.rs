@@ -11,11 +11,11 @@ use std::time::Duration;
 use nix::pty::openpty;
 use nix::sys::termios::{SetArg, cfmakeraw, tcgetattr, tcsetattr};
 use supine_core::model::Preset;
-use supine_host::device_params::{identity, identity_hex};
-use supine_host::firmware::{PRODUCT_BINARY, build_binary};
-use supine_host::flash::qemu_region_image;
-use supine_host::params_file::ParamFile;
-use supine_host::qemu::{Qemu, QemuConfig};
+use supine_host::device::device_params::{identity, identity_hex};
+use supine_host::device::firmware::{PRODUCT_BINARY, build_binary};
+use supine_host::device::flash::{device_blob, qemu_region_image};
+use supine_host::device::qemu::{Qemu, QemuConfig};
+use supine_host::io::params_file::ParamFile;
 
 /// Copies bytes from `from` to `to` until either side ends.
 fn pump(mut from: impl Read + Send + 'static, mut to: impl Write + Send + 'static) {
@@ -40,7 +40,7 @@ fn flash_with(
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_supine"));
     cmd.args(["flash", "--preset", preset, "--serial", port])
         .args(["--timeout-s", "20"])
-        .env(supine_host::flash::STATE_DIR_ENV, state_dir);
+        .env(supine_host::device::flash::STATE_DIR_ENV, state_dir);
     if let Some(counter) = counter {
         cmd.arg("--counter").arg(counter.to_string());
     }
@@ -57,7 +57,8 @@ fn supine_flash_serial_uploads_to_the_firmware_and_names_a_refusal_code() {
     let dir = tempfile::tempdir().expect("temp dir");
     let region = dir.path().join("params.bin");
     let litter = ParamFile::preset(Preset::PaperLitter);
-    std::fs::write(&region, qemu_region_image(&litter, 500.0).expect("image")).expect("write");
+    let (_, blob) = device_blob(&litter, 500.0).expect("blob");
+    std::fs::write(&region, qemu_region_image(&blob).expect("image")).expect("write");
     let mut qemu = Qemu::start(
         &QemuConfig::new(kernel)
             .uart()
@@ -129,7 +130,7 @@ fn supine_flash_serial_uploads_to_the_firmware_and_names_a_refusal_code() {
         counters.push(counter_of(&stdout));
     }
     assert!(counters.windows(2).all(|w| w[1] > w[0]), "{counters:?}");
-    let now_s = supine_host::flash::unix_seconds().expect("clock");
+    let now_s = supine_host::device::flash::unix_seconds().expect("clock");
     assert!(
         (now_s - 120..=now_s).contains(&counters[0]),
         "{counters:?} vs {now_s}"

@@ -6,12 +6,12 @@ use std::path::Path;
 use clap::Parser;
 use supine_core::model::{ModelParams, ParamId, Preset, SystemMatrices};
 use supine_host::cli::{Cli, run};
-use supine_host::commands::transmissibility::estimate;
-use supine_host::dataset::{Case, Dataset};
-use supine_host::fit::objective::Target;
-use supine_host::fit::{self, Determination, FitSettings};
-use supine_host::params_file;
-use supine_host::recording::{HEADER_LINE, Recording};
+use supine_host::identify::fit::objective::Target;
+use supine_host::identify::fit::{self, Determination, FitSettings};
+use supine_host::identify::transmissibility::estimate;
+use supine_host::io::dataset::{Case, Dataset};
+use supine_host::io::params_file;
+use supine_host::io::recording::{HEADER_LINE, Recording};
 
 fn supine(args: &[&str]) -> anyhow::Result<()> {
     let mut argv = vec!["supine"];
@@ -295,7 +295,7 @@ fn predict_with_the_true_parameters_reproduces_the_noise_free_response() {
         .unwrap()
         .params;
     let rec = Recording::read(&ds.join("s1_rigid.csv")).unwrap();
-    let predicted = supine_host::validate::predict(&truth, &rec).unwrap();
+    let predicted = supine_host::identify::validate::predict(&truth, &rec).unwrap();
     // Skip the first 10 s (the prediction starts from rest, the synthesis is periodic).
     let skip = 10 * 200;
     for (j, column) in predicted.iter().enumerate() {

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use clap::Parser;
 use supine_host::cli::{Cli, one_line, run};
-use supine_host::synth::{SynthSettings, write_dataset};
+use supine_host::identify::synth::{SynthSettings, write_dataset};
 
 fn supine(args: &[&str]) -> anyhow::Result<()> {
     let mut argv = vec!["supine"];

@@ -3,8 +3,8 @@
 
 use nalgebra::{Complex, DMatrix};
 use supine_core::model::{ModelParams, ParamId, Preset, SystemMatrices, Transmissibility};
-use supine_host::fit::objective::{Objective, Target};
-use supine_host::fit::solver::{Problem, SolverSettings, Termination, solve};
+use supine_host::identify::fit::objective::{Objective, Target};
+use supine_host::identify::fit::solver::{Problem, SolverSettings, Termination, solve};
 
 /// A target that differs from the paper's model (so residuals are not zero) on a coarse grid.
 fn target() -> Target {
@@ -106,7 +106,7 @@ fn residuals_are_zero_when_the_model_equals_the_target() {
         .unwrap();
     let h33 = objective.target.h[1][(2, 2)];
     let i = Objective::residual_index(1, 2) + 1;
-    let expected = supine_host::geomean::wrap_pi(2.0 * h33.arg()) / std::f64::consts::PI;
+    let expected = supine_host::identify::geomean::wrap_pi(2.0 * h33.arg()) / std::f64::consts::PI;
     assert!((r[i] - expected).abs() < 1e-12, "{} vs {expected}", r[i]);
 }
 

@@ -5,11 +5,11 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use supine_core::model::{ModelParams, SystemMatrices};
-use supine_host::fit::objective::Target;
-use supine_host::fit::{self, Determination, FitSettings};
-use supine_host::geomean::geometric_mean_h;
-use supine_host::spectral::{DEFAULT_RESOLUTION_HZ, WelchSettings, h1};
-use supine_host::synth::{SynthSettings, synth_recording};
+use supine_host::identify::fit::objective::Target;
+use supine_host::identify::fit::{self, Determination, FitSettings};
+use supine_host::identify::geomean::geometric_mean_h;
+use supine_host::identify::spectral::{DEFAULT_RESOLUTION_HZ, WelchSettings, h1};
+use supine_host::identify::synth::{SynthSettings, synth_recording};
 
 mod common;
 

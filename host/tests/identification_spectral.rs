@@ -7,8 +7,8 @@ use nalgebra::Complex;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-use supine_host::geomean::{geometric_mean, wrap_pi};
-use supine_host::spectral::{
+use supine_host::identify::geomean::{geometric_mean, wrap_pi};
+use supine_host::identify::spectral::{
     MAX_INPUT_CONDITION, SpectralError, WelchSettings, h1, input_condition, psd,
 };
 
@@ -226,7 +226,7 @@ fn white_inputs(n: usize) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
 fn h1_of(
     x: &[Vec<f64>],
     y: &[Vec<f64>],
-) -> Result<supine_host::spectral::H1Estimate, SpectralError> {
+) -> Result<supine_host::identify::spectral::H1Estimate, SpectralError> {
     let settings = WelchSettings::for_resolution(FS_HZ, 1.0);
     h1(
         [&x[0], &x[1], &x[2]],

@@ -3,7 +3,7 @@
 use clap::Parser;
 use supine_core::model::{ModelParams, Preset, SystemMatrices};
 use supine_host::cli::{Cli, one_line, run};
-use supine_host::params_file::{self, ParamFile};
+use supine_host::io::params_file::{self, ParamFile};
 
 fn supine(args: &[&str]) -> anyhow::Result<()> {
     let mut argv = vec!["supine"];

@@ -17,7 +17,7 @@ use supine_core::protocol::{
     DeviceFrame, DeviceToHost, Greeting, HostToDevice, MAX_FRAME_LEN, PROTOCOL_VERSION,
     ParamsSource, ResetCause, Telemetry, encode_frame,
 };
-use supine_host::replay::{EVENTS_HEADER, TELEMETRY_HEADER};
+use supine_host::io::telemetry_csv::{EVENTS_HEADER, TELEMETRY_HEADER};
 
 /// A fake device: the master side of a pty, and the slave's path for the binary.
 struct FakeDevice {

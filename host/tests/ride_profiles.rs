@@ -10,7 +10,7 @@ use clap::Parser;
 use realfft::RealFftPlanner;
 use serde_json::Value;
 use supine_host::cli::{Cli, Command, one_line, run};
-use supine_host::ride::*;
+use supine_host::exposure::ride::*;
 
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()

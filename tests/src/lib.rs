@@ -2,7 +2,7 @@
 //! self-test prints, and compute the host's reference for the same inputs.
 //!
 //! The tests run the real device image in `qemu-system-arm -machine mps2-an386` through
-//! `supine_host::{firmware, qemu}`, so the harness that CI uses is the one the `supine`
+//! `supine_host::device::{firmware, qemu}`, so the harness that CI uses is the one the `supine`
 //! command uses.
 
 use std::path::PathBuf;
@@ -26,7 +26,7 @@ pub fn firmware(name: &str) -> PathBuf {
     let _guard = BUILD
         .lock()
         .unwrap_or_else(|poisoned| poisoned.into_inner());
-    match supine_host::firmware::build_binary(name) {
+    match supine_host::device::firmware::build_binary(name) {
         Ok(path) => path,
         Err(err) => panic!("{err}"),
     }
@@ -236,7 +236,7 @@ pub fn supine_binary() -> PathBuf {
         build.arg("--release");
     }
     let status = build
-        .current_dir(supine_host::firmware::repository_root())
+        .current_dir(supine_host::device::firmware::repository_root())
         .status()
         .expect("cargo runs");
     assert!(status.success(), "building supine failed");

@@ -34,7 +34,7 @@ const LEVELS: [&str; 4] = ["normal", "advisory", "warning", "alarm"];
 
 #[test]
 fn supine_demo_writes_a_self_contained_report_whose_summary_matches_its_csv_files() {
-    firmware(supine_host::firmware::PRODUCT_BINARY);
+    firmware(supine_host::device::firmware::PRODUCT_BINARY);
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("demo");
     let output = Command::new(supine_binary())
@@ -82,7 +82,10 @@ fn supine_demo_writes_a_self_contained_report_whose_summary_matches_its_csv_file
     // The CSV files the report was made from.
     let telemetry = std::fs::read_to_string(out.join("device.csv")).expect("device.csv");
     let mut lines = telemetry.lines();
-    assert_eq!(lines.next(), Some(supine_host::replay::TELEMETRY_HEADER));
+    assert_eq!(
+        lines.next(),
+        Some(supine_host::io::telemetry_csv::TELEMETRY_HEADER)
+    );
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     assert_eq!(rows.len(), 15_000, "one record per sample at 500 Hz");
     let cell = |r: &Vec<&str>, i: usize| -> f64 { r[i].parse().expect("a number") };
@@ -212,7 +215,7 @@ fn a_bad_duration_is_one_line_and_writes_nothing() {
 
 #[test]
 fn ctrl_c_during_the_demo_leaves_no_qemu_and_no_report() {
-    firmware(supine_host::firmware::PRODUCT_BINARY);
+    firmware(supine_host::device::firmware::PRODUCT_BINARY);
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("demo");
     let child = Command::new(supine_binary())

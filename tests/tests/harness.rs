@@ -3,8 +3,8 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
-use supine_host::firmware::PRODUCT_BINARY;
-use supine_host::qemu::{self, Qemu, QemuConfig, QemuError};
+use supine_host::device::firmware::PRODUCT_BINARY;
+use supine_host::device::qemu::{self, Qemu, QemuConfig, QemuError};
 use supine_qemu_tests::firmware;
 
 fn process_exists(pid: u32) -> bool {

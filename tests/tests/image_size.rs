@@ -7,9 +7,9 @@ use object::{Object, ObjectSegment};
 use supine_qemu_tests::firmware;
 
 /// `memory.x`: RAM starts here; everything below is flash (code, then the PARAMS region).
-const RAM_ORIGIN: u64 = supine_host::memory_map::RAM_ORIGIN as u64;
+const RAM_ORIGIN: u64 = supine_host::device::memory_map::RAM_ORIGIN as u64;
 /// `memory.x`: the parameter blob's region, loaded separately, not part of the image.
-const PARAMS_ORIGIN: u64 = supine_host::memory_map::PARAMS_ORIGIN as u64;
+const PARAMS_ORIGIN: u64 = supine_host::device::memory_map::PARAMS_ORIGIN as u64;
 const FLASH_BUDGET_BYTES: u64 = 64 * 1024;
 const STATIC_RAM_BUDGET_BYTES: u64 = 16 * 1024;
 
@@ -36,7 +36,7 @@ fn footprint(path: &std::path::Path) -> (u64, u64) {
 
 #[test]
 fn the_product_image_fits_64_kib_of_flash_and_16_kib_of_static_ram() {
-    let image = firmware(supine_host::firmware::PRODUCT_BINARY);
+    let image = firmware(supine_host::device::firmware::PRODUCT_BINARY);
     let (flash, ram) = footprint(&image);
     println!("supine-firmware: flash {flash} B, static RAM {ram} B");
     // Something must be there: a parse that finds nothing would pass any budget.

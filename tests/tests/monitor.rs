@@ -16,11 +16,11 @@ use supine_core::protocol::{
     FrameAccumulator, FrameEvent, HostToDevice, ParamBegin, ParamsSource, Status, Telemetry,
     UploadError, encode_frame,
 };
-use supine_host::device_params;
-use supine_host::firmware::PRODUCT_BINARY;
-use supine_host::params_file::{DeviceSection, ParamFile};
-use supine_host::reference;
-use supine_host::replay::{Outgoing, Session, SessionConfig, sample_messages, session};
+use supine_host::device::device_params;
+use supine_host::device::firmware::PRODUCT_BINARY;
+use supine_host::device::replay::{Outgoing, Session, SessionConfig, sample_messages, session};
+use supine_host::exposure::reference;
+use supine_host::io::params_file::{DeviceSection, ParamFile};
 use supine_qemu_tests::firmware;
 
 /// Ceiling on the instructions per sample of the device's busy span (pipeline, telemetry

@@ -1,6 +1,6 @@
 //! `supine monitor --qemu` as a user runs it: a scripted rough-road ride with a shock from
 //! `supine ride`, streamed to the firmware in QEMU; its log checked against the host's own
-//! pipeline (`supine_host::reference`): same telemetry rows, same alert events at the same
+//! pipeline (`supine_host::exposure::reference`): same telemetry rows, same alert events at the same
 //! samples, head acceleration within 1e-4 m/s^2.
 
 use std::path::Path;
@@ -9,10 +9,10 @@ use std::time::Duration;
 
 use supine_core::alerts::AlertEvent;
 use supine_core::model::Preset;
-use supine_host::exposure_report::read_input;
-use supine_host::params_file::ParamFile;
-use supine_host::reference;
-use supine_host::replay::{EVENTS_HEADER, TELEMETRY_HEADER};
+use supine_host::exposure::reference;
+use supine_host::io::params_file::ParamFile;
+use supine_host::io::recording::read_input;
+use supine_host::io::telemetry_csv::{EVENTS_HEADER, TELEMETRY_HEADER};
 use supine_qemu_tests::{
     firmware, qemu_cmdline, signal_and_wait, supine_binary, wait_for_qemu_child,
 };
@@ -36,7 +36,7 @@ fn cells(line: &str) -> Vec<&str> {
 
 #[test]
 fn monitor_logs_what_the_host_pipeline_predicts_for_a_scripted_ride() {
-    firmware(supine_host::firmware::PRODUCT_BINARY);
+    firmware(supine_host::device::firmware::PRODUCT_BINARY);
     let dir = tempfile::tempdir().expect("temp dir");
     let ride = dir.path().join("ride.csv");
     let log = dir.path().join("log.csv");
@@ -76,7 +76,7 @@ fn monitor_logs_what_the_host_pipeline_predicts_for_a_scripted_ride() {
         .collect();
     let indices: Vec<u32> = (0..samples.len() as u32).collect();
     let file = ParamFile::preset(Preset::PaperLitter);
-    let params = supine_host::device_params::build(&file, fs).expect("device params");
+    let params = supine_host::device::device_params::build(&file, fs).expect("device params");
     let expected = reference::pipeline(&params, &indices, &samples);
     let head_f64 = reference::head_f64(&file.params, fs, &samples).expect("f64 model");
     assert!(
@@ -175,7 +175,7 @@ fn monitor_logs_what_the_host_pipeline_predicts_for_a_scripted_ride() {
 
 #[test]
 fn realtime_pacing_and_ctrl_c_keep_the_log_and_leave_no_qemu() {
-    firmware(supine_host::firmware::PRODUCT_BINARY);
+    firmware(supine_host::device::firmware::PRODUCT_BINARY);
     let dir = tempfile::tempdir().expect("temp dir");
     let log = dir.path().join("live.csv");
     let child = Command::new(supine_binary())

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-use supine_host::recording::Recording;
+use supine_host::io::recording::Recording;
 use supine_qemu_tests::{
     entries, firmware, qemu_cmdline, qemu_processes_mentioning, qemu_wrapper, signal_and_wait,
     supine_binary, wait_for_qemu_child,
@@ -62,7 +62,7 @@ fn replay_with_icount(args: &[&str], ride: &Path, out: &Path) -> (String, f64) {
 #[test]
 fn the_pipeline_fits_1200_instructions_per_sample_at_the_default_telemetry_rate() {
     use supine_core::blob::TelemetryConfig;
-    firmware(supine_host::firmware::PRODUCT_BINARY);
+    firmware(supine_host::device::firmware::PRODUCT_BINARY);
     let decimation = TelemetryConfig::default_for(500.0).decimation;
     assert_eq!(decimation, 5, "100 Hz at 500 Hz");
     let dir = tempfile::tempdir().expect("temp dir");
@@ -83,7 +83,7 @@ fn the_pipeline_fits_1200_instructions_per_sample_at_the_default_telemetry_rate(
 
 #[test]
 fn supine_replay_writes_telemetry_and_events_and_counts_instructions() {
-    firmware(supine_host::firmware::PRODUCT_BINARY);
+    firmware(supine_host::device::firmware::PRODUCT_BINARY);
     let dir = tempfile::tempdir().expect("temp dir");
     let ride = write_ride(dir.path(), 4.0);
     let out = dir.path().join("device.csv");
@@ -93,10 +93,13 @@ fn supine_replay_writes_telemetry_and_events_and_counts_instructions() {
     assert!(stderr.contains("frames lost 0, bad 0"), "{stderr}");
     let csv = std::fs::read_to_string(&out).expect("telemetry written");
     let mut lines = csv.lines();
-    assert_eq!(lines.next(), Some(supine_host::replay::TELEMETRY_HEADER));
+    assert_eq!(
+        lines.next(),
+        Some(supine_host::io::telemetry_csv::TELEMETRY_HEADER)
+    );
     assert_eq!(lines.count(), 2000);
     let events = std::fs::read_to_string(dir.path().join("device.events.csv")).expect("events");
-    assert!(events.starts_with(supine_host::replay::EVENTS_HEADER));
+    assert!(events.starts_with(supine_host::io::telemetry_csv::EVENTS_HEADER));
 }
 
 /// `supine replay --qemu --preset paper-litter --input RIDE --out DIR/device.csv` with its
@@ -124,7 +127,7 @@ fn assert_nothing_left(tmp: &Path, what: &str) {
 
 #[test]
 fn ctrl_c_sigterm_and_sighup_during_replay_leave_no_qemu_and_no_socket_folder() {
-    firmware(supine_host::firmware::PRODUCT_BINARY);
+    firmware(supine_host::device::firmware::PRODUCT_BINARY);
     let dir = tempfile::tempdir().expect("temp dir");
     let ride = write_ride(dir.path(), 120.0);
     for signal in ["INT", "TERM", "HUP"] {
@@ -169,7 +172,7 @@ fn ctrl_c_sigterm_and_sighup_during_replay_leave_no_qemu_and_no_socket_folder() 
 
 #[test]
 fn a_finished_replay_leaves_no_qemu_and_no_socket_folder() {
-    firmware(supine_host::firmware::PRODUCT_BINARY);
+    firmware(supine_host::device::firmware::PRODUCT_BINARY);
     let dir = tempfile::tempdir().expect("temp dir");
     let ride = write_ride(dir.path(), 2.0);
     let tmp = dir.path().join("tmp");
@@ -184,7 +187,7 @@ fn a_finished_replay_leaves_no_qemu_and_no_socket_folder() {
 
 #[test]
 fn a_replay_whose_qemu_dies_midway_fails_on_one_line_and_leaves_nothing() {
-    firmware(supine_host::firmware::PRODUCT_BINARY);
+    firmware(supine_host::device::firmware::PRODUCT_BINARY);
     let dir = tempfile::tempdir().expect("temp dir");
     let ride = write_ride(dir.path(), 120.0);
     let tmp = dir.path().join("tmp");
@@ -195,7 +198,7 @@ fn a_replay_whose_qemu_dies_midway_fails_on_one_line_and_leaves_nothing() {
         "exec timeout -s KILL 3 qemu-system-arm \"$@\"",
     );
     let output = replay_command(dir.path(), &ride, &tmp)
-        .env(supine_host::qemu::QEMU_ENV, &qemu)
+        .env(supine_host::device::qemu::QEMU_ENV, &qemu)
         .output()
         .expect("supine runs");
     let stderr = String::from_utf8_lossy(&output.stderr);

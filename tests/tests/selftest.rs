@@ -10,8 +10,8 @@
 use std::sync::OnceLock;
 use std::time::Duration;
 
-use supine_host::firmware::SELFTEST_BINARY;
-use supine_host::qemu::{self, QemuConfig};
+use supine_host::device::firmware::SELFTEST_BINARY;
+use supine_host::device::qemu::{self, QemuConfig};
 use supine_qemu_tests::{
     SelftestReport, builtin_realization, builtin_realization_f64, firmware, host_outputs_f32,
     host_outputs_f64, identity, parse_selftest,

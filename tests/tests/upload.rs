@@ -27,13 +27,13 @@ use supine_core::protocol::{
     ParamsSource, UploadError,
 };
 use supine_core::upload::{KEY_LEN, update_mac};
-use supine_host::firmware::PRODUCT_BINARY;
-use supine_host::flash::{self, REGION_IMAGE_COUNTER, REGION_LEN};
-use supine_host::link::{FrameReader, FrameWriter};
-use supine_host::params_file::{DeviceSection, ParamFile};
-use supine_host::qemu::{PARAMS_ADDR, Qemu, QemuConfig};
-use supine_host::reference;
-use supine_host::replay::{Outgoing, Session, SessionConfig, sample_messages, session};
+use supine_host::device::firmware::PRODUCT_BINARY;
+use supine_host::device::flash::{self, REGION_IMAGE_COUNTER, REGION_LEN};
+use supine_host::device::link::{FrameReader, FrameWriter};
+use supine_host::device::qemu::{PARAMS_ADDR, Qemu, QemuConfig};
+use supine_host::device::replay::{Outgoing, Session, SessionConfig, sample_messages, session};
+use supine_host::exposure::reference;
+use supine_host::io::params_file::{DeviceSection, ParamFile};
 use supine_qemu_tests::firmware;
 
 const FS_HZ: f64 = 500.0;
@@ -118,7 +118,8 @@ fn run(region: &[u8], script: Vec<Outgoing>) -> Session {
 
 /// The region image slot A of which holds parameters A (counter 1).
 fn region_a() -> Vec<u8> {
-    flash::qemu_region_image(&file(Preset::PaperLitter), FS_HZ).expect("region image")
+    let (_, blob) = flash::device_blob(&file(Preset::PaperLitter), FS_HZ).expect("blob");
+    flash::qemu_region_image(&blob).expect("region image")
 }
 
 fn acks(s: &Session) -> Vec<Result<ParamAck, UploadError>> {
@@ -557,8 +558,8 @@ fn run_cli(cmd: &mut std::process::Command) -> (bool, String, String) {
 fn supine_flash_writes_a_bootable_qemu_image_uploads_into_qemu_and_explains_failures() {
     let dir = tempfile::tempdir().expect("temp dir");
     let rigid = ParamFile::preset(Preset::PaperRigid);
-    let rigid_id = supine_host::device_params::identity(&rigid).expect("identity");
-    let rigid_hex = supine_host::device_params::identity_hex(&rigid_id);
+    let rigid_id = supine_host::device::device_params::identity(&rigid).expect("identity");
+    let rigid_hex = supine_host::device::device_params::identity_hex(&rigid_id);
 
     // --qemu-image: the device boots it from slot A at the rate asked for.
     let image = dir.path().join("params.bin");
@@ -798,7 +799,7 @@ fn sigterm_during_supine_flash_qemu_leaves_no_qemu_and_no_socket_folder() {
     use supine_qemu_tests::{
         entries, qemu_processes_mentioning, signal_and_wait, wait_for_qemu_child,
     };
-    supine_qemu_tests::firmware(supine_host::firmware::PRODUCT_BINARY);
+    supine_qemu_tests::firmware(supine_host::device::firmware::PRODUCT_BINARY);
     let dir = tempfile::tempdir().expect("temp dir");
     let tmp = dir.path().join("tmp");
     std::fs::create_dir(&tmp).expect("private TMPDIR");
@@ -817,8 +818,8 @@ fn sigterm_during_supine_flash_qemu_leaves_no_qemu_and_no_socket_folder() {
             "60",
         ])
         .env("TMPDIR", &tmp)
-        .env(supine_host::qemu::QEMU_ENV, &paused)
-        .env(supine_host::flash::STATE_DIR_ENV, dir.path())
+        .env(supine_host::device::qemu::QEMU_ENV, &paused)
+        .env(supine_host::device::flash::STATE_DIR_ENV, dir.path())
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::piped())
         .spawn()

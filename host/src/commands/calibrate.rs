@@ -6,8 +6,9 @@
 //! `[device.mounting]` table of a parameter file, which `supine flash` puts in the blob.
 
 use anyhow::{Result, anyhow};
-use serde::Serialize;
 use supine_core::mounting::Mounting;
+
+use crate::io::params_file::mounting_toml;
 
 /// Arguments of `supine calibrate`.
 #[derive(Debug, clap::Args)]
@@ -24,17 +25,6 @@ pub struct Args {
     pub at_rest_m_s2: Vec<f64>,
 }
 
-/// `[device.mounting]` as it appears in a parameter file.
-#[derive(Serialize)]
-struct MountingTable {
-    device: DeviceTable,
-}
-
-#[derive(Serialize)]
-struct DeviceTable {
-    mounting: Mounting,
-}
-
 /// Prints the `[device.mounting]` table for the reading, or says why it cannot be one.
 pub fn run(args: &Args) -> Result<()> {
     let [x, y, z] = args.at_rest_m_s2[..] else {
@@ -45,13 +35,10 @@ pub fn run(args: &Args) -> Result<()> {
     };
     let mounting =
         Mounting::from_rest([x, y, z]).map_err(|e| anyhow!("--at-rest-m-s2 {x},{y},{z}: {e}"))?;
-    let table = MountingTable {
-        device: DeviceTable { mounting },
-    };
     print!(
         "# Mounting calibration from a reading at rest of ({x}, {y}, {z}) m/s^2 (sensor axes).\n\
          # Rows of sensor_to_litter: the litter's x (toward the head), y, z (up) in sensor axes.\n{}",
-        toml::to_string(&table)?
+        mounting_toml(mounting)?
     );
     Ok(())
 }

@@ -34,7 +34,7 @@ pub struct Args {
 /// standard error; Ctrl-C stops QEMU and removes its folder.
 pub fn run(args: &Args) -> Result<()> {
     // Ctrl-C, SIGTERM and SIGHUP: QEMU stopped and its folder removed on the way out.
-    let stop = crate::signals::stop_flag();
+    let stop = crate::device::signals::stop_flag();
     let config = DemoConfig {
         out_dir: args.out.clone(),
         profile: args.profile,

@@ -1,12 +1,12 @@
 //! `supine exposure`: ISO 2631-1 exposure of a recording, in two forms.
 //! - Model form (`--preset NAME | --params FILE`): the predicted head exposure of a ride,
 //!   the device's own pipeline over the recording's platform columns, with the alert
-//!   timeline (see [`crate::exposure_report::model_exposure`]).
+//!   timeline (see [`crate::exposure::report::evaluate_model`]).
 //! - Channel form (`--channel COLUMN --weighting wk|wd|wj`): one recorded channel,
 //!   weighted and evaluated without a model.
 //!
 //! The recording's own sample rate is used; `--fs HZ` converts it first with the
-//! band-limited, zero-phase resampler of [`crate::resample`].
+//! band-limited, zero-phase resampler of [`crate::exposure::resample`].
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -15,11 +15,9 @@ use anyhow::{Result, anyhow};
 use clap::{ArgGroup, ValueEnum};
 
 use crate::commands::weighting::Kind;
-use crate::device_params;
-use crate::exposure_report::{
-    Prepared, channel_exposure, channel_index, column, model_exposure, prepare, read_input,
-};
-use crate::params_file::{ModelSource, PresetArg};
+use crate::exposure::report::{evaluate_channel, evaluate_model};
+use crate::io::params_file::{ModelSource, PresetArg};
+use crate::io::recording::read_input;
 
 /// Arguments of `supine exposure`.
 #[derive(Debug, clap::Args)]
@@ -54,12 +52,9 @@ pub struct Args {
 /// Evaluates and writes the report (table or JSON) to `out`.
 pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
     let (recording, layout) = read_input(&args.input)?;
-    let input = args.input.display().to_string();
     let text = match (&args.channel, args.weighting) {
         (Some(channel), Some(kind)) => {
-            let index = channel_index(channel, layout, &args.input)?;
-            let prepared = prepare(&recording, &[column(&recording, index)], args.fs_hz)?;
-            let report = channel_exposure(kind.into(), &prepared, &input, channel)?;
+            let report = evaluate_channel(&recording, layout, channel, kind.into(), args.fs_hz)?;
             if args.json {
                 serde_json::to_string(&report)? + "\n"
             } else {
@@ -71,7 +66,6 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
                 preset: args.preset,
                 params: args.params.clone(),
             };
-            let file = source.load()?;
             let model = match (&args.params, args.preset) {
                 (Some(p), _) => p.display().to_string(),
                 (None, Some(p)) => p
@@ -79,11 +73,7 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
                     .map_or_else(|| format!("{p:?}"), |v| v.get_name().to_string()),
                 (None, None) => "?".to_string(),
             };
-            let [x, y, z] = &recording.platform_m_s2;
-            let prepared: Prepared = prepare(&recording, &[x, y, z], args.fs_hz)?;
-            let params = device_params::build(&file, prepared.sample_rate_hz)?;
-            let identity = device_params::identity_hex(&params.identity);
-            let report = model_exposure(&params, &prepared, &input, layout, model, identity)?;
+            let report = evaluate_model(&recording, layout, &source.load()?, model, args.fs_hz)?;
             if args.json {
                 serde_json::to_string(&report)? + "\n"
             } else {

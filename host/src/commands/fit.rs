@@ -5,15 +5,15 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use crate::commands::transmissibility::estimate;
-use crate::dataset::{Case, Dataset};
-use crate::fit::objective::Target;
-use crate::fit::report;
-use crate::fit::solver::{DEFAULT_TOLERANCE, SolverSettings};
-use crate::fit::{self, Determination, FitSettings};
-use crate::output::write_all_atomically;
-use crate::params_file::{self, ParamFile};
-use crate::spectral::DEFAULT_RESOLUTION_HZ;
+use crate::identify::fit::objective::Target;
+use crate::identify::fit::report;
+use crate::identify::fit::solver::{DEFAULT_TOLERANCE, SolverSettings};
+use crate::identify::fit::{self, Determination, FitSettings};
+use crate::identify::spectral::DEFAULT_RESOLUTION_HZ;
+use crate::identify::transmissibility::estimate;
+use crate::io::dataset::{Case, Dataset};
+use crate::io::output::write_all_atomically;
+use crate::io::params_file::{self, ParamFile};
 use anyhow::{Result, bail};
 
 /// Arguments of `supine fit`.

@@ -6,9 +6,9 @@ use std::path::PathBuf;
 use anyhow::{Result, anyhow};
 
 use crate::commands::values;
-use crate::device_params::identity_hex;
-use crate::flash::{self, UploadOutcome};
-use crate::params_file::ModelSource;
+use crate::device::device_params::identity_hex;
+use crate::device::flash::{self, UploadOutcome};
+use crate::io::params_file::ModelSource;
 
 /// Arguments of `supine flash`.
 #[derive(Debug, clap::Args)]
@@ -76,8 +76,8 @@ pub fn run(args: &Args) -> Result<()> {
     let counter = || flash::choose_counter(args.counter);
     let t = &args.target;
     if let Some(out) = &t.qemu_image {
-        let image = flash::qemu_region_image(&file, args.fs_hz)?;
-        crate::output::write_atomically(out, |w| {
+        let image = flash::qemu_region_image(&blob)?;
+        crate::io::output::write_atomically(out, |w| {
             std::io::Write::write_all(w, &image)
                 .map_err(|e| anyhow!("{}: cannot write: {e}", out.display()))
         })?;
@@ -87,7 +87,7 @@ pub fn run(args: &Args) -> Result<()> {
             image.len(),
             args.fs_hz,
             out.display(),
-            crate::qemu::PARAMS_ADDR
+            crate::device::qemu::PARAMS_ADDR
         );
     } else if let Some(port) = &t.serial {
         let key = flash::load_key(args.key.as_deref())?;
@@ -137,8 +137,12 @@ mod tests {
         );
         assert_eq!(parse_address("458752"), Ok(0x70000));
         assert!(parse_address("0x8zz").unwrap_err().contains("0x8zz"));
-        let cli = <crate::cli::Cli as clap::Parser>::try_parse_from([
-            "supine",
+        #[derive(clap::Parser)]
+        struct Flash {
+            #[command(flatten)]
+            args: Args,
+        }
+        let Flash { args } = <Flash as clap::Parser>::try_parse_from([
             "flash",
             "--preset",
             "paper-litter",
@@ -146,9 +150,6 @@ mod tests {
             "X",
         ])
         .unwrap();
-        let crate::cli::Command::Flash(args) = cli.command else {
-            panic!("not flash")
-        };
         assert_eq!(args.base_address, flash::BLACKPILL_PARAMS_ADDR);
         assert_eq!(args.fs_hz, 500.0);
     }

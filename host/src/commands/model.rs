@@ -3,11 +3,11 @@
 use std::path::PathBuf;
 
 use anyhow::{Result, anyhow};
-use supine_core::model::{Axis, Output, SystemMatrices};
 
 use crate::commands::values;
-use crate::h_csv::{self, HRow};
-use crate::params_file::ModelSource;
+use crate::identify::transmissibility::model_h;
+use crate::io::h_csv;
+use crate::io::params_file::ModelSource;
 
 /// Arguments of `supine model`.
 #[derive(Debug, clap::Args)]
@@ -46,25 +46,8 @@ pub fn run(args: &Args) -> Result<()> {
     }
     params.validate().map_err(|e| anyhow!("{e}"))?;
     let freqs = h_csv::frequency_grid(args.fmin_hz, args.fmax_hz, args.df_hz)?;
-    let matrices = SystemMatrices::assemble(&params);
-    let mut rows = Vec::with_capacity(freqs.len() * 27);
-    for &freq_hz in &freqs {
-        let h = matrices
-            .transmissibility(freq_hz)
-            .map_err(|e| anyhow!("{e}"))?;
-        for output in Output::ALL {
-            for input in Axis::ALL {
-                let value = h[(output.index(), input.index())];
-                rows.push(HRow {
-                    freq_hz,
-                    output,
-                    input,
-                    value,
-                    coherence: None,
-                });
-            }
-        }
-    }
+    let h = model_h(&params, &freqs)?;
+    let rows = h_csv::rows(&freqs, &h, None);
     h_csv::write(&args.out, &rows)?;
     eprintln!(
         "wrote {} ({} frequencies x 27 components)",

@@ -3,7 +3,7 @@
 use anyhow::{Result, anyhow};
 use supine_core::model::{DEFAULT_SAMPLE_RATE_HZ, Model};
 
-use crate::params_file::ModelSource;
+use crate::io::params_file::ModelSource;
 
 /// Arguments of `supine modes`.
 #[derive(Debug, clap::Args)]

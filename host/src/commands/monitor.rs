@@ -3,23 +3,18 @@
 
 use std::io::IsTerminal as _;
 use std::path::PathBuf;
-use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
-use anyhow::{Context as _, Result, anyhow, bail};
+use anyhow::{Result, anyhow, bail};
 use clap::ArgGroup;
 
 use crate::commands::values;
-use crate::device_params;
-use crate::exposure_report::read_input;
-use crate::firmware;
-use crate::link::FrameReader;
+use crate::exposure::ride::{Profile, generate};
+use crate::io::params_file::{ModelSource, PresetArg};
+use crate::io::recording::read_input;
 use crate::monitor::log::MonitorLog;
-use crate::monitor::session::{Ending, QemuRun, follow, open_serial, run_qemu, wait_greeting};
+use crate::monitor::session::{Ending, QemuRun, run_qemu, run_serial};
 use crate::monitor::view::{LiveView, PlainView, View};
-use crate::monitor::{Monitor, device_line};
-use crate::params_file::{ModelSource, PresetArg};
-use crate::ride::{Profile, generate};
 
 /// Arguments of `supine monitor`.
 #[derive(Debug, clap::Args)]
@@ -82,7 +77,7 @@ pub fn run(args: &Args) -> Result<()> {
         None
     };
     // Ctrl-C, SIGTERM and SIGHUP: QEMU stopped and its folder removed on the way out.
-    let stop = crate::signals::stop_flag();
+    let stop = crate::device::signals::stop_flag();
     let mut log = args.log.as_deref().map(MonitorLog::create).transpose()?;
     let stdout = std::io::stdout();
     let mut view: Box<dyn View> = if stdout.is_terminal() {
@@ -92,7 +87,7 @@ pub fn run(args: &Args) -> Result<()> {
     };
     let result = match (&qemu_run, &args.serial) {
         (Some(run), _) => run_qemu(run, view.as_mut(), log.as_mut(), &stop),
-        (None, Some(port)) => monitor_serial(
+        (None, Some(port)) => run_serial(
             port,
             args.baud,
             greeting_timeout,
@@ -112,9 +107,7 @@ pub fn run(args: &Args) -> Result<()> {
                     e.context(format!("the log so far is in {}", t.display()))
                 }
                 Some(log) => {
-                    let (t, ev) = log.abandon();
-                    let _ = std::fs::remove_file(t);
-                    let _ = std::fs::remove_file(ev);
+                    log.discard();
                     e
                 }
                 None => e,
@@ -153,49 +146,19 @@ fn prepare_qemu(args: &Args, greeting_timeout: Duration) -> Result<QemuRun> {
             if recording.len() < 2 {
                 bail!("{}: fewer than two samples", path.display());
             }
-            let samples = (0..recording.len())
-                .map(|k| recording.platform_m_s2.each_ref().map(|c| c[k] as f32))
-                .collect();
-            (samples, recording.sample_rate_hz())
+            (recording.platform_samples(), recording.sample_rate_hz())
         }
         (None, Some(profile)) => {
             let ride = generate(profile, args.duration_s, args.fs_hz, args.seed)?;
-            let samples = (0..ride.len())
-                .map(|k| ride.platform_m_s2.each_ref().map(|c| c[k] as f32))
-                .collect();
-            (samples, ride.sample_rate_hz)
+            (ride.samples(), ride.sample_rate_hz)
         }
         (None, None) => bail!("--qemu needs a ride: --input RIDE.csv or --profile NAME"),
     };
-    let params = device_params::build(&file, sample_rate_hz)?;
-    let blob = device_params::encode(&params)?;
-    let kernel = firmware::build_binary(firmware::PRODUCT_BINARY)?;
-    Ok(QemuRun {
-        kernel,
-        blob,
-        identity: params.identity,
+    QemuRun::new(
+        &file,
         samples,
         sample_rate_hz,
-        realtime: args.realtime,
+        args.realtime,
         greeting_timeout,
-    })
-}
-
-/// Follows a device on a serial port until Ctrl-C (or the port fails).
-fn monitor_serial(
-    port: &str,
-    baud: u32,
-    greeting_timeout: Duration,
-    view: &mut dyn View,
-    log: Option<&mut MonitorLog>,
-    stop: &AtomicBool,
-) -> Result<(Monitor, Ending)> {
-    let serial = open_serial(port, baud)?;
-    let mut reader = FrameReader::new(serial);
-    let greeting = wait_greeting(&mut reader, greeting_timeout, stop)
-        .with_context(|| format!("{port} at {baud} baud"))?;
-    eprintln!("supine monitor: {}", device_line(&greeting));
-    let mut monitor = Monitor::new(&greeting)?;
-    let ending = follow(&mut reader, &mut monitor, view, log, stop, false, None)?;
-    Ok((monitor, ending))
+    )
 }

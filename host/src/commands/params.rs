@@ -2,7 +2,7 @@
 
 use anyhow::Result;
 
-use crate::params_file::ModelSource;
+use crate::io::params_file::ModelSource;
 
 /// Arguments of `supine params`.
 #[derive(Debug, clap::Args)]

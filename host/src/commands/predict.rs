@@ -5,9 +5,9 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 
-use crate::params_file;
-use crate::recording::Recording;
-use crate::validate::{predict, write_prediction};
+use crate::identify::validate::{predict, write_prediction};
+use crate::io::params_file;
+use crate::io::recording::Recording;
 
 /// Arguments of `supine predict`.
 #[derive(Debug, clap::Args)]

@@ -5,9 +5,10 @@ use std::path::PathBuf;
 use anyhow::{Result, bail};
 use supine_core::blob::TelemetryConfig;
 
-use crate::exposure_report::read_input;
-use crate::params_file::ModelSource;
-use crate::replay::{events_path, replay, write_events, write_telemetry};
+use crate::device::replay::replay;
+use crate::io::params_file::ModelSource;
+use crate::io::recording::read_input;
+use crate::io::telemetry_csv::{events_path, write_events, write_telemetry};
 
 /// Arguments of `supine replay`.
 #[derive(Debug, clap::Args)]
@@ -43,7 +44,7 @@ pub fn run(args: &Args) -> Result<()> {
     // A full recording or a `supine ride` file (platform columns only).
     let (recording, _) = read_input(&args.input)?;
     // Ctrl-C, SIGTERM and SIGHUP: QEMU stopped and its folder removed on the way out.
-    let stop = crate::signals::stop_flag();
+    let stop = crate::device::signals::stop_flag();
     let telemetry = TelemetryConfig {
         decimation: args.telemetry_decimation,
     };

@@ -1,11 +1,11 @@
 //! `supine ride`: a realistic litter-frame acceleration recording (platform columns only)
-//! for one of the profiles of [`crate::ride`], deterministic for a seed.
+//! for one of the profiles of [`crate::exposure::ride`], deterministic for a seed.
 
 use std::path::PathBuf;
 
 use anyhow::Result;
 
-use crate::ride::{Profile, generate, write_ride};
+use crate::exposure::ride::{Profile, generate, write_ride};
 
 /// Arguments of `supine ride`.
 #[derive(Debug, clap::Args)]
@@ -31,13 +31,7 @@ pub struct Args {
 pub fn run(args: &Args) -> Result<()> {
     let ride = generate(args.profile, args.duration_s, args.fs_hz, args.seed)?;
     write_ride(&args.out, &ride)?;
-    let rms = ride
-        .platform_m_s2
-        .each_ref()
-        .map(|x| (x.iter().map(|v| v * v).sum::<f64>() / x.len().max(1) as f64).sqrt());
-    let peak_z = ride.platform_m_s2[2]
-        .iter()
-        .fold(0.0f64, |m, v| m.max(v.abs()));
+    let rms = ride.rms_m_s2();
     eprintln!(
         "wrote {}: {} {} s at {} Hz, seed {}; rms x {:.3}, y {:.3}, z {:.3} m/s^2, crest factor z {:.1}, {} shocks",
         args.out.display(),
@@ -48,7 +42,7 @@ pub fn run(args: &Args) -> Result<()> {
         rms[0],
         rms[1],
         rms[2],
-        if rms[2] > 0.0 { peak_z / rms[2] } else { 0.0 },
+        ride.vertical_crest_factor(),
         ride.shocks.len()
     );
     Ok(())

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 
-use crate::synth::{SynthSettings, write_dataset};
+use crate::identify::synth::{SynthSettings, write_dataset};
 
 /// Arguments of `supine synth`.
 #[derive(Debug, clap::Args)]

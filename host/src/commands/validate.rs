@@ -1,15 +1,13 @@
 //! `supine validate`: measured against predicted sensor accelerations of one recording,
 //! per channel and as the paper's R^2 (see `validate`).
 
-use std::io::Write as _;
 use std::path::PathBuf;
 
-use anyhow::{Result, anyhow};
+use anyhow::Result;
 
-use crate::output::write_atomically;
-use crate::params_file;
-use crate::recording::Recording;
-use crate::validate::{predict, psd_svg, table, validate};
+use crate::identify::validate::{predict, table, validate, write_report};
+use crate::io::params_file;
+use crate::io::recording::Recording;
 
 /// Arguments of `supine validate`.
 #[derive(Debug, clap::Args)]
@@ -42,13 +40,7 @@ pub fn run(args: &Args) -> Result<()> {
     let result = validate(&recording, &predicted);
     let json = serde_json::to_string_pretty(&result)?;
     if let Some(dir) = &args.report {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| anyhow!("{}: cannot create: {e}", dir.display()))?;
-        let svg = psd_svg(&recording, &predicted)?;
-        write_atomically(&dir.join("psd.svg"), |w| Ok(w.write_all(svg.as_bytes())?))?;
-        write_atomically(&dir.join("validation.json"), |w| {
-            Ok(w.write_all(json.as_bytes())?)
-        })?;
+        write_report(dir, &recording, &predicted, &json)?;
     }
     if args.json {
         println!("{json}");

@@ -1,14 +1,13 @@
 //! `supine weighting`: the frequency response of the ISO 2631-1 weighting filter the
-//! device runs (its f32 coefficients), beside the analog definition, as CSV.
+//! device runs, as CSV (see [`crate::exposure::weighting_response`]).
 
-use std::io::Write;
 use std::path::PathBuf;
 
-use anyhow::{Result, anyhow, bail};
-use supine_core::weighting::{WeightingKind, WeightingSettings, analog_response};
+use anyhow::{Result, anyhow};
+use supine_core::weighting::{WeightingKind, WeightingSettings};
 
 use crate::commands::values;
-use crate::output::write_atomically;
+use crate::exposure::weighting_response::{centre_frequencies, write_response};
 
 /// The weighting to describe.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -54,31 +53,6 @@ pub struct Args {
     pub out: PathBuf,
 }
 
-/// The exact band centres `10^(n/per_decade)` Hz within `fmin..=fmax` and below `fs/2`.
-pub fn centre_frequencies(fmin: f64, fmax: f64, per_decade: u32, fs: f64) -> Result<Vec<f64>> {
-    if !(fmin.is_finite() && fmax.is_finite() && fmin > 0.0 && fmin <= fmax) {
-        bail!("need 0 < --fmin <= --fmax, got {fmin} and {fmax}");
-    }
-    if per_decade == 0 || per_decade > 1000 {
-        bail!("--per-decade must be within 1..=1000, got {per_decade}");
-    }
-    let n_per = per_decade as f64;
-    // A little slack so that 0.1 Hz (n = -10) counts as inside 0.1..
-    let lo = (n_per * fmin.log10() - 1e-9).ceil() as i64;
-    let hi = (n_per * fmax.log10() + 1e-9).floor() as i64;
-    let freqs: Vec<f64> = (lo..=hi)
-        .map(|n| 10f64.powf(n as f64 / n_per))
-        .filter(|&f| f < fs / 2.0)
-        .collect();
-    if freqs.is_empty() {
-        bail!(
-            "no band centre between {fmin} Hz and min({fmax}, fs/2 = {}) Hz",
-            fs / 2.0
-        );
-    }
-    Ok(freqs)
-}
-
 /// Writes the response of the device's filter and of the analog weighting on the grid.
 pub fn run(args: &Args) -> Result<()> {
     let kind = WeightingKind::from(args.kind);
@@ -90,15 +64,7 @@ pub fn run(args: &Args) -> Result<()> {
         args.per_decade,
         args.fs_hz as f64,
     )?;
-    write_atomically(&args.out, |w| {
-        writeln!(w, "freq_hz,magnitude,phase_rad,analog_magnitude")?;
-        for &f in &freqs {
-            let h = filter.response(f);
-            let a = analog_response(kind, f);
-            writeln!(w, "{f},{},{},{}", h.abs(), h.arg(), a.abs())?;
-        }
-        Ok(())
-    })?;
+    write_response(&args.out, kind, &filter, &freqs)?;
     eprintln!(
         "wrote {} ({} frequencies, {kind} at {} Hz)",
         args.out.display(),

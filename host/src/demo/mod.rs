@@ -5,14 +5,17 @@
 //! region image `supine flash` makes); run the image in QEMU with the ride streamed over
 //! its UART, followed live by the monitor ([`crate::monitor`]) which logs the device's
 //! telemetry and events to CSV; run the host's own computation on the same samples
-//! ([`crate::reference`]: the device's f32 pipeline and the f64 model); write the report
-//! ([`crate::report`]) from the CSV files; summarize ([`summary`]).
+//! ([`crate::exposure::reference`]: the device's f32 pipeline and the f64 model); write
+//! the report ([`report`]) from the CSV files ([`data`]); summarize ([`summary`]). Each
+//! step is a function of its own below [`run`].
 //!
 //! The output folder gets `ride.csv`, `device.csv` and `device.events.csv` (what the
 //! device sent), `host.csv` and `host.events.csv` (the host's reference), `params.toml`
 //! (the parameters flashed) and `report.html`. A previous `report.html` is removed first,
 //! so a failed run never leaves an older report that looks like this run's.
 
+pub mod data;
+pub mod report;
 pub mod ride;
 pub mod summary;
 pub mod trace;
@@ -23,25 +26,27 @@ use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context as _, Result, anyhow, bail};
-use supine_core::alerts::AlertConfig;
+use supine_core::blob::DeviceParams;
 use supine_core::model::Preset;
-use supine_core::protocol::Status;
 
-use crate::device_params::{self, identity_hex};
-use crate::exposure_report::{AxisReport, read_input, run_pipeline};
-use crate::firmware;
-use crate::flash;
-use crate::link::LinkStats;
-use crate::monitor::device_line;
+use crate::device::device_params::identity_hex;
+use crate::device::firmware;
+use crate::device::flash;
+use crate::exposure::reference;
+use crate::exposure::report::{AxisReport, run_pipeline};
+use crate::io::params_file::{self, DeviceSection, ParamFile};
+use crate::io::recording::read_input;
+use crate::io::telemetry_csv::{
+    EventRow, read_events, read_telemetry, write_events, write_telemetry,
+};
 use crate::monitor::log::MonitorLog;
 use crate::monitor::session::{Ending, QemuRun, run_qemu};
 use crate::monitor::view::View;
-use crate::params_file::{self, DeviceSection, ParamFile};
-use crate::reference;
-use crate::replay::{write_events, write_telemetry};
+use crate::monitor::{Monitor, device_line};
+use data::{DemoData, HostExposure, RunInfo};
 use ride::{DemoProfile, DemoRide};
 use summary::Summary;
-use trace::{EventRow, Trace, read_events};
+use trace::Trace;
 
 /// The output folder when none is given.
 pub const DEFAULT_OUT_DIR: &str = "supine-demo";
@@ -69,69 +74,6 @@ pub struct DemoConfig {
     pub seed: u64,
     /// Stream the samples in real time (otherwise as fast as the device takes them).
     pub realtime: bool,
-}
-
-/// How the run was made (for the report's last section and the summary's first line).
-#[derive(Clone, Debug, PartialEq)]
-pub struct RunInfo {
-    /// The ride.
-    pub profile: DemoProfile,
-    /// Its seed.
-    pub seed: u64,
-    /// Sample rate, Hz.
-    pub sample_rate_hz: f64,
-    /// Samples streamed.
-    pub samples: usize,
-    /// The parameters' name (the preset).
-    pub params_name: String,
-    /// Their identity, hex.
-    pub identity: String,
-    /// The firmware's version from its greeting.
-    pub firmware_version: String,
-    /// The device in one line (firmware, protocol, parameters and their source, rate).
-    pub device_line: String,
-    /// Exposure warm-up, s.
-    pub warmup_s: f64,
-    /// The alert configuration flashed.
-    pub alerts: AlertConfig,
-    /// The device's last status.
-    pub status: Option<Status>,
-    /// Frames the host decoded, lost and bad.
-    pub link: LinkStats,
-    /// Wall time of each step.
-    pub step_times: Vec<(String, Duration)>,
-    /// Samples streamed in real time.
-    pub realtime: bool,
-}
-
-/// The host's exposure evaluation of the predicted head (supine-core on the same samples).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct HostExposure {
-    /// Head x, y, z.
-    pub head: [AxisReport; 3],
-    /// Vector sum.
-    pub vector: AxisReport,
-}
-
-/// Everything the report and the summary are made from.
-#[derive(Clone, Debug)]
-pub struct DemoData {
-    /// How the run was made.
-    pub info: RunInfo,
-    /// The ride.
-    pub ride: DemoRide,
-    /// What the device sent (read back from `device.csv`).
-    pub device: Trace,
-    /// The device's alert events (read back from `device.events.csv`).
-    pub device_events: Vec<EventRow>,
-    /// The host's run of the device pipeline (f32, the same code) on the same samples.
-    pub host: Trace,
-    /// The host pipeline's alert events.
-    pub host_events: Vec<EventRow>,
-    /// The f64 model's head acceleration for the same samples, m/s^2.
-    pub host_head_f64_m_s2: [Vec<f64>; 3],
-    /// The exposure of the host's run.
-    pub exposure: HostExposure,
 }
 
 /// What a finished demo produced.
@@ -214,18 +156,7 @@ pub fn run(
             config.duration_s
         );
     }
-    let dir = &config.out_dir;
-    std::fs::create_dir_all(dir)
-        .map_err(|e| anyhow!("{}: cannot create the output folder: {e}", dir.display()))?;
-    let files = DemoFiles::in_dir(dir);
-    match std::fs::remove_file(&files.report) {
-        Ok(()) => {}
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-        Err(e) => bail!(
-            "{}: cannot remove the previous report: {e}",
-            files.report.display()
-        ),
-    }
+    let files = prepare_folder(&config.out_dir)?;
     let mut steps = Steps {
         announce,
         times: Vec::new(),
@@ -248,47 +179,23 @@ pub fn run(
             files.ride.display()
         ),
     );
-    let mut ride = ride::make(
-        config.profile,
-        config.duration_s,
-        SAMPLE_RATE_HZ,
-        config.seed,
-    )?;
-    crate::ride::write_ride(&files.ride, &ride.ride)?;
-    // The device gets exactly what the file holds (accelerations to 1e-6 m/s^2), so that
-    // `supine replay` of ride.csv reproduces device.csv.
-    let (recording, _) = read_input(&files.ride)?;
-    if recording.len() != ride.ride.len() {
-        bail!(
-            "{}: read back {} samples of {}",
-            files.ride.display(),
-            recording.len(),
-            ride.ride.len()
-        );
-    }
-    ride.ride.platform_m_s2 = recording.platform_m_s2;
+    let ride = make_ride(config, &files.ride)?;
     let samples = ride.samples();
 
-    // Telemetry for every sample (a device in service sends 100 Hz): the report overlays
-    // the host's computation on each of the device's samples, and `supine replay` of
-    // ride.csv with these parameters reproduces device.csv.
-    let mut file = ParamFile::preset(PRESET);
-    file.device = Some(DeviceSection {
-        telemetry_decimation: Some(1),
-        ..DeviceSection::default()
-    });
-    let params = device_params::build(&file, SAMPLE_RATE_HZ)?;
-    let identity = identity_hex(&params.identity);
+    let file = param_file();
+    // One build: the identity announced and checked is the one of the blob flashed.
+    let (params, blob) = flash::device_blob(&file, SAMPLE_RATE_HZ)?;
     steps.start(
         "parameters",
         &format!(
-            "parameters: {} preset (identity {identity}) into QEMU's PARAMS region, slot A -> {}",
+            "parameters: {} preset (identity {}) into QEMU's PARAMS region, slot A -> {}",
             PRESET.name(),
+            identity_hex(&params.identity),
             files.params.display()
         ),
     );
     params_file::save(&files.params, &file)?;
-    let region = flash::qemu_region_image(&file, SAMPLE_RATE_HZ)?;
+    let region = flash::qemu_region_image(&blob)?;
 
     steps.start(
         "device",
@@ -307,34 +214,12 @@ pub fn run(
         kernel,
         blob: region,
         identity: params.identity,
-        samples: samples.clone(),
+        samples,
         sample_rate_hz: SAMPLE_RATE_HZ,
         realtime: config.realtime,
         greeting_timeout: Duration::from_secs(20),
     };
-    let mut log = MonitorLog::create(&files.device)?;
-    let (monitor, ending) = match run_qemu(&qemu_run, view, Some(&mut log), stop) {
-        Ok(done) => done,
-        Err(e) => {
-            let (t, ev) = log.abandon();
-            let _ = std::fs::remove_file(t);
-            let _ = std::fs::remove_file(ev);
-            return Err(e.context("running the device in QEMU"));
-        }
-    };
-    if ending == Ending::Stopped {
-        let (t, ev) = log.abandon();
-        let _ = std::fs::remove_file(t);
-        let _ = std::fs::remove_file(ev);
-        bail!(
-            "interrupted after {} of {} samples",
-            monitor.latest().map_or(0, |t| t.sample_index + 1),
-            samples.len()
-        );
-    }
-    log.finish()?;
-    let device = Trace::read_csv(&files.device, SAMPLE_RATE_HZ)?;
-    let device_events = read_events(&files.device_events, SAMPLE_RATE_HZ)?;
+    let (monitor, device) = run_device(&qemu_run, &files, view, stop)?;
 
     steps.start(
         "host reference",
@@ -343,63 +228,200 @@ pub fn run(
             files.host.display()
         ),
     );
-    let indices: Vec<u32> = (0..samples.len() as u32).collect();
-    let host_run = reference::pipeline(&params, &indices, &samples);
-    write_telemetry(&files.host, &host_run.telemetry, SAMPLE_RATE_HZ)?;
-    write_events(&files.host_events, &host_run.events, SAMPLE_RATE_HZ)?;
-    let head_f64 = reference::head_f64(&file.params, SAMPLE_RATE_HZ, &samples)?;
-    let host_head_f64_m_s2 = [0, 1, 2].map(|a| head_f64.iter().map(|h| h[a]).collect());
-    let (values, _, _) = run_pipeline(&params, &samples, 0.0)?;
-    let kinds = params.exposure.config.axes.axes().map(|a| a.kind.name());
-    let exposure = HostExposure {
-        head: [0, 1, 2].map(|i| AxisReport::new(kinds[i], &values.axes[i])),
-        vector: AxisReport::new("vector", &values.vector),
-    };
+    let host = host_reference(&params, &file, &qemu_run.samples, &files)?;
 
     steps.start("report", &format!("report: {}", files.report.display()));
-    let greeting = monitor.greeting();
-    let mut data = DemoData {
-        info: RunInfo {
-            profile: config.profile,
-            seed: config.seed,
-            sample_rate_hz: SAMPLE_RATE_HZ,
-            samples: samples.len(),
-            params_name: PRESET.name().to_string(),
-            identity,
-            firmware_version: greeting.firmware_version.as_str().to_string(),
-            device_line: device_line(greeting),
-            warmup_s: f64::from(params.exposure.config.warmup_s),
-            alerts: params.alerts.config,
-            status: monitor.status().copied(),
-            link: monitor.counters().link,
-            step_times: Vec::new(),
-            realtime: config.realtime,
-        },
-        ride,
-        device,
-        device_events,
-        host: Trace::from_telemetry(&host_run.telemetry, SAMPLE_RATE_HZ),
-        host_events: host_run
-            .events
-            .iter()
-            .map(|e| EventRow::from_event(e, SAMPLE_RATE_HZ))
-            .collect(),
-        host_head_f64_m_s2,
-        exposure,
-    };
     steps.finish();
-    data.info.step_times = steps.times.clone();
+    let info = run_info(
+        config,
+        &params,
+        &monitor,
+        qemu_run.samples.len(),
+        &steps.times,
+    );
+    let data = DemoData {
+        info,
+        ride,
+        device: device.trace,
+        device_events: device.events,
+        host: host.trace,
+        host_events: host.events,
+        host_head_f64_m_s2: host.head_f64_m_s2,
+        exposure: host.exposure,
+    };
     let summary = Summary::new(&data);
-    let html = crate::report::render(&data, &summary)?;
-    crate::output::write_atomically(&files.report, |w| {
-        use std::io::Write as _;
-        w.write_all(html.as_bytes())
-            .with_context(|| format!("writing {}", files.report.display()))
-    })?;
+    write_report(&files.report, &data, &summary)?;
     (steps.announce)(&format!("[{STEPS}/{STEPS}] summary"));
     Ok(DemoOutcome {
         data,
         summary,
         report: files.report,
+    })
+}
+
+/// Creates the output folder and removes a previous report, so that a failed run never
+/// leaves an older report that looks like this run's.
+fn prepare_folder(dir: &Path) -> Result<DemoFiles> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| anyhow!("{}: cannot create the output folder: {e}", dir.display()))?;
+    let files = DemoFiles::in_dir(dir);
+    match std::fs::remove_file(&files.report) {
+        Ok(()) => Ok(files),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(files),
+        Err(e) => bail!(
+            "{}: cannot remove the previous report: {e}",
+            files.report.display()
+        ),
+    }
+}
+
+/// Makes the ride, writes it to `path` and keeps what the file holds (accelerations to
+/// 1e-6 m/s^2): the device gets exactly that, so that `supine replay` of the file
+/// reproduces device.csv.
+fn make_ride(config: &DemoConfig, path: &Path) -> Result<DemoRide> {
+    let mut ride = ride::make(
+        config.profile,
+        config.duration_s,
+        SAMPLE_RATE_HZ,
+        config.seed,
+    )?;
+    crate::exposure::ride::write_ride(path, &ride.ride)?;
+    let (recording, _) = read_input(path)?;
+    if recording.len() != ride.ride.len() {
+        bail!(
+            "{}: read back {} samples of {}",
+            path.display(),
+            recording.len(),
+            ride.ride.len()
+        );
+    }
+    ride.ride.platform_m_s2 = recording.platform_m_s2;
+    Ok(ride)
+}
+
+/// The parameters flashed: the preset, with telemetry for every sample (a device in
+/// service sends 100 Hz). The report overlays the host's computation on each of the
+/// device's samples, and `supine replay` of ride.csv with these parameters reproduces
+/// device.csv.
+fn param_file() -> ParamFile {
+    let mut file = ParamFile::preset(PRESET);
+    file.device = Some(DeviceSection {
+        telemetry_decimation: Some(1),
+        ..DeviceSection::default()
+    });
+    file
+}
+
+/// What the device sent, read back from the files the monitor logged.
+struct DeviceRecord {
+    trace: Trace,
+    events: Vec<EventRow>,
+}
+
+/// Runs the device in QEMU, followed by the monitor, which logs to device.csv and
+/// device.events.csv; then reads them back (the report shows what a user can open).
+fn run_device(
+    qemu_run: &QemuRun,
+    files: &DemoFiles,
+    view: &mut dyn View,
+    stop: &Arc<AtomicBool>,
+) -> Result<(Monitor, DeviceRecord)> {
+    let mut log = MonitorLog::create(&files.device)?;
+    let (monitor, ending) = match run_qemu(qemu_run, view, Some(&mut log), stop) {
+        Ok(done) => done,
+        Err(e) => {
+            log.discard();
+            return Err(e.context("running the device in QEMU"));
+        }
+    };
+    if ending == Ending::Stopped {
+        log.discard();
+        bail!(
+            "interrupted after {} of {} samples",
+            monitor.latest().map_or(0, |t| t.sample_index + 1),
+            qemu_run.samples.len()
+        );
+    }
+    log.finish()?;
+    let record = DeviceRecord {
+        trace: Trace::from_telemetry(&read_telemetry(&files.device)?, SAMPLE_RATE_HZ),
+        events: read_events(&files.device_events, SAMPLE_RATE_HZ)?,
+    };
+    Ok((monitor, record))
+}
+
+/// The host's computation on the samples the device got.
+struct HostReference {
+    trace: Trace,
+    events: Vec<EventRow>,
+    head_f64_m_s2: [Vec<f64>; 3],
+    exposure: HostExposure,
+}
+
+/// Runs the device's own pipeline (f32) on the host, writes host.csv and
+/// host.events.csv, and adds the f64 model's head acceleration and the exposure.
+fn host_reference(
+    params: &DeviceParams,
+    file: &ParamFile,
+    samples: &[[f32; 3]],
+    files: &DemoFiles,
+) -> Result<HostReference> {
+    let indices: Vec<u32> = (0..samples.len() as u32).collect();
+    let run = reference::pipeline(params, &indices, samples);
+    write_telemetry(&files.host, &run.telemetry, SAMPLE_RATE_HZ)?;
+    write_events(&files.host_events, &run.events, SAMPLE_RATE_HZ)?;
+    let head_f64 = reference::head_f64(&file.params, SAMPLE_RATE_HZ, samples)?;
+    let (values, _, _) = run_pipeline(params, samples, 0.0)?;
+    let kinds = params.exposure.config.axes.axes().map(|a| a.kind.name());
+    Ok(HostReference {
+        trace: Trace::from_telemetry(&run.telemetry, SAMPLE_RATE_HZ),
+        events: run
+            .events
+            .iter()
+            .map(|e| EventRow::from_event(e, SAMPLE_RATE_HZ))
+            .collect(),
+        head_f64_m_s2: [0, 1, 2].map(|a| head_f64.iter().map(|h| h[a]).collect()),
+        exposure: HostExposure {
+            head: [0, 1, 2].map(|i| AxisReport::new(kinds[i], &values.axes[i])),
+            vector: AxisReport::new("vector", &values.vector),
+        },
+    })
+}
+
+/// How the run was made, from the configuration, the parameters and the device's own
+/// account (its greeting, status and link counters).
+fn run_info(
+    config: &DemoConfig,
+    params: &DeviceParams,
+    monitor: &Monitor,
+    samples: usize,
+    step_times: &[(String, Duration)],
+) -> RunInfo {
+    let greeting = monitor.greeting();
+    RunInfo {
+        profile: config.profile,
+        seed: config.seed,
+        sample_rate_hz: SAMPLE_RATE_HZ,
+        samples,
+        params_name: PRESET.name().to_string(),
+        identity: identity_hex(&params.identity),
+        firmware_version: greeting.firmware_version.as_str().to_string(),
+        device_line: device_line(greeting),
+        warmup_s: f64::from(params.exposure.config.warmup_s),
+        alerts: params.alerts.config,
+        status: monitor.status().copied(),
+        link: monitor.counters().link,
+        step_times: step_times.to_vec(),
+        realtime: config.realtime,
+    }
+}
+
+/// Renders the report and writes it, whole or not at all.
+fn write_report(path: &Path, data: &DemoData, summary: &Summary) -> Result<()> {
+    let html = report::render(data, summary)?;
+    crate::io::output::write_atomically(path, |w| {
+        use std::io::Write as _;
+        w.write_all(html.as_bytes())
+            .with_context(|| format!("writing {}", path.display()))
     })
 }

@@ -2,7 +2,7 @@
 //! smooth paved road, then a rough road with its shocks, then the paved road again; or
 //! one of `supine ride`'s profiles throughout.
 //!
-//! The road trip is made from two rides of [`crate::ride`] with the same seed: the
+//! The road trip is made from two rides of [`crate::exposure::ride`] with the same seed: the
 //! ambulance (paved road) for the whole duration, and a rough road as long as the middle
 //! segment (with the shocks that profile draws for that length), blended in and out with
 //! a raised-cosine cross-fade of [`CROSSFADE_S`] so that no step appears at the joins.
@@ -12,7 +12,7 @@ use std::f64::consts::PI;
 use anyhow::Result;
 use serde::Serialize;
 
-use crate::ride::{Profile, Ride, Shock, generate};
+use crate::exposure::ride::{Profile, Ride, Shock, generate};
 
 /// Where the rough segment starts, as a fraction of the ride.
 pub const ROUGH_START_FRACTION: f64 = 0.2;
@@ -94,9 +94,7 @@ impl DemoRide {
 
     /// The samples as the device takes them (f32, litter axes).
     pub fn samples(&self) -> Vec<[f32; 3]> {
-        (0..self.ride.len())
-            .map(|k| self.ride.platform_m_s2.each_ref().map(|c| c[k] as f32))
-            .collect()
+        self.ride.samples()
     }
 }
 

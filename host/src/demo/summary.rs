@@ -9,9 +9,9 @@ use std::fmt::Write as _;
 
 use supine_core::alerts::Level;
 
-use super::DemoData;
-use super::trace::{EventRow, level_from_name};
-use crate::exposure_report::AxisReport;
+use super::data::DemoData;
+use crate::exposure::report::AxisReport;
+use crate::io::telemetry_csv::{EventRow, level_from_name};
 
 /// What the demo found.
 #[derive(Clone, Debug, PartialEq)]

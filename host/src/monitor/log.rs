@@ -14,7 +14,9 @@ use std::time::{Duration, Instant};
 use anyhow::{Result, anyhow};
 use supine_core::protocol::DeviceToHost;
 
-use crate::replay::{EVENTS_HEADER, TELEMETRY_HEADER, event_row, events_path, telemetry_row};
+use crate::io::telemetry_csv::{
+    EVENTS_HEADER, TELEMETRY_HEADER, event_row, events_path, telemetry_row,
+};
 
 /// Longest time between flushes.
 pub const FLUSH_INTERVAL: Duration = Duration::from_secs(1);
@@ -139,6 +141,13 @@ impl MonitorLog {
         let _ = self.telemetry.flush();
         let _ = self.events.flush();
         (self.telemetry.partial, self.events.partial)
+    }
+
+    /// Removes both files (the session failed and nothing in them is worth keeping).
+    pub fn discard(self) {
+        let (telemetry, events) = self.abandon();
+        let _ = std::fs::remove_file(telemetry);
+        let _ = std::fs::remove_file(events);
     }
 }
 

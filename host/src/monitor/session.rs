@@ -20,12 +20,14 @@ use anyhow::{Context, Result, anyhow, bail};
 use supine_core::protocol::{DeviceToHost, Greeting, HostToDevice};
 
 use super::log::MonitorLog;
-use super::state::Monitor;
+use super::state::{Monitor, device_line};
 use super::view::View;
-use crate::device_params::identity_hex;
-use crate::link::{FrameReader, FrameWriter, check_protocol, format_duration};
-use crate::qemu::{Qemu, QemuConfig};
-use crate::replay::{Outgoing, sample_messages};
+use crate::device::device_params::{self, identity_hex};
+use crate::device::firmware;
+use crate::device::link::{FrameReader, FrameWriter, check_protocol, format_duration};
+use crate::device::qemu::{Qemu, QemuConfig};
+use crate::device::replay::{Outgoing, sample_messages};
+use crate::io::params_file::ParamFile;
 
 /// Longest wait for a message before the loop checks the stop flag and redraws.
 const STEP: Duration = Duration::from_millis(50);
@@ -159,6 +161,30 @@ pub struct QemuRun {
 }
 
 impl QemuRun {
+    /// A run of the product image with `file`'s parameters at `sample_rate_hz` (built
+    /// once: the blob and the identity the device must greet with come from one build),
+    /// streaming `samples`. Builds the image if it is stale.
+    pub fn new(
+        file: &ParamFile,
+        samples: Vec<[f32; 3]>,
+        sample_rate_hz: f64,
+        realtime: bool,
+        greeting_timeout: Duration,
+    ) -> Result<Self> {
+        let params = device_params::build(file, sample_rate_hz)?;
+        let blob = device_params::encode(&params)?;
+        let kernel = firmware::build_binary(firmware::PRODUCT_BINARY)?;
+        Ok(Self {
+            kernel,
+            blob,
+            identity: params.identity,
+            samples,
+            sample_rate_hz,
+            realtime,
+            greeting_timeout,
+        })
+    }
+
     /// Longest the whole run may take: the ride's duration if paced, plus a margin for a
     /// device that runs tens of thousands of samples per second.
     pub fn timeout(&self) -> Duration {
@@ -289,6 +315,26 @@ fn stream_ride(
         }
     }
     writer.flush()
+}
+
+/// Follows a device on a serial port (at `baud`) until Ctrl-C or the port fails: waits
+/// for its greeting, names the device on standard error, then [`follow`]s it.
+pub fn run_serial(
+    port: &str,
+    baud: u32,
+    greeting_timeout: Duration,
+    view: &mut dyn View,
+    log: Option<&mut MonitorLog>,
+    stop: &AtomicBool,
+) -> Result<(Monitor, Ending)> {
+    let serial = open_serial(port, baud)?;
+    let mut reader = FrameReader::new(serial);
+    let greeting = wait_greeting(&mut reader, greeting_timeout, stop)
+        .with_context(|| format!("{port} at {baud} baud"))?;
+    eprintln!("supine monitor: {}", device_line(&greeting));
+    let mut monitor = Monitor::new(&greeting)?;
+    let ending = follow(&mut reader, &mut monitor, view, log, stop, false, None)?;
+    Ok((monitor, ending))
 }
 
 /// Opens a real device on `port` at `baud` and asks it to greet (`Hello`); the returned
@@ -479,7 +525,7 @@ mod tests {
         assert!(text.contains("update this host tool"), "{text}");
         // A newer device's greeting that this host cannot decode at all: refused by the
         // version it leads with, not reported as a decoding error or a silence.
-        let mut bytes = crate::link::tests::other_greeting_frame(PROTOCOL_VERSION + 1);
+        let mut bytes = crate::device::link::tests::other_greeting_frame(PROTOCOL_VERSION + 1);
         bytes.extend(frame(1, telemetry(0)));
         let mut reader = FrameReader::new(Cursor::new(bytes));
         let err = wait_greeting(&mut reader, Duration::from_secs(1), &stop).expect_err("mismatch");

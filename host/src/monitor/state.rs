@@ -8,8 +8,8 @@ use anyhow::Result;
 use supine_core::alerts::{AlertEvent, Level, SensorFault};
 use supine_core::protocol::{DeviceToHost, Greeting, ParamsSource, Status, Telemetry};
 
-use crate::device_params::identity_hex;
-use crate::link::{LinkStats, check_protocol};
+use crate::device::device_params::identity_hex;
+use crate::device::link::{LinkStats, check_protocol};
 
 /// Alert events kept for the view (the log keeps all of them).
 pub const HISTORY_LEN: usize = 8;

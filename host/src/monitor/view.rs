@@ -14,7 +14,7 @@ use crossterm::terminal::{Clear, ClearType};
 use crossterm::{cursor, queue};
 
 use super::state::{Monitor, Notice, Severity, describe_event, params_source_text};
-use crate::device_params::identity_hex;
+use crate::device::device_params::identity_hex;
 
 /// Redraw period of the live panel (10 Hz, whatever the telemetry rate).
 pub const REDRAW_INTERVAL: Duration = Duration::from_millis(100);
@@ -316,7 +316,7 @@ mod tests {
         DeviceToHost, Greeting, PROTOCOL_VERSION, ParamsSource, ResetCause, Telemetry,
     };
 
-    use crate::link::LinkStats;
+    use crate::device::link::LinkStats;
 
     fn monitor() -> Monitor {
         let g = Greeting {

@@ -9,6 +9,7 @@
 //! and every L-th output is kept. The start-up transient from rest decays within a few
 //! seconds; it is part of the prediction, as it would be on the device.
 
+use std::io::Write as _;
 use std::path::Path;
 
 use anyhow::{Result, anyhow, bail};
@@ -19,9 +20,10 @@ use supine_core::model::{
     MAX_SAMPLE_RATE_HZ, MIN_SAMPLE_RATE_HZ, ModalState, Model, ModelParams, Output,
 };
 
+use crate::identify::spectral::{DEFAULT_RESOLUTION_HZ, WelchSettings, psd};
+use crate::io::output::write_atomically;
+use crate::io::recording::Recording;
 use crate::plot::{Panel, Series, figure_svg};
-use crate::recording::Recording;
-use crate::spectral::{DEFAULT_RESOLUTION_HZ, WelchSettings, psd};
 
 /// The model runs at no less than this rate, Hz (upsampling slower recordings).
 pub const MIN_SIMULATION_RATE_HZ: f64 = 1000.0;
@@ -234,6 +236,22 @@ pub fn psd_svg(recording: &Recording, predicted: &[Vec<f64>; 9]) -> Result<Strin
         &panels,
         3,
     )
+}
+
+/// Writes `--report DIR`: `psd.svg` (measured and predicted PSD of every channel) and
+/// `validation.json` (`json`, the result as printed with `--json`). Creates `dir`.
+pub fn write_report(
+    dir: &Path,
+    recording: &Recording,
+    predicted: &[Vec<f64>; 9],
+    json: &str,
+) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| anyhow!("{}: cannot create: {e}", dir.display()))?;
+    let svg = psd_svg(recording, predicted)?;
+    write_atomically(&dir.join("psd.svg"), |w| Ok(w.write_all(svg.as_bytes())?))?;
+    write_atomically(&dir.join("validation.json"), |w| {
+        Ok(w.write_all(json.as_bytes())?)
+    })
 }
 
 /// Writes a recording with the input's time and platform columns and predicted sensors.

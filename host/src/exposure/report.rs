@@ -9,12 +9,12 @@
 //!   channel and whose other axes carry zeros, so the x axis' values are the channel's.
 //!
 //! Both need the sample rate within the weightings' 100..=2000 Hz; a recording at another
-//! rate is converted first by the band-limited [`crate::resample`] (zero phase), at the
+//! rate is converted first by the band-limited [`crate::exposure::resample`] (zero phase), at the
 //! user's request only.
 //!
-//! Recordings are read by [`crate::recording`]. A file with only the platform columns
-//! (what `supine ride` writes: [`PLATFORM_HEADER_LINE`]) is read by the same reader, its
-//! sensor columns filled with zeros that no evaluation here reads; see [`read_input`].
+//! Recordings are read by [`crate::io::recording::read_input`], which also accepts a file
+//! with only the platform columns (what `supine ride` writes), its sensor columns filled
+//! with zeros that no evaluation here reads.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -29,59 +29,13 @@ use supine_core::exposure::{
 use supine_core::pipeline::{PipelineOutput, PipelineState};
 use supine_core::weighting::{MAX_SAMPLE_RATE_HZ, MIN_SAMPLE_RATE_HZ, WeightingKind};
 
-use crate::recording::{COLUMNS, HEADER_LINE, Recording, RecordingError};
-use crate::resample::Resampler;
-
-/// The header of a recording that holds only the support (platform) accelerations.
-pub const PLATFORM_HEADER_LINE: &str = "time_s,platform_x,platform_y,platform_z";
+use crate::device::device_params;
+use crate::exposure::resample::Resampler;
+use crate::io::params_file::ParamFile;
+use crate::io::recording::{COLUMNS, Layout, Recording};
 
 /// Samples handed to the device pipeline per call (bounds the index buffer, not the result).
 const CHUNK_SAMPLES: usize = 4096;
-
-/// Which columns a recording file holds.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Layout {
-    /// All 13 columns of the recording format.
-    Full,
-    /// Time and the three platform columns only ([`PLATFORM_HEADER_LINE`]).
-    PlatformOnly,
-}
-
-/// Reads a recording through [`Recording::parse`], accepting also a platform-only file.
-///
-/// A platform-only file is handed to the reader line for line with nine zero cells appended
-/// to every data line, so line numbers, column names and every check (numbers, finiteness,
-/// strictly increasing and uniform time) are the reader's own; only the cell count is
-/// restated for four columns.
-pub fn read_input(path: &Path) -> Result<(Recording, Layout)> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| anyhow!("{}: cannot read the recording: {e}", path.display()))?;
-    let first = text.lines().next().map(|l| l.trim_end_matches('\r'));
-    if first != Some(PLATFORM_HEADER_LINE) {
-        return Ok((Recording::parse(&text, path)?, Layout::Full));
-    }
-    let mut padded = String::with_capacity(text.len() * 2);
-    padded.push_str(HEADER_LINE);
-    padded.push('\n');
-    for line in text.lines().skip(1) {
-        let line = line.trim_end_matches('\r');
-        padded.push_str(line);
-        if !line.trim().is_empty() {
-            padded.push_str(",0,0,0,0,0,0,0,0,0");
-        }
-        padded.push('\n');
-    }
-    match Recording::parse(&padded, path) {
-        Ok(rec) => Ok((rec, Layout::PlatformOnly)),
-        Err(RecordingError::CellCount { path, line, found }) => Err(anyhow!(
-            "{}: line {line}: expected 4 comma-separated cells (header \"{PLATFORM_HEADER_LINE}\"), found {}",
-            path.display(),
-            found.saturating_sub(9)
-        )),
-        Err(e) => Err(e.into()),
-    }
-}
 
 /// Whether a rate is one the device's weighting and alert stages accept.
 pub fn rate_supported(sample_rate_hz: f64) -> bool {
@@ -103,7 +57,7 @@ pub struct Prepared {
 }
 
 /// Brings `channels` of `recording` to `fs_hz` if given (band-limited, see
-/// [`crate::resample`]), else checks that the recording's own rate is within 100..=2000 Hz.
+/// [`crate::exposure::resample`]), else checks that the recording's own rate is within 100..=2000 Hz.
 pub fn prepare(recording: &Recording, channels: &[&[f64]], fs_hz: Option<f64>) -> Result<Prepared> {
     let own_hz = recording.sample_rate_hz();
     let path = recording.path.display();
@@ -638,6 +592,39 @@ impl ChannelExposure {
         let _ = writeln!(s, "{}", self.values.row(&self.channel));
         s
     }
+}
+
+/// `supine exposure`'s model form on `recording` (with the columns of `layout`): its
+/// platform columns at `fs_hz` (else its own rate) through the device parameters of
+/// `file`, built at that rate; `model` names the parameters in the report.
+pub fn evaluate_model(
+    recording: &Recording,
+    layout: Layout,
+    file: &ParamFile,
+    model: String,
+    fs_hz: Option<f64>,
+) -> Result<ModelExposure> {
+    let [x, y, z] = &recording.platform_m_s2;
+    let prepared = prepare(recording, &[x, y, z], fs_hz)?;
+    let params = device_params::build(file, prepared.sample_rate_hz)?;
+    let identity = device_params::identity_hex(&params.identity);
+    let input = recording.path.display().to_string();
+    model_exposure(&params, &prepared, &input, layout, model, identity)
+}
+
+/// `supine exposure`'s channel form on `recording` (with the columns of `layout`): the
+/// column named `channel`, at `fs_hz` (else its own rate), weighted with `kind`.
+pub fn evaluate_channel(
+    recording: &Recording,
+    layout: Layout,
+    channel: &str,
+    kind: WeightingKind,
+    fs_hz: Option<f64>,
+) -> Result<ChannelExposure> {
+    let index = channel_index(channel, layout, &recording.path)?;
+    let prepared = prepare(recording, &[column(recording, index)], fs_hz)?;
+    let input = recording.path.display().to_string();
+    channel_exposure(kind, &prepared, &input, channel)
 }
 
 /// The column index (0-based, in [`COLUMNS`]) of an acceleration column; an error that

@@ -1,14 +1,11 @@
 //! The demo's report: one self-contained HTML file (inline CSS, inline SVG; no script, no
 //! external font, style or image), readable by someone who has not seen the code.
 //!
-//! - [`downsample`]: min/max per pixel column, so long series stay small and peaks stay.
-//! - [`charts`]: a time chart as data, drawn to SVG by `plotters`.
-//! - [`figures`]: which charts the report has and what goes on each.
+//! - [`figures`]: which charts the report has and what goes on each (drawn by
+//!   [`crate::plot::time_chart`]).
 //! - this module: the page around them (summary, tables, explanations), with every piece
 //!   of text that did not come from this file escaped.
 
-pub mod charts;
-pub mod downsample;
 pub mod figures;
 
 use std::fmt::Write as _;
@@ -16,8 +13,9 @@ use std::fmt::Write as _;
 use anyhow::Result;
 use supine_core::alerts::Level;
 
-use crate::demo::DemoData;
+use crate::demo::data::DemoData;
 use crate::demo::summary::{Summary, difference};
+use crate::io::telemetry_csv::level_from_name;
 
 /// Most alert events listed in the report's table (all are in the CSV file).
 pub const MAX_EVENT_ROWS: usize = 40;
@@ -73,10 +71,25 @@ fn num(v: f64, digits: usize) -> String {
     format!("{v:.digits$}")
 }
 
-/// The whole report page.
+/// The whole report page, section by section.
 pub fn render(data: &DemoData, summary: &Summary) -> Result<String> {
-    let i = &data.info;
     let mut h = String::with_capacity(1 << 20);
+    head(&mut h, data);
+    verdict(&mut h, data, summary);
+    h.push_str("<div class=\"grid\">");
+    exposure_table(&mut h, data, summary);
+    events_table(&mut h, data);
+    h.push_str("</div>\n");
+    charts(&mut h, data)?;
+    level_meanings(&mut h, data);
+    how_made(&mut h, data);
+    h.push_str("</main>\n</body>\n</html>\n");
+    Ok(h)
+}
+
+/// The page's head and the title with the one-paragraph account of what was done.
+fn head(h: &mut String, data: &DemoData) {
+    let i = &data.info;
     let duration_s = data.ride.duration_s();
     let _ = write!(
         h,
@@ -96,8 +109,11 @@ pub fn render(data: &DemoData, summary: &Summary) -> Result<String> {
         i.sample_rate_hz,
         escape(&i.params_name)
     );
+}
 
-    // Verdict.
+/// The verdict: the highest alert level, and whether the device and the host agree.
+fn verdict(h: &mut String, data: &DemoData, summary: &Summary) {
+    let i = &data.info;
     let lvl = summary.highest_level;
     let _ = write!(
         h,
@@ -156,9 +172,13 @@ pub fn render(data: &DemoData, summary: &Summary) -> Result<String> {
             )
         }
     );
+}
 
-    // Exposure table and events.
-    h.push_str("<div class=\"grid\"><div>\n<h2>Exposure of the predicted head</h2>\n<table>\n\
+/// The exposure of the predicted head (the host's run of the device code), and what the
+/// device itself reported.
+fn exposure_table(h: &mut String, data: &DemoData, summary: &Summary) {
+    let i = &data.info;
+    h.push_str("<div>\n<h2>Exposure of the predicted head</h2>\n<table>\n\
         <tr><th></th><th>overall rms<br>m/s&sup2;</th><th>MTVV<br>m/s&sup2;</th><th>VDV<br>m/s<sup>1.75</sup></th>\
         <th>peak<br>m/s&sup2;</th><th>crest<br>factor</th></tr>\n");
     for (label, a) in &summary.exposure {
@@ -183,6 +203,10 @@ pub fn render(data: &DemoData, summary: &Summary) -> Result<String> {
         num(summary.device_vdv_m_s175, 4),
         i.warmup_s
     );
+}
+
+/// The device's alert events, at most [`MAX_EVENT_ROWS`].
+fn events_table(h: &mut String, data: &DemoData) {
     h.push_str(
         "<div>\n<h2>Alert events (device)</h2>\n<table>\n<tr><th>time, s</th><th>event</th></tr>\n",
     );
@@ -192,10 +216,7 @@ pub fn render(data: &DemoData, summary: &Summary) -> Result<String> {
         );
     }
     for e in data.device_events.iter().take(MAX_EVENT_ROWS) {
-        let cell = match (
-            e.kind.as_str(),
-            crate::demo::trace::level_from_name(&e.name),
-        ) {
+        let cell = match (e.kind.as_str(), level_from_name(&e.name)) {
             ("level", Some(l)) => format!(
                 "{} {}",
                 if e.raised { "raised to" } else { "lowered to" },
@@ -216,12 +237,15 @@ pub fn render(data: &DemoData, summary: &Summary) -> Result<String> {
             data.device_events.len() - MAX_EVENT_ROWS
         );
     }
-    h.push_str("</table>\n</div></div>\n");
+    h.push_str("</table>\n</div>");
+}
 
-    // Figures.
+/// The charts of [`figures`], with their captions.
+fn charts(h: &mut String, data: &DemoData) -> Result<()> {
+    let i = &data.info;
     h.push_str("<h2>What the device saw and predicted</h2>\n");
     figure(
-        &mut h,
+        h,
         &figures::input(data),
         "The litter frame's acceleration that was streamed to the device, per axis (x along the patient's body, \
          y lateral, z vertical). Shaded: the rough stretch of road; dotted lines: shocks (potholes, speed bumps). \
@@ -229,7 +253,7 @@ pub fn render(data: &DemoData, summary: &Summary) -> Result<String> {
     )?;
     for axis in 0..3 {
         figure(
-            &mut h,
+            h,
             &figures::head(data, axis),
             if axis == 0 {
                 "The head acceleration the device predicted (solid), with the host's f64 model on the same input \
@@ -242,7 +266,7 @@ pub fn render(data: &DemoData, summary: &Summary) -> Result<String> {
     h.push_str("<h2>Exposure and alerts</h2>\n");
     let rms = i.alerts.running_rms_m_s2;
     figure(
-        &mut h,
+        h,
         &figures::vector_rms(data),
         &format!(
             "The 1 s running rms of the weighted head acceleration (vector sum): what the alert levels follow. \
@@ -259,13 +283,13 @@ pub fn render(data: &DemoData, summary: &Summary) -> Result<String> {
         ),
     )?;
     figure(
-        &mut h,
+        h,
         &figures::axis_rms(data),
         "The same running rms for each head axis (device solid, host dashed).",
     )?;
     let vdv = i.alerts.vdv_m_s175;
     figure(
-        &mut h,
+        h,
         &figures::vdv(data),
         &format!(
             "The vibration dose value grows with every jolt and never falls (fourth power: shocks weigh heavily). \
@@ -275,12 +299,18 @@ pub fn render(data: &DemoData, summary: &Summary) -> Result<String> {
         ),
     )?;
     figure(
-        &mut h,
+        h,
         &figures::levels(data),
         "The alert level the device reported with each telemetry record (solid), and the host's (dashed).",
     )?;
+    Ok(())
+}
 
-    // Meaning of the levels.
+/// What the alert levels mean, where their thresholds come from, and the caveat.
+fn level_meanings(h: &mut String, data: &DemoData) {
+    let i = &data.info;
+    let rms = i.alerts.running_rms_m_s2;
+    let vdv = i.alerts.vdv_m_s175;
     let _ = write!(
         h,
         "<h2>What the alert levels mean</h2>\n<table>\n\
@@ -312,8 +342,12 @@ pub fn render(data: &DemoData, summary: &Summary) -> Result<String> {
         (100.0 * (1.0 - i.alerts.hysteresis)).round(),
         i.alerts.clear_dwell_s
     );
+}
 
-    // How the run was made.
+/// How this run was made: device, firmware, parameters, ride, counters, files.
+fn how_made(h: &mut String, data: &DemoData) {
+    let i = &data.info;
+    let duration_s = data.ride.duration_s();
     let st = i.status.unwrap_or_default();
     let steps = i
         .step_times
@@ -339,7 +373,7 @@ pub fn render(data: &DemoData, summary: &Summary) -> Result<String> {
          <a href=\"device.events.csv\">device.events.csv</a> (what the device sent), <a href=\"host.csv\">host.csv</a> and \
          <a href=\"host.events.csv\">host.events.csv</a> (the host's reference), <a href=\"params.toml\">params.toml</a></dd>\n\
          <dt>again</dt><dd><code>supine demo --profile {} --duration-s {} --seed {}</code> gives the same ride and the same numbers</dd>\n\
-         </dl>\n</main>\n</body>\n</html>\n",
+         </dl>\n",
         escape(&i.device_line),
         escape(&i.firmware_version),
         escape(&i.params_name),
@@ -369,10 +403,9 @@ pub fn render(data: &DemoData, summary: &Summary) -> Result<String> {
         duration_s,
         i.seed
     );
-    Ok(h)
 }
 
-fn figure(h: &mut String, chart: &charts::Chart, caption: &str) -> Result<()> {
+fn figure(h: &mut String, chart: &crate::plot::time_chart::Chart, caption: &str) -> Result<()> {
     let svg = chart.to_svg()?;
     let _ = write!(h, "<figure>\n{svg}\n");
     if !caption.is_empty() {
@@ -385,10 +418,11 @@ fn figure(h: &mut String, chart: &charts::Chart, caption: &str) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::demo::data::{HostExposure, RunInfo};
     use crate::demo::ride::{DemoProfile, make};
-    use crate::demo::trace::{EventRow, Trace};
-    use crate::demo::{HostExposure, RunInfo};
-    use crate::exposure_report::AxisReport;
+    use crate::demo::trace::Trace;
+    use crate::exposure::report::AxisReport;
+    use crate::io::telemetry_csv::EventRow;
     use supine_core::alerts::{AlertConfig, AlertEvent};
     use supine_core::exposure::AxisValues;
     use supine_core::protocol::Telemetry;

@@ -18,11 +18,11 @@ use supine_core::upload::{
     COMMIT_LEN, KEY_LEN, ParamFlash, SLOT_COUNT, SLOT_LEN, commit_record, select,
 };
 
-use crate::device_params::{self, identity_hex};
-use crate::link::{FrameReader, FrameWriter};
-use crate::params_file::ParamFile;
-use crate::qemu::{Qemu, QemuConfig};
-use crate::upload_client::{self, Uploaded};
+use crate::device::device_params::{self, identity_hex};
+use crate::device::link::{FrameReader, FrameWriter};
+use crate::device::qemu::{Qemu, QemuConfig};
+use crate::device::upload_client::{self, Uploaded};
+use crate::io::params_file::ParamFile;
 
 /// Bytes of the PARAMS region image: both slots.
 pub const REGION_LEN: usize = SLOT_COUNT * SLOT_LEN;
@@ -81,11 +81,10 @@ pub fn region_image_with_stride(blob: &[u8], counter: u32, slot_stride: usize) -
 }
 
 /// The PARAMS region image that QEMU's `-device loader,file=...,addr=0x70000` places so
-/// that the device boots `file`'s parameters at `sample_rate_hz` (counter
-/// [`REGION_IMAGE_COUNTER`]).
-pub fn qemu_region_image(file: &ParamFile, sample_rate_hz: f64) -> Result<Vec<u8>> {
-    let (_, blob) = device_blob(file, sample_rate_hz)?;
-    region_image(&blob, REGION_IMAGE_COUNTER)
+/// that the device boots `blob` (from [`device_blob`], whose parameters give the identity
+/// the device will greet with), counter [`REGION_IMAGE_COUNTER`].
+pub fn qemu_region_image(blob: &[u8]) -> Result<Vec<u8>> {
+    region_image(blob, REGION_IMAGE_COUNTER)
 }
 
 /// A region image seen as the device's two slots (read only).
@@ -186,7 +185,7 @@ impl CounterState {
             std::fs::create_dir_all(dir)
                 .map_err(|e| anyhow!("{}: cannot create: {e}", dir.display()))?;
         }
-        crate::output::write_atomically(&self.path, |w| Ok(writeln!(w, "{counter}")?))
+        crate::io::output::write_atomically(&self.path, |w| Ok(writeln!(w, "{counter}")?))
     }
 
     /// The next counter, max(`now_s`, last + 1), recorded before it is returned.
@@ -264,7 +263,9 @@ pub fn upload_over_link<R: Read, W: Write>(
 pub fn load_key(path: Option<&Path>) -> Result<[u8; KEY_LEN]> {
     match path {
         Some(p) => upload_client::read_key(p),
-        None => upload_client::read_key(&crate::firmware::repository_root().join(DEV_KEY_PATH)),
+        None => {
+            upload_client::read_key(&crate::device::firmware::repository_root().join(DEV_KEY_PATH))
+        }
     }
 }
 
@@ -314,14 +315,14 @@ pub fn upload_qemu(
     counter: u32,
     timeout: Duration,
 ) -> Result<UploadOutcome> {
-    let kernel = crate::firmware::build_binary(crate::firmware::PRODUCT_BINARY)?;
+    let kernel = crate::device::firmware::build_binary(crate::device::firmware::PRODUCT_BINARY)?;
     let config = QemuConfig::new(kernel)
         .uart()
         .timeout(timeout + Duration::from_secs(30));
     let mut qemu = Qemu::start(&config)?;
     // Nothing here polls a stop flag: a signal kills QEMU, which ends the blocked read,
     // and the guard removes the socket folder. Declared after `qemu`, so dropped first.
-    let _kill_on_signal = crate::signals::KillOnSignal::new(qemu.id());
+    let _kill_on_signal = crate::device::signals::KillOnSignal::new(qemu.id());
     let uart = qemu.uart().ok_or_else(|| anyhow!("QEMU has no UART"))?;
     uart.set_read_timeout(Some(Duration::from_millis(50)))?;
     let mut reader = FrameReader::new(uart.try_clone()?);
@@ -337,7 +338,7 @@ pub fn upload_qemu(
             timeout,
         )
     });
-    if crate::signals::stop_requested() {
+    if crate::device::signals::stop_requested() {
         bail!("interrupted: QEMU stopped and its folder removed");
     }
     result
@@ -387,9 +388,9 @@ mod tests {
     #[test]
     fn a_region_image_boots_slot_a_with_its_counter_and_blob() {
         let file = ParamFile::preset(Preset::PaperLitter);
-        let image = qemu_region_image(&file, 500.0).unwrap();
-        assert_eq!(image.len(), 64 * 1024);
         let (params, blob) = device_blob(&file, 500.0).unwrap();
+        let image = qemu_region_image(&blob).unwrap();
+        assert_eq!(image.len(), 64 * 1024);
         assert_eq!(&image[..blob.len()], &blob[..]);
         assert_eq!(&image[blob.len()..blob.len() + 4], b"CMIT");
         assert!(image[blob.len() + COMMIT_LEN..].iter().all(|&b| b == 0xFF));
@@ -444,8 +445,8 @@ mod tests {
     #[test]
     fn a_bad_rate_is_refused_with_the_option_named() {
         let file = ParamFile::preset(Preset::PaperLitter);
-        let err = qemu_region_image(&file, 0.0).unwrap_err().to_string();
+        let err = device_blob(&file, 0.0).unwrap_err().to_string();
         assert!(err.contains("--fs"), "{err}");
-        assert!(qemu_region_image(&file, f64::NAN).is_err());
+        assert!(device_blob(&file, f64::NAN).is_err());
     }
 }

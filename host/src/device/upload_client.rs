@@ -14,8 +14,8 @@ use supine_core::protocol::{
 };
 use supine_core::upload::{KEY_LEN, update_mac};
 
-use crate::device_params::identity_hex;
-use crate::link::{FrameReader, FrameWriter};
+use crate::device::device_params::identity_hex;
+use crate::device::link::{FrameReader, FrameWriter};
 
 /// Where a committed update landed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -98,7 +98,7 @@ fn expect_ack<R: Read>(
             Some(_) => {}
             None => bail!(
                 "no answer from the device within {}",
-                crate::link::format_duration(timeout)
+                crate::device::link::format_duration(timeout)
             ),
         }
     }

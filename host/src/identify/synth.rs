@@ -24,9 +24,9 @@ use supine_core::model::{
     MAX_SAMPLE_RATE_HZ, ModalState, Model, ModelParams, Output, ParamId, Preset, Subject,
 };
 
-use crate::dataset::{Dataset, SubjectEntry};
-use crate::params_file::{self, ParamFile};
-use crate::recording::Recording;
+use crate::io::dataset::{Dataset, SubjectEntry};
+use crate::io::params_file::{self, ParamFile};
+use crate::io::recording::Recording;
 
 /// What to generate: plain data with the defaults.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -253,7 +253,7 @@ pub fn write_dataset(
     }
     std::fs::create_dir_all(dir.join("truth"))
         .map_err(|e| anyhow!("{}: cannot create: {e}", dir.display()))?;
-    let _ = std::fs::remove_file(dir.join(crate::dataset::DATASET_FILE));
+    let _ = std::fs::remove_file(dir.join(crate::io::dataset::DATASET_FILE));
     let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
     let subjects = draw_subjects(settings, &mut rng)?;
     let mut entries = Vec::with_capacity(subjects.len());

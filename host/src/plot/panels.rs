@@ -1,21 +1,22 @@
 //! Line-plot figures for the command line's reports (`fit --report`, `validate --report`):
-//! a grid of panels, each with linear or logarithmic y, ticks and lines, drawn by
-//! `plotters` into SVG text (the same crate and backend as `supine demo`'s report).
+//! a grid of panels, each with linear or logarithmic y, ticks and lines.
 
 use std::ops::Range;
 
-use anyhow::{Result, anyhow};
+use anyhow::Result;
 use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+use super::{Rgb, plot_error};
 
 /// One line of a panel.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Series {
     /// (x, y) points; non-finite values (and, on a log axis, non-positive ones) break the line.
     pub points: Vec<(f64, f64)>,
-    /// An SVG colour as `#rrggbb`, e.g. `#bbbbbb`.
-    pub color: String,
+    /// Colour.
+    pub color: Rgb,
     /// Stroke width, px.
     pub width: f64,
     /// Dashed stroke.
@@ -25,11 +26,11 @@ pub struct Series {
 }
 
 impl Series {
-    /// A solid line.
+    /// A solid line in the colour written `#rrggbb` (see [`Rgb::from_hex`]).
     pub fn line(points: Vec<(f64, f64)>, color: &str, width: f64, label: Option<&str>) -> Self {
         Self {
             points,
-            color: color.to_string(),
+            color: Rgb::from_hex(color),
             width,
             dashed: false,
             label: label.map(str::to_string),
@@ -58,23 +59,6 @@ pub struct Panel {
 const PANEL_PX: (u32, u32) = (340, 240);
 /// Height of the figure's title and legend, px.
 const TOP_PX: u32 = 56;
-
-fn plot_error<E: std::fmt::Debug>(e: E) -> anyhow::Error {
-    anyhow!("drawing a figure: {e:?}")
-}
-
-/// `#rrggbb` as a colour (black if it is not one).
-fn color(text: &str) -> RGBColor {
-    let hex = text.trim_start_matches('#');
-    let byte = |i: usize| {
-        hex.get(i..i + 2)
-            .and_then(|h| u8::from_str_radix(h, 16).ok())
-    };
-    match (hex.len(), byte(0), byte(2), byte(4)) {
-        (6, Some(r), Some(g), Some(b)) => RGBColor(r, g, b),
-        _ => BLACK,
-    }
-}
 
 impl Panel {
     fn usable(&self, &(x, y): &(f64, f64)) -> bool {
@@ -176,7 +160,7 @@ where
         .draw()
         .map_err(plot_error)?;
     for s in &panel.series {
-        let style = color(&s.color).stroke_width(s.width.round().max(1.0) as u32);
+        let style = RGBColor::from(s.color).stroke_width(s.width.round().max(1.0) as u32);
         for run in panel.runs(s) {
             if s.dashed {
                 chart
@@ -215,7 +199,7 @@ pub fn figure_svg(title: &str, panels: &[Panel], columns: usize) -> Result<Strin
             let mut x = 12;
             for s in first.series.iter().filter(|s| s.label.is_some()) {
                 let label = s.label.clone().unwrap_or_default();
-                let c = color(&s.color);
+                let c = RGBColor::from(s.color);
                 top.draw(&PathElement::new(
                     vec![(x, 38), (x + 22, 38)],
                     c.stroke_width(2),
@@ -294,11 +278,5 @@ mod tests {
             vec![(1.0, 1.0), (2.0, 2.0), (3.0, 0.0), (4.0, 1.0), (5.0, 3.0)],
         );
         assert_eq!(q.runs(&q.series[0]).len(), 2);
-    }
-
-    #[test]
-    fn colours_parse_and_bad_ones_fall_back_to_black() {
-        assert_eq!(color("#c8c8c8"), RGBColor(200, 200, 200));
-        assert_eq!(color("red"), BLACK);
     }
 }

@@ -16,8 +16,8 @@ use supine_core::model::params::{Contacts, Joints, SensorOffsets};
 use supine_core::model::{ModelParams, ParamError, Preset, Subject};
 use supine_core::mounting::Mounting;
 
-use crate::output::write_atomically;
-use crate::text_position::line_column;
+use crate::io::output::write_atomically;
+use crate::io::text_position::line_column;
 
 /// A parameter set and where it came from.
 #[derive(Clone, Debug, PartialEq)]
@@ -181,6 +181,22 @@ pub fn load_for_subject(
 pub fn save(path: &Path, file: &ParamFile) -> Result<()> {
     let text = file.to_toml()?;
     write_atomically(path, |w| Ok(w.write_all(text.as_bytes())?))
+}
+
+/// `mounting` as the `[device.mounting]` table of a parameter file (what `supine
+/// calibrate` prints, to paste into one).
+pub fn mounting_toml(mounting: Mounting) -> Result<String> {
+    #[derive(Serialize)]
+    struct MountingTable {
+        device: DeviceTable,
+    }
+    #[derive(Serialize)]
+    struct DeviceTable {
+        mounting: Mounting,
+    }
+    Ok(toml::to_string(&MountingTable {
+        device: DeviceTable { mounting },
+    })?)
 }
 
 /// Names the line of the offending key: the table header, then the key under it.

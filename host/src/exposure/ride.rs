@@ -38,8 +38,9 @@ use realfft::RealFftPlanner;
 use realfft::num_complex::Complex;
 use serde::Serialize;
 
-use crate::exposure_report::{PLATFORM_HEADER_LINE, rate_supported};
-use crate::output::write_atomically;
+use crate::exposure::report::rate_supported;
+use crate::io::output::write_atomically;
+use crate::io::recording::{PLATFORM_HEADER_LINE, device_samples};
 
 // ---- Ground ambulance, paved road -------------------------------------------------------
 
@@ -411,6 +412,27 @@ impl Ride {
     /// Whether the ride has no samples.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
+    }
+
+    /// The samples a device is streamed ([`device_samples`]).
+    pub fn samples(&self) -> Vec<[f32; 3]> {
+        device_samples(&self.platform_m_s2)
+    }
+
+    /// Unweighted rms of each axis, m/s^2.
+    pub fn rms_m_s2(&self) -> [f64; 3] {
+        self.platform_m_s2
+            .each_ref()
+            .map(|x| (x.iter().map(|v| v * v).sum::<f64>() / x.len().max(1) as f64).sqrt())
+    }
+
+    /// Largest |z| over the rms of z (0 for a still ride): shocks raise it above 9.
+    pub fn vertical_crest_factor(&self) -> f64 {
+        let rms_z = self.rms_m_s2()[2];
+        let peak_z = self.platform_m_s2[2]
+            .iter()
+            .fold(0.0f64, |m, v| m.max(v.abs()));
+        if rms_z > 0.0 { peak_z / rms_z } else { 0.0 }
     }
 }
 

@@ -1,4 +1,9 @@
 //! Writing output files so that a failure never leaves a partial file that looks complete.
+//!
+//! Every file the host writes in one go goes through here, so all of them get the same
+//! guarantee and the same permissions (those of any file the user creates: `File::create`
+//! under the umask). The monitor's live log is the one exception: it streams for the whole
+//! session under a visible `.partial` name (see `crate::monitor::log`).
 
 use std::fs::File;
 use std::io::{BufWriter, Write};

@@ -6,9 +6,9 @@ use std::path::Path;
 
 use anyhow::Result;
 use nalgebra::Complex;
-use supine_core::model::{Axis, Output};
+use supine_core::model::{Axis, Output, Transmissibility};
 
-use crate::output::write_atomically;
+use crate::io::output::write_atomically;
 
 /// One component of H at one frequency.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -23,6 +23,25 @@ pub struct HRow {
     pub value: Complex<f64>,
     /// Multiple coherence of the output, for a single subject's estimate.
     pub coherence: Option<f64>,
+}
+
+/// All 27 components per frequency, frequency-major, with coherence if given.
+pub fn rows(freqs_hz: &[f64], h: &[Transmissibility], coherence: Option<&[[f64; 9]]>) -> Vec<HRow> {
+    let mut rows = Vec::with_capacity(freqs_hz.len() * 27);
+    for (f, &freq_hz) in freqs_hz.iter().enumerate() {
+        for output in Output::ALL {
+            for input in Axis::ALL {
+                rows.push(HRow {
+                    freq_hz,
+                    output,
+                    input,
+                    value: h[f][(output.index(), input.index())],
+                    coherence: coherence.map(|c| c[f][output.index()]),
+                });
+            }
+        }
+    }
+    rows
 }
 
 /// The header without the coherence column.

@@ -10,7 +10,7 @@ use supine_core::blob::{DeviceParams, MAX_BLOB_LEN, TelemetryConfig};
 use supine_core::model::device_realization;
 use supine_core::protocol::{IDENTITY_LEN, ParamsIdentity};
 
-use crate::params_file::ParamFile;
+use crate::io::params_file::ParamFile;
 
 /// The identity the device reports for these parameters.
 pub fn identity(file: &ParamFile) -> Result<ParamsIdentity> {

@@ -20,9 +20,9 @@ use anyhow::{Result, anyhow, bail};
 use serde::Deserialize;
 use supine_core::model::Subject;
 
-use crate::output::write_atomically;
-use crate::recording::Recording;
-use crate::text_position::line_column;
+use crate::io::output::write_atomically;
+use crate::io::recording::Recording;
+use crate::io::text_position::line_column;
 
 /// The dataset description's file name inside the dataset folder.
 pub const DATASET_FILE: &str = "dataset.toml";

@@ -12,7 +12,7 @@ use supine_core::model::response::COUPLED_COMPONENTS;
 
 use super::objective::COMPONENTS;
 use super::{AtBound, FitResult, Identifiability, Setup};
-use crate::geomean::wrap_pi;
+use crate::identify::geomean::wrap_pi;
 use crate::plot::{Panel, Series, figure_svg};
 
 /// The paper's name of a component, e.g. `H13` (output 1..9, input 1..3).

@@ -12,8 +12,7 @@
 //! The [`Qemu`] guard kills QEMU and removes its folder on every exit path; a stop flag
 //! (set by Ctrl-C in the CLI) ends the loops early with an error.
 
-use std::io::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread;
@@ -27,19 +26,13 @@ use supine_core::protocol::{
 };
 use supine_core::timing::INSTRUCTIONS_PER_TICK;
 
-use crate::device_params;
-use crate::firmware;
-use crate::link::{FrameReader, FrameWriter, LinkStats};
-use crate::params_file::ParamFile;
-use crate::qemu::{Qemu, QemuConfig};
-use crate::recording::Recording;
+use crate::device::device_params;
+use crate::device::firmware;
+use crate::device::link::{FrameReader, FrameWriter, LinkStats};
+use crate::device::qemu::{Qemu, QemuConfig};
+use crate::io::params_file::ParamFile;
+use crate::io::recording::Recording;
 
-/// Header of the telemetry CSV. The first five columns are named as issue 5 and the
-/// recording format name them (`head_x`: predicted head acceleration, m/s^2, litter axes);
-/// the rest carry their units.
-pub const TELEMETRY_HEADER: &str = "sample,time_s,head_x,head_y,head_z,running_rms_x_m_s2,running_rms_y_m_s2,running_rms_z_m_s2,running_rms_vector_m_s2,vdv_m_s175,alert_level,fault_flags,valid";
-/// Header of the alert events CSV.
-pub const EVENTS_HEADER: &str = "sample,time_s,kind,name,raised";
 
 /// One thing the host sends: a message, or raw bytes (for tests that send garbage).
 #[derive(Clone, Debug, PartialEq)]
@@ -208,7 +201,7 @@ fn talk(
         if Instant::now() >= deadline {
             break Err(anyhow!(
                 "the device did not finish within {} ({} telemetry records so far)",
-                crate::link::format_duration(deadline - started),
+                crate::device::link::format_duration(deadline - started),
                 s.telemetry.len()
             ));
         }
@@ -221,7 +214,7 @@ fn talk(
         }
         match message {
             Ok(Some(DeviceToHost::Greeting(g))) => {
-                if let Err(e) = crate::link::check_protocol(g.protocol_version) {
+                if let Err(e) = crate::device::link::check_protocol(g.protocol_version) {
                     break Err(e);
                 }
                 s.greetings.push(g);
@@ -283,9 +276,7 @@ pub fn replay(
     let mut params = device_params::build(file, sample_rate_hz)?;
     params.telemetry = telemetry;
     let blob = device_params::encode(&params)?;
-    let samples: Vec<[f32; 3]> = (0..recording.len())
-        .map(|k| recording.platform_m_s2.each_ref().map(|c| c[k] as f32))
-        .collect();
+    let samples = recording.platform_samples();
     let kernel = firmware::build_binary(firmware::PRODUCT_BINARY)?;
     // Generous: the device runs at tens of thousands of samples per second.
     let timeout = Duration::from_secs(60 + samples.len() as u64 / 1000);
@@ -310,87 +301,4 @@ pub fn replay(
         sample_rate_hz,
         samples: samples.len(),
     })
-}
-
-/// Writes the telemetry CSV ([`TELEMETRY_HEADER`]) through a temporary file.
-pub fn write_telemetry(path: &Path, telemetry: &[Telemetry], sample_rate_hz: f64) -> Result<()> {
-    let mut text = String::with_capacity(telemetry.len() * 120 + 200);
-    text.push_str(TELEMETRY_HEADER);
-    text.push('\n');
-    for t in telemetry {
-        text.push_str(&telemetry_row(t, sample_rate_hz));
-    }
-    write_atomically(path, &text)
-}
-
-/// One line of the telemetry CSV ([`TELEMETRY_HEADER`]), newline included; shared with
-/// `supine monitor`'s live log so both write the same format.
-pub fn telemetry_row(t: &Telemetry, sample_rate_hz: f64) -> String {
-    let [hx, hy, hz] = t.head_acc_m_s2;
-    let [rx, ry, rz] = t.running_rms_m_s2;
-    format!(
-        "{},{},{hx},{hy},{hz},{rx},{ry},{rz},{},{},{},{},{}\n",
-        t.sample_index,
-        f64::from(t.sample_index) / sample_rate_hz,
-        t.vector_running_rms_m_s2,
-        t.vdv_m_s175,
-        t.alert_level.name(),
-        t.fault_flags,
-        u8::from(t.valid),
-    )
-}
-
-/// Writes the alert events CSV ([`EVENTS_HEADER`]) through a temporary file.
-pub fn write_events(path: &Path, events: &[AlertEvent], sample_rate_hz: f64) -> Result<()> {
-    let mut text = String::from(EVENTS_HEADER);
-    text.push('\n');
-    for e in events {
-        text.push_str(&event_row(e, sample_rate_hz));
-    }
-    write_atomically(path, &text)
-}
-
-/// One line of the events CSV ([`EVENTS_HEADER`]), newline included.
-pub fn event_row(e: &AlertEvent, sample_rate_hz: f64) -> String {
-    let (kind, name) = match *e {
-        AlertEvent::Level { to, .. } => ("level", to.name()),
-        AlertEvent::Fault { fault, .. } => ("fault", fault.name()),
-    };
-    format!(
-        "{},{},{kind},{name},{}\n",
-        e.at_sample(),
-        f64::from(e.at_sample()) / sample_rate_hz,
-        u8::from(e.is_raise())
-    )
-}
-
-/// `<stem>.events.csv` next to `out`.
-pub fn events_path(out: &Path) -> PathBuf {
-    let stem = out
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    out.with_file_name(format!("{stem}.events.csv"))
-}
-
-fn write_atomically(path: &Path, text: &str) -> Result<()> {
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    // Readable like any file the user creates (a temporary file is private by default).
-    let mut builder = tempfile::Builder::new();
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        builder.permissions(std::fs::Permissions::from_mode(0o644));
-    }
-    let mut tmp = builder
-        .tempfile_in(dir)
-        .with_context(|| format!("cannot write in {}", dir.display()))?;
-    tmp.write_all(text.as_bytes())
-        .with_context(|| format!("writing {}", path.display()))?;
-    tmp.persist(path)
-        .map_err(|e| anyhow!("cannot write {}: {}", path.display(), e.error))?;
-    Ok(())
 }

@@ -28,9 +28,9 @@ pub const QEMU_PROGRAM: &str = "qemu-system-arm";
 /// The emulated board: Cortex-M4 with FPU.
 pub const MACHINE: &str = "mps2-an386";
 /// Where the parameter blob is loaded: the PARAMS region of `memory.x`.
-pub const PARAMS_ADDR: u32 = crate::memory_map::PARAMS_ORIGIN;
+pub const PARAMS_ADDR: u32 = crate::device::memory_map::PARAMS_ORIGIN;
 /// Largest parameter blob: the PARAMS region's size.
-pub const PARAMS_MAX_BYTES: u64 = crate::memory_map::PARAMS_LENGTH_BYTES as u64;
+pub const PARAMS_MAX_BYTES: u64 = crate::device::memory_map::PARAMS_LENGTH_BYTES as u64;
 
 /// How often a waiting run checks on QEMU.
 const POLL: Duration = Duration::from_millis(5);
@@ -152,7 +152,7 @@ pub enum QemuError {
         stderr: String,
     },
     /// The deadline passed; QEMU was killed.
-    #[error("QEMU did not finish within {} and was killed; last output: {}", crate::link::format_duration(*timeout), last_line(stdout))]
+    #[error("QEMU did not finish within {} and was killed; last output: {}", crate::device::link::format_duration(*timeout), last_line(stdout))]
     Timeout {
         /// The deadline.
         timeout: Duration,

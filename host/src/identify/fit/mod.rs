@@ -27,7 +27,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use supine_core::model::{ModelParams, ParamId, Preset, Subject};
 
-use crate::dataset::Case;
+use crate::io::dataset::Case;
 use objective::{COMPONENTS, Objective, Target};
 use solver::{Problem, Solution, SolverSettings, Termination};
 

@@ -1,26 +1,35 @@
 //! The report's charts, built from a demo's data: what each shows is decided here, how it
-//! is drawn in [`super::charts`].
+//! is drawn in [`crate::plot::time_chart`].
 
 use supine_core::alerts::Level;
 
-use super::charts::{Band, Chart, Line, Marker, Moment, PLOT_COLUMNS, Rgb, Threshold, y_range};
-use super::downsample::min_max;
-use crate::demo::DemoData;
-use crate::demo::trace::{Trace, level_from_name};
-use crate::ride::ShockKind;
+use crate::demo::data::DemoData;
+use crate::demo::trace::Trace;
+use crate::exposure::ride::ShockKind;
+use crate::io::telemetry_csv::level_from_name;
+use crate::plot::Rgb;
+use crate::plot::downsample::min_max;
+use crate::plot::time_chart::{
+    Band, Chart, Line, Marker, Moment, PLOT_COLUMNS, Threshold, y_range,
+};
 
 /// Axis colours: x, y, z.
-pub const AXIS_COLORS: [Rgb; 3] = [(31, 119, 180), (44, 160, 44), (214, 39, 40)];
+pub const AXIS_COLORS: [Rgb; 3] = [Rgb(31, 119, 180), Rgb(44, 160, 44), Rgb(214, 39, 40)];
 /// The vector sum's colour.
-pub const VECTOR_COLOR: Rgb = (25, 25, 25);
+pub const VECTOR_COLOR: Rgb = Rgb(25, 25, 25);
 /// The host's overlays.
-pub const HOST_COLOR: Rgb = (255, 127, 14);
+pub const HOST_COLOR: Rgb = Rgb(255, 127, 14);
 /// Shading of a rough stretch of road.
-pub const ROUGH_COLOR: Rgb = (255, 170, 60);
+pub const ROUGH_COLOR: Rgb = Rgb(255, 170, 60);
 /// Shading of the exposure's warm-up.
-pub const WARMUP_COLOR: Rgb = (120, 120, 120);
+pub const WARMUP_COLOR: Rgb = Rgb(120, 120, 120);
 /// Level colours: normal, advisory, warning, alarm.
-pub const LEVEL_COLORS: [Rgb; 4] = [(46, 139, 87), (204, 153, 0), (230, 90, 0), (200, 0, 0)];
+pub const LEVEL_COLORS: [Rgb; 4] = [
+    Rgb(46, 139, 87),
+    Rgb(204, 153, 0),
+    Rgb(230, 90, 0),
+    Rgb(200, 0, 0),
+];
 
 const AXES: [&str; 3] = ["x (along the body)", "y (lateral)", "z (vertical)"];
 

@@ -1,19 +1,18 @@
-//! The report's time charts, drawn by `plotters` into SVG text (its SVG backend writes
-//! plain `<svg>` elements with system sans-serif text: no script, no font file).
+//! Time charts (the demo's report): lines over time, with alert thresholds, shaded
+//! stretches, event markers and vertical instants.
 //!
 //! A [`Chart`] is data only (lines, threshold lines, shaded stretches, event markers), so
 //! what the report draws is testable without parsing SVG; [`Chart::to_svg`] draws it.
 
-use anyhow::{Result, anyhow};
+use anyhow::Result;
 use plotters::prelude::*;
+
+use super::{Rgb, plot_error};
 
 /// Width of every chart, px (the report's column).
 pub const WIDTH_PX: u32 = 1100;
 /// Pixel columns of the plotting area, for downsampling.
 pub const PLOT_COLUMNS: usize = 1000;
-
-/// A colour as red, green, blue.
-pub type Rgb = (u8, u8, u8);
 
 /// One data line.
 #[derive(Clone, Debug, PartialEq)]
@@ -103,14 +102,6 @@ pub struct Chart {
     pub y_tick_names: Option<Vec<String>>,
 }
 
-fn rgb(c: Rgb) -> RGBColor {
-    RGBColor(c.0, c.1, c.2)
-}
-
-fn plot_error<E: std::fmt::Debug>(e: E) -> anyhow::Error {
-    anyhow!("drawing a chart: {e:?}")
-}
-
 /// The y range covering `values` and `also` (threshold values to keep in view), with a
 /// margin of 8 % of the span; never empty.
 pub fn y_range<'a>(
@@ -186,7 +177,7 @@ impl Chart {
                 chart
                     .draw_series(std::iter::once(Rectangle::new(
                         [(band.start_s, y0), (band.end_s, y1)],
-                        rgb(band.color).mix(0.18).filled(),
+                        RGBColor::from(band.color).mix(0.18).filled(),
                     )))
                     .map_err(plot_error)?;
                 chart
@@ -222,7 +213,7 @@ impl Chart {
                 if !(y0..=y1).contains(&th.y) {
                     continue;
                 }
-                let color = rgb(th.color);
+                let color = RGBColor::from(th.color);
                 chart
                     .draw_series(DashedLineSeries::new(
                         [(x0, th.y), (x1, th.y)],
@@ -241,7 +232,7 @@ impl Chart {
                 .map_err(plot_error)?;
             }
             for line in &self.lines {
-                let color = rgb(line.color);
+                let color = RGBColor::from(line.color);
                 let style = color.stroke_width(line.width);
                 let legend = move |(x, y): (i32, i32)| {
                     PathElement::new(vec![(x, y), (x + 22, y)], color.stroke_width(3))
@@ -266,7 +257,7 @@ impl Chart {
                 }
             }
             for m in &self.markers {
-                let color = rgb(m.color);
+                let color = RGBColor::from(m.color);
                 let shape = if m.up {
                     vec![(0, -11), (-8, 4), (8, 4)]
                 } else {
@@ -349,18 +340,18 @@ mod tests {
             thresholds: vec![
                 Threshold {
                     y: 0.5,
-                    color: (200, 150, 0),
+                    color: Rgb(200, 150, 0),
                     label: "advisory 0.5".into(),
                 },
                 Threshold {
                     y: 5.0,
-                    color: (200, 0, 0),
+                    color: Rgb(200, 0, 0),
                     label: "alarm 5 (off scale)".into(),
                 },
             ],
             lines: vec![Line {
                 points: vec![(0.0, 0.1), (5.0, 1.5), (10.0, 0.2)],
-                color: (0, 0, 200),
+                color: Rgb(0, 0, 200),
                 width: 2,
                 dashed: false,
                 label: "device <vector>".into(),

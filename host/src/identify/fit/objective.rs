@@ -25,7 +25,7 @@ use supine_core::model::geometry::Body;
 use supine_core::model::response::COUPLED_COMPONENTS;
 use supine_core::model::{ModelParams, ParamId, SystemMatrices, Transmissibility};
 
-use crate::geomean::wrap_pi;
+use crate::identify::geomean::wrap_pi;
 
 /// Number of fitted components.
 pub const COMPONENTS: usize = COUPLED_COMPONENTS.len();

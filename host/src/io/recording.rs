@@ -7,14 +7,18 @@
 //! lie within [`UNIFORM_TOLERANCE`] (1 %) of the mean step. A 1 % timing jitter is a phase
 //! error of at most 0.01 x 360 x f / fs degrees (0.3 degrees at 16 Hz and 200 Hz).
 //!
+//! A ride (what `supine ride` writes) holds only time and the platform columns
+//! ([`PLATFORM_HEADER_LINE`]); [`read_input`] reads either kind through the same reader.
+//!
 //! Every error is one line naming the file, the line and column, and what was expected.
 
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
-use anyhow::Result;
+use anyhow::{Result, anyhow};
+use serde::Serialize;
 
-use crate::output::write_atomically;
+use crate::io::output::write_atomically;
 
 /// The exact first line of a recording.
 pub const HEADER_LINE: &str = "time_s,platform_x,platform_y,platform_z,head_x,head_y,head_z,torso_x,torso_y,torso_z,pelvis_x,pelvis_y,pelvis_z";
@@ -180,6 +184,11 @@ impl Recording {
         self.len() as f64 / self.sample_rate_hz()
     }
 
+    /// The platform columns as the samples a device is streamed ([`device_samples`]).
+    pub fn platform_samples(&self) -> Vec<[f32; 3]> {
+        device_samples(&self.platform_m_s2)
+    }
+
     /// Reads and checks a recording.
     pub fn read(path: &Path) -> Result<Self, RecordingError> {
         let text = std::fs::read_to_string(path).map_err(|e| RecordingError::Read {
@@ -328,6 +337,63 @@ impl Recording {
             }
             Ok(())
         })
+    }
+}
+
+/// Platform accelerations x, y, z (m/s^2, one column each) as the device's samples: one
+/// f32 triple per instant, as the wire protocol carries them.
+pub fn device_samples(platform_m_s2: &[Vec<f64>; 3]) -> Vec<[f32; 3]> {
+    let n = platform_m_s2.iter().map(Vec::len).min().unwrap_or(0);
+    (0..n)
+        .map(|k| platform_m_s2.each_ref().map(|c| c[k] as f32))
+        .collect()
+}
+
+/// The header of a recording that holds only the support (platform) accelerations.
+pub const PLATFORM_HEADER_LINE: &str = "time_s,platform_x,platform_y,platform_z";
+
+/// Which columns a recording file holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Layout {
+    /// All 13 columns of the recording format.
+    Full,
+    /// Time and the three platform columns only ([`PLATFORM_HEADER_LINE`]).
+    PlatformOnly,
+}
+
+/// Reads a recording through [`Recording::parse`], accepting also a platform-only file.
+///
+/// A platform-only file is handed to the reader line for line with nine zero cells appended
+/// to every data line, so line numbers, column names and every check (numbers, finiteness,
+/// strictly increasing and uniform time) are the reader's own; only the cell count is
+/// restated for four columns.
+pub fn read_input(path: &Path) -> Result<(Recording, Layout)> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| anyhow!("{}: cannot read the recording: {e}", path.display()))?;
+    let first = text.lines().next().map(|l| l.trim_end_matches('\r'));
+    if first != Some(PLATFORM_HEADER_LINE) {
+        return Ok((Recording::parse(&text, path)?, Layout::Full));
+    }
+    let mut padded = String::with_capacity(text.len() * 2);
+    padded.push_str(HEADER_LINE);
+    padded.push('\n');
+    for line in text.lines().skip(1) {
+        let line = line.trim_end_matches('\r');
+        padded.push_str(line);
+        if !line.trim().is_empty() {
+            padded.push_str(",0,0,0,0,0,0,0,0,0");
+        }
+        padded.push('\n');
+    }
+    match Recording::parse(&padded, path) {
+        Ok(rec) => Ok((rec, Layout::PlatformOnly)),
+        Err(RecordingError::CellCount { path, line, found }) => Err(anyhow!(
+            "{}: line {line}: expected 4 comma-separated cells (header \"{PLATFORM_HEADER_LINE}\"), found {}",
+            path.display(),
+            found.saturating_sub(9)
+        )),
+        Err(e) => Err(e.into()),
     }
 }
 

@@ -1,0 +1,22 @@
+//! The device as the host sees it: what it runs, how it is built and started, and how the
+//! host talks to it.
+//!
+//! - [`device_params`]: a parameter file turned into the device's blob and its identity.
+//! - [`firmware`]: building the device image.
+//! - [`qemu`]: running the image in QEMU (mps2-an386).
+//! - [`link`]: the host's end of the wire protocol.
+//! - [`memory_map`]: the device's memory regions, read from `memory.x` at build time.
+//! - [`upload_client`]: the authenticated parameter upload.
+//! - [`flash`]: getting parameters onto a device (region image, upload, probe-rs).
+//! - [`replay`]: a recording streamed through the image in QEMU.
+//! - [`signals`]: Ctrl-C and friends stop QEMU cleanly.
+
+pub mod device_params;
+pub mod firmware;
+pub mod flash;
+pub mod link;
+pub mod memory_map;
+pub mod qemu;
+pub mod replay;
+pub mod signals;
+pub mod upload_client;

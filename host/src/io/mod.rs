@@ -1,0 +1,17 @@
+//! The file formats the host reads and writes, and writing files safely.
+//!
+//! - [`output`]: every output file is written whole or not at all.
+//! - [`text_position`]: line and column of a parse error.
+//! - [`params_file`]: the parameter file (`--params`), TOML.
+//! - [`dataset`]: a dataset folder (`dataset.toml` and its recordings).
+//! - [`recording`]: the recording CSV (13 columns, or the platform columns of a ride).
+//! - [`h_csv`]: the transmissibility CSV of `supine model` and `supine transmissibility`.
+//! - [`telemetry_csv`]: a device's telemetry and alert events as CSV (replay, monitor, demo).
+
+pub mod dataset;
+pub mod h_csv;
+pub mod output;
+pub mod params_file;
+pub mod recording;
+pub mod telemetry_csv;
+pub mod text_position;

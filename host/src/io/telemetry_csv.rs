@@ -1,0 +1,320 @@
+//! The telemetry CSV and its alert events CSV: what `supine replay`, `supine monitor --log`
+//! and `supine demo` write of a device's telemetry, and what the demo reads back.
+//!
+//! Two files: `NAME.csv` ([`TELEMETRY_HEADER`], one row per telemetry record) and
+//! `<stem>.events.csv` beside it ([`EVENTS_HEADER`], one row per alert event). Values are
+//! written in f32's shortest round-trip form, so they read back exactly.
+
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Result, anyhow, bail};
+use supine_core::alerts::{AlertEvent, Level};
+use supine_core::protocol::Telemetry;
+
+use super::output::write_atomically;
+
+/// Header of the telemetry CSV. The first five columns are named as issue 5 and the
+/// recording format name them (`head_x`: predicted head acceleration, m/s^2, litter axes);
+/// the rest carry their units.
+pub const TELEMETRY_HEADER: &str = "sample,time_s,head_x,head_y,head_z,running_rms_x_m_s2,running_rms_y_m_s2,running_rms_z_m_s2,running_rms_vector_m_s2,vdv_m_s175,alert_level,fault_flags,valid";
+/// Header of the alert events CSV.
+pub const EVENTS_HEADER: &str = "sample,time_s,kind,name,raised";
+
+/// Cells of a telemetry row.
+const TELEMETRY_CELLS: usize = 13;
+
+/// `<stem>.events.csv` next to `out`.
+pub fn events_path(out: &Path) -> PathBuf {
+    let stem = out
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    out.with_file_name(format!("{stem}.events.csv"))
+}
+
+/// One line of the telemetry CSV ([`TELEMETRY_HEADER`]), newline included; written whole
+/// by [`write_telemetry`] and row by row by `supine monitor`'s live log.
+pub fn telemetry_row(t: &Telemetry, sample_rate_hz: f64) -> String {
+    let [hx, hy, hz] = t.head_acc_m_s2;
+    let [rx, ry, rz] = t.running_rms_m_s2;
+    format!(
+        "{},{},{hx},{hy},{hz},{rx},{ry},{rz},{},{},{},{},{}\n",
+        t.sample_index,
+        f64::from(t.sample_index) / sample_rate_hz,
+        t.vector_running_rms_m_s2,
+        t.vdv_m_s175,
+        t.alert_level.name(),
+        t.fault_flags,
+        u8::from(t.valid),
+    )
+}
+
+/// One line of the events CSV ([`EVENTS_HEADER`]), newline included.
+pub fn event_row(e: &AlertEvent, sample_rate_hz: f64) -> String {
+    EventRow::from_event(e, sample_rate_hz).to_line()
+}
+
+/// Writes the telemetry CSV ([`TELEMETRY_HEADER`]), whole or not at all.
+pub fn write_telemetry(path: &Path, telemetry: &[Telemetry], sample_rate_hz: f64) -> Result<()> {
+    write_atomically(path, |w| {
+        writeln!(w, "{TELEMETRY_HEADER}")?;
+        for t in telemetry {
+            w.write_all(telemetry_row(t, sample_rate_hz).as_bytes())?;
+        }
+        Ok(())
+    })
+}
+
+/// Writes the alert events CSV ([`EVENTS_HEADER`]), whole or not at all.
+pub fn write_events(path: &Path, events: &[AlertEvent], sample_rate_hz: f64) -> Result<()> {
+    write_atomically(path, |w| {
+        writeln!(w, "{EVENTS_HEADER}")?;
+        for e in events {
+            w.write_all(event_row(e, sample_rate_hz).as_bytes())?;
+        }
+        Ok(())
+    })
+}
+
+/// The file's header line, or an error naming the one expected.
+fn check_header<'a>(
+    path: &Path,
+    lines: &mut impl Iterator<Item = &'a str>,
+    header: &str,
+) -> Result<()> {
+    match lines.next() {
+        Some(first) if first == header => Ok(()),
+        other => bail!(
+            "{}: line 1: expected the header \"{header}\", found \"{}\"",
+            path.display(),
+            other.unwrap_or("")
+        ),
+    }
+}
+
+/// Reads a telemetry CSV ([`TELEMETRY_HEADER`]) back into the records it was written
+/// from (the `time_s` column is derived, so it is not read).
+pub fn read_telemetry(path: &Path) -> Result<Vec<Telemetry>> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| anyhow!("{}: cannot read: {e}", path.display()))?;
+    let mut lines = text.lines();
+    check_header(path, &mut lines, TELEMETRY_HEADER)?;
+    lines
+        .enumerate()
+        .map(|(k, line)| {
+            let at = || format!("{}: line {}", path.display(), k + 2);
+            let cells: Vec<&str> = line.split(',').collect();
+            if cells.len() != TELEMETRY_CELLS {
+                bail!(
+                    "{}: expected {TELEMETRY_CELLS} cells, found {}",
+                    at(),
+                    cells.len()
+                );
+            }
+            let num = |i: usize| -> Result<f32> {
+                cells[i].parse::<f32>().map_err(|_| {
+                    anyhow!(
+                        "{}, cell {}: expected a number, found \"{}\"",
+                        at(),
+                        i + 1,
+                        cells[i]
+                    )
+                })
+            };
+            let sample_index: u32 = cells[0].parse().map_err(|_| {
+                anyhow!(
+                    "{}, column sample: expected an index, found \"{}\"",
+                    at(),
+                    cells[0]
+                )
+            })?;
+            let alert_level = level_from_name(cells[10])
+                .ok_or_else(|| anyhow!("{}, column alert_level: expected normal, advisory, warning or alarm, found \"{}\"", at(), cells[10]))?;
+            let fault_flags: u8 = cells[11].parse().map_err(|_| {
+                anyhow!(
+                    "{}, column fault_flags: expected 0..=255, found \"{}\"",
+                    at(),
+                    cells[11]
+                )
+            })?;
+            let valid = match cells[12] {
+                "0" => false,
+                "1" => true,
+                other => bail!("{}, column valid: expected 0 or 1, found \"{other}\"", at()),
+            };
+            Ok(Telemetry {
+                sample_index,
+                head_acc_m_s2: [num(2)?, num(3)?, num(4)?],
+                running_rms_m_s2: [num(5)?, num(6)?, num(7)?],
+                vector_running_rms_m_s2: num(8)?,
+                vdv_m_s175: num(9)?,
+                alert_level,
+                fault_flags,
+                valid,
+            })
+        })
+        .collect()
+}
+
+/// The level named `name` (`normal`, `advisory`, `warning`, `alarm`).
+pub fn level_from_name(name: &str) -> Option<Level> {
+    [Level::Normal, Level::Advisory, Level::Warning, Level::Alarm]
+        .into_iter()
+        .find(|l| l.name() == name)
+}
+
+/// One row of an events CSV ([`EVENTS_HEADER`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct EventRow {
+    /// Sample index the event is stamped with.
+    pub sample: u32,
+    /// Its time from sample 0, s.
+    pub time_s: f64,
+    /// `level` or `fault`.
+    pub kind: String,
+    /// The level reached (`kind` level) or the fault's name.
+    pub name: String,
+    /// Raised (rather than cleared).
+    pub raised: bool,
+}
+
+impl EventRow {
+    /// The row of `e`, at `sample_rate_hz`.
+    pub fn from_event(e: &AlertEvent, sample_rate_hz: f64) -> Self {
+        let (kind, name) = match *e {
+            AlertEvent::Level { to, .. } => ("level", to.name()),
+            AlertEvent::Fault { fault, .. } => ("fault", fault.name()),
+        };
+        Self {
+            sample: e.at_sample(),
+            time_s: f64::from(e.at_sample()) / sample_rate_hz,
+            kind: kind.to_string(),
+            name: name.to_string(),
+            raised: e.is_raise(),
+        }
+    }
+
+    /// The row as a line of the file, newline included.
+    pub fn to_line(&self) -> String {
+        format!(
+            "{},{},{},{},{}\n",
+            self.sample,
+            self.time_s,
+            self.kind,
+            self.name,
+            u8::from(self.raised)
+        )
+    }
+
+    /// What happened, in words (`warning raised`, `stuck cleared`, `back to normal`).
+    pub fn text(&self) -> String {
+        match (self.kind.as_str(), self.raised) {
+            ("level", true) => format!("level raised to {}", self.name),
+            ("level", false) => format!("level lowered to {}", self.name),
+            (_, true) => format!("sensor fault {} raised", self.name),
+            (_, false) => format!("sensor fault {} cleared", self.name),
+        }
+    }
+}
+
+/// Reads an events CSV ([`EVENTS_HEADER`]) written at `sample_rate_hz`.
+pub fn read_events(path: &Path, sample_rate_hz: f64) -> Result<Vec<EventRow>> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| anyhow!("{}: cannot read: {e}", path.display()))?;
+    let mut lines = text.lines();
+    check_header(path, &mut lines, EVENTS_HEADER)?;
+    lines
+        .enumerate()
+        .map(|(k, line)| {
+            let at = format!("{}: line {}", path.display(), k + 2);
+            let cells: Vec<&str> = line.split(',').collect();
+            let [sample, _time, kind, name, raised] = cells[..] else {
+                bail!("{at}: expected 5 cells, found {}", cells.len());
+            };
+            let sample: u32 = sample.parse().map_err(|_| {
+                anyhow!("{at}, column sample: expected an index, found \"{sample}\"")
+            })?;
+            if kind != "level" && kind != "fault" {
+                bail!("{at}, column kind: expected level or fault, found \"{kind}\"");
+            }
+            let raised = match raised {
+                "0" => false,
+                "1" => true,
+                other => bail!("{at}, column raised: expected 0 or 1, found \"{other}\""),
+            };
+            Ok(EventRow {
+                sample,
+                time_s: f64::from(sample) / sample_rate_hz,
+                kind: kind.to_string(),
+                name: name.to_string(),
+                raised,
+            })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use supine_core::alerts::SensorFault;
+
+    #[test]
+    fn telemetry_and_events_read_back_exactly_what_was_written() {
+        let t = Telemetry {
+            sample_index: 1234,
+            head_acc_m_s2: [0.1, -2.5e-7, 3.3333333],
+            running_rms_m_s2: [0.123_456_7, 1e-9, 7.0],
+            vector_running_rms_m_s2: 7.001,
+            vdv_m_s175: 2.25,
+            alert_level: Level::Warning,
+            fault_flags: 0b0100,
+            valid: true,
+        };
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("device.csv");
+        write_telemetry(&path, &[t], 500.0).expect("write");
+        assert_eq!(
+            std::fs::read_to_string(&path).expect("read"),
+            format!(
+                "{TELEMETRY_HEADER}\n1234,2.468,0.1,-0.00000025,3.3333333,0.1234567,0.000000001,7,7.001,2.25,warning,4,1\n"
+            )
+        );
+        assert_eq!(read_telemetry(&path).expect("read"), vec![t]);
+
+        let e = AlertEvent::Fault {
+            fault: SensorFault::Stuck,
+            active: false,
+            at_sample: 900,
+        };
+        let path = events_path(&path);
+        assert_eq!(path, dir.path().join("device.events.csv"));
+        write_events(&path, &[e], 500.0).expect("write");
+        assert_eq!(
+            std::fs::read_to_string(&path).expect("read"),
+            format!("{EVENTS_HEADER}\n900,1.8,fault,stuck,0\n")
+        );
+        let events = read_events(&path, 500.0).expect("read");
+        assert_eq!(events.len(), 1);
+        assert_eq!(events[0].sample, 900);
+        assert!((events[0].time_s - 1.8).abs() < 1e-12);
+        assert_eq!(events[0].text(), "sensor fault stuck cleared");
+        assert_eq!(events[0], EventRow::from_event(&e, 500.0));
+    }
+
+    #[test]
+    fn a_bad_cell_names_the_file_line_and_column() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("device.csv");
+        std::fs::write(
+            &path,
+            format!("{TELEMETRY_HEADER}\n1,0.002,0,0,0,0,0,0,0,0,loud,0,1\n"),
+        )
+        .expect("write");
+        let err = read_telemetry(&path).expect_err("bad level").to_string();
+        assert!(err.contains("line 2, column alert_level"), "{err}");
+        std::fs::write(&path, "sample,time_s\n").expect("write");
+        let err = read_telemetry(&path).expect_err("bad header").to_string();
+        assert!(err.contains("line 1: expected the header"), "{err}");
+    }
+}
