@@ -11,10 +11,11 @@
 //! The lock file is created under a temporary name, locked, then renamed into place, so a
 //! concurrent sweep never sees an unlocked lock file of a live run.
 
-use std::fs::{self, File, TryLockError};
+use std::fs::{self, File};
 use std::io;
 use std::path::{Path, PathBuf};
 
+use nix::fcntl::{Flock, FlockArg};
 use tempfile::TempDir;
 
 /// Every scratch folder's name starts with this (then the kind, e.g. `supine-qemu-`).
@@ -27,7 +28,7 @@ pub const LOCK_FILE: &str = "owner.lock";
 pub struct ScratchDir {
     // Field order matters: the lock is released only after the folder is gone.
     dir: TempDir,
-    _lock: File,
+    _lock: Flock<File>,
 }
 
 impl ScratchDir {
@@ -43,8 +44,8 @@ impl ScratchDir {
             .prefix(&format!("{PREFIX}{kind}-"))
             .tempdir_in(parent)?;
         let staging = dir.path().join(".owner.lock.new");
-        let lock = File::create(&staging)?;
-        lock.lock()?;
+        let lock = Flock::lock(File::create(&staging)?, FlockArg::LockExclusive)
+            .map_err(|(_, errno)| io::Error::from(errno))?;
         fs::rename(&staging, dir.path().join(LOCK_FILE))?;
         Ok(Self { dir, _lock: lock })
     }
@@ -76,12 +77,9 @@ fn is_abandoned(dir: &Path) -> bool {
     let Ok(lock) = File::open(dir.join(LOCK_FILE)) else {
         return false;
     };
-    match lock.try_lock() {
-        // Held until `lock` drops at the end of this call, after the caller's check; a new
-        // run cannot adopt an existing folder, so nothing can claim it in between.
-        Ok(()) => true,
-        Err(TryLockError::WouldBlock) | Err(TryLockError::Error(_)) => false,
-    }
+    // A lock taken here is held until the end of this call; a new run never adopts an
+    // existing folder, so nothing can claim it before the caller removes it.
+    Flock::lock(lock, FlockArg::LockExclusiveNonblock).is_ok()
 }
 
 #[cfg(test)]
