@@ -235,3 +235,45 @@ fn a_bad_row_midway_in_the_ride_is_named_and_leaves_nothing() {
     assert_nothing_left(&tmp, "a refused ride");
     assert!(!dir.path().join("device.csv").exists(), "no partial output");
 }
+
+/// Issue 17, D2: `kill -9` (or an out-of-memory kill) runs no destructor, yet QEMU must not
+/// outlive `supine`, and the folders it leaves are swept by the next run.
+#[test]
+fn sigkill_of_replay_takes_qemu_with_it_and_the_next_run_sweeps_its_folders() {
+    firmware(supine_host::device::firmware::PRODUCT_BINARY);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let ride = write_ride(dir.path(), 60.0);
+    let tmp = dir.path().join("tmp-KILL");
+    let child = replay_command(dir.path(), &ride, &tmp)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("supine runs");
+    let (qemu_pid, _) = wait_for_qemu_child(child.id());
+    std::thread::sleep(Duration::from_secs(2));
+    let output = signal_and_wait(child, "KILL");
+    assert!(!output.status.success());
+    // The kernel delivers QEMU's parent-death signal at once; allow it a moment to exit.
+    let start = std::time::Instant::now();
+    while qemu_cmdline(qemu_pid).is_some() && start.elapsed() < Duration::from_secs(10) {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    assert!(
+        qemu_cmdline(qemu_pid).is_none(),
+        "QEMU {qemu_pid} outlived supine"
+    );
+    let left = entries(&tmp);
+    assert!(
+        !left.is_empty() && left.iter().all(|n| n.starts_with("supine-")),
+        "a killed run leaves its folders (no destructor ran): {left:?}"
+    );
+    // The next run, in the same TMPDIR, removes them and then cleans up after itself.
+    let short = write_ride(dir.path(), 2.0);
+    let status = replay_command(dir.path(), &short, &tmp)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .expect("supine runs");
+    assert!(status.success());
+    assert_nothing_left(&tmp, "the run after a SIGKILL");
+}

@@ -346,7 +346,7 @@ pub fn upload_qemu(
 
 /// Programs a region image into a board's flash at `base_address` with probe-rs.
 pub fn probe_download(chip: &str, base_address: u32, image: &[u8]) -> Result<()> {
-    let dir = tempfile::Builder::new().prefix("supine-flash-").tempdir()?;
+    let dir = crate::device::scratch::ScratchDir::new("flash")?;
     let path = dir.path().join("params-region.bin");
     std::fs::write(&path, image)?;
     let output = std::process::Command::new(PROBE_RS)

@@ -10,6 +10,7 @@
 //! - [`flash`]: getting parameters onto a device (region image, upload, probe-rs).
 //! - [`replay`]: a recording streamed through the image in QEMU.
 //! - [`signals`]: Ctrl-C and friends stop QEMU cleanly.
+//! - [`scratch`]: private temporary folders that abandoned runs leave for the next to sweep.
 
 pub mod device_params;
 pub mod firmware;
@@ -18,5 +19,6 @@ pub mod link;
 pub mod memory_map;
 pub mod qemu;
 pub mod replay;
+pub mod scratch;
 pub mod signals;
 pub mod upload_client;

@@ -21,6 +21,8 @@ use std::process::{Child, ChildStderr, ChildStdout, Command, ExitStatus, Stdio};
 use std::thread::{self, JoinHandle};
 use std::time::{Duration, Instant};
 
+use crate::device::scratch::ScratchDir;
+
 /// The QEMU binary: `$SUPINE_QEMU` if set, else `qemu-system-arm` on the `PATH`.
 pub const QEMU_ENV: &str = "SUPINE_QEMU";
 /// The QEMU program run when [`QEMU_ENV`] is not set.
@@ -174,17 +176,19 @@ pub struct Qemu {
     deadline: Instant,
     timeout: Duration,
     // Dropped after `Drop::drop` has killed QEMU, so the socket goes with the folder.
-    dir: tempfile::TempDir,
+    dir: ScratchDir,
 }
 
 impl Qemu {
     /// Starts QEMU on `config`; with a UART, returns once the host side is connected.
     pub fn start(config: &QemuConfig) -> Result<Self, QemuError> {
         check_inputs(config)?;
-        let dir = tempfile::Builder::new().prefix("supine-qemu-").tempdir()?;
+        let dir = ScratchDir::new("qemu")?;
         let socket = dir.path().join("uart.sock");
         let program = qemu_program();
-        let mut child = Command::new(&program)
+        let mut command = Command::new(&program);
+        die_with_this_thread(&mut command);
+        let mut child = command
             .args(arguments(config, &socket))
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
@@ -425,6 +429,28 @@ impl Drop for Qemu {
         }
         // Reap it so no zombie is left; the pipes' reader threads end with it.
         let _ = self.child.wait();
+    }
+}
+
+/// Makes the kernel kill the child (SIGKILL) when the thread that spawns it ends, so QEMU
+/// cannot outlive `supine` however `supine` dies (`kill -9`, an out-of-memory kill), when
+/// no destructor runs. The signal follows the spawning *thread*: a [`Qemu`] is started and
+/// dropped on one thread, which is how every caller uses it.
+fn die_with_this_thread(command: &mut Command) {
+    use std::os::unix::process::CommandExt;
+    let parent = nix::unistd::getpid();
+    // SAFETY: the closure runs in the forked child before exec and calls only prctl(2),
+    // getppid(2) and returns: async-signal-safe system calls, no allocation, no locks.
+    unsafe {
+        command.pre_exec(move || {
+            nix::sys::prctl::set_pdeathsig(nix::sys::signal::Signal::SIGKILL)
+                .map_err(io::Error::from)?;
+            // The parent may have died before the prctl took effect: then exit now.
+            if nix::unistd::getppid() != parent {
+                return Err(io::Error::other("supine ended before QEMU started"));
+            }
+            Ok(())
+        });
     }
 }
 

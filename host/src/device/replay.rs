@@ -30,6 +30,7 @@ use crate::device::device_params;
 use crate::device::firmware;
 use crate::device::link::{FrameReader, FrameWriter, LinkStats};
 use crate::device::qemu::{Qemu, QemuConfig};
+use crate::device::scratch::ScratchDir;
 use crate::io::params_file::ParamFile;
 use crate::io::recording::Recording;
 
@@ -118,7 +119,7 @@ pub fn session(
     script: Vec<Outgoing>,
     stop: &Arc<AtomicBool>,
 ) -> Result<Session> {
-    let blob_dir = tempfile::Builder::new().prefix("supine-blob-").tempdir()?;
+    let blob_dir = ScratchDir::new("blob")?;
     let mut qemu_config = QemuConfig::new(&config.kernel)
         .uart()
         .timeout(config.timeout);

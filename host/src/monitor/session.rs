@@ -27,6 +27,7 @@ use crate::device::firmware;
 use crate::device::link::{FrameReader, FrameWriter, check_protocol, format_duration};
 use crate::device::qemu::{Qemu, QemuConfig};
 use crate::device::replay::{Outgoing, sample_messages};
+use crate::device::scratch::ScratchDir;
 use crate::io::params_file::ParamFile;
 
 /// Longest wait for a message before the loop checks the stop flag and redraws.
@@ -204,7 +205,7 @@ pub fn run_qemu(
     log: Option<&mut MonitorLog>,
     stop: &Arc<AtomicBool>,
 ) -> Result<(Monitor, Ending)> {
-    let blob_dir = tempfile::Builder::new().prefix("supine-blob-").tempdir()?;
+    let blob_dir = ScratchDir::new("blob")?;
     let blob_path = blob_dir.path().join("params.bin");
     std::fs::write(&blob_path, &run.blob).context("writing the parameter blob")?;
     let config = QemuConfig::new(&run.kernel)
