@@ -1,7 +1,7 @@
-//! `supine ride`: every profile's rms per axis and spectral peak are what its constants (and
-//! iso2631.md) say, measured here from the written file; rides are deterministic for a
-//! seed; and the product claim: the device pipeline with the default parameters and
-//! thresholds warns on a rough road and stays quiet on a paved ambulance ride.
+//! `supine ride`: every profile's rms per axis and spectral peak are what its constants
+//! (and docs/exposure.md#realistic-rides) say, measured here from the written file; rides
+//! are deterministic for a seed; and the product claim: the device pipeline with the
+//! default parameters and thresholds warns on a rough road and stays quiet on a paved ambulance ride.
 
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
@@ -149,7 +149,7 @@ fn stationary_profiles_have_the_rms_per_axis_their_constants_say() {
             );
         }
     }
-    // And the constants are inside iso2631.md's ranges.
+    // And the constants are inside the ranges of docs/exposure.md#realistic-rides.
     assert!((0.3..=1.0).contains(&AMBULANCE_VERTICAL_RMS_M_S2));
     assert!((0.3..=0.6).contains(&AMBULANCE_HORIZONTAL_RATIO));
     assert!((0.3..=0.6).contains(&ROUGH_ROAD_HORIZONTAL_RATIO));
@@ -216,7 +216,10 @@ fn a_rough_road_has_its_broadband_rms_plus_the_shocks_energy_and_a_crest_factor_
             );
         }
         let total = rms(&z);
-        assert!((0.6..=5.9).contains(&total), "iso2631.md range: {total}");
+        assert!(
+            (0.6..=5.9).contains(&total),
+            "docs/exposure.md#realistic-rides range: {total}"
+        );
         let peak = z.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         assert!(
             peak / total > 9.0,

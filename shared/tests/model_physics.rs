@@ -1,5 +1,5 @@
-//! Physics invariants of the assembled model (model.md): symmetry, contact-only forcing,
-//! static transmissibility, the decoupling of this geometry, and energy decay.
+//! Physics invariants of the assembled model (docs/model.md#equations-of-motion): symmetry,
+//! contact-only forcing, static transmissibility, the decoupling of this geometry, and energy decay.
 
 use nalgebra::{Complex, SMatrix, SymmetricEigen};
 use supine_core::model::assembly::{DOF_COUNT, input_matrix};

@@ -34,7 +34,6 @@ use crate::device::scratch::ScratchDir;
 use crate::io::params_file::ParamFile;
 use crate::io::recording::Recording;
 
-
 /// One thing the host sends: a message, or raw bytes (for tests that send garbage).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Outgoing {

@@ -1,7 +1,7 @@
 //! Realistic litter-frame accelerations for demos and tests: ground ambulance on a paved
 //! road, a rough road with potholes and speed bumps, a helicopter, and the laboratory's
-//! random input. Every number comes from `../shared/design/iso2631.md` ("Realistic rides")
-//! or the paper's experiment (`model.md`), and is a named constant below.
+//! random input. Every number comes from `docs/exposure.md#realistic-rides` or the paper's
+//! experiment (`docs/model.md#laboratory-experiment`), and is a named constant below.
 //!
 //! # How a ride is made
 //! - Stationary part, per axis: white Gaussian noise shaped in the frequency domain. Every
@@ -45,26 +45,26 @@ use crate::io::recording::{PLATFORM_HEADER_LINE, device_samples};
 // ---- Ground ambulance, paved road -------------------------------------------------------
 
 /// Vertical rms of the litter frame in a ground ambulance on a smooth paved road, m/s^2.
-/// iso2631.md: 0.3-1 m/s^2 rms on paved roads; a smooth road sits at the low end.
+/// exposure.md: 0.3-1 m/s^2 rms on paved roads; a smooth road sits at the low end.
 pub const AMBULANCE_VERTICAL_RMS_M_S2: f64 = 0.3;
-/// Lateral and fore-aft rms as a fraction of the vertical (iso2631.md: about 0.3-0.6).
+/// Lateral and fore-aft rms as a fraction of the vertical (exposure.md: about 0.3-0.6).
 pub const AMBULANCE_HORIZONTAL_RATIO: f64 = 0.35;
-/// Peak of the floor's acceleration spectrum (vehicle body bounce), Hz. iso2631.md: the
+/// Peak of the floor's acceleration spectrum (vehicle body bounce), Hz. exposure.md: the
 /// most critical band is 1.5-4 Hz.
 pub const AMBULANCE_PEAK_HZ: f64 = 2.5;
 /// Damping ratio of that resonance (a broad peak, half-power band about 1.7-3.3 Hz).
 pub const AMBULANCE_DAMPING_RATIO: f64 = 0.35;
-/// Above this frequency the spectrum falls by a further f^-8, Hz. iso2631.md: energy mostly
+/// Above this frequency the spectrum falls by a further f^-8, Hz. exposure.md: energy mostly
 /// below 10 Hz.
 pub const AMBULANCE_ROLLOFF_HZ: f64 = 10.0;
 
 // ---- Rough or field road -------------------------------------------------------------------
 
 /// Vertical rms of the stationary (broadband) part on a rough road, m/s^2, before shocks.
-/// iso2631.md: 0.6-5.9 m/s^2 rms measured on supine subjects in army medical vehicles.
+/// exposure.md: 0.6-5.9 m/s^2 rms measured on supine subjects in army medical vehicles.
 pub const ROUGH_ROAD_VERTICAL_RMS_M_S2: f64 = 1.0;
 /// Lateral and fore-aft rms as a fraction of the vertical (rolling and pitching on an
-/// uneven road: the upper end of iso2631.md's 0.3-0.6).
+/// uneven road: the upper end of the 0.3-0.6 in exposure.md).
 pub const ROUGH_ROAD_HORIZONTAL_RATIO: f64 = 0.55;
 /// Body-bounce peak on a rough road, Hz (within the 1.5-4 Hz band of ground vehicles).
 pub const ROUGH_ROAD_PEAK_HZ: f64 = 2.0;
@@ -79,7 +79,7 @@ pub const ROUGH_ROAD_WHEEL_HOP_DAMPING_RATIO: f64 = 0.2;
 /// Share of the stationary rms in the wheel hop (its rms over the body bounce's).
 pub const ROUGH_ROAD_WHEEL_HOP_RATIO: f64 = 0.35;
 /// Rate of shocks (potholes and speed bumps) on a rough road, per second: six a minute.
-/// iso2631.md says shocks give crest factors above 9 but gives no rate; this is the
+/// exposure.md says shocks give crest factors above 9 but gives no rate; this is the
 /// project's choice for a field road, often enough that a 10 s ride has one in about 60 %
 /// of seeds and that a minute carries several. Arrivals are a Poisson process counted
 /// from the end of the previous pulse (pulses never overlap), so the mean spacing is
@@ -109,13 +109,13 @@ pub const SHOCK_LATERAL_RATIO: f64 = 0.15;
 
 // ---- Helicopter ------------------------------------------------------------------------
 
-/// Main-rotor blade-passage frequency, Hz. iso2631.md: peaks at 17-17.5 Hz (HH-60M: four
+/// Main-rotor blade-passage frequency, Hz. exposure.md: peaks at 17-17.5 Hz (HH-60M: four
 /// blades at about 4.3 rev/s).
 pub const HELICOPTER_BLADE_PASSAGE_HZ: f64 = 17.25;
 /// Main-rotor blades (HH-60M): the rotor turns at blade passage / blades.
 pub const HELICOPTER_BLADES: u32 = 4;
 /// Vertical rms of the once-per-revolution line (4.31 Hz: rotor imbalance and blade
-/// tracking), m/s^2. iso2631.md names only blade passage and its harmonics; a small 1/rev
+/// tracking), m/s^2. exposure.md names only blade passage and its harmonics; a small 1/rev
 /// line is the project's choice of a typical main-rotor signature, kept well below the
 /// blade-passage line. It lies in the body's sensitive 4-8 Hz band.
 pub const HELICOPTER_ONCE_PER_REV_RMS_M_S2: f64 = 0.1;
@@ -125,7 +125,7 @@ pub const HELICOPTER_LINE_WIDTH_HZ: f64 = 0.05;
 /// ("harmonics over a broadband floor", falling with order).
 pub const HELICOPTER_LINE_RMS_M_S2: [f64; 3] = [0.45, 0.2, 0.1];
 /// Vertical rms of the broadband floor, m/s^2. With the lines, the vertical rms is
-/// sqrt(0.1^2 + 0.45^2 + 0.2^2 + 0.1^2 + 0.25^2) = 0.57 m/s^2: iso2631.md gives 0.2-1 m/s^2.
+/// sqrt(0.1^2 + 0.45^2 + 0.2^2 + 0.1^2 + 0.25^2) = 0.57 m/s^2: exposure.md gives 0.2-1 m/s^2.
 pub const HELICOPTER_FLOOR_RMS_M_S2: f64 = 0.25;
 /// Band of the broadband floor (second-order edges), Hz.
 pub const HELICOPTER_FLOOR_BAND_HZ: (f64, f64) = (1.0, 80.0);
@@ -134,10 +134,12 @@ pub const HELICOPTER_HORIZONTAL_RATIO: f64 = 0.5;
 
 // ---- Laboratory ----------------------------------------------------------------------------
 
-/// The paper's laboratory input: white random vibration in this band, Hz (model.md).
+/// The paper's laboratory input: white random vibration in this band, Hz
+/// (docs/model.md#laboratory-experiment).
 pub const LAB_BAND_HZ: (f64, f64) = (0.5, 16.0);
-/// The laboratory input's rms, m/s^2, of the vector magnitude (model.md: 0.5 m/s^2), so
-/// each of the three independent axes carries 0.5 / sqrt 3.
+/// The laboratory input's rms, m/s^2, of the vector magnitude (0.5 m/s^2,
+/// docs/model.md#laboratory-experiment), so each of the three independent axes carries
+/// 0.5 / sqrt 3.
 pub const LAB_VECTOR_RMS_M_S2: f64 = 0.5;
 
 // ---- Common ----------------------------------------------------------------------------------

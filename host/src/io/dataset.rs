@@ -273,7 +273,7 @@ impl Dataset {
     pub fn write_description(&self) -> Result<()> {
         let mut text = String::from(
             "# supine dataset: one [[subject]] per subject; recordings are CSV files\n\
-             # relative to this folder, with the header of model.md's recording format.\n",
+             # relative to this folder, with the header of supine's docs/model.md#recording-format.\n",
         );
         for e in &self.subjects {
             let _ = write!(

@@ -1,5 +1,5 @@
 //! Recordings: the CSV files of support and sensor accelerations that datasets, `predict`,
-//! `validate` and the ride tools read, as `../shared/design/model.md` defines them.
+//! `validate` and the ride tools read, as `docs/model.md#recording-format` defines them.
 //!
 //! The first line is exactly [`HEADER_LINE`]; every following line holds 13 finite numbers:
 //! time in s, then accelerations in m/s^2 at the support (x, y, z) and at the head, torso and

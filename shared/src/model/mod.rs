@@ -1,5 +1,5 @@
 //! The biodynamic model of a supine human (Wang & Rahmatalla 2013), as
-//! `../shared/design/model.md` specifies it: 3 rigid segments, 18 DOFs, joints and contacts
+//! `docs/model.md` specifies it: 3 rigid segments, 18 DOFs, joints and contacts
 //! as spring-dampers, transmissibility, the relative-coordinate state space, modal analysis
 //! and the device's discretized realization.
 //!

@@ -22,8 +22,8 @@ impl C {
     }
 }
 
-/// The ISO 8041 weighting straight from the parameter table in iso2631.md:
-/// (f1, f2, f3, f4, Q4, f5, Q5, f6, Q6, K), `inf` written as `f64::INFINITY`.
+/// The ISO 8041 weighting straight from the parameter table in
+/// docs/exposure.md#frequency-weightings: (f1, f2, f3, f4, Q4, f5, Q5, f6, Q6, K), `inf` written as `f64::INFINITY`.
 fn reference_magnitude(kind: WeightingKind, f: f64) -> f64 {
     let inf = f64::INFINITY;
     let (f1, f2, f3, f4, q4, f5, q5, f6, q6, k) = match kind {
@@ -153,8 +153,8 @@ const NOMINAL_HZ: [f64; 30] = [
 /// ISO 2631-1 Tables 3 and 4: factors x 1000 at the nominal frequencies (the standard
 /// evaluates them there, not at 10^(n/10)), as transcribed in public sources. Two entries
 /// of that transcription are misprints no smooth curve passes through (Wd 212 at 10 Hz
-/// between 253 and 161, as iso2631.md notes; Wj 528 at 4 Hz between 524 and 793): the
-/// formula gives 202 and 628. They are `None` here and checked to be wrong below.
+/// between 253 and 161, as docs/exposure.md#reference-values notes; Wj 528 at 4 Hz between
+/// 524 and 793): the formula gives 202 and 628. They are `None` here and checked to be wrong below.
 const TABLE_MILLI: [(WeightingKind, [Option<f64>; 30]); 3] = [
     (
         WeightingKind::Wk,
