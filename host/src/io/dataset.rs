@@ -20,12 +20,23 @@ use anyhow::{Result, anyhow, bail};
 use serde::Deserialize;
 use supine_core::model::Subject;
 
+use crate::io::excerpt::{bound_quoted_parts, excerpt, name};
 use crate::io::output::write_atomically;
 use crate::io::recording::Recording;
+use crate::io::small_file::read_text;
 use crate::io::text_position::line_column;
 
 /// The dataset description's file name inside the dataset folder.
 pub const DATASET_FILE: &str = "dataset.toml";
+
+/// Longest `dataset.toml` read, bytes: a subject's table takes about 100 bytes, so a
+/// megabyte describes ten thousand subjects, and refuses a wrong file (a recording, a
+/// device) at no cost.
+pub const MAX_DESCRIPTION_BYTES: u64 = 1 << 20;
+
+/// Longest recording file name accepted, bytes: Linux's PATH_MAX, beyond which no file
+/// opens (and the name would only flood the error).
+pub const MAX_PATH_BYTES: usize = 4096;
 
 /// Two recordings' sample rates agree when they differ by less than this fraction.
 pub const SAMPLE_RATE_TOLERANCE: f64 = 1e-4;
@@ -97,8 +108,8 @@ struct SubjectRepr {
     id: toml::Spanned<String>,
     height_m: toml::Spanned<f64>,
     mass_kg: toml::Spanned<f64>,
-    rigid: Option<String>,
-    litter: Option<String>,
+    rigid: Option<toml::Spanned<String>>,
+    litter: Option<toml::Spanned<String>>,
 }
 
 /// A subject's recordings of one case, read and checked.
@@ -114,12 +125,7 @@ impl Dataset {
     /// Reads `DIR/dataset.toml` (not the recordings: [`Dataset::read_case`] does that).
     pub fn load(dir: &Path) -> Result<Self> {
         let path = dir.join(DATASET_FILE);
-        let text = std::fs::read_to_string(&path).map_err(|e| {
-            anyhow!(
-                "{}: cannot read the dataset description: {e}",
-                path.display()
-            )
-        })?;
+        let text = read_text(&path, "dataset description", MAX_DESCRIPTION_BYTES)?;
         Self::parse(&text, dir)
     }
 
@@ -135,7 +141,7 @@ impl Dataset {
         };
         let repr: DatasetRepr = toml::from_str(text).map_err(|e| {
             let offset = e.span().map_or(0, |s| s.start);
-            let message = e.message().trim().replace('\n', " ");
+            let message = bound_quoted_parts(&e.message().trim().replace('\n', " "));
             at(offset, &toml_error_field(text, offset, &message), &message)
         })?;
         let mut subjects: Vec<SubjectEntry> = Vec::with_capacity(repr.subject.len());
@@ -152,7 +158,8 @@ impl Dataset {
                     id_offset,
                     "id",
                     &format!(
-                        "expected unique subject ids, found \"{id}\" again (its first table starts on line {})",
+                        "expected unique subject ids, found {} again (its first table starts on line {})",
+                        excerpt(&id),
                         first.line
                     ),
                 ));
@@ -162,8 +169,20 @@ impl Dataset {
                 if !(v.is_finite() && v > 0.0) {
                     return Err(at(
                         value.span().start,
-                        &format!("{field} (subject {id})"),
+                        &format!("{field} (subject {})", name(&id)),
                         &format!("expected a positive finite number, found {v}"),
+                    ));
+                }
+            }
+            for (field, file) in [("rigid", &s.rigid), ("litter", &s.litter)] {
+                if let Some(file) = file.as_ref().filter(|f| f.get_ref().len() > MAX_PATH_BYTES) {
+                    return Err(at(
+                        file.span().start,
+                        &format!("{field} (subject {})", name(&id)),
+                        &format!(
+                            "expected a file name of at most {MAX_PATH_BYTES} bytes, found {}",
+                            excerpt(file.get_ref())
+                        ),
                     ));
                 }
             }
@@ -173,8 +192,8 @@ impl Dataset {
                     height_m: s.height_m.into_inner(),
                     mass_kg: s.mass_kg.into_inner(),
                 },
-                rigid: s.rigid.map(|r| dir.join(r)),
-                litter: s.litter.map(|r| dir.join(r)),
+                rigid: s.rigid.map(|r| dir.join(r.into_inner())),
+                litter: s.litter.map(|r| dir.join(r.into_inner())),
                 line,
                 column,
             });
@@ -199,11 +218,12 @@ impl Dataset {
         let path = self.dir.join(DATASET_FILE);
         let known = |id: &str| -> Result<&SubjectEntry> {
             self.subjects.iter().find(|e| e.id == id).ok_or_else(|| {
-                let ids: Vec<&str> = self.subjects.iter().map(|e| e.id.as_str()).collect();
+                let ids: Vec<_> = self.subjects.iter().map(|e| name(&e.id)).collect();
                 anyhow!(
-                    "{}: expected a subject id among {}, found \"{id}\"",
+                    "{}: expected a subject id among {}, found {}",
                     path.display(),
-                    ids.join(", ")
+                    ids.join(", "),
+                    excerpt(id)
                 )
             })
         };
@@ -233,7 +253,7 @@ impl Dataset {
                     entry.line,
                     entry.column,
                     case.name(),
-                    entry.id,
+                    name(&entry.id),
                     case.name(),
                     case.name()
                 );
@@ -249,7 +269,9 @@ impl Dataset {
         for entry in selected {
             let file = entry
                 .recording(case)
-                .ok_or_else(|| anyhow!("subject {}: no `{}` recording", entry.id, case.name()))?;
+                .ok_or_else(|| {
+                    anyhow!("subject {}: no `{}` recording", name(&entry.id), case.name())
+                })?;
             let recording = Recording::read(file)?;
             if let Some(first) = out.first() {
                 let (f0, f1) = (first.recording.sample_rate_hz(), recording.sample_rate_hz());
@@ -303,18 +325,18 @@ fn toml_string(s: &str) -> String {
 /// The field a TOML error is about: the one a serde message names in backquotes (missing or
 /// unknown field), else the key of the line the error points into, else the table header.
 fn toml_error_field(text: &str, offset: usize, message: &str) -> String {
-    if let Some(name) = message.split('`').nth(1).filter(|n| !n.is_empty()) {
-        return name.to_string();
+    if let Some(quoted) = message.split('`').nth(1).filter(|n| !n.is_empty()) {
+        return name(quoted).into_owned();
     }
     let (line, _) = line_column(text, offset);
     let line_text = text.lines().nth(line - 1).unwrap_or("").trim();
     if let Some((key, _)) = line_text.split_once('=') {
-        return key.trim().to_string();
+        return name(key.trim()).into_owned();
     }
     let header = line_text.trim_matches(|c| c == '[' || c == ']').trim();
     if header.is_empty() {
         "(none)".to_string()
     } else {
-        header.to_string()
+        name(header).into_owned()
     }
 }

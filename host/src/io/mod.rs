@@ -2,16 +2,22 @@
 //!
 //! - [`output`]: every output file is written whole or not at all.
 //! - [`text_position`]: line and column of a parse error.
+//! - [`excerpt`]: quoting input in error messages, bounded and escaped.
+//! - [`small_file`]: reading a file that cannot legitimately be large, with a size limit.
+//! - [`csv_lines`]: reading a CSV file line by line, each line bounded.
 //! - [`params_file`]: the parameter file (`--params`), TOML.
 //! - [`dataset`]: a dataset folder (`dataset.toml` and its recordings).
 //! - [`recording`]: the recording CSV (13 columns, or the platform columns of a ride).
 //! - [`h_csv`]: the transmissibility CSV of `supine model` and `supine transmissibility`.
 //! - [`telemetry_csv`]: a device's telemetry and alert events as CSV (replay, monitor, demo).
 
+pub mod csv_lines;
 pub mod dataset;
+pub mod excerpt;
 pub mod h_csv;
 pub mod output;
 pub mod params_file;
 pub mod recording;
+pub mod small_file;
 pub mod telemetry_csv;
 pub mod text_position;

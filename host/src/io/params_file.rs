@@ -1,7 +1,8 @@
 //! The parameter file: the TOML form of [`ModelParams`] plus an optional `[fit]` table of
 //! provenance, read by every command that takes `--params` and written by `supine fit`.
 //!
-//! Errors name the file, the line and column, and the field, in one line.
+//! Errors name the file, the line and column, and the field, in one line. A file is at
+//! most [`MAX_FILE_BYTES`] long (see [`crate::io::small_file`]).
 
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -16,8 +17,15 @@ use supine_core::model::params::{Contacts, Joints, SensorOffsets};
 use supine_core::model::{ModelParams, ParamError, Preset, Subject};
 use supine_core::mounting::Mounting;
 
+use crate::io::excerpt::bound_quoted_parts;
 use crate::io::output::write_atomically;
+use crate::io::small_file::read_text;
 use crate::io::text_position::line_column;
+
+/// Longest parameter file read, bytes: a preset renders to under 2 KB and `supine fit`
+/// adds a short `[fit]` table, so 64 KiB is far beyond any real one, and small enough
+/// that a wrong file (a recording, a device) costs nothing to refuse.
+pub const MAX_FILE_BYTES: u64 = 64 << 10;
 
 /// A parameter set and where it came from.
 #[derive(Clone, Debug, PartialEq)]
@@ -130,7 +138,7 @@ impl ParamFile {
             anyhow!(
                 "{}: line {line}, column {column}: {}",
                 path.display(),
-                e.message().trim()
+                bound_quoted_parts(e.message().trim())
             )
         })?;
         let params = ModelParams {
@@ -152,8 +160,7 @@ impl ParamFile {
 
 /// Reads and validates a parameter file.
 pub fn load(path: &Path) -> Result<ParamFile> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| anyhow!("{}: cannot read the parameter file: {e}", path.display()))?;
+    let text = read_text(path, "parameter file", MAX_FILE_BYTES)?;
     ParamFile::from_toml(&text, path)
 }
 

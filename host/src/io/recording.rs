@@ -10,14 +10,21 @@
 //! A ride (what `supine ride` writes) holds only time and the platform columns
 //! ([`PLATFORM_HEADER_LINE`]); [`read_input`] reads either kind through the same reader.
 //!
+//! Files are read line by line ([`crate::io::csv_lines`]): a line is at most
+//! [`MAX_LINE_BYTES`](crate::io::csv_lines::MAX_LINE_BYTES) long, a UTF-8 byte order mark
+//! and CRLF line ends are accepted, blank lines are skipped. Accelerations must lie within
+//! the f32 range ([`MAX_ACCELERATION_M_S2`]), where the device computes.
+//!
 //! Every error is one line naming the file, the line and column, and what was expected.
 
-use std::io::Write as _;
+use std::io::{Read, Write as _};
 use std::path::{Path, PathBuf};
 
-use anyhow::{Result, anyhow};
+use anyhow::Result;
 use serde::Serialize;
 
+use crate::io::csv_lines::{CsvLines, LineError, Row};
+use crate::io::excerpt::excerpt;
 use crate::io::output::write_atomically;
 
 /// The exact first line of a recording.
@@ -43,7 +50,8 @@ pub const COLUMNS: [&str; 13] = [
 /// Largest allowed deviation of one time step from the mean step, as a fraction of it.
 pub const UNIFORM_TOLERANCE: f64 = 0.01;
 
-/// Why a recording could not be read. Each variant prints as one line.
+/// Why a recording could not be read. Each variant prints as one line; cells from the file
+/// are quoted through [`excerpt`] (at most 80 characters, escaped).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum RecordingError {
     /// The file is missing or unreadable.
@@ -60,9 +68,10 @@ pub enum RecordingError {
         /// The file.
         path: PathBuf,
     },
-    /// The header is not exactly [`HEADER_LINE`].
+    /// The header is not exactly [`HEADER_LINE`] (or [`PLATFORM_HEADER_LINE`] where a ride
+    /// is accepted).
     #[error(
-        "{path}: line 1, column {column}: expected the header field \"{expected}\", found \"{found}\" (the header must be exactly \"{HEADER_LINE}\")"
+        "{path}: line 1, column {column}: expected the header field \"{expected}\", found {found} (the header must be exactly \"{HEADER_LINE}\")"
     )]
     Header {
         /// The file.
@@ -71,41 +80,66 @@ pub enum RecordingError {
         column: usize,
         /// The field that should be there.
         expected: String,
-        /// What is there.
+        /// What is there, quoted ([`excerpt`]) or `end of line`.
         found: String,
     },
+    /// A line is longer than any line of a recording can be.
+    #[error("{path}: {source} (a recording's line holds 13 numbers)")]
+    Line {
+        /// The file.
+        path: PathBuf,
+        /// The line and the limit.
+        source: LineError,
+    },
     /// A data line has the wrong number of cells.
-    #[error("{path}: line {line}: expected 13 comma-separated cells, found {found}")]
+    #[error("{path}: line {line}: expected {expected} comma-separated cells, found {found}")]
     CellCount {
         /// The file.
         path: PathBuf,
         /// 1-based line number.
-        line: usize,
+        line: u64,
+        /// How many cells the header has.
+        expected: usize,
         /// How many cells the line has.
         found: usize,
     },
     /// A cell does not parse as a number.
-    #[error("{path}: line {line}, column {column}: expected a number, found \"{found}\"")]
+    #[error("{path}: line {line}, column {column}: expected a number, found {found}")]
     NotANumber {
         /// The file.
         path: PathBuf,
         /// 1-based line number.
-        line: usize,
+        line: u64,
         /// The column's name.
         column: &'static str,
-        /// The cell's text.
+        /// The cell, quoted ([`excerpt`]).
         found: String,
     },
     /// A cell is NaN or infinite.
-    #[error("{path}: line {line}, column {column}: expected a finite number, found \"{found}\"")]
+    #[error("{path}: line {line}, column {column}: expected a finite number, found {found}")]
     NotFinite {
         /// The file.
         path: PathBuf,
         /// 1-based line number.
-        line: usize,
+        line: u64,
         /// The column's name.
         column: &'static str,
-        /// The cell's text.
+        /// The cell, quoted ([`excerpt`]).
+        found: String,
+    },
+    /// An acceleration is finite in f64 but beyond the f32 range the device and the host's
+    /// device pipeline compute in, where it would become infinite.
+    #[error(
+        "{path}: line {line}, column {column}: expected an acceleration within +-{MAX_ACCELERATION_M_S2:e} m/s^2 (the f32 range the device computes in), found {found}"
+    )]
+    OutOfRange {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: u64,
+        /// The column's name.
+        column: &'static str,
+        /// The cell, quoted ([`excerpt`]).
         found: String,
     },
     /// Time does not increase from one line to the next.
@@ -116,7 +150,7 @@ pub enum RecordingError {
         /// The file.
         path: PathBuf,
         /// 1-based line number.
-        line: usize,
+        line: u64,
         /// The time on the line before, s.
         previous_s: f64,
         /// The time on this line, s.
@@ -130,7 +164,7 @@ pub enum RecordingError {
         /// The file.
         path: PathBuf,
         /// 1-based line number of the step's second sample.
-        line: usize,
+        line: u64,
         /// The mean step, s.
         expected_s: f64,
         /// This step, s.
@@ -145,6 +179,11 @@ pub enum RecordingError {
         found: usize,
     },
 }
+
+/// Largest acceleration magnitude a recording may hold, m/s^2: the largest finite f32, so
+/// that every acceleration stays finite as the device's f32 sample (a sensor's full scale
+/// is far below; the device's sensor check reports saturation from there).
+pub const MAX_ACCELERATION_M_S2: f64 = f32::MAX as f64;
 
 /// A uniformly sampled recording of support and sensor accelerations, column-wise.
 #[derive(Clone, Debug, PartialEq)]
@@ -189,24 +228,30 @@ impl Recording {
         device_samples(&self.platform_m_s2)
     }
 
-    /// Reads and checks a recording.
+    /// Reads and checks a recording (all 13 columns), streaming: memory holds the samples,
+    /// never more than one line of text.
     pub fn read(path: &Path) -> Result<Self, RecordingError> {
-        let text = std::fs::read_to_string(path).map_err(|e| RecordingError::Read {
-            path: path.to_path_buf(),
-            reason: e.to_string(),
-        })?;
-        Self::parse(&text, path)
+        read_layouts(path, &[Layout::Full]).map(|(recording, _)| recording)
     }
 
-    /// Parses a recording's text; `path` names it in errors.
-    pub fn parse(text: &str, path: &Path) -> Result<Self, RecordingError> {
+    /// Reads and checks a recording from `source` in one of the `accepted` layouts (the
+    /// header decides which); `path` names it in errors.
+    pub fn from_reader(
+        source: impl Read,
+        path: &Path,
+        accepted: &[Layout],
+    ) -> Result<(Self, Layout), RecordingError> {
         let p = || path.to_path_buf();
-        let mut lines = text.lines().enumerate();
-        let header = match lines.next() {
-            Some((_, h)) => h.trim_end_matches('\r'),
+        let line_error = |source: LineError| match source {
+            LineError::Read(reason) => RecordingError::Read { path: p(), reason },
+            source => RecordingError::Line { path: p(), source },
+        };
+        let mut lines = CsvLines::new(source);
+        let layout = match lines.next_row().map_err(line_error)? {
+            Some(header) => check_header(&header, path, accepted)?,
             None => return Err(RecordingError::Empty { path: p() }),
         };
-        check_header(header, path)?;
+        let columns = layout.columns();
         let mut rec = Recording {
             path: p(),
             time_s: Vec::new(),
@@ -214,57 +259,34 @@ impl Recording {
             sensors_m_s2: Default::default(),
         };
         let mut row = [0.0f64; 13];
-        let mut line_numbers = Vec::new();
-        for (index, line) in lines {
-            let line_no = index + 1;
-            let line = line.trim_end_matches('\r');
-            if line.trim().is_empty() {
-                continue;
-            }
-            let mut count = 0;
-            for (c, cell) in line.split(',').enumerate() {
-                count += 1;
-                if c >= 13 {
-                    continue;
-                }
-                let cell = cell.trim();
-                let value: f64 = cell.parse().map_err(|_| RecordingError::NotANumber {
-                    path: p(),
-                    line: line_no,
-                    column: COLUMNS[c],
-                    found: cell.to_string(),
-                })?;
-                if !value.is_finite() {
-                    return Err(RecordingError::NotFinite {
-                        path: p(),
-                        line: line_no,
-                        column: COLUMNS[c],
-                        found: cell.to_string(),
-                    });
-                }
-                row[c] = value;
-            }
-            if count != 13 {
+        let mut lines_of = LineNumbers::default();
+        while let Some(cells) = lines.next_row().map_err(line_error)? {
+            let line = cells.line;
+            if cells.len() != columns {
                 return Err(RecordingError::CellCount {
                     path: p(),
-                    line: line_no,
-                    found: count,
+                    line,
+                    expected: columns,
+                    found: cells.len(),
                 });
+            }
+            for (c, cell) in cells.cells().enumerate() {
+                row[c] = parse_cell(cell, COLUMNS[c]).map_err(|e| e.at(p(), line))?;
             }
             let previous_s = rec.time_s.last().copied().unwrap_or(f64::NEG_INFINITY);
             if row[0] <= previous_s {
                 return Err(RecordingError::TimeNotIncreasing {
                     path: p(),
-                    line: line_no,
+                    line,
                     previous_s,
                     found_s: row[0],
                 });
             }
+            lines_of.push(rec.time_s.len(), line);
             rec.push_row(&row);
-            line_numbers.push(line_no);
         }
-        rec.check_uniform(&line_numbers)?;
-        Ok(rec)
+        rec.check_uniform(&lines_of)?;
+        Ok((rec, layout))
     }
 
     fn push_row(&mut self, row: &[f64; 13]) {
@@ -278,8 +300,8 @@ impl Recording {
     }
 
     /// Checks that every step is within [`UNIFORM_TOLERANCE`] of the mean step;
-    /// `line_numbers` gives each sample's line in the file.
-    fn check_uniform(&self, line_numbers: &[usize]) -> Result<(), RecordingError> {
+    /// `lines_of` gives each sample's line in the file.
+    fn check_uniform(&self, lines_of: &LineNumbers) -> Result<(), RecordingError> {
         let n = self.time_s.len();
         if n < 2 {
             return Err(RecordingError::TooShort {
@@ -293,7 +315,7 @@ impl Recording {
             if (step_s - mean_step_s).abs() > UNIFORM_TOLERANCE * mean_step_s {
                 return Err(RecordingError::NotUniform {
                     path: self.path.clone(),
-                    line: line_numbers.get(k).copied().unwrap_or(k + 2),
+                    line: lines_of.line_of(k),
                     expected_s: mean_step_s,
                     found_s: step_s,
                 });
@@ -362,65 +384,128 @@ pub enum Layout {
     PlatformOnly,
 }
 
-/// Reads a recording through [`Recording::parse`], accepting also a platform-only file.
-///
-/// A platform-only file is handed to the reader line for line with nine zero cells appended
-/// to every data line, so line numbers, column names and every check (numbers, finiteness,
-/// strictly increasing and uniform time) are the reader's own; only the cell count is
-/// restated for four columns.
-pub fn read_input(path: &Path) -> Result<(Recording, Layout)> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| anyhow!("{}: cannot read the recording: {e}", path.display()))?;
-    let first = text.lines().next().map(|l| l.trim_end_matches('\r'));
-    if first != Some(PLATFORM_HEADER_LINE) {
-        return Ok((Recording::parse(&text, path)?, Layout::Full));
-    }
-    let mut padded = String::with_capacity(text.len() * 2);
-    padded.push_str(HEADER_LINE);
-    padded.push('\n');
-    for line in text.lines().skip(1) {
-        let line = line.trim_end_matches('\r');
-        padded.push_str(line);
-        if !line.trim().is_empty() {
-            padded.push_str(",0,0,0,0,0,0,0,0,0");
+impl Layout {
+    /// How many columns a line holds: the first this many of [`COLUMNS`].
+    pub const fn columns(self) -> usize {
+        match self {
+            Layout::Full => COLUMNS.len(),
+            Layout::PlatformOnly => 4,
         }
-        padded.push('\n');
-    }
-    match Recording::parse(&padded, path) {
-        Ok(rec) => Ok((rec, Layout::PlatformOnly)),
-        Err(RecordingError::CellCount { path, line, found }) => Err(anyhow!(
-            "{}: line {line}: expected 4 comma-separated cells (header \"{PLATFORM_HEADER_LINE}\"), found {}",
-            path.display(),
-            found.saturating_sub(9)
-        )),
-        Err(e) => Err(e.into()),
     }
 }
 
-fn check_header(header: &str, path: &Path) -> Result<(), RecordingError> {
-    if header == HEADER_LINE {
-        return Ok(());
-    }
-    let found: Vec<&str> = header.split(',').collect();
-    for (i, expected) in COLUMNS.iter().enumerate() {
-        let cell = found.get(i).copied().unwrap_or("");
-        if cell != *expected {
-            return Err(RecordingError::Header {
-                path: path.to_path_buf(),
-                column: i + 1,
-                expected: (*expected).to_string(),
-                found: if found.get(i).is_some() {
-                    cell.to_string()
-                } else {
-                    "end of line".to_string()
-                },
-            });
+/// Reads a recording in either layout: all 13 columns, or a ride's platform columns (the
+/// sensor columns are then zeros).
+pub fn read_input(path: &Path) -> Result<(Recording, Layout)> {
+    Ok(read_layouts(path, &[Layout::Full, Layout::PlatformOnly])?)
+}
+
+fn read_layouts(path: &Path, accepted: &[Layout]) -> Result<(Recording, Layout), RecordingError> {
+    let file = std::fs::File::open(path).map_err(|e| RecordingError::Read {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    })?;
+    Recording::from_reader(file, path, accepted)
+}
+
+/// Which of the `accepted` layouts the header names, or where it first differs from the
+/// full header.
+fn check_header(
+    header: &Row<'_>,
+    path: &Path,
+    accepted: &[Layout],
+) -> Result<Layout, RecordingError> {
+    for layout in accepted {
+        let names = &COLUMNS[..layout.columns()];
+        if header.len() == names.len() && header.cells().zip(names).all(|(c, n)| c == n.as_bytes())
+        {
+            return Ok(*layout);
         }
     }
-    Err(RecordingError::Header {
+    let mismatch = |column: usize, expected: &str, found: String| RecordingError::Header {
         path: path.to_path_buf(),
-        column: 14,
-        expected: "end of line".to_string(),
-        found: found[13..].join(","),
-    })
+        column,
+        expected: expected.to_string(),
+        found,
+    };
+    for (i, expected) in COLUMNS.iter().enumerate() {
+        if i >= header.len() {
+            return Err(mismatch(i + 1, expected, "end of line".to_string()));
+        }
+        if header.cell(i) != expected.as_bytes() {
+            return Err(mismatch(i + 1, expected, excerpt(header.cell(i))));
+        }
+    }
+    Err(mismatch(14, "end of line", excerpt(header.cell(13))))
+}
+
+/// What is wrong with one cell, before the line and the path are known.
+enum CellError {
+    NotANumber(&'static str, String),
+    NotFinite(&'static str, String),
+    OutOfRange(&'static str, String),
+}
+
+impl CellError {
+    fn at(self, path: PathBuf, line: u64) -> RecordingError {
+        match self {
+            CellError::NotANumber(column, found) => RecordingError::NotANumber {
+                path,
+                line,
+                column,
+                found,
+            },
+            CellError::NotFinite(column, found) => RecordingError::NotFinite {
+                path,
+                line,
+                column,
+                found,
+            },
+            CellError::OutOfRange(column, found) => RecordingError::OutOfRange {
+                path,
+                line,
+                column,
+                found,
+            },
+        }
+    }
+}
+
+/// One cell of `column` as a number: finite, and within the f32 range for accelerations.
+fn parse_cell(cell: &[u8], column: &'static str) -> Result<f64, CellError> {
+    let value: f64 = std::str::from_utf8(cell)
+        .ok()
+        .and_then(|text| text.trim().parse().ok())
+        .ok_or_else(|| CellError::NotANumber(column, excerpt(cell)))?;
+    if !value.is_finite() {
+        return Err(CellError::NotFinite(column, excerpt(cell)));
+    }
+    if column != COLUMNS[0] && value.abs() > MAX_ACCELERATION_M_S2 {
+        return Err(CellError::OutOfRange(column, excerpt(cell)));
+    }
+    Ok(value)
+}
+
+/// The line of each sample, held as the points where lines stop following samples one
+/// to one (after blank lines), so that it costs nothing for a file without blank lines.
+#[derive(Default)]
+struct LineNumbers {
+    /// (first sample, its line) of each run of consecutive lines.
+    runs: Vec<(usize, u64)>,
+}
+
+impl LineNumbers {
+    fn push(&mut self, sample: usize, line: u64) {
+        if self.runs.last().is_none_or(|&(k, l)| l + (sample - k) as u64 != line) {
+            self.runs.push((sample, line));
+        }
+    }
+
+    fn line_of(&self, sample: usize) -> u64 {
+        let run = self.runs.partition_point(|&(k, _)| k <= sample);
+        match run.checked_sub(1).map(|r| self.runs[r]) {
+            Some((k, line)) => line + (sample - k) as u64,
+            None => sample as u64 + 2,
+        }
+    }
 }
