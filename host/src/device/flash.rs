@@ -161,19 +161,22 @@ impl CounterState {
 
     /// The last counter recorded (0 if none yet).
     pub fn last(&self) -> Result<u32> {
-        match std::fs::read_to_string(&self.path) {
-            Ok(text) => text.trim().parse().map_err(|_| {
-                anyhow!(
-                    "{}: expected the last update counter (a number up to {}), found {:?}: \
-                     delete the file or give --counter",
-                    self.path.display(),
-                    u32::MAX,
-                    text.trim()
-                )
-            }),
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(0),
-            Err(e) => bail!("{}: cannot read: {e}", self.path.display()),
+        if let Err(e) = std::fs::metadata(&self.path)
+            && e.kind() == std::io::ErrorKind::NotFound
+        {
+            return Ok(0);
         }
+        // A counter is ten digits: a larger file is not this host's.
+        let text = crate::io::small_file::read_text(&self.path, "update counter file", 1024)?;
+        text.trim().parse().map_err(|_| {
+            anyhow!(
+                "{}: expected the last update counter (a number up to {}), found {}: \
+                 delete the file or give --counter",
+                self.path.display(),
+                u32::MAX,
+                crate::io::excerpt::excerpt(text.trim())
+            )
+        })
     }
 
     /// Records `counter` as used if it is above the last one.

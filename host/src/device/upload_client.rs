@@ -104,10 +104,13 @@ fn expect_ack<R: Read>(
     }
 }
 
+/// Longest device key file read, bytes: 64 hexadecimal digits leave room for any
+/// whitespace a person adds, and a wrong file (a recording, a device) is refused unread.
+pub const MAX_KEY_FILE_BYTES: u64 = 1024;
+
 /// Reads a device key file: 64 hexadecimal digits (whitespace ignored).
 pub fn read_key(path: &std::path::Path) -> Result<[u8; KEY_LEN]> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| anyhow!("{}: cannot read the device key: {e}", path.display()))?;
+    let text = crate::io::small_file::read_text(path, "device key", MAX_KEY_FILE_BYTES)?;
     parse_key(&text).map_err(|e| anyhow!("{}: {e}", path.display()))
 }
 

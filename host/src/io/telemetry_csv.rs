@@ -12,6 +12,8 @@ use anyhow::{Result, anyhow, bail};
 use supine_core::alerts::{AlertEvent, Level};
 use supine_core::protocol::Telemetry;
 
+use super::csv_lines::CsvLines;
+use super::excerpt::excerpt;
 use super::output::write_atomically;
 
 /// Header of the telemetry CSV. The first five columns are named as issue 5 and the
@@ -77,84 +79,102 @@ pub fn write_events(path: &Path, events: &[AlertEvent], sample_rate_hz: f64) -> 
     })
 }
 
-/// The file's header line, or an error naming the one expected.
-fn check_header<'a>(
+/// The data rows of the CSV at `path`, whose first line must be `header`, each turned
+/// into a record by `parse` (given the row's cells and its position, `FILE: line N`).
+/// The file is read line by line ([`CsvLines`]), so memory holds the records, not the text.
+fn read_rows<T>(
     path: &Path,
-    lines: &mut impl Iterator<Item = &'a str>,
     header: &str,
-) -> Result<()> {
-    match lines.next() {
-        Some(first) if first == header => Ok(()),
-        other => bail!(
-            "{}: line 1: expected the header \"{header}\", found \"{}\"",
-            path.display(),
-            other.unwrap_or("")
-        ),
+    mut parse: impl FnMut(&[&str], &str) -> Result<T>,
+) -> Result<Vec<T>> {
+    let mut lines =
+        CsvLines::open(path).map_err(|e| anyhow!("{}: cannot read: {e}", path.display()))?;
+    let mut records = Vec::new();
+    let mut first = true;
+    loop {
+        let row = match lines.next_row() {
+            Ok(Some(row)) => row,
+            Ok(None) if first => bail!(
+                "{}: line 1: expected the header \"{header}\", found an empty file",
+                path.display()
+            ),
+            Ok(None) => return Ok(records),
+            Err(e) => bail!("{}: {e}", path.display()),
+        };
+        let at = format!("{}: line {}", path.display(), row.line);
+        let mut cells: Vec<&str> = Vec::with_capacity(TELEMETRY_CELLS);
+        for (i, cell) in row.cells().enumerate() {
+            cells.push(std::str::from_utf8(cell).map_err(|_| {
+                anyhow!("{at}, cell {}: expected text, found {}", i + 1, excerpt(cell))
+            })?);
+        }
+        if first {
+            if cells.join(",") != header {
+                bail!(
+                    "{at}: expected the header \"{header}\", found {}",
+                    excerpt(cells.join(","))
+                );
+            }
+            first = false;
+            continue;
+        }
+        records.push(parse(&cells, &at)?);
     }
 }
 
 /// Reads a telemetry CSV ([`TELEMETRY_HEADER`]) back into the records it was written
 /// from (the `time_s` column is derived, so it is not read).
 pub fn read_telemetry(path: &Path) -> Result<Vec<Telemetry>> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| anyhow!("{}: cannot read: {e}", path.display()))?;
-    let mut lines = text.lines();
-    check_header(path, &mut lines, TELEMETRY_HEADER)?;
-    lines
-        .enumerate()
-        .map(|(k, line)| {
-            let at = || format!("{}: line {}", path.display(), k + 2);
-            let cells: Vec<&str> = line.split(',').collect();
-            if cells.len() != TELEMETRY_CELLS {
-                bail!(
-                    "{}: expected {TELEMETRY_CELLS} cells, found {}",
-                    at(),
-                    cells.len()
-                );
-            }
-            let num = |i: usize| -> Result<f32> {
-                cells[i].parse::<f32>().map_err(|_| {
-                    anyhow!(
-                        "{}, cell {}: expected a number, found \"{}\"",
-                        at(),
-                        i + 1,
-                        cells[i]
-                    )
-                })
-            };
-            let sample_index: u32 = cells[0].parse().map_err(|_| {
+    read_rows(path, TELEMETRY_HEADER, |cells, at| {
+        if cells.len() != TELEMETRY_CELLS {
+            bail!("{at}: expected {TELEMETRY_CELLS} cells, found {}", cells.len());
+        }
+        let num = |i: usize| -> Result<f32> {
+            cells[i].parse::<f32>().map_err(|_| {
                 anyhow!(
-                    "{}, column sample: expected an index, found \"{}\"",
-                    at(),
-                    cells[0]
+                    "{at}, cell {}: expected a number, found {}",
+                    i + 1,
+                    excerpt(cells[i])
                 )
-            })?;
-            let alert_level = level_from_name(cells[10])
-                .ok_or_else(|| anyhow!("{}, column alert_level: expected normal, advisory, warning or alarm, found \"{}\"", at(), cells[10]))?;
-            let fault_flags: u8 = cells[11].parse().map_err(|_| {
-                anyhow!(
-                    "{}, column fault_flags: expected 0..=255, found \"{}\"",
-                    at(),
-                    cells[11]
-                )
-            })?;
-            let valid = match cells[12] {
-                "0" => false,
-                "1" => true,
-                other => bail!("{}, column valid: expected 0 or 1, found \"{other}\"", at()),
-            };
-            Ok(Telemetry {
-                sample_index,
-                head_acc_m_s2: [num(2)?, num(3)?, num(4)?],
-                running_rms_m_s2: [num(5)?, num(6)?, num(7)?],
-                vector_running_rms_m_s2: num(8)?,
-                vdv_m_s175: num(9)?,
-                alert_level,
-                fault_flags,
-                valid,
             })
+        };
+        let sample_index: u32 = cells[0].parse().map_err(|_| {
+            anyhow!(
+                "{at}, column sample: expected an index, found {}",
+                excerpt(cells[0])
+            )
+        })?;
+        let alert_level = level_from_name(cells[10]).ok_or_else(|| {
+            anyhow!(
+                "{at}, column alert_level: expected normal, advisory, warning or alarm, found {}",
+                excerpt(cells[10])
+            )
+        })?;
+        let fault_flags: u8 = cells[11].parse().map_err(|_| {
+            anyhow!(
+                "{at}, column fault_flags: expected 0..=255, found {}",
+                excerpt(cells[11])
+            )
+        })?;
+        let valid = match cells[12] {
+            "0" => false,
+            "1" => true,
+            other => bail!(
+                "{at}, column valid: expected 0 or 1, found {}",
+                excerpt(other)
+            ),
+        };
+        Ok(Telemetry {
+            sample_index,
+            head_acc_m_s2: [num(2)?, num(3)?, num(4)?],
+            running_rms_m_s2: [num(5)?, num(6)?, num(7)?],
+            vector_running_rms_m_s2: num(8)?,
+            vdv_m_s175: num(9)?,
+            alert_level,
+            fault_flags,
+            valid,
         })
-        .collect()
+    })
 }
 
 /// The level named `name` (`normal`, `advisory`, `warning`, `alarm`).
@@ -220,38 +240,38 @@ impl EventRow {
 
 /// Reads an events CSV ([`EVENTS_HEADER`]) written at `sample_rate_hz`.
 pub fn read_events(path: &Path, sample_rate_hz: f64) -> Result<Vec<EventRow>> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| anyhow!("{}: cannot read: {e}", path.display()))?;
-    let mut lines = text.lines();
-    check_header(path, &mut lines, EVENTS_HEADER)?;
-    lines
-        .enumerate()
-        .map(|(k, line)| {
-            let at = format!("{}: line {}", path.display(), k + 2);
-            let cells: Vec<&str> = line.split(',').collect();
-            let [sample, _time, kind, name, raised] = cells[..] else {
-                bail!("{at}: expected 5 cells, found {}", cells.len());
-            };
-            let sample: u32 = sample.parse().map_err(|_| {
-                anyhow!("{at}, column sample: expected an index, found \"{sample}\"")
-            })?;
-            if kind != "level" && kind != "fault" {
-                bail!("{at}, column kind: expected level or fault, found \"{kind}\"");
-            }
-            let raised = match raised {
-                "0" => false,
-                "1" => true,
-                other => bail!("{at}, column raised: expected 0 or 1, found \"{other}\""),
-            };
-            Ok(EventRow {
-                sample,
-                time_s: f64::from(sample) / sample_rate_hz,
-                kind: kind.to_string(),
-                name: name.to_string(),
-                raised,
-            })
+    read_rows(path, EVENTS_HEADER, |cells, at| {
+        let [sample, _time, kind, name, raised] = cells[..] else {
+            bail!("{at}: expected 5 cells, found {}", cells.len());
+        };
+        let sample: u32 = sample.parse().map_err(|_| {
+            anyhow!(
+                "{at}, column sample: expected an index, found {}",
+                excerpt(sample)
+            )
+        })?;
+        if kind != "level" && kind != "fault" {
+            bail!(
+                "{at}, column kind: expected level or fault, found {}",
+                excerpt(kind)
+            );
+        }
+        let raised = match raised {
+            "0" => false,
+            "1" => true,
+            other => bail!(
+                "{at}, column raised: expected 0 or 1, found {}",
+                excerpt(other)
+            ),
+        };
+        Ok(EventRow {
+            sample,
+            time_s: f64::from(sample) / sample_rate_hz,
+            kind: kind.to_string(),
+            name: name.to_string(),
+            raised,
         })
-        .collect()
+    })
 }
 
 #[cfg(test)]
