@@ -6,10 +6,11 @@
 
 use anyhow::{Result, anyhow};
 use sha2::{Digest, Sha256};
-use supine_core::blob::{DeviceParams, MAX_BLOB_LEN, TelemetryConfig};
+use supine_core::blob::{DeviceParams, MAX_BLOB_LEN};
 use supine_core::model::device_realization;
 use supine_core::protocol::{IDENTITY_LEN, ParamsIdentity};
 
+use crate::io::device_section::check;
 use crate::io::params_file::ParamFile;
 
 /// The identity the device reports for these parameters.
@@ -26,6 +27,10 @@ pub fn identity_hex(id: &ParamsIdentity) -> String {
 }
 
 /// Everything the device needs at `sample_rate_hz`, validated as the device will.
+///
+/// A `[device]` value refused at this rate (a file's values were checked at load, see
+/// [`crate::io::params_file`], but a running-rms time constant can be too short for a lower
+/// rate) is named by its key.
 pub fn build(file: &ParamFile, sample_rate_hz: f64) -> Result<DeviceParams> {
     let device = file.device.unwrap_or_default();
     let realization =
@@ -37,12 +42,20 @@ pub fn build(file: &ParamFile, sample_rate_hz: f64) -> Result<DeviceParams> {
         device.alerts,
         device.sensor_checks,
         device.mounting,
-        device
-            .telemetry_decimation
-            .map(|decimation| TelemetryConfig { decimation })
-            .unwrap_or_else(|| TelemetryConfig::default_for(sample_rate_hz as f32)),
+        device.telemetry(sample_rate_hz as f32),
     )
-    .map_err(|e| anyhow!("device configuration: {e}"))
+    .map_err(|e| {
+        let refused = check(&device, realization.sample_rate_hz, Some(&realization)).err();
+        match refused.as_ref().and_then(|r| r.first()).filter(|r| !r.key.is_empty()) {
+            Some(r) => anyhow!(
+                "device configuration at {} Hz: device.{}: {}",
+                realization.sample_rate_hz,
+                r.key,
+                r.reason
+            ),
+            None => anyhow!("device configuration: {e}"),
+        }
+    })
 }
 
 /// The blob's bytes.

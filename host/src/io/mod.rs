@@ -6,6 +6,7 @@
 //! - [`small_file`]: reading a file that cannot legitimately be large, with a size limit.
 //! - [`csv_lines`]: reading a CSV file line by line, each line bounded.
 //! - [`params_file`]: the parameter file (`--params`), TOML.
+//! - [`device_section`]: its `[device]` table, and which key the device would refuse.
 //! - [`dataset`]: a dataset folder (`dataset.toml` and its recordings).
 //! - [`recording`]: the recording CSV (13 columns, or the platform columns of a ride).
 //! - [`h_csv`]: the transmissibility CSV of `supine model` and `supine transmissibility`.
@@ -13,6 +14,7 @@
 
 pub mod csv_lines;
 pub mod dataset;
+pub mod device_section;
 pub mod excerpt;
 pub mod h_csv;
 pub mod output;

@@ -11,11 +11,13 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, anyhow};
 use clap::{Args, ValueEnum};
 use serde::{Deserialize, Serialize};
-use supine_core::alerts::{AlertConfig, SensorCheckConfig};
-use supine_core::exposure::ExposureConfig;
 use supine_core::model::params::{Contacts, Joints, SensorOffsets};
-use supine_core::model::{ModelParams, ParamError, Preset, Subject};
+use supine_core::model::{ModelParams, ParamError, Preset, Subject, device_realization};
 use supine_core::mounting::Mounting;
+use supine_core::weighting::MAX_SAMPLE_RATE_HZ;
+
+pub use crate::io::device_section::DeviceSection;
+use crate::io::device_section::{check, locate};
 
 use crate::io::excerpt::bound_quoted_parts;
 use crate::io::output::write_atomically;
@@ -37,45 +39,6 @@ pub struct ParamFile {
     /// Device configuration (weighting, alerts, sensor checks, mounting, telemetry);
     /// the documented defaults where absent.
     pub device: Option<DeviceSection>,
-}
-
-/// The optional `[device]` table: what goes into the parameter blob besides the model.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct DeviceSection {
-    /// Weighting per head axis, running-rms time constant, warm-up.
-    #[serde(default)]
-    pub exposure: ExposureConfig,
-    /// Alert thresholds on running rms and VDV, hysteresis, dwell.
-    #[serde(default)]
-    pub alerts: AlertConfig,
-    /// Sensor full scale, stuck time, fault clear time.
-    #[serde(default)]
-    pub sensor_checks: SensorCheckConfig,
-    /// Sensor-to-litter rotation and gravity (`supine calibrate` prints this table), level
-    /// by default.
-    #[serde(default = "level_mounting")]
-    pub mounting: Mounting,
-    /// Telemetry every this many samples; absent, about 100 Hz at the blob's sample rate
-    /// ([`TelemetryConfig::default_for`](supine_core::blob::TelemetryConfig::default_for)).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub telemetry_decimation: Option<u16>,
-}
-
-fn level_mounting() -> Mounting {
-    Mounting::LEVEL
-}
-
-impl Default for DeviceSection {
-    fn default() -> Self {
-        Self {
-            exposure: ExposureConfig::DEFAULT,
-            alerts: AlertConfig::DEFAULT,
-            sensor_checks: SensorCheckConfig::DEFAULT,
-            mounting: Mounting::LEVEL,
-            telemetry_decimation: None,
-        }
-    }
 }
 
 /// The on-disk layout: ModelParams' tables at top level, then `[fit]`.
@@ -150,6 +113,9 @@ impl ParamFile {
         params
             .validate()
             .map_err(|e| validation_error(text, path, &e))?;
+        if let Some(device) = &repr.device {
+            check_device(device, &params, text, path)?;
+        }
         Ok(Self {
             params,
             fit: repr.fit,
@@ -204,6 +170,58 @@ pub fn mounting_toml(mounting: Mounting) -> Result<String> {
     Ok(toml::to_string(&MountingTable {
         device: DeviceTable { mounting },
     })?)
+}
+
+/// Checks the `[device]` table as the device will (`supine-core`'s rules, through
+/// [`check`]) and names the file, line, column and key of a value it refuses.
+///
+/// The blob is built later, for a recording's or a device's sample rate; here the table is
+/// checked at the highest rate the device runs at, where the one rate-dependent rule (a
+/// running-rms time constant of at least two samples) is loosest, so that no file is
+/// refused here that some rate accepts. [`crate::device::device_params::build`] checks
+/// again at the blob's own rate.
+fn check_device(
+    device: &DeviceSection,
+    params: &ModelParams,
+    text: &str,
+    path: &Path,
+) -> Result<()> {
+    let realization = device_realization(params, f64::from(MAX_SAMPLE_RATE_HZ)).ok();
+    let Err(refusals) = check(device, MAX_SAMPLE_RATE_HZ, realization.as_ref()) else {
+        return Ok(());
+    };
+    // The refused key written first in the file; every refusal has a key or the table.
+    let first = refusals
+        .iter()
+        .filter_map(|r| locate(text, &r.key).map(|at| (at, r)))
+        .min_by_key(|((line, column, _), _)| (*line, *column));
+    let key = |r: &crate::io::device_section::Refusal| {
+        if r.key.is_empty() {
+            "device".to_string()
+        } else {
+            format!("device.{}", r.key)
+        }
+    };
+    Err(match first {
+        Some(((line, column, value), r)) if !r.key.is_empty() => anyhow!(
+            "{}: line {line}, column {column}: {}: {}, found {value}",
+            path.display(),
+            key(r),
+            r.reason
+        ),
+        Some(((line, column, _), r)) => anyhow!(
+            "{}: line {line}, column {column}: {}: {}",
+            path.display(),
+            key(r),
+            r.reason
+        ),
+        None => anyhow!(
+            "{}: {}: {}",
+            path.display(),
+            key(&refusals[0]),
+            refusals[0].reason
+        ),
+    })
 }
 
 /// Names the line of the offending key: the table header, then the key under it.

@@ -1,0 +1,288 @@
+//! The parameter file's optional `[device]` table, and which of its keys the device would
+//! refuse.
+//!
+//! The rules are `supine-core`'s (the stage constructors `ExposureSettings::new`,
+//! `AlertSettings::new`, `SensorCheckSettings::new`, `Mounting::validate`, and the blob's
+//! own `DeviceParams::new`); this module only finds the key to blame. It tries each key of
+//! the table alone, every other key at its default, through those checks: a key refused
+//! alone is the one to name, with the core's words for what it must be. The file's text
+//! then gives the key's line and column ([`locate`]).
+
+use serde::{Deserialize, Serialize};
+use supine_core::alerts::{AlertConfig, AlertSettings, SensorCheckConfig, SensorCheckSettings};
+use supine_core::blob::{DeviceParams, TelemetryConfig};
+use supine_core::exposure::{ExposureConfig, ExposureSettings};
+use supine_core::model::DeviceRealization;
+use supine_core::mounting::Mounting;
+
+use crate::io::excerpt::name;
+use crate::io::text_position::line_column;
+
+/// The optional `[device]` table: what goes into the parameter blob besides the model.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DeviceSection {
+    /// Weighting per head axis, running-rms time constant, warm-up.
+    #[serde(default)]
+    pub exposure: ExposureConfig,
+    /// Alert thresholds on running rms and VDV, hysteresis, dwell.
+    #[serde(default)]
+    pub alerts: AlertConfig,
+    /// Sensor full scale, stuck time, fault clear time.
+    #[serde(default)]
+    pub sensor_checks: SensorCheckConfig,
+    /// Sensor-to-litter rotation and gravity (`supine calibrate` prints this table), level
+    /// by default.
+    #[serde(default = "level_mounting")]
+    pub mounting: Mounting,
+    /// Telemetry every this many samples; absent, about 100 Hz at the blob's sample rate
+    /// ([`TelemetryConfig::default_for`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub telemetry_decimation: Option<u16>,
+}
+
+fn level_mounting() -> Mounting {
+    Mounting::LEVEL
+}
+
+impl Default for DeviceSection {
+    fn default() -> Self {
+        Self {
+            exposure: ExposureConfig::DEFAULT,
+            alerts: AlertConfig::DEFAULT,
+            sensor_checks: SensorCheckConfig::DEFAULT,
+            mounting: Mounting::LEVEL,
+            telemetry_decimation: None,
+        }
+    }
+}
+
+impl DeviceSection {
+    /// The telemetry setting at `sample_rate_hz`: the table's decimation, else the default
+    /// rate's.
+    pub fn telemetry(&self, sample_rate_hz: f32) -> TelemetryConfig {
+        self.telemetry_decimation
+            .map(|decimation| TelemetryConfig { decimation })
+            .unwrap_or_else(|| TelemetryConfig::default_for(sample_rate_hz))
+    }
+}
+
+/// A key of the `[device]` table the device refuses.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Refusal {
+    /// The key's path under `[device]`, dotted (`alerts.hysteresis`).
+    pub key: String,
+    /// What the value must be, in the core's words.
+    pub reason: String,
+}
+
+/// The core's verdict on `section` at `sample_rate_hz`: each stage's own check (whose
+/// error says what is expected), then, given a realization, the whole blob's.
+pub fn core_check(
+    section: &DeviceSection,
+    sample_rate_hz: f32,
+    realization: Option<&DeviceRealization>,
+) -> Result<(), String> {
+    ExposureSettings::new(section.exposure, sample_rate_hz).map_err(|e| e.to_string())?;
+    AlertSettings::new(section.alerts, sample_rate_hz).map_err(|e| e.to_string())?;
+    SensorCheckSettings::new(section.sensor_checks, sample_rate_hz).map_err(|e| e.to_string())?;
+    section.mounting.validate().map_err(|e| e.to_string())?;
+    if let Some(realization) = realization {
+        DeviceParams::new(
+            [0; supine_core::protocol::IDENTITY_LEN],
+            *realization,
+            section.exposure,
+            section.alerts,
+            section.sensor_checks,
+            section.mounting,
+            section.telemetry(sample_rate_hz),
+        )
+        .map_err(|e| match section.telemetry(sample_rate_hz).decimation {
+            // The blob's only rule without a stage of its own: say what it expects.
+            0 => format!("expected telemetry every 1 or more samples ({e})"),
+            _ => e.to_string(),
+        })?;
+    }
+    Ok(())
+}
+
+/// Whether the core accepts `section` at `sample_rate_hz`; if not, the keys it refuses
+/// alone (every other key at its default, in key order), or, when no key is refused
+/// alone, one refusal of the whole table (an empty `key`). A realization that the default
+/// table fails with is not used: the fault is then the model's, not a key's.
+pub fn check(
+    section: &DeviceSection,
+    sample_rate_hz: f32,
+    realization: Option<&DeviceRealization>,
+) -> Result<(), Vec<Refusal>> {
+    let defaults = DeviceSection::default();
+    let realization =
+        realization.filter(|r| core_check(&defaults, sample_rate_hz, Some(r)).is_ok());
+    let Err(whole) = core_check(section, sample_rate_hz, realization) else {
+        return Ok(());
+    };
+    let mut refusals = Vec::new();
+    if let (Ok(toml::Value::Table(mine)), Ok(toml::Value::Table(base))) =
+        (toml::Value::try_from(section), toml::Value::try_from(defaults))
+    {
+        for (path, value) in leaves(&mine, Vec::new()) {
+            let mut candidate = base.clone();
+            set(&mut candidate, &path, value);
+            let Ok(alone) = toml::Value::Table(candidate).try_into::<DeviceSection>() else {
+                continue;
+            };
+            if let Err(reason) = core_check(&alone, sample_rate_hz, realization) {
+                refusals.push(Refusal {
+                    key: path.join("."),
+                    reason,
+                });
+            }
+        }
+    }
+    if refusals.is_empty() {
+        refusals.push(Refusal {
+            key: String::new(),
+            reason: whole,
+        });
+    }
+    Err(refusals)
+}
+
+/// Every value of `table` that is not itself a table, with its path (arrays are values:
+/// a threshold triple or a matrix is one key).
+fn leaves(table: &toml::Table, prefix: Vec<String>) -> Vec<(Vec<String>, toml::Value)> {
+    let mut out = Vec::new();
+    for (key, value) in table {
+        let mut path = prefix.clone();
+        path.push(key.clone());
+        match value {
+            toml::Value::Table(inner) => out.extend(leaves(inner, path)),
+            other => out.push((path, other.clone())),
+        }
+    }
+    out
+}
+
+fn set(table: &mut toml::Table, path: &[String], value: toml::Value) {
+    match path {
+        [] => {}
+        [last] => {
+            table.insert(last.clone(), value);
+        }
+        [first, rest @ ..] => {
+            let inner = table
+                .entry(first.clone())
+                .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+            if let toml::Value::Table(inner) = inner {
+                set(inner, rest, value);
+            }
+        }
+    }
+}
+
+/// Where `device.KEY` (`key` dotted under `[device]`; empty: the table itself) is written
+/// in the TOML `text`: the 1-based line and column of the key, and its value's text as a
+/// message shows it.
+pub fn locate(text: &str, key: &str) -> Option<(usize, usize, String)> {
+    let document = toml::de::DeTable::parse(text).ok()?;
+    let mut table = document.get_ref();
+    let mut found = None;
+    for part in std::iter::once("device").chain(key.split('.').filter(|p| !p.is_empty())) {
+        let (k, v) = table.iter().find(|(k, _)| k.get_ref() == part)?;
+        found = Some((k.span(), v.span()));
+        if let toml::de::DeValue::Table(inner) = v.get_ref() {
+            table = inner;
+        }
+    }
+    let (key_span, value_span) = found?;
+    let (line, column) = line_column(text, key_span.start);
+    let value = text.get(value_span).unwrap_or_default().trim();
+    Some((line, column, name(value).into_owned()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use supine_core::model::{ModelParams, Preset, device_realization};
+
+    fn realization() -> DeviceRealization {
+        device_realization(&ModelParams::preset(Preset::PaperLitter), 500.0).unwrap()
+    }
+
+    fn refused(section: &DeviceSection) -> Vec<String> {
+        let mut keys: Vec<String> = match check(section, 500.0, Some(&realization())) {
+            Ok(()) => Vec::new(),
+            Err(refusals) => refusals.into_iter().map(|r| r.key).collect(),
+        };
+        keys.sort();
+        keys
+    }
+
+    #[test]
+    fn the_defaults_pass_and_each_bad_value_is_blamed_on_its_own_key() {
+        assert!(core_check(&DeviceSection::default(), 500.0, Some(&realization())).is_ok());
+        assert!(refused(&DeviceSection::default()).is_empty());
+        let mut s = DeviceSection::default();
+        s.alerts.hysteresis = 2.0;
+        s.sensor_checks.full_scale_m_s2 = -1.0;
+        s.telemetry_decimation = Some(0);
+        s.mounting.sensor_to_litter[0][0] = 2.0;
+        s.alerts.vdv_m_s175 = [8.5, f32::NAN, 21.0];
+        assert_eq!(
+            refused(&s),
+            [
+                "alerts.hysteresis",
+                "alerts.vdv_m_s175",
+                "mounting.sensor_to_litter",
+                "sensor_checks.full_scale_m_s2",
+                "telemetry_decimation"
+            ]
+        );
+        let mut s = DeviceSection::default();
+        s.exposure.axes.y.k = 0.0;
+        let r = check(&s, 500.0, None).unwrap_err();
+        assert_eq!(r.len(), 1);
+        assert_eq!(r[0].key, "exposure.axes.y.k");
+        assert_eq!(
+            r[0].reason,
+            "exposure: axis factor k must be finite and positive"
+        );
+    }
+
+    #[test]
+    fn a_rate_dependent_rule_is_judged_at_the_rate_given() {
+        let mut s = DeviceSection::default();
+        // Two samples at 2 kHz, under one at 100 Hz.
+        s.exposure.running_tau_s = 0.001;
+        assert_eq!(check(&s, 2000.0, None), Ok(()));
+        assert_eq!(
+            check(&s, 100.0, None).unwrap_err()[0].key,
+            "exposure.running_tau_s"
+        );
+    }
+
+    #[test]
+    fn keys_are_located_however_the_table_is_written() {
+        let text = "a = 1\n[device.alerts]\nhysteresis = 2\n[device]\nmounting.gravity_m_s2 = 3\n\
+                    telemetry_decimation = 0\nsensor_checks = { full_scale_m_s2 = -1 }\n";
+        assert_eq!(
+            locate(text, "alerts.hysteresis"),
+            Some((3, 1, "2".to_string()))
+        );
+        assert_eq!(
+            locate(text, "mounting.gravity_m_s2"),
+            Some((5, 10, "3".to_string()))
+        );
+        assert_eq!(
+            locate(text, "telemetry_decimation"),
+            Some((6, 1, "0".to_string()))
+        );
+        assert_eq!(
+            locate(text, "sensor_checks.full_scale_m_s2"),
+            Some((7, 19, "-1".to_string()))
+        );
+        assert_eq!(locate(text, "alerts.clear_dwell_s"), None);
+        // The table itself: where `device` is named (either of its headers).
+        assert!(matches!(locate(text, ""), Some((2 | 4, ..))));
+    }
+}
