@@ -46,7 +46,11 @@ pub fn build(file: &ParamFile, sample_rate_hz: f64) -> Result<DeviceParams> {
     )
     .map_err(|e| {
         let refused = check(&device, realization.sample_rate_hz, Some(&realization)).err();
-        match refused.as_ref().and_then(|r| r.first()).filter(|r| !r.key.is_empty()) {
+        match refused
+            .as_ref()
+            .and_then(|r| r.first())
+            .filter(|r| !r.key.is_empty())
+        {
             Some(r) => anyhow!(
                 "device configuration at {} Hz: device.{}: {}",
                 realization.sample_rate_hz,

@@ -167,13 +167,11 @@ impl CounterState {
             return Ok(0);
         }
         // A counter is ten digits: a larger file is not this host's.
-        let text = crate::io::small_file::read_text(&self.path, "update counter file", 1024)?;
+        let text = crate::io::small_file::read_text(&self.path, "counter file", 1024)?;
         text.trim().parse().map_err(|_| {
             anyhow!(
-                "{}: expected the last update counter (a number up to {}), found {}: \
-                 delete the file or give --counter",
+                "{}: expected the last update counter, found {}: delete the file or give --counter",
                 self.path.display(),
-                u32::MAX,
                 crate::io::excerpt::excerpt(text.trim())
             )
         })

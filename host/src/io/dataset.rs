@@ -18,9 +18,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Result, anyhow, bail};
 use serde::Deserialize;
-use supine_core::model::Subject;
+use supine_core::model::params::ParamField;
+use supine_core::model::{ModelParams, Preset, Subject};
 
-use crate::io::excerpt::{bound_quoted_parts, excerpt, name};
+use crate::io::excerpt::{self, bound_quoted_parts, excerpt, name};
 use crate::io::output::write_atomically;
 use crate::io::recording::Recording;
 use crate::io::small_file::read_text;
@@ -170,9 +171,33 @@ impl Dataset {
                     return Err(at(
                         value.span().start,
                         &format!("{field} (subject {})", name(&id)),
-                        &format!("expected a positive finite number, found {v}"),
+                        &format!(
+                            "expected a positive finite number, found {}",
+                            excerpt::number(v)
+                        ),
                     ));
                 }
+            }
+            // The model's own plausible ranges (a height of 1e300 m is finite and positive).
+            let subject = Subject {
+                height_m: *s.height_m.get_ref(),
+                mass_kg: *s.mass_kg.get_ref(),
+            };
+            let mut with_subject = ModelParams::preset(Preset::PaperRigid);
+            with_subject.subject = subject;
+            if let Err(e) = with_subject.validate() {
+                let (field, value) = match e.field {
+                    ParamField::MassKg => ("mass_kg", &s.mass_kg),
+                    _ => ("height_m", &s.height_m),
+                };
+                return Err(at(
+                    value.span().start,
+                    &format!("{field} (subject {})", name(&id)),
+                    &format!(
+                        "expected what the model accepts ({e}), found {}",
+                        excerpt::number(*value.get_ref())
+                    ),
+                ));
             }
             for (field, file) in [("rigid", &s.rigid), ("litter", &s.litter)] {
                 if let Some(file) = file.as_ref().filter(|f| f.get_ref().len() > MAX_PATH_BYTES) {
@@ -180,18 +205,15 @@ impl Dataset {
                         file.span().start,
                         &format!("{field} (subject {})", name(&id)),
                         &format!(
-                            "expected a file name of at most {MAX_PATH_BYTES} bytes, found {}",
-                            excerpt(file.get_ref())
+                            "expected a file name of at most {MAX_PATH_BYTES} bytes, found {} bytes",
+                            file.get_ref().len()
                         ),
                     ));
                 }
             }
             subjects.push(SubjectEntry {
                 id,
-                subject: Subject {
-                    height_m: s.height_m.into_inner(),
-                    mass_kg: s.mass_kg.into_inner(),
-                },
+                subject,
                 rigid: s.rigid.map(|r| dir.join(r.into_inner())),
                 litter: s.litter.map(|r| dir.join(r.into_inner())),
                 line,
@@ -267,11 +289,13 @@ impl Dataset {
     pub fn read_case(&self, case: Case, selected: &[&SubjectEntry]) -> Result<Vec<CaseRecording>> {
         let mut out: Vec<CaseRecording> = Vec::with_capacity(selected.len());
         for entry in selected {
-            let file = entry
-                .recording(case)
-                .ok_or_else(|| {
-                    anyhow!("subject {}: no `{}` recording", name(&entry.id), case.name())
-                })?;
+            let file = entry.recording(case).ok_or_else(|| {
+                anyhow!(
+                    "subject {}: no `{}` recording",
+                    name(&entry.id),
+                    case.name()
+                )
+            })?;
             let recording = Recording::read(file)?;
             if let Some(first) = out.first() {
                 let (f0, f1) = (first.recording.sample_rate_hz(), recording.sample_rate_hz());
@@ -325,7 +349,9 @@ fn toml_string(s: &str) -> String {
 /// The field a TOML error is about: the one a serde message names in backquotes (missing or
 /// unknown field), else the key of the line the error points into, else the table header.
 fn toml_error_field(text: &str, offset: usize, message: &str) -> String {
-    if let Some(quoted) = message.split('`').nth(1).filter(|n| !n.is_empty()) {
+    if message.contains("field `")
+        && let Some(quoted) = message.split('`').nth(1).filter(|n| !n.is_empty())
+    {
         return name(quoted).into_owned();
     }
     let (line, _) = line_column(text, offset);

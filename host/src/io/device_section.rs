@@ -15,7 +15,7 @@ use supine_core::exposure::{ExposureConfig, ExposureSettings};
 use supine_core::model::DeviceRealization;
 use supine_core::mounting::Mounting;
 
-use crate::io::excerpt::name;
+use crate::io::excerpt::value;
 use crate::io::text_position::line_column;
 
 /// The optional `[device]` table: what goes into the parameter blob besides the model.
@@ -98,8 +98,9 @@ pub fn core_check(
             section.telemetry(sample_rate_hz),
         )
         .map_err(|e| match section.telemetry(sample_rate_hz).decimation {
-            // The blob's only rule without a stage of its own: say what it expects.
-            0 => format!("expected telemetry every 1 or more samples ({e})"),
+            // The blob's only rule without a stage of its own (its error says only "out of
+            // range"): say what it expects.
+            0 => "expected telemetry every 1 or more samples".to_string(),
             _ => e.to_string(),
         })?;
     }
@@ -122,9 +123,10 @@ pub fn check(
         return Ok(());
     };
     let mut refusals = Vec::new();
-    if let (Ok(toml::Value::Table(mine)), Ok(toml::Value::Table(base))) =
-        (toml::Value::try_from(section), toml::Value::try_from(defaults))
-    {
+    if let (Ok(toml::Value::Table(mine)), Ok(toml::Value::Table(base))) = (
+        toml::Value::try_from(section),
+        toml::Value::try_from(defaults),
+    ) {
         for (path, value) in leaves(&mine, Vec::new()) {
             let mut candidate = base.clone();
             set(&mut candidate, &path, value);
@@ -196,8 +198,8 @@ pub fn locate(text: &str, key: &str) -> Option<(usize, usize, String)> {
     }
     let (key_span, value_span) = found?;
     let (line, column) = line_column(text, key_span.start);
-    let value = text.get(value_span).unwrap_or_default().trim();
-    Some((line, column, name(value).into_owned()))
+    let written = text.get(value_span).unwrap_or_default().trim();
+    Some((line, column, value(written).into_owned()))
 }
 
 #[cfg(test)]

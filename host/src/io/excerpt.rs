@@ -5,22 +5,31 @@
 use std::borrow::Cow;
 use std::fmt::Write as _;
 
-/// Most characters of input an error message quotes (escapes count by what they print).
-pub const MAX_EXCERPT_CHARS: usize = 80;
+/// Most characters of input an error message quotes (escapes count by what they print):
+/// enough to recognise a field, and short enough that the message with its path and what
+/// was expected stays within about 200 characters.
+pub const MAX_EXCERPT_CHARS: usize = 60;
+
+/// Most characters of a name quoted beside other text (a key or subject id named as the
+/// context of an error, a key inside a parser's own message).
+pub const MAX_NAME_CHARS: usize = 32;
 
 /// `bytes` in double quotes as an error message quotes input: at most
 /// [`MAX_EXCERPT_CHARS`] characters, control characters and quotes escaped as Rust writes
 /// them (`\0`, `\n`, `\u{1b}`, `\"`), bytes that are not UTF-8 as `\xNN`; a longer input
 /// is cut and says how long it was: `"aaaa..." (1000000 bytes)`.
 pub fn excerpt(bytes: impl AsRef<[u8]>) -> String {
-    let bytes = bytes.as_ref();
+    excerpt_within(bytes.as_ref(), MAX_EXCERPT_CHARS)
+}
+
+fn excerpt_within(bytes: &[u8], max_chars: usize) -> String {
     let mut out = String::from("\"");
     let mut shown = 0;
     let mut cut = false;
     'chunks: for chunk in bytes.utf8_chunks() {
         for c in chunk.valid().chars() {
             let escaped = escape(c);
-            if shown + escaped.chars().count() > MAX_EXCERPT_CHARS {
+            if shown + escaped.chars().count() > max_chars {
                 cut = true;
                 break 'chunks;
             }
@@ -28,7 +37,7 @@ pub fn excerpt(bytes: impl AsRef<[u8]>) -> String {
             out.push_str(&escaped);
         }
         for b in chunk.invalid() {
-            if shown + 4 > MAX_EXCERPT_CHARS {
+            if shown + 4 > max_chars {
                 cut = true;
                 break 'chunks;
             }
@@ -44,12 +53,24 @@ pub fn excerpt(bytes: impl AsRef<[u8]>) -> String {
 }
 
 /// A name taken from the input (a key, a subject id) as a message shows it: as it is when
-/// it is short and printable, else quoted through [`excerpt`].
+/// it is printable and at most [`MAX_NAME_CHARS`] long, else quoted like [`excerpt`] within
+/// that many characters.
 pub fn name(text: &str) -> Cow<'_, str> {
-    if text.chars().count() <= MAX_EXCERPT_CHARS && escape_free(text) {
+    bare_or_quoted(text, MAX_NAME_CHARS)
+}
+
+/// A value taken from the input's text (a TOML value as written) as a message shows it:
+/// as it is when it is printable and at most [`MAX_EXCERPT_CHARS`] long, else
+/// [`excerpt`].
+pub fn value(text: &str) -> Cow<'_, str> {
+    bare_or_quoted(text, MAX_EXCERPT_CHARS)
+}
+
+fn bare_or_quoted(text: &str, max_chars: usize) -> Cow<'_, str> {
+    if text.chars().count() <= max_chars && escape_free(text) {
         Cow::Borrowed(text)
     } else {
-        Cow::Owned(excerpt(text))
+        Cow::Owned(excerpt_within(text.as_bytes(), max_chars))
     }
 }
 
@@ -57,9 +78,20 @@ fn escape_free(text: &str) -> bool {
     text.chars().all(|c| escape(c).len() == c.len_utf8())
 }
 
+/// A number read from the input as a message shows it: Rust's shortest form, in exponent
+/// form from 1e15 on, so that 1e300 does not print as 301 digits.
+pub fn number(v: f64) -> String {
+    if v.is_finite() && v.abs() >= 1e15 {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
 /// A parser's message (TOML, serde) made safe to print: control characters escaped, and
-/// each part it quotes between backquotes or double quotes cut to [`MAX_EXCERPT_CHARS`]
-/// characters (serde quotes the offending key or value whole, however long).
+/// each part it quotes between backquotes or double quotes cut to [`MAX_NAME_CHARS`]
+/// characters (serde quotes the offending key or value whole, however long, beside a list
+/// of what it expected).
 pub fn bound_quoted_parts(message: &str) -> String {
     let mut out = String::with_capacity(message.len().min(4 * MAX_EXCERPT_CHARS));
     let mut quote: Option<char> = None;
@@ -77,7 +109,7 @@ pub fn bound_quoted_parts(message: &str) -> String {
                 push_printable(&mut out, c);
             }
             Some(q) if c == q && !escaped => {
-                if inside > MAX_EXCERPT_CHARS {
+                if inside > MAX_NAME_CHARS {
                     let _ = write!(out, "{q}... ({inside} characters)");
                 } else {
                     out.push(q);
@@ -87,13 +119,13 @@ pub fn bound_quoted_parts(message: &str) -> String {
             Some(q) => {
                 escaped = q == '"' && c == '\\' && !escaped;
                 inside += 1;
-                if inside <= MAX_EXCERPT_CHARS {
+                if inside <= MAX_NAME_CHARS {
                     push_printable(&mut out, c);
                 }
             }
         }
     }
-    if quote.is_some() && inside > MAX_EXCERPT_CHARS {
+    if quote.is_some() && inside > MAX_NAME_CHARS {
         let _ = write!(out, "... ({inside} characters)");
     }
     out
@@ -144,9 +176,9 @@ mod tests {
             e,
             format!("\"{}\"... (1000000 bytes)", "x".repeat(MAX_EXCERPT_CHARS))
         );
-        // Escapes count by what they print: 40 NULs fill the 80 characters.
+        // Escapes count by what they print: 30 NULs fill the 60 characters.
         let nul = excerpt(vec![0u8; 1000]);
-        assert_eq!(nul, format!("\"{}\"... (1000 bytes)", "\\0".repeat(40)));
+        assert_eq!(nul, format!("\"{}\"... (1000 bytes)", "\\0".repeat(30)));
         // Exactly the limit is not cut.
         let fits = "y".repeat(MAX_EXCERPT_CHARS);
         assert_eq!(excerpt(&fits), format!("\"{fits}\""));
@@ -157,7 +189,24 @@ mod tests {
         assert_eq!(name("s1"), "s1");
         assert_eq!(name("a b"), "a b");
         assert_eq!(name("a\nb"), "\"a\\nb\"");
-        assert_eq!(name(&"k".repeat(81)), excerpt("k".repeat(81)));
+        assert_eq!(
+            name(&"k".repeat(33)),
+            format!("\"{}\"... (33 bytes)", "k".repeat(32))
+        );
+        assert_eq!(
+            value("[[1, 0, 0], [0, 1, 0], [0, 0, 2]]"),
+            "[[1, 0, 0], [0, 1, 0], [0, 0, 2]]"
+        );
+        assert_eq!(value("[1,\n2]"), "\"[1,\\n2]\"");
+    }
+
+    #[test]
+    fn numbers_stay_short_however_large() {
+        assert_eq!(number(-1.0), "-1");
+        assert_eq!(number(0.485), "0.485");
+        assert_eq!(number(1e300), "1e300");
+        assert_eq!(number(-2.5e20), "-2.5e20");
+        assert_eq!(number(f64::NAN), "NaN");
     }
 
     #[test]
@@ -168,12 +217,18 @@ mod tests {
             bound_quoted_parts(&message),
             format!(
                 "unknown field `{}`... (500 characters), expected `x` or `s`",
-                "b".repeat(MAX_EXCERPT_CHARS)
+                "b".repeat(MAX_NAME_CHARS)
             )
         );
-        let value = format!("invalid type: string \"{}\\\"\\0\", expected f32", "a".repeat(90));
+        let value = format!(
+            "invalid type: string \"{}\\\"\\0\", expected f32",
+            "a".repeat(40)
+        );
         let bounded = bound_quoted_parts(&value);
-        assert!(bounded.ends_with("... (94 characters), expected f32"), "{bounded}");
+        assert!(
+            bounded.ends_with("... (44 characters), expected f32"),
+            "{bounded}"
+        );
         assert_eq!(
             bound_quoted_parts("unknown field `a\0\n`, expected `x`"),
             "unknown field `a\\0\\n`, expected `x`"

@@ -24,7 +24,7 @@ use anyhow::Result;
 use serde::Serialize;
 
 use crate::io::csv_lines::{CsvLines, LineError, Row};
-use crate::io::excerpt::excerpt;
+use crate::io::excerpt::{excerpt, number};
 use crate::io::output::write_atomically;
 
 /// The exact first line of a recording.
@@ -63,7 +63,7 @@ pub enum RecordingError {
         reason: String,
     },
     /// The file has no header line.
-    #[error("{path}: line 1: expected the header \"{HEADER_LINE}\", found an empty file")]
+    #[error("{path}: line 1: expected a recording's header, found an empty file")]
     Empty {
         /// The file.
         path: PathBuf,
@@ -71,7 +71,7 @@ pub enum RecordingError {
     /// The header is not exactly [`HEADER_LINE`] (or [`PLATFORM_HEADER_LINE`] where a ride
     /// is accepted).
     #[error(
-        "{path}: line 1, column {column}: expected the header field \"{expected}\", found {found} (the header must be exactly \"{HEADER_LINE}\")"
+        "{path}: line 1, column {column}: expected the header field \"{expected}\", found {found}"
     )]
     Header {
         /// The file.
@@ -130,7 +130,7 @@ pub enum RecordingError {
     /// An acceleration is finite in f64 but beyond the f32 range the device and the host's
     /// device pipeline compute in, where it would become infinite.
     #[error(
-        "{path}: line {line}, column {column}: expected an acceleration within +-{MAX_ACCELERATION_M_S2:e} m/s^2 (the f32 range the device computes in), found {found}"
+        "{path}: line {line}, column {column}: expected an acceleration within the f32 range the device computes in (+-{MAX_ACCELERATION_M_S2:.1e} m/s^2), found {found}"
     )]
     OutOfRange {
         /// The file.
@@ -144,7 +144,9 @@ pub enum RecordingError {
     },
     /// Time does not increase from one line to the next.
     #[error(
-        "{path}: line {line}, column time_s: expected a time after {previous_s} s (strictly increasing), found {found_s} s"
+        "{path}: line {line}, column time_s: expected a time after {} s (strictly increasing), found {} s",
+        number(*previous_s),
+        number(*found_s)
     )]
     TimeNotIncreasing {
         /// The file.
@@ -496,7 +498,11 @@ struct LineNumbers {
 
 impl LineNumbers {
     fn push(&mut self, sample: usize, line: u64) {
-        if self.runs.last().is_none_or(|&(k, l)| l + (sample - k) as u64 != line) {
+        if self
+            .runs
+            .last()
+            .is_none_or(|&(k, l)| l + (sample - k) as u64 != line)
+        {
             self.runs.push((sample, line));
         }
     }

@@ -68,7 +68,10 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("p.toml");
         std::fs::write(&path, b"\xef\xbb\xbfa = 1\r\n").unwrap();
-        assert_eq!(read_text(&path, "parameter file", 100).unwrap(), "a = 1\r\n");
+        assert_eq!(
+            read_text(&path, "parameter file", 100).unwrap(),
+            "a = 1\r\n"
+        );
     }
 
     #[test]
@@ -78,9 +81,13 @@ mod tests {
         let file = std::fs::File::create(&path).unwrap();
         // Sparse: 2 GiB of NUL bytes on no disk space.
         file.set_len(2 << 30).unwrap();
-        let e = read_text(&path, "parameter file", 1024).unwrap_err().to_string();
+        let e = read_text(&path, "parameter file", 1024)
+            .unwrap_err()
+            .to_string();
         assert!(
-            e.ends_with("big.toml: expected a parameter file of at most 1024 bytes, found 2147483648 bytes"),
+            e.ends_with(
+                "big.toml: expected a parameter file of at most 1024 bytes, found 2147483648 bytes"
+            ),
             "{e}"
         );
         // A device has no length: the read itself stops one byte past the limit.

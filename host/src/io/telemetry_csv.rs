@@ -105,7 +105,11 @@ fn read_rows<T>(
         let mut cells: Vec<&str> = Vec::with_capacity(TELEMETRY_CELLS);
         for (i, cell) in row.cells().enumerate() {
             cells.push(std::str::from_utf8(cell).map_err(|_| {
-                anyhow!("{at}, cell {}: expected text, found {}", i + 1, excerpt(cell))
+                anyhow!(
+                    "{at}, cell {}: expected text, found {}",
+                    i + 1,
+                    excerpt(cell)
+                )
             })?);
         }
         if first {
@@ -127,7 +131,10 @@ fn read_rows<T>(
 pub fn read_telemetry(path: &Path) -> Result<Vec<Telemetry>> {
     read_rows(path, TELEMETRY_HEADER, |cells, at| {
         if cells.len() != TELEMETRY_CELLS {
-            bail!("{at}: expected {TELEMETRY_CELLS} cells, found {}", cells.len());
+            bail!(
+                "{at}: expected {TELEMETRY_CELLS} cells, found {}",
+                cells.len()
+            );
         }
         let num = |i: usize| -> Result<f32> {
             cells[i].parse::<f32>().map_err(|_| {
