@@ -11,7 +11,7 @@ use clap::ArgGroup;
 use crate::commands::values;
 use crate::exposure::ride::{Profile, generate};
 use crate::io::params_file::{ModelSource, PresetArg};
-use crate::io::recording::read_input;
+use crate::io::recording::PlatformStream;
 use crate::monitor::log::MonitorLog;
 use crate::monitor::session::{Ending, QemuRun, run_qemu, run_serial};
 use crate::monitor::view::{LiveView, PlainView, View};
@@ -142,11 +142,10 @@ fn prepare_qemu(args: &Args, greeting_timeout: Duration) -> Result<QemuRun> {
     let file = model.load()?;
     let (samples, sample_rate_hz) = match (&args.input, args.profile) {
         (Some(path), _) => {
-            let (recording, _) = read_input(path)?;
-            if recording.len() < 2 {
-                bail!("{}: fewer than two samples", path.display());
-            }
-            (recording.platform_samples(), recording.sample_rate_hz())
+            // Only the platform samples are kept (12 bytes each), not the whole recording.
+            let ride = PlatformStream::open(path)?;
+            let samples = ride.samples()?.collect::<Result<Vec<_>, _>>()?;
+            (samples, ride.sample_rate_hz())
         }
         (None, Some(profile)) => {
             let ride = generate(profile, args.duration_s, args.fs_hz, args.seed)?;

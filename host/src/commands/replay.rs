@@ -7,8 +7,8 @@ use supine_core::blob::TelemetryConfig;
 
 use crate::device::replay::replay;
 use crate::io::params_file::ModelSource;
-use crate::io::recording::read_input;
-use crate::io::telemetry_csv::{events_path, write_events, write_telemetry};
+use crate::io::recording::PlatformStream;
+use crate::io::telemetry_csv::{events_path, write_events, write_telemetry_streamed};
 
 /// Arguments of `supine replay`.
 #[derive(Debug, clap::Args)]
@@ -41,16 +41,22 @@ pub fn run(args: &Args) -> Result<()> {
         bail!("give --qemu: replay runs the firmware in QEMU (no hardware target yet)");
     }
     let file = args.model.load()?;
-    // A full recording or a `supine ride` file (platform columns only).
-    let (recording, _) = read_input(&args.input)?;
+    // A full recording or a `supine ride` file (platform columns only), checked whole
+    // first, then streamed: a ride of any length fits in memory.
+    let ride = PlatformStream::open(&args.input)?;
     // Ctrl-C, SIGTERM and SIGHUP: QEMU stopped and its folder removed on the way out.
     let stop = crate::device::signals::stop_flag();
     let telemetry = TelemetryConfig {
         decimation: args.telemetry_decimation,
     };
-    let result = replay(&file, &recording, telemetry, args.icount, &stop)?;
+    let mut records = 0usize;
+    let result = write_telemetry_streamed(&args.out, ride.sample_rate_hz(), |emit| {
+        replay(&file, &ride, telemetry, args.icount, &stop, &mut |t| {
+            records += 1;
+            emit(t)
+        })
+    })?;
     let s = &result.session;
-    write_telemetry(&args.out, &s.telemetry, result.sample_rate_hz)?;
     let events = events_path(&args.out);
     write_events(&events, &s.events, result.sample_rate_hz)?;
     if args.icount {
@@ -63,7 +69,7 @@ pub fn run(args: &Args) -> Result<()> {
     eprintln!(
         "replayed {} samples: {} telemetry records, frames lost {}, bad {}, alerts raised {}; wrote {} and {}",
         result.samples,
-        s.telemetry.len(),
+        records,
         s.link.lost_frames,
         s.link.bad_frames,
         raised,

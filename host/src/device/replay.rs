@@ -3,15 +3,17 @@
 //! The parameter blob is built for the recording's sample rate and loaded into the PARAMS
 //! region; QEMU (mps2-an386) runs the product image with UART0 on a private Unix socket.
 //! A writer thread streams the recording's platform columns as [`HostToDevice::Samples`]
-//! frames (8 samples each, with their indices) while this thread reads the device's
-//! numbered frames. QEMU serves the socket with `wait=on` and the device's one-byte RX
-//! flow-controls it, so samples go as fast as the device takes them (faster than real
-//! time). A final `GetStatus` makes the device process what it has buffered and report
+//! frames (8 samples each, with their indices), read from the file as they are sent,
+//! while this thread reads the device's numbered frames and hands each telemetry record
+//! on as it arrives: memory does not grow with the ride. QEMU serves the socket with
+//! `wait=on` and the device's one-byte RX flow-controls it, so samples go as fast as the
+//! device takes them (faster than real time). A final `GetStatus` makes the device process what it has buffered and report
 //! its counters; its `Status` ends the session.
 //!
 //! The [`Qemu`] guard kills QEMU and removes its folder on every exit path; a stop flag
 //! (set by Ctrl-C in the CLI) ends the loops early with an error.
 
+use std::convert::Infallible;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -21,9 +23,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, anyhow, bail};
 use supine_core::alerts::AlertEvent;
 use supine_core::blob::TelemetryConfig;
-use supine_core::protocol::{
-    DeviceToHost, Greeting, HostToDevice, MAX_SAMPLES_PER_FRAME, SampleBatch, Status, Telemetry,
-};
+use supine_core::protocol::{DeviceToHost, Greeting, HostToDevice, SampleBatch, Status, Telemetry};
 use supine_core::timing::INSTRUCTIONS_PER_TICK;
 
 use crate::device::device_params;
@@ -32,7 +32,7 @@ use crate::device::link::{FrameReader, FrameWriter, LinkStats};
 use crate::device::qemu::{Qemu, QemuConfig};
 use crate::device::scratch::ScratchDir;
 use crate::io::params_file::ParamFile;
-use crate::io::recording::Recording;
+use crate::io::recording::PlatformStream;
 
 /// One thing the host sends: a message, or raw bytes (for tests that send garbage).
 #[derive(Clone, Debug, PartialEq)]
@@ -93,21 +93,50 @@ impl Session {
 
 /// Frames of `samples` (consecutive indices from `first_index`), 8 per frame.
 pub fn sample_messages(first_index: u32, samples: &[[f32; 3]]) -> Vec<Outgoing> {
-    samples
-        .chunks(MAX_SAMPLES_PER_FRAME)
-        .enumerate()
-        .map(|(k, chunk)| {
-            let mut accel_m_s2 = heapless::Vec::new();
-            for &s in chunk {
-                // A chunk has at most MAX_SAMPLES_PER_FRAME samples: this always fits.
-                let _ = accel_m_s2.push(s);
-            }
-            Outgoing::Message(HostToDevice::Samples(SampleBatch {
-                first_sample_index: first_index.wrapping_add((k * MAX_SAMPLES_PER_FRAME) as u32),
-                accel_m_s2,
-            }))
+    sample_frames(first_index, samples.iter().map(|s| Ok::<_, Infallible>(*s)))
+        .map(|frame| match frame {
+            Ok(frame) => frame,
+            Err(never) => match never {},
         })
         .collect()
+}
+
+/// Frames of `samples` (consecutive indices from `first_index`), 8 per frame, built as
+/// the samples are taken; the first error ends them.
+pub fn sample_frames<E>(
+    first_index: u32,
+    mut samples: impl Iterator<Item = Result<[f32; 3], E>>,
+) -> impl Iterator<Item = Result<Outgoing, E>> {
+    let mut next_index = first_index;
+    let mut failed = false;
+    std::iter::from_fn(move || {
+        if failed {
+            return None;
+        }
+        let mut accel_m_s2 = heapless::Vec::new();
+        while !accel_m_s2.is_full() {
+            match samples.next() {
+                // Not full: this always fits.
+                Some(Ok(s)) => {
+                    let _ = accel_m_s2.push(s);
+                }
+                Some(Err(e)) => {
+                    failed = true;
+                    return Some(Err(e));
+                }
+                None => break,
+            }
+        }
+        if accel_m_s2.is_empty() {
+            return None;
+        }
+        let first_sample_index = next_index;
+        next_index = next_index.wrapping_add(accel_m_s2.len() as u32);
+        Some(Ok(Outgoing::Message(HostToDevice::Samples(SampleBatch {
+            first_sample_index,
+            accel_m_s2,
+        }))))
+    })
 }
 
 /// Starts the image, sends `script` (then `GetStatus`), and collects what the device says
@@ -117,6 +146,40 @@ pub fn session(
     config: &SessionConfig,
     script: Vec<Outgoing>,
     stop: &Arc<AtomicBool>,
+) -> Result<Session> {
+    let expected_statuses = script
+        .iter()
+        .filter(|o| matches!(o, Outgoing::Message(HostToDevice::GetStatus)))
+        .count()
+        + 1;
+    let mut telemetry = Vec::new();
+    let mut session = streamed_session(
+        config,
+        script.into_iter().map(Ok),
+        expected_statuses,
+        stop,
+        &mut |t| {
+            telemetry.push(*t);
+            Ok(())
+        },
+    )?;
+    session.telemetry = telemetry;
+    Ok(session)
+}
+
+/// What a session does with each telemetry record as it arrives.
+pub type TelemetrySink<'a> = dyn FnMut(&Telemetry) -> Result<()> + 'a;
+
+/// As [`session`], with the script taken as it is sent (an error in it ends the session
+/// with that error), `expected_statuses` the number of `GetStatus` it holds plus one, and
+/// each telemetry record handed to `on_telemetry` instead of kept: the session's
+/// `telemetry` stays empty, so its memory does not grow with the ride.
+fn streamed_session(
+    config: &SessionConfig,
+    script: impl Iterator<Item = Result<Outgoing>> + Send + 'static,
+    expected_statuses: usize,
+    stop: &Arc<AtomicBool>,
+    on_telemetry: &mut TelemetrySink<'_>,
 ) -> Result<Session> {
     let blob_dir = ScratchDir::new("blob")?;
     let mut qemu_config = QemuConfig::new(&config.kernel)
@@ -132,7 +195,15 @@ pub fn session(
     }
     let started = Instant::now();
     let mut qemu = Qemu::start(&qemu_config)?;
-    let result = talk(&mut qemu, script, stop, started).map_err(|e| {
+    let result = talk(
+        &mut qemu,
+        script,
+        expected_statuses,
+        stop,
+        started,
+        on_telemetry,
+    )
+    .map_err(|e| {
         if stop.load(Ordering::Relaxed) {
             e
         } else {
@@ -149,36 +220,37 @@ pub fn session(
 
 fn talk(
     qemu: &mut Qemu,
-    script: Vec<Outgoing>,
+    script: impl Iterator<Item = Result<Outgoing>> + Send + 'static,
+    expected_statuses: usize,
     stop: &Arc<AtomicBool>,
     started: Instant,
+    on_telemetry: &mut TelemetrySink<'_>,
 ) -> Result<Session> {
     let deadline = Instant::now() + qemu.remaining();
     let uart = qemu.uart().ok_or_else(|| anyhow!("QEMU has no UART"))?;
     uart.set_read_timeout(Some(Duration::from_millis(50)))?;
     let tx = uart.try_clone()?;
     let rx = uart.try_clone()?;
-    let expected_statuses = script
-        .iter()
-        .filter(|o| matches!(o, Outgoing::Message(HostToDevice::GetStatus)))
-        .count()
-        + 1;
     // The writer's own flag: a failed session stops it without touching `stop`, which
     // is the caller's (the process's signal flag for `supine replay`).
     let writer_done = Arc::new(AtomicBool::new(false));
     let (writer_stop, done) = (Arc::clone(stop), Arc::clone(&writer_done));
+    // Set when the script itself fails (a ride unreadable midway): its error is the cause.
+    let script_failed = Arc::new(AtomicBool::new(false));
+    let failed = Arc::clone(&script_failed);
     let writer = thread::spawn(move || -> Result<()> {
         let mut writer = FrameWriter::new(std::io::BufWriter::with_capacity(4096, tx));
-        for item in script
-            .into_iter()
-            .chain([Outgoing::Message(HostToDevice::GetStatus)])
-        {
+        for item in script.chain([Ok(Outgoing::Message(HostToDevice::GetStatus))]) {
             if writer_stop.load(Ordering::Relaxed) || done.load(Ordering::Relaxed) {
                 return Ok(());
             }
             match item {
-                Outgoing::Message(m) => writer.send(&m)?,
-                Outgoing::Raw(bytes) => writer.send_raw(&bytes)?,
+                Ok(Outgoing::Message(m)) => writer.send(&m)?,
+                Ok(Outgoing::Raw(bytes)) => writer.send_raw(&bytes)?,
+                Err(e) => {
+                    failed.store(true, Ordering::Relaxed);
+                    return Err(e);
+                }
             }
         }
         writer.flush()
@@ -194,15 +266,18 @@ fn talk(
         elapsed: Duration::ZERO,
         diagnostics: String::new(),
     };
+    let mut telemetry_records = 0usize;
     let result = loop {
         if stop.load(Ordering::Relaxed) {
             break Err(anyhow!("interrupted"));
         }
+        if script_failed.load(Ordering::Relaxed) {
+            break Err(anyhow!("the samples stopped"));
+        }
         if Instant::now() >= deadline {
             break Err(anyhow!(
-                "the device did not finish within {} ({} telemetry records so far)",
+                "the device did not finish within {} ({telemetry_records} telemetry records so far)",
                 crate::device::link::format_duration(deadline - started),
-                s.telemetry.len()
             ));
         }
         let step = (Instant::now() + Duration::from_millis(100)).min(deadline);
@@ -219,7 +294,12 @@ fn talk(
                 }
                 s.greetings.push(g);
             }
-            Ok(Some(DeviceToHost::Telemetry(t))) => s.telemetry.push(t),
+            Ok(Some(DeviceToHost::Telemetry(t))) => {
+                telemetry_records += 1;
+                if let Err(e) = on_telemetry(&t) {
+                    break Err(e);
+                }
+            }
             Ok(Some(DeviceToHost::Alert(e))) => s.events.push(e),
             Ok(Some(DeviceToHost::Status(st))) => {
                 s.statuses.push(st);
@@ -242,6 +322,11 @@ fn talk(
     let written = writer
         .join()
         .map_err(|_| anyhow!("the writer thread panicked"))?;
+    if script_failed.load(Ordering::Relaxed) {
+        // The script's own error (the ride) is the cause; the session's follows from it.
+        written.and(result)?;
+        return Ok(s);
+    }
     result?;
     written?;
     Ok(s)
@@ -250,7 +335,8 @@ fn talk(
 /// What `supine replay` produced.
 #[derive(Clone, Debug)]
 pub struct ReplayResult {
-    /// The session with the device.
+    /// The session with the device (its `telemetry` is empty: the records went to the
+    /// caller as they arrived).
     pub session: Session,
     /// The recording's sample rate, Hz.
     pub sample_rate_hz: f64,
@@ -258,35 +344,37 @@ pub struct ReplayResult {
     pub samples: usize,
 }
 
-/// Builds the blob of `file` for `recording`'s rate, replays the recording's platform
-/// columns through the product image in QEMU and returns what the device said.
+/// Builds the blob of `file` for the ride's rate, streams the ride's platform columns
+/// through the product image in QEMU as they are read, and hands each telemetry record to
+/// `on_telemetry` as it arrives: memory does not grow with the ride's length.
 pub fn replay(
     file: &ParamFile,
-    recording: &Recording,
+    ride: &PlatformStream,
     telemetry: TelemetryConfig,
     icount: bool,
     stop: &Arc<AtomicBool>,
+    on_telemetry: &mut TelemetrySink<'_>,
 ) -> Result<ReplayResult> {
-    if recording.len() < 2 {
-        bail!("{} has fewer than two samples", recording.path.display());
+    if ride.len() < 2 {
+        bail!("{} has fewer than two samples", ride.path().display());
     }
-    let sample_rate_hz = recording.sample_rate_hz();
+    let sample_rate_hz = ride.sample_rate_hz();
     // The telemetry rate is the replay's (a transport setting), not the file's: the
     // identity stays the parameter file's, as `supine flash` would report it.
     let mut params = device_params::build(file, sample_rate_hz)?;
     params.telemetry = telemetry;
     let blob = device_params::encode(&params)?;
-    let samples = recording.platform_samples();
     let kernel = firmware::build_binary(firmware::PRODUCT_BINARY)?;
     // Generous: the device runs at tens of thousands of samples per second.
-    let timeout = Duration::from_secs(60 + samples.len() as u64 / 1000);
+    let timeout = Duration::from_secs(60 + ride.len() as u64 / 1000);
     let config = SessionConfig {
         kernel,
         blob: Some(blob),
         icount,
         timeout,
     };
-    let session = session(&config, sample_messages(0, &samples), stop)?;
+    let frames = sample_frames(0, ride.samples()?).map(|f| f.map_err(anyhow::Error::from));
+    let session = streamed_session(&config, frames, 1, stop, on_telemetry)?;
     if let Some(g) = session.greetings.first()
         && g.params_identity != params.identity
     {
@@ -299,6 +387,43 @@ pub fn replay(
     Ok(ReplayResult {
         session,
         sample_rate_hz,
-        samples: samples.len(),
+        samples: ride.len(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frames(outgoing: &[Outgoing]) -> Vec<(u32, usize)> {
+        outgoing
+            .iter()
+            .map(|o| match o {
+                Outgoing::Message(HostToDevice::Samples(b)) => {
+                    (b.first_sample_index, b.accel_m_s2.len())
+                }
+                other => panic!("not a sample frame: {other:?}"),
+            })
+            .collect()
+    }
+
+    #[test]
+    fn samples_go_eight_to_a_frame_with_their_indices() {
+        let samples: Vec<[f32; 3]> = (0..17).map(|k| [k as f32, 0.0, 0.0]).collect();
+        let messages = sample_messages(100, &samples);
+        assert_eq!(frames(&messages), [(100, 8), (108, 8), (116, 1)]);
+        let Outgoing::Message(HostToDevice::Samples(last)) = &messages[2] else {
+            unreachable!("checked above");
+        };
+        assert_eq!(last.accel_m_s2[0], [16.0, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn a_failing_sample_source_ends_the_frames_with_its_error() {
+        let source = (0..20).map(|k| if k == 10 { Err(k) } else { Ok([0.0f32; 3]) });
+        let out: Vec<Result<Outgoing, i32>> = sample_frames(0, source).collect();
+        assert_eq!(out.len(), 2);
+        assert!(out[0].is_ok());
+        assert_eq!(out[1].as_ref().err(), Some(&10));
+    }
 }

@@ -243,52 +243,20 @@ impl Recording {
         path: &Path,
         accepted: &[Layout],
     ) -> Result<(Self, Layout), RecordingError> {
-        let p = || path.to_path_buf();
-        let line_error = |source: LineError| match source {
-            LineError::Read(reason) => RecordingError::Read { path: p(), reason },
-            source => RecordingError::Line { path: p(), source },
-        };
-        let mut lines = CsvLines::new(source);
-        let layout = match lines.next_row().map_err(line_error)? {
-            Some(header) => check_header(&header, path, accepted)?,
-            None => return Err(RecordingError::Empty { path: p() }),
-        };
-        let columns = layout.columns();
+        let mut rows = RowReader::new(source, path, accepted)?;
         let mut rec = Recording {
-            path: p(),
+            path: path.to_path_buf(),
             time_s: Vec::new(),
             platform_m_s2: Default::default(),
             sensors_m_s2: Default::default(),
         };
-        let mut row = [0.0f64; 13];
         let mut lines_of = LineNumbers::default();
-        while let Some(cells) = lines.next_row().map_err(line_error)? {
-            let line = cells.line;
-            if cells.len() != columns {
-                return Err(RecordingError::CellCount {
-                    path: p(),
-                    line,
-                    expected: columns,
-                    found: cells.len(),
-                });
-            }
-            for (c, cell) in cells.cells().enumerate() {
-                row[c] = parse_cell(cell, COLUMNS[c]).map_err(|e| e.at(p(), line))?;
-            }
-            let previous_s = rec.time_s.last().copied().unwrap_or(f64::NEG_INFINITY);
-            if row[0] <= previous_s {
-                return Err(RecordingError::TimeNotIncreasing {
-                    path: p(),
-                    line,
-                    previous_s,
-                    found_s: row[0],
-                });
-            }
+        while let Some((line, row)) = rows.next_row()? {
             lines_of.push(rec.time_s.len(), line);
             rec.push_row(&row);
         }
         rec.check_uniform(&lines_of)?;
-        Ok((rec, layout))
+        Ok((rec, rows.layout))
     }
 
     fn push_row(&mut self, row: &[f64; 13]) {
@@ -305,23 +273,9 @@ impl Recording {
     /// `lines_of` gives each sample's line in the file.
     fn check_uniform(&self, lines_of: &LineNumbers) -> Result<(), RecordingError> {
         let n = self.time_s.len();
-        if n < 2 {
-            return Err(RecordingError::TooShort {
-                path: self.path.clone(),
-                found: n,
-            });
-        }
-        let mean_step_s = (self.time_s[n - 1] - self.time_s[0]) / (n - 1) as f64;
+        let uniform = Uniform::new(&self.path, n, self.time_s.first(), self.time_s.last())?;
         for k in 1..n {
-            let step_s = self.time_s[k] - self.time_s[k - 1];
-            if (step_s - mean_step_s).abs() > UNIFORM_TOLERANCE * mean_step_s {
-                return Err(RecordingError::NotUniform {
-                    path: self.path.clone(),
-                    line: lines_of.line_of(k),
-                    expected_s: mean_step_s,
-                    found_s: step_s,
-                });
-            }
+            uniform.check(lines_of.line_of(k), self.time_s[k] - self.time_s[k - 1])?;
         }
         Ok(())
     }
@@ -394,6 +348,224 @@ impl Layout {
             Layout::PlatformOnly => 4,
         }
     }
+}
+
+/// The uniform-sampling check: every step within [`UNIFORM_TOLERANCE`] of the mean step.
+struct Uniform<'a> {
+    path: &'a Path,
+    mean_step_s: f64,
+}
+
+impl<'a> Uniform<'a> {
+    /// The check for `samples` samples from `first_s` to `last_s`; at least two are needed.
+    fn new(
+        path: &'a Path,
+        samples: usize,
+        first_s: Option<&f64>,
+        last_s: Option<&f64>,
+    ) -> Result<Self, RecordingError> {
+        match (first_s, last_s) {
+            (Some(first_s), Some(last_s)) if samples >= 2 => Ok(Self {
+                path,
+                mean_step_s: (last_s - first_s) / (samples - 1) as f64,
+            }),
+            _ => Err(RecordingError::TooShort {
+                path: path.to_path_buf(),
+                found: samples,
+            }),
+        }
+    }
+
+    /// Checks the step that ends on `line`.
+    fn check(&self, line: u64, step_s: f64) -> Result<(), RecordingError> {
+        if (step_s - self.mean_step_s).abs() > UNIFORM_TOLERANCE * self.mean_step_s {
+            return Err(RecordingError::NotUniform {
+                path: self.path.to_path_buf(),
+                line,
+                expected_s: self.mean_step_s,
+                found_s: step_s,
+            });
+        }
+        Ok(())
+    }
+}
+
+/// The data rows of a recording file, parsed and checked one line at a time: the header
+/// decides the layout, every cell must be a number in range, time must increase.
+struct RowReader<R: Read> {
+    lines: CsvLines<R>,
+    path: PathBuf,
+    layout: Layout,
+    previous_s: f64,
+}
+
+impl<R: Read> RowReader<R> {
+    /// Reads the header of `source` (in one of the `accepted` layouts).
+    fn new(source: R, path: &Path, accepted: &[Layout]) -> Result<Self, RecordingError> {
+        let mut lines = CsvLines::new(source);
+        let layout = match lines.next_row().map_err(|e| line_error(path, e))? {
+            Some(header) => check_header(&header, path, accepted)?,
+            None => {
+                return Err(RecordingError::Empty {
+                    path: path.to_path_buf(),
+                });
+            }
+        };
+        Ok(Self {
+            lines,
+            path: path.to_path_buf(),
+            layout,
+            previous_s: f64::NEG_INFINITY,
+        })
+    }
+
+    /// The next row's line and its 13 numbers (the sensor columns zero in a ride).
+    fn next_row(&mut self) -> Result<Option<(u64, [f64; 13])>, RecordingError> {
+        let p = || self.path.clone();
+        let Some(cells) = self
+            .lines
+            .next_row()
+            .map_err(|e| line_error(&self.path, e))?
+        else {
+            return Ok(None);
+        };
+        let line = cells.line;
+        let columns = self.layout.columns();
+        if cells.len() != columns {
+            return Err(RecordingError::CellCount {
+                path: p(),
+                line,
+                expected: columns,
+                found: cells.len(),
+            });
+        }
+        let mut row = [0.0f64; 13];
+        for (c, cell) in cells.cells().enumerate() {
+            row[c] = parse_cell(cell, COLUMNS[c]).map_err(|e| e.at(p(), line))?;
+        }
+        if row[0] <= self.previous_s {
+            return Err(RecordingError::TimeNotIncreasing {
+                path: p(),
+                line,
+                previous_s: self.previous_s,
+                found_s: row[0],
+            });
+        }
+        self.previous_s = row[0];
+        Ok(Some((line, row)))
+    }
+}
+
+fn line_error(path: &Path, error: LineError) -> RecordingError {
+    match error {
+        LineError::Read(reason) => RecordingError::Read {
+            path: path.to_path_buf(),
+            reason,
+        },
+        source => RecordingError::Line {
+            path: path.to_path_buf(),
+            source,
+        },
+    }
+}
+
+/// A recording's platform columns streamed from its file, for a ride of any length
+/// (`supine replay`): memory holds a line, not the ride.
+///
+/// Opening reads the file twice, for every check [`read_input`] makes (the second pass
+/// checks each step against the mean step the first found); each [`samples`](Self::samples)
+/// reads it once more.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlatformStream {
+    path: PathBuf,
+    layout: Layout,
+    samples: usize,
+    first_s: f64,
+    last_s: f64,
+}
+
+impl PlatformStream {
+    /// Checks the file at `path` (either layout) and finds its length and rate.
+    pub fn open(path: &Path) -> Result<Self, RecordingError> {
+        let mut rows = open_rows(path)?;
+        let (mut samples, mut first_s, mut last_s) = (0usize, None, None);
+        while let Some((_, row)) = rows.next_row()? {
+            samples += 1;
+            first_s.get_or_insert(row[0]);
+            last_s = Some(row[0]);
+        }
+        let uniform = Uniform::new(path, samples, first_s.as_ref(), last_s.as_ref())?;
+        let mut rows = open_rows(path)?;
+        let mut previous_s = None;
+        while let Some((line, row)) = rows.next_row()? {
+            if let Some(previous_s) = previous_s {
+                uniform.check(line, row[0] - previous_s)?;
+            }
+            previous_s = Some(row[0]);
+        }
+        Ok(Self {
+            path: path.to_path_buf(),
+            layout: rows.layout,
+            samples,
+            first_s: first_s.unwrap_or_default(),
+            last_s: last_s.unwrap_or_default(),
+        })
+    }
+
+    /// The file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Which columns the file holds.
+    pub fn layout(&self) -> Layout {
+        self.layout
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.samples
+    }
+
+    /// Whether there are no samples (never, for a stream that opened).
+    pub fn is_empty(&self) -> bool {
+        self.samples == 0
+    }
+
+    /// The sample rate from the mean step, Hz, as [`Recording::sample_rate_hz`] gives it.
+    pub fn sample_rate_hz(&self) -> f64 {
+        (self.samples - 1) as f64 / (self.last_s - self.first_s)
+    }
+
+    /// The platform samples as the device is streamed them ([`device_samples`]), read
+    /// from the file as they are taken.
+    pub fn samples(&self) -> Result<PlatformSamples, RecordingError> {
+        Ok(PlatformSamples {
+            rows: open_rows(&self.path)?,
+        })
+    }
+}
+
+/// The samples of a [`PlatformStream`], one f32 triple per line.
+pub struct PlatformSamples {
+    rows: RowReader<std::fs::File>,
+}
+
+impl Iterator for PlatformSamples {
+    type Item = Result<[f32; 3], RecordingError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        let row = self.rows.next_row().transpose()?;
+        Some(row.map(|(_, row)| [row[1] as f32, row[2] as f32, row[3] as f32]))
+    }
+}
+
+fn open_rows(path: &Path) -> Result<RowReader<std::fs::File>, RecordingError> {
+    let file = std::fs::File::open(path).map_err(|e| RecordingError::Read {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    })?;
+    RowReader::new(file, path, &[Layout::Full, Layout::PlatformOnly])
 }
 
 /// Reads a recording in either layout: all 13 columns, or a ride's platform columns (the
@@ -512,6 +684,70 @@ impl LineNumbers {
         match run.checked_sub(1).map(|r| self.runs[r]) {
             Some((k, line)) => line + (sample - k) as u64,
             None => sample as u64 + 2,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A ride of `n` samples at 100 Hz, with a blank line and CRLF ends thrown in.
+    fn ride_text(n: usize) -> String {
+        let mut text = format!("{PLATFORM_HEADER_LINE}\r\n");
+        for k in 0..n {
+            let t = k as f64 / 100.0;
+            text.push_str(&format!(
+                "{t},{},{},{}\r\n",
+                0.1 * t,
+                -0.2 * t,
+                (7.0 * t).sin()
+            ));
+            if k == 3 {
+                text.push_str("\r\n");
+            }
+        }
+        text
+    }
+
+    #[test]
+    fn a_platform_stream_gives_what_read_input_gives() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("ride.csv");
+        std::fs::write(&path, ride_text(50)).unwrap();
+        let (recording, layout) = read_input(&path).unwrap();
+        let stream = PlatformStream::open(&path).unwrap();
+        assert_eq!(layout, Layout::PlatformOnly);
+        assert_eq!(stream.layout(), layout);
+        assert_eq!(stream.len(), 50);
+        assert_eq!(stream.sample_rate_hz(), recording.sample_rate_hz());
+        let samples: Vec<[f32; 3]> = stream.samples().unwrap().map(Result::unwrap).collect();
+        assert_eq!(samples, recording.platform_samples());
+    }
+
+    #[test]
+    fn a_platform_stream_refuses_what_read_input_refuses_in_the_same_words() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("ride.csv");
+        let valid = ride_text(50);
+        // Line 12 holds sample 9 (the blank line after sample 3 is line 6): a late sample,
+        // then a time going back, then a cell that is no number.
+        let cases = [
+            valid.replacen("\r\n0.09,", "\r\n0.0905,", 1),
+            valid.replacen("\r\n0.09,", "\r\n0.07,", 1),
+            valid.replacen("\r\n0.09,", "\r\n0.09x,", 1),
+            valid.replacen("\r\n0.09,", "\r\n0.09,1e39,", 1),
+            format!("{PLATFORM_HEADER_LINE}\n0,0,0,0\n"),
+        ];
+        for text in cases {
+            std::fs::write(&path, &text).unwrap();
+            let whole = read_input(&path).unwrap_err().to_string();
+            let streamed = PlatformStream::open(&path).unwrap_err().to_string();
+            assert_eq!(streamed, whole);
+            assert!(
+                whole.contains("line 12") || whole.contains("at least 2"),
+                "{whole}"
+            );
         }
     }
 }

@@ -59,13 +59,29 @@ pub fn event_row(e: &AlertEvent, sample_rate_hz: f64) -> String {
 
 /// Writes the telemetry CSV ([`TELEMETRY_HEADER`]), whole or not at all.
 pub fn write_telemetry(path: &Path, telemetry: &[Telemetry], sample_rate_hz: f64) -> Result<()> {
+    write_telemetry_streamed(path, sample_rate_hz, |emit| {
+        telemetry.iter().try_for_each(|t| emit(t))
+    })
+}
+
+/// Writes the telemetry CSV ([`TELEMETRY_HEADER`]) as the records are produced, whole or
+/// not at all: `produce` is given a function that writes one record, and the file
+/// appears only if `produce` succeeds (a replay of any length holds no record in memory).
+pub fn write_telemetry_streamed<T>(
+    path: &Path,
+    sample_rate_hz: f64,
+    produce: impl FnOnce(&mut dyn FnMut(&Telemetry) -> Result<()>) -> Result<T>,
+) -> Result<T> {
+    let mut produced = None;
     write_atomically(path, |w| {
         writeln!(w, "{TELEMETRY_HEADER}")?;
-        for t in telemetry {
-            w.write_all(telemetry_row(t, sample_rate_hz).as_bytes())?;
-        }
+        let mut emit = |t: &Telemetry| -> Result<()> {
+            Ok(w.write_all(telemetry_row(t, sample_rate_hz).as_bytes())?)
+        };
+        produced = Some(produce(&mut emit)?);
         Ok(())
-    })
+    })?;
+    produced.ok_or_else(|| anyhow!("{}: nothing was written", path.display()))
 }
 
 /// Writes the alert events CSV ([`EVENTS_HEADER`]), whole or not at all.
