@@ -60,7 +60,7 @@ pub fn event_row(e: &AlertEvent, sample_rate_hz: f64) -> String {
 /// Writes the telemetry CSV ([`TELEMETRY_HEADER`]), whole or not at all.
 pub fn write_telemetry(path: &Path, telemetry: &[Telemetry], sample_rate_hz: f64) -> Result<()> {
     write_telemetry_streamed(path, sample_rate_hz, |emit| {
-        telemetry.iter().try_for_each(|t| emit(t))
+        telemetry.iter().try_for_each(emit)
     })
 }
 
