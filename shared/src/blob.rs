@@ -19,7 +19,6 @@ use crate::alerts::{AlertConfig, AlertSettings, SensorCheckConfig, SensorCheckSe
 use crate::exposure::{ExposureConfig, ExposureError, ExposureSettings};
 use crate::model::{DeviceRealization, RealizationError};
 use crate::mounting::Mounting;
-use crate::protocol::ParamsIdentity;
 use crate::weighting::WeightingError;
 
 /// First four bytes of every blob.
@@ -30,6 +29,12 @@ pub const BLOB_FORMAT_VERSION: u16 = 2;
 pub const BLOB_HEADER_LEN: usize = 16;
 /// Largest blob the device accepts (header and payload), bytes.
 pub const MAX_BLOB_LEN: usize = 4096;
+
+/// Bytes of the parameter identity (the start of the SHA-256 of the parameter file).
+pub const IDENTITY_LEN: usize = 16;
+
+/// Identity of a parameter set: the first 16 bytes of the SHA-256 of its parameter file.
+pub type ParamsIdentity = [u8; IDENTITY_LEN];
 
 /// The CRC-32/ISO-HDLC engine used for blobs and commit records.
 pub(crate) const CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);

@@ -8,13 +8,13 @@
 //! bit those of one sample at a time, so how a stream is cut into batches never matters.
 
 use heapless::Vec;
+use serde::{Deserialize, Serialize};
 
 use crate::alerts::{AlertEvent, AlertState, Level, SensorCheckState, SensorFault};
 use crate::blob::DeviceParams;
 use crate::exposure::{ExposureSample, ExposureState};
 use crate::fpu::sqrt_f32;
 use crate::model::ModalState;
-use crate::protocol::Telemetry;
 
 /// Samples per block on the device (32 ms at 500 Hz, far below the alert dwell times).
 pub const BLOCK_LEN: usize = 16;
@@ -30,6 +30,39 @@ pub enum PipelineOutput {
     Alert(AlertEvent),
     /// The telemetry of one sample (every `decimation`-th sample).
     Telemetry(Telemetry),
+}
+
+/// One telemetry record: what the device reports about one sample (the protocol sends it
+/// as [`DeviceToHost::Telemetry`](crate::protocol::DeviceToHost::Telemetry)).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Telemetry {
+    /// Index of the input sample this describes.
+    pub sample_index: u32,
+    /// Predicted head acceleration x, y, z (litter axes), m/s^2.
+    pub head_acc_m_s2: [f32; 3],
+    /// Frequency-weighted running rms (tau = 1 s) per axis, m/s^2.
+    pub running_rms_m_s2: [f32; 3],
+    /// Vector sum of the weighted running rms, m/s^2.
+    pub vector_running_rms_m_s2: f32,
+    /// Vibration dose value of the vector sum so far, m/s^1.75.
+    pub vdv_m_s175: f32,
+    /// Current exposure alert level.
+    pub alert_level: Level,
+    /// Active sensor faults, one bit per [`SensorFault`] in `SensorFault::ALL` order.
+    pub fault_flags: u8,
+    /// Whether the weighting has settled and the exposure values mean something yet.
+    pub valid: bool,
+}
+
+impl Telemetry {
+    /// Whether `fault` is among the active faults.
+    pub fn has_fault(&self, fault: SensorFault) -> bool {
+        let bit = SensorFault::ALL
+            .iter()
+            .position(|f| *f == fault)
+            .unwrap_or(7);
+        self.fault_flags & (1 << bit) != 0
+    }
 }
 
 /// The running memory of the whole chain: constant size, no heap.
