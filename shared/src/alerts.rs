@@ -29,7 +29,7 @@ use core::fmt;
 use serde::{Deserialize, Serialize};
 
 use crate::exposure::ExposureSample;
-use crate::weighting::{MAX_SAMPLE_RATE_HZ, MIN_SAMPLE_RATE_HZ};
+use crate::sample_rate::SampleRate;
 
 /// Standard gravity, m/s^2 (for full scales quoted in g).
 pub const STANDARD_GRAVITY_M_S2: f32 = 9.806_65;
@@ -185,8 +185,6 @@ pub enum AlertError {
     Time,
     /// The full scale is not finite and positive.
     FullScale,
-    /// The sample rate is not finite or outside 100..=2000 Hz.
-    SampleRate,
 }
 
 impl fmt::Display for AlertError {
@@ -198,7 +196,6 @@ impl fmt::Display for AlertError {
             AlertError::Hysteresis => "alert hysteresis must be within 0..=0.9",
             AlertError::Time => "alert dwell and sensor times must be within 0..=600 s",
             AlertError::FullScale => "sensor full scale must be finite and positive",
-            AlertError::SampleRate => "alert sample rate must be within 100..=2000 Hz",
         })
     }
 }
@@ -238,16 +235,6 @@ impl Default for AlertConfig {
     }
 }
 
-fn check_rate(sample_rate_hz: f32) -> Result<f64, AlertError> {
-    if sample_rate_hz.is_finite()
-        && (MIN_SAMPLE_RATE_HZ..=MAX_SAMPLE_RATE_HZ).contains(&sample_rate_hz)
-    {
-        Ok(sample_rate_hz as f64)
-    } else {
-        Err(AlertError::SampleRate)
-    }
-}
-
 fn samples_of(t_s: f32, fs: f64) -> Result<u32, AlertError> {
     if t_s.is_finite() && (0.0..=MAX_DWELL_S).contains(&t_s) {
         Ok((libm::round(t_s as f64 * fs) as u32).max(1))
@@ -265,8 +252,6 @@ fn increasing_positive(t: &[f32; 3]) -> bool {
 pub struct AlertSettings {
     /// The configuration these settings were built from.
     pub config: AlertConfig,
-    /// Sample rate, Hz.
-    pub sample_rate_hz: f32,
     /// Squared running-rms raise thresholds, (m/s^2)^2.
     pub raise_ms_m2_s4: [f32; 3],
     /// Squared running-rms clear thresholds `((1 - h) threshold)^2`, (m/s^2)^2.
@@ -306,9 +291,9 @@ impl AlertState {
 }
 
 impl AlertSettings {
-    /// Validates `config` and precomputes thresholds for `sample_rate_hz`.
-    pub fn new(config: AlertConfig, sample_rate_hz: f32) -> Result<Self, AlertError> {
-        let fs = check_rate(sample_rate_hz)?;
+    /// Validates `config` and precomputes thresholds for `sample_rate`.
+    pub fn new(config: AlertConfig, sample_rate: SampleRate) -> Result<Self, AlertError> {
+        let fs = sample_rate.hz_f64();
         if !(increasing_positive(&config.running_rms_m_s2)
             && increasing_positive(&config.vdv_m_s175))
         {
@@ -323,7 +308,6 @@ impl AlertSettings {
         let rms = config.running_rms_m_s2.map(|t| t as f64);
         Ok(Self {
             config,
-            sample_rate_hz,
             raise_ms_m2_s4: rms.map(|t| (t * t) as f32),
             clear_ms_m2_s4: rms.map(|t| (h * h * t * t) as f32),
             vdv4_m4_s7: config.vdv_m_s175.map(|t| {
@@ -335,9 +319,10 @@ impl AlertSettings {
         })
     }
 
-    /// Checks stored settings (from a parameter blob) by rebuilding them from their config.
-    pub fn validate(&self) -> Result<(), AlertError> {
-        if Self::new(self.config, self.sample_rate_hz)? == *self {
+    /// Checks stored settings (from a parameter blob, built for `sample_rate`) by
+    /// rebuilding them from their config.
+    pub fn validate(&self, sample_rate: SampleRate) -> Result<(), AlertError> {
+        if Self::new(self.config, sample_rate)? == *self {
             Ok(())
         } else {
             Err(AlertError::Thresholds)
@@ -502,13 +487,12 @@ impl Default for SensorCheckConfig {
     }
 }
 
-/// The sensor-fault check's precomputed limits, for one sample rate.
+/// The sensor-fault check's precomputed limits, for one sample rate (which the parameter
+/// blob stores once, beside these settings).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SensorCheckSettings {
     /// The configuration these settings were built from.
     pub config: SensorCheckConfig,
-    /// Sample rate, Hz.
-    pub sample_rate_hz: f32,
     /// Identical samples (per axis) after which the axis is stuck.
     pub stuck_after_samples: u32,
     /// Fault-free samples after which a fault clears.
@@ -556,23 +540,23 @@ impl SensorCheckState {
 pub type SensorEvents = heapless::Vec<AlertEvent, 4>;
 
 impl SensorCheckSettings {
-    /// Validates `config` and converts its times to samples at `sample_rate_hz`.
-    pub fn new(config: SensorCheckConfig, sample_rate_hz: f32) -> Result<Self, AlertError> {
-        let fs = check_rate(sample_rate_hz)?;
+    /// Validates `config` and converts its times to samples at `sample_rate`.
+    pub fn new(config: SensorCheckConfig, sample_rate: SampleRate) -> Result<Self, AlertError> {
+        let fs = sample_rate.hz_f64();
         if !(config.full_scale_m_s2.is_finite() && config.full_scale_m_s2 > 0.0) {
             return Err(AlertError::FullScale);
         }
         Ok(Self {
             config,
-            sample_rate_hz,
             stuck_after_samples: samples_of(config.stuck_after_s, fs)?,
             clear_after_samples: samples_of(config.clear_after_s, fs)?,
         })
     }
 
-    /// Checks stored settings (from a parameter blob) by rebuilding them from their config.
-    pub fn validate(&self) -> Result<(), AlertError> {
-        if Self::new(self.config, self.sample_rate_hz)? == *self {
+    /// Checks stored settings (from a parameter blob, built for `sample_rate`) by
+    /// rebuilding them from their config.
+    pub fn validate(&self, sample_rate: SampleRate) -> Result<(), AlertError> {
+        if Self::new(self.config, sample_rate)? == *self {
             Ok(())
         } else {
             Err(AlertError::Time)

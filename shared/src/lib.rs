@@ -24,6 +24,7 @@ pub mod model;
 pub mod mounting;
 pub mod pipeline;
 pub mod protocol;
+pub mod sample_rate;
 pub mod test_vector;
 pub mod upload;
 pub mod weighting;

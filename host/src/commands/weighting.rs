@@ -5,6 +5,7 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{Result, anyhow, bail};
+use supine_core::sample_rate::SampleRate;
 use supine_core::weighting::{WeightingKind, WeightingSettings, analog_response};
 
 use crate::commands::values;
@@ -37,8 +38,13 @@ pub struct Args {
     /// Which weighting.
     #[arg(long, value_enum)]
     pub kind: Kind,
-    /// Sample rate the filter is designed for, Hz (100..=2000).
-    #[arg(long = "fs", value_name = "HZ", default_value_t = 500.0)]
+    /// Sample rate the filter is designed for, Hz (a rate the device supports).
+    #[arg(
+        long = "fs",
+        value_name = "HZ",
+        default_value_t = 500.0,
+        help = values::sample_rate_help("Sample rate the filter is designed for")
+    )]
     pub fs_hz: f32,
     /// Lowest frequency, Hz.
     #[arg(long = "fmin", value_name = "HZ", default_value_t = 0.1, value_parser = values::positive_hz)]
@@ -82,7 +88,9 @@ pub fn centre_frequencies(fmin: f64, fmax: f64, per_decade: u32, fs: f64) -> Res
 /// Writes the response of the device's filter and of the analog weighting on the grid.
 pub fn run(args: &Args) -> Result<()> {
     let kind = WeightingKind::from(args.kind);
-    let filter = WeightingSettings::new(kind, args.fs_hz)
+    let sample_rate =
+        SampleRate::new(args.fs_hz).map_err(|e| anyhow!("--fs {}: {e}", args.fs_hz))?;
+    let filter = WeightingSettings::new(kind, sample_rate)
         .map_err(|e| anyhow!("--fs {}: {e}", args.fs_hz))?;
     let freqs = centre_frequencies(
         args.fmin_hz,
@@ -93,7 +101,7 @@ pub fn run(args: &Args) -> Result<()> {
     write_atomically(&args.out, |w| {
         writeln!(w, "freq_hz,magnitude,phase_rad,analog_magnitude")?;
         for &f in &freqs {
-            let h = filter.response(f);
+            let h = filter.response(sample_rate, f);
             let a = analog_response(kind, f);
             writeln!(w, "{f},{},{},{}", h.abs(), h.arg(), a.abs())?;
         }

@@ -11,6 +11,7 @@ use super::{
 use crate::alerts::{AlertEvent, Level, SensorFault};
 use crate::blob::{BlobError, DeviceParams};
 use crate::model::{DiscreteModal, ModalBlock, ModalGroup};
+use crate::sample_rate::SampleRate;
 
 /// Example host-to-device messages, in [`HOST_TO_DEVICE`] order.
 pub fn host_to_device_examples() -> [HostToDevice; 6] {
@@ -159,12 +160,12 @@ pub fn blob_example() -> Result<DeviceParams, BlobError> {
         feedthrough: [0.002, 0.003, 0.0],
     };
     let realization = DiscreteModal {
-        sample_rate_hz: 500.0,
         groups: [empty, empty, z_group],
         blocks,
         block_count: 1,
     };
-    DeviceParams::with_defaults([0x5A; 16], realization)
+    let sample_rate = SampleRate::new(500.0).map_err(|_| BlobError::SampleRate)?;
+    DeviceParams::with_defaults([0x5A; 16], sample_rate, realization)
 }
 
 /// The bytes of [`blob_example`]: header and payload (recorded with `cargo test -p supine-core
