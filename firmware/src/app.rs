@@ -26,7 +26,7 @@ use supine_core::pipeline::{BLOCK_LEN, PipelineOutput, PipelineState};
 use supine_core::protocol::{
     DeviceFrame, DeviceToHost, FrameAccumulator, FrameEvent, Greeting, HostToDevice, MAX_FRAME_LEN,
     MAX_SAMPLES_PER_FRAME, PANIC_MESSAGE_LEN, PROTOCOL_VERSION, ParamAck, ParamsSource, ResetCause,
-    SampleBatch, Status, Telemetry, UploadError, encode_frame,
+    SampleBatch, Status, Telemetry, UploadError, encode_frame, telemetry_frame,
 };
 use supine_core::upload::{KEY_LEN, ParamFlash, Upload, last_counter};
 
@@ -34,7 +34,6 @@ use supine_sensor::{ReplaySource, SampleSource};
 
 use crate::cycles::InstructionCounter;
 use crate::stack;
-use crate::telemetry_frame;
 
 /// Bytes of the transmit ring: more than one block's worst-case output. A power of two,
 /// so `i & TX_MASK` indexes it without a bounds check.

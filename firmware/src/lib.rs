@@ -15,8 +15,8 @@
 //! UART, [`console`] writes lines to the debugger's stdout (semihosting), [`exit`] ends a
 //! run with a status, [`cycles`] counts instructions, [`stack`] measures the stack's
 //! high-water mark, [`params`] loads the model parameters, [`param_flash`] reads and writes
-//! their A/B slots, [`panic_record`] keeps the last panic across a reset,
-//! [`telemetry_frame`] encodes the per-sample frame and [`app`] is the monitor.
+//! their A/B slots, [`panic_record`] keeps the last panic across a reset and [`app`] is
+//! the monitor (its per-sample frame encoder is `supine_core::protocol::telemetry_frame`).
 #![no_std]
 
 pub mod app;
@@ -30,7 +30,6 @@ pub mod panic_record;
 pub mod param_flash;
 pub mod params;
 pub mod stack;
-pub mod telemetry_frame;
 
 pub use fault::reset_on_panic;
 

@@ -336,7 +336,7 @@ pub fn telemetry_row(t: &Telemetry, sample_rate_hz: f64) -> String {
         t.vector_running_rms_m_s2,
         t.vdv_m_s175,
         t.alert_level.name(),
-        t.fault_flags,
+        t.fault_flags.as_repr(),
         u8::from(t.valid),
     )
 }

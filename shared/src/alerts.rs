@@ -26,6 +26,7 @@
 
 use core::fmt;
 
+use enumset::{EnumSet, EnumSetType};
 use serde::{Deserialize, Serialize};
 
 use crate::exposure::ExposureSample;
@@ -83,8 +84,11 @@ impl fmt::Display for Level {
     }
 }
 
-/// A fault of the accelerometer stream.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+/// A fault of the accelerometer stream. Its declaration order is its bit in
+/// [`FaultFlags`]: changing it changes the wire format.
+// EnumSetType also derives Clone, Copy, PartialEq and Eq.
+#[derive(Debug, Hash, Serialize, Deserialize, EnumSetType)]
+#[enumset(repr = "u8", serialize_deny_unknown)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum SensorFault {
     /// A sample is NaN or infinite.
@@ -106,10 +110,6 @@ impl SensorFault {
         SensorFault::IndexGap,
     ];
 
-    const fn bit(self) -> u8 {
-        1 << (self as u8)
-    }
-
     /// Lower-case name (`non-finite`, `saturated`, `stuck`, `index-gap`).
     pub const fn name(self) -> &'static str {
         match self {
@@ -126,6 +126,12 @@ impl fmt::Display for SensorFault {
         f.write_str(self.name())
     }
 }
+
+/// A set of active sensor faults, one bit per [`SensorFault`] (bit `n` for the `n`th of
+/// [`SensorFault::ALL`]). The device, the telemetry and the host share it; on the wire it
+/// is that byte ([`as_repr`](EnumSet::as_repr)), and a byte with a bit no fault owns does
+/// not decode.
+pub type FaultFlags = EnumSet<SensorFault>;
 
 /// A time-stamped alert edge.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -502,8 +508,8 @@ pub struct SensorCheckSettings {
 /// Running state of the sensor-fault check.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SensorCheckState {
-    /// Active faults, one bit per [`SensorFault`].
-    active: u8,
+    /// Active faults.
+    active: FaultFlags,
     /// Fault-free samples since each fault was last seen.
     good_run: [u32; 4],
     last_bits: [u32; 3],
@@ -516,7 +522,7 @@ impl SensorCheckState {
     /// No fault active, no sample seen.
     pub const fn new() -> Self {
         Self {
-            active: 0,
+            active: FaultFlags::empty(),
             good_run: [0; 4],
             last_bits: [0; 3],
             unchanged: [0; 3],
@@ -525,14 +531,9 @@ impl SensorCheckState {
         }
     }
 
-    /// Whether `fault` is active.
-    pub const fn is_active(&self, fault: SensorFault) -> bool {
-        self.active & fault.bit() != 0
-    }
-
-    /// Whether any fault is active.
-    pub const fn any_active(&self) -> bool {
-        self.active != 0
+    /// The active faults.
+    pub fn active(&self) -> FaultFlags {
+        self.active
     }
 }
 
@@ -571,22 +572,22 @@ impl SensorCheckSettings {
         sample_m_s2: [f32; 3],
         sample_index: u32,
     ) -> SensorEvents {
-        let mut bad = 0u8;
+        let mut bad = FaultFlags::empty();
         for (i, &x) in sample_m_s2.iter().enumerate() {
             // One comparison catches NaN, infinities and saturation: NaN compares false.
             #[allow(clippy::neg_cmp_op_on_partial_ord)]
             if !(x.abs() < self.config.full_scale_m_s2) {
                 bad |= if x.is_finite() {
-                    SensorFault::Saturated.bit()
+                    SensorFault::Saturated
                 } else {
-                    SensorFault::NonFinite.bit()
+                    SensorFault::NonFinite
                 };
             }
             let bits = x.to_bits();
             if bits == state.last_bits[i] && state.started {
                 state.unchanged[i] = state.unchanged[i].saturating_add(1);
                 if state.unchanged[i] >= self.stuck_after_samples {
-                    bad |= SensorFault::Stuck.bit();
+                    bad |= SensorFault::Stuck;
                 }
             } else {
                 state.unchanged[i] = 0;
@@ -594,30 +595,29 @@ impl SensorCheckSettings {
             }
         }
         if state.started && sample_index != state.last_index.wrapping_add(1) {
-            bad |= SensorFault::IndexGap.bit();
+            bad |= SensorFault::IndexGap;
         }
         state.last_index = sample_index;
         state.started = true;
         let mut events = SensorEvents::new();
-        if bad == 0 && state.active == 0 {
+        if bad.is_empty() && state.active.is_empty() {
             return events;
         }
         for fault in SensorFault::ALL {
-            let (b, k) = (fault.bit(), fault as usize);
-            if bad & b != 0 {
+            let k = fault as usize;
+            if bad.contains(fault) {
                 state.good_run[k] = 0;
-                if state.active & b == 0 {
-                    state.active |= b;
+                if state.active.insert(fault) {
                     let _ = events.push(AlertEvent::Fault {
                         fault,
                         active: true,
                         at_sample: sample_index,
                     });
                 }
-            } else if state.active & b != 0 {
+            } else if state.active.contains(fault) {
                 state.good_run[k] += 1;
                 if state.good_run[k] >= self.clear_after_samples {
-                    state.active &= !b;
+                    state.active.remove(fault);
                     let _ = events.push(AlertEvent::Fault {
                         fault,
                         active: false,
@@ -647,7 +647,7 @@ impl SensorCheckSettings {
         let stuck = self.stuck_after_samples;
         let mut n = 0;
         while n < N {
-            if state.active == 0 && state.started {
+            if state.active.is_empty() && state.started {
                 let (mut last, mut unchanged, mut last_index) =
                     (state.last_bits, state.unchanged, state.last_index);
                 while n < N {

@@ -10,7 +10,7 @@
 use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
-use crate::alerts::{AlertEvent, AlertState, Level, SensorCheckState, SensorFault};
+use crate::alerts::{AlertEvent, AlertState, FaultFlags, Level, SensorCheckState};
 use crate::blob::DeviceParams;
 use crate::exposure::{ExposureSample, ExposureState};
 use crate::fpu::sqrt_f32;
@@ -48,21 +48,10 @@ pub struct Telemetry {
     pub vdv_m_s175: f32,
     /// Current exposure alert level.
     pub alert_level: Level,
-    /// Active sensor faults, one bit per [`SensorFault`] in `SensorFault::ALL` order.
-    pub fault_flags: u8,
+    /// Active sensor faults.
+    pub fault_flags: FaultFlags,
     /// Whether the weighting has settled and the exposure values mean something yet.
     pub valid: bool,
-}
-
-impl Telemetry {
-    /// Whether `fault` is among the active faults.
-    pub fn has_fault(&self, fault: SensorFault) -> bool {
-        let bit = SensorFault::ALL
-            .iter()
-            .position(|f| *f == fault)
-            .unwrap_or(7);
-        self.fault_flags & (1 << bit) != 0
-    }
 }
 
 /// The running memory of the whole chain: constant size, no heap.
@@ -76,7 +65,7 @@ pub struct PipelineState {
     last_good_m_s2: [f32; 3],
     /// Alert level and active faults as of the last processed sample.
     level: Level,
-    faults: u8,
+    faults: FaultFlags,
     /// Samples until the next telemetry record.
     telemetry_countdown: u16,
     /// Samples processed since start.
@@ -101,7 +90,7 @@ impl PipelineState {
             sensors: SensorCheckState::new(),
             last_good_m_s2: [0.0; 3],
             level: Level::Normal,
-            faults: 0,
+            faults: FaultFlags::empty(),
             telemetry_countdown: 0,
             processed: 0,
         }
@@ -200,7 +189,13 @@ impl DeviceParams {
         let (mut fi, mut li) = (0, 0);
         for (n, &index) in indices.iter().enumerate() {
             while let Some(e) = faults.get(fi).filter(|e| e.at_sample() == index) {
-                state.faults = apply_fault(state.faults, e);
+                if let AlertEvent::Fault { fault, active, .. } = *e {
+                    if active {
+                        state.faults.insert(fault);
+                    } else {
+                        state.faults.remove(fault);
+                    }
+                }
                 emit(PipelineOutput::Alert(*e));
                 fi += 1;
             }
@@ -244,19 +239,5 @@ impl DeviceParams {
             fault_flags: state.faults,
             valid: exposure.valid,
         }
-    }
-}
-
-fn apply_fault(flags: u8, event: &AlertEvent) -> u8 {
-    match *event {
-        AlertEvent::Fault { fault, active, .. } => {
-            let bit = 1u8
-                << SensorFault::ALL
-                    .iter()
-                    .position(|f| *f == fault)
-                    .unwrap_or(7);
-            if active { flags | bit } else { flags & !bit }
-        }
-        AlertEvent::Level { .. } => flags,
     }
 }

@@ -8,6 +8,7 @@
 
 pub mod framing;
 pub mod golden;
+pub mod telemetry_frame;
 
 use heapless::{String, Vec};
 use serde::{Deserialize, Serialize};

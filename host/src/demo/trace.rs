@@ -7,7 +7,7 @@
 use std::path::Path;
 
 use anyhow::{Result, anyhow, bail};
-use supine_core::alerts::{AlertEvent, Level};
+use supine_core::alerts::{AlertEvent, FaultFlags, Level};
 use supine_core::protocol::Telemetry;
 
 use crate::replay::{EVENTS_HEADER, TELEMETRY_HEADER};
@@ -29,8 +29,8 @@ pub struct Trace {
     pub vdv_m_s175: Vec<f64>,
     /// Exposure alert level.
     pub level: Vec<Level>,
-    /// Active sensor faults (bit per `SensorFault::ALL`).
-    pub fault_flags: Vec<u8>,
+    /// Active sensor faults.
+    pub fault_flags: Vec<FaultFlags>,
     /// Exposure values are valid (warm-up over).
     pub valid: Vec<bool>,
 }
@@ -110,13 +110,18 @@ impl Trace {
             })?;
             let level = level_from_name(cells[10])
                 .ok_or_else(|| anyhow!("{}, column alert_level: expected normal, advisory, warning or alarm, found \"{}\"", at(), cells[10]))?;
-            let fault_flags: u8 = cells[11].parse().map_err(|_| {
-                anyhow!(
-                    "{}, column fault_flags: expected 0..=255, found \"{}\"",
-                    at(),
-                    cells[11]
-                )
-            })?;
+            let fault_flags = cells[11]
+                .parse()
+                .ok()
+                .and_then(FaultFlags::try_from_repr)
+                .ok_or_else(|| {
+                    anyhow!(
+                        "{}, column fault_flags: expected 0..={}, found \"{}\"",
+                        at(),
+                        FaultFlags::all().as_repr(),
+                        cells[11]
+                    )
+                })?;
             let valid = match cells[12] {
                 "0" => false,
                 "1" => true,
@@ -245,7 +250,7 @@ mod tests {
             vector_running_rms_m_s2: 7.001,
             vdv_m_s175: 2.25,
             alert_level: Level::Warning,
-            fault_flags: 0b0100,
+            fault_flags: SensorFault::Stuck.into(),
             valid: true,
         };
         let dir = tempfile::tempdir().expect("temp dir");

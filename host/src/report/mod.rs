@@ -389,7 +389,7 @@ mod tests {
     use crate::demo::trace::{EventRow, Trace};
     use crate::demo::{HostExposure, RunInfo};
     use crate::exposure_report::AxisReport;
-    use supine_core::alerts::{AlertConfig, AlertEvent};
+    use supine_core::alerts::{AlertConfig, AlertEvent, FaultFlags};
     use supine_core::exposure::AxisValues;
     use supine_core::protocol::Telemetry;
 
@@ -415,7 +415,7 @@ mod tests {
                     } else {
                         Level::Normal
                     },
-                    fault_flags: 0,
+                    fault_flags: FaultFlags::empty(),
                     valid: k >= 500,
                 }
             })

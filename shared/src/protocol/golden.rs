@@ -65,7 +65,7 @@ pub fn device_to_host_examples() -> [DeviceFrame; 10] {
             vector_running_rms_m_s2: 1.75,
             vdv_m_s175: 3.5,
             alert_level: Level::Warning,
-            fault_flags: 0b0101,
+            fault_flags: SensorFault::NonFinite | SensorFault::Stuck,
             valid: true,
         }),
         DeviceToHost::Alert(AlertEvent::Level {
