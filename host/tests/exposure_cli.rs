@@ -200,7 +200,7 @@ fn the_model_form_equals_the_device_stages_stepped_by_hand() {
             events.push(ev);
         }
     }
-    let values = params.exposure.values(&exposure);
+    let values = params.exposure.values(params.sample_rate, &exposure);
     let same = |json: &Value, key: &str, expected: f32| {
         assert_eq!(num(json, key) as f32, expected, "{key}");
     };

@@ -8,13 +8,13 @@
 //! bit those of one sample at a time, so how a stream is cut into batches never matters.
 
 use heapless::Vec;
+use serde::{Deserialize, Serialize};
 
-use crate::alerts::{AlertEvent, AlertState, Level, SensorCheckState, SensorFault};
+use crate::alerts::{AlertEvent, AlertState, FaultFlags, Level, SensorCheckState};
 use crate::blob::DeviceParams;
 use crate::exposure::{ExposureSample, ExposureState};
 use crate::fpu::sqrt_f32;
 use crate::model::ModalState;
-use crate::protocol::Telemetry;
 
 /// Samples per block on the device (32 ms at 500 Hz, far below the alert dwell times).
 pub const BLOCK_LEN: usize = 16;
@@ -32,6 +32,28 @@ pub enum PipelineOutput {
     Telemetry(Telemetry),
 }
 
+/// One telemetry record: what the device reports about one sample (the protocol sends it
+/// as [`DeviceToHost::Telemetry`](crate::protocol::DeviceToHost::Telemetry)).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Telemetry {
+    /// Index of the input sample this describes.
+    pub sample_index: u32,
+    /// Predicted head acceleration x, y, z (litter axes), m/s^2.
+    pub head_acc_m_s2: [f32; 3],
+    /// Frequency-weighted running rms (tau = 1 s) per axis, m/s^2.
+    pub running_rms_m_s2: [f32; 3],
+    /// Vector sum of the weighted running rms, m/s^2.
+    pub vector_running_rms_m_s2: f32,
+    /// Vibration dose value of the vector sum so far, m/s^1.75.
+    pub vdv_m_s175: f32,
+    /// Current exposure alert level.
+    pub alert_level: Level,
+    /// Active sensor faults.
+    pub fault_flags: FaultFlags,
+    /// Whether the weighting has settled and the exposure values mean something yet.
+    pub valid: bool,
+}
+
 /// The running memory of the whole chain: constant size, no heap.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PipelineState {
@@ -43,7 +65,7 @@ pub struct PipelineState {
     last_good_m_s2: [f32; 3],
     /// Alert level and active faults as of the last processed sample.
     level: Level,
-    faults: u8,
+    faults: FaultFlags,
     /// Samples until the next telemetry record.
     telemetry_countdown: u16,
     /// Samples processed since start.
@@ -68,7 +90,7 @@ impl PipelineState {
             sensors: SensorCheckState::new(),
             last_good_m_s2: [0.0; 3],
             level: Level::Normal,
-            faults: 0,
+            faults: FaultFlags::empty(),
             telemetry_countdown: 0,
             processed: 0,
         }
@@ -167,7 +189,13 @@ impl DeviceParams {
         let (mut fi, mut li) = (0, 0);
         for (n, &index) in indices.iter().enumerate() {
             while let Some(e) = faults.get(fi).filter(|e| e.at_sample() == index) {
-                state.faults = apply_fault(state.faults, e);
+                if let AlertEvent::Fault { fault, active, .. } = *e {
+                    if active {
+                        state.faults.insert(fault);
+                    } else {
+                        state.faults.remove(fault);
+                    }
+                }
                 emit(PipelineOutput::Alert(*e));
                 fi += 1;
             }
@@ -211,19 +239,5 @@ impl DeviceParams {
             fault_flags: state.faults,
             valid: exposure.valid,
         }
-    }
-}
-
-fn apply_fault(flags: u8, event: &AlertEvent) -> u8 {
-    match *event {
-        AlertEvent::Fault { fault, active, .. } => {
-            let bit = 1u8
-                << SensorFault::ALL
-                    .iter()
-                    .position(|f| *f == fault)
-                    .unwrap_or(7);
-            if active { flags | bit } else { flags & !bit }
-        }
-        AlertEvent::Level { .. } => flags,
     }
 }

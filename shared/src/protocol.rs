@@ -8,14 +8,19 @@
 
 pub mod framing;
 pub mod golden;
+pub mod telemetry_frame;
 
 use heapless::{String, Vec};
 use serde::{Deserialize, Serialize};
 
-use crate::alerts::{AlertEvent, Level, SensorFault};
+use crate::alerts::AlertEvent;
 use crate::blob::BlobError;
 
 pub use framing::{FrameAccumulator, FrameError, FrameEvent, encode_frame};
+// What the messages carry, defined where it is made: the identity with the blob, the
+// telemetry record with the pipeline.
+pub use crate::blob::{IDENTITY_LEN, ParamsIdentity};
+pub use crate::pipeline::Telemetry;
 
 /// Version of this module's encodings; the host refuses a device that speaks another.
 pub const PROTOCOL_VERSION: u16 = 2;
@@ -29,11 +34,6 @@ pub const PARAM_CHUNK_LEN: usize = 128;
 pub const VERSION_LEN: usize = 24;
 /// Longest panic message kept for the next greeting, bytes.
 pub const PANIC_MESSAGE_LEN: usize = 96;
-/// Bytes of the parameter identity (the start of the SHA-256 of the parameter file).
-pub const IDENTITY_LEN: usize = 16;
-
-/// Identity of a parameter set: the first 16 bytes of the SHA-256 of its parameter file.
-pub type ParamsIdentity = [u8; IDENTITY_LEN];
 
 /// Messages from the host to the device.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -161,38 +161,6 @@ pub enum ResetCause {
     Watchdog,
     /// Requested, e.g. after switching parameters.
     Software,
-}
-
-/// One telemetry record.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Telemetry {
-    /// Index of the input sample this describes.
-    pub sample_index: u32,
-    /// Predicted head acceleration x, y, z (litter axes), m/s^2.
-    pub head_acc_m_s2: [f32; 3],
-    /// Frequency-weighted running rms (tau = 1 s) per axis, m/s^2.
-    pub running_rms_m_s2: [f32; 3],
-    /// Vector sum of the weighted running rms, m/s^2.
-    pub vector_running_rms_m_s2: f32,
-    /// Vibration dose value of the vector sum so far, m/s^1.75.
-    pub vdv_m_s175: f32,
-    /// Current exposure alert level.
-    pub alert_level: Level,
-    /// Active sensor faults, one bit per [`SensorFault`] in `SensorFault::ALL` order.
-    pub fault_flags: u8,
-    /// Whether the weighting has settled and the exposure values mean something yet.
-    pub valid: bool,
-}
-
-impl Telemetry {
-    /// Whether `fault` is among the active faults.
-    pub fn has_fault(&self, fault: SensorFault) -> bool {
-        let bit = SensorFault::ALL
-            .iter()
-            .position(|f| *f == fault)
-            .unwrap_or(7);
-        self.fault_flags & (1 << bit) != 0
-    }
 }
 
 /// The device's counters.

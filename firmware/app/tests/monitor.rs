@@ -20,6 +20,7 @@ use supine_core::protocol::{
     ParamsIdentity, ParamsSource, ResetCause, SampleBatch, Status, Telemetry, UploadError,
     encode_frame,
 };
+use supine_core::sample_rate::SampleRate;
 use supine_core::test_vector::TestVector;
 use supine_core::upload::{
     FlashError, KEY_LEN, ParamFlash, SLOT_COUNT, SLOT_LEN, parse_key, select, update_mac,
@@ -319,7 +320,9 @@ fn preset_params(
 ) -> DeviceParams {
     let realization = device_realization(&ModelParams::preset(preset), SAMPLE_RATE_HZ)
         .expect("the preset discretizes");
-    let mut params = DeviceParams::with_defaults(identity, realization).expect("valid defaults");
+    let sample_rate = SampleRate::from_hz_f64(SAMPLE_RATE_HZ).expect("a supported rate");
+    let mut params =
+        DeviceParams::with_defaults(identity, sample_rate, realization).expect("valid defaults");
     params.telemetry = telemetry;
     params.validate().expect("valid parameters");
     params

@@ -9,6 +9,7 @@ use sha2::{Digest, Sha256};
 use supine_core::blob::{DeviceParams, MAX_BLOB_LEN, TelemetryConfig};
 use supine_core::model::device_realization;
 use supine_core::protocol::{IDENTITY_LEN, ParamsIdentity};
+use supine_core::sample_rate::SampleRate;
 
 use crate::io::params_file::ParamFile;
 
@@ -28,10 +29,15 @@ pub fn identity_hex(id: &ParamsIdentity) -> String {
 /// Everything the device needs at `sample_rate_hz`, validated as the device will.
 pub fn build(file: &ParamFile, sample_rate_hz: f64) -> Result<DeviceParams> {
     let device = file.device.unwrap_or_default();
+    let sample_rate = SampleRate::from_hz_f64(sample_rate_hz)
+        .map_err(|e| anyhow!("{e}, found {sample_rate_hz} Hz"))?;
+    // Discretized at the rate as given, the blob's stages at its f32 value (as before the
+    // rate was stored once: the same bytes for the same file and rate).
     let realization =
         device_realization(&file.params, sample_rate_hz).map_err(|e| anyhow!("{e}"))?;
     DeviceParams::new(
         identity(file)?,
+        sample_rate,
         realization,
         device.exposure,
         device.alerts,
@@ -40,7 +46,7 @@ pub fn build(file: &ParamFile, sample_rate_hz: f64) -> Result<DeviceParams> {
         device
             .telemetry_decimation
             .map(|decimation| TelemetryConfig { decimation })
-            .unwrap_or_else(|| TelemetryConfig::default_for(sample_rate_hz as f32)),
+            .unwrap_or_else(|| TelemetryConfig::default_for(sample_rate.hz())),
     )
     .map_err(|e| anyhow!("device configuration: {e}"))
 }

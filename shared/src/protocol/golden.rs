@@ -11,6 +11,7 @@ use super::{
 use crate::alerts::{AlertEvent, Level, SensorFault};
 use crate::blob::{BlobError, DeviceParams};
 use crate::model::{DiscreteModal, ModalBlock, ModalGroup};
+use crate::sample_rate::SampleRate;
 
 /// Example host-to-device messages, in [`HOST_TO_DEVICE`] order.
 pub fn host_to_device_examples() -> [HostToDevice; 6] {
@@ -64,7 +65,7 @@ pub fn device_to_host_examples() -> [DeviceFrame; 10] {
             vector_running_rms_m_s2: 1.75,
             vdv_m_s175: 3.5,
             alert_level: Level::Warning,
-            fault_flags: 0b0101,
+            fault_flags: SensorFault::NonFinite | SensorFault::Stuck,
             valid: true,
         }),
         DeviceToHost::Alert(AlertEvent::Level {
@@ -159,12 +160,12 @@ pub fn blob_example() -> Result<DeviceParams, BlobError> {
         feedthrough: [0.002, 0.003, 0.0],
     };
     let realization = DiscreteModal {
-        sample_rate_hz: 500.0,
         groups: [empty, empty, z_group],
         blocks,
         block_count: 1,
     };
-    DeviceParams::with_defaults([0x5A; 16], realization)
+    let sample_rate = SampleRate::new(500.0).map_err(|_| BlobError::SampleRate)?;
+    DeviceParams::with_defaults([0x5A; 16], sample_rate, realization)
 }
 
 /// The bytes of [`blob_example`]: header and payload (recorded with `cargo test -p supine-core
