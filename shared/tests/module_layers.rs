@@ -22,7 +22,7 @@ const LAYERS: &[&[&str]] = &[
 ];
 
 /// Utilities any module may use; they use no other module of the crate.
-const LEAVES: &[&str] = &["fpu", "sample_rate", "test_vector"];
+const LEAVES: &[&str] = &["fpu", "sample_rate", "test_vector", "timing"];
 
 fn src_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("src")
