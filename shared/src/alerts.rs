@@ -189,7 +189,8 @@ pub enum AlertError {
     Hysteresis,
     /// A dwell, stuck or clear time is not finite or outside 0..=600 s.
     Time,
-    /// The full scale is not finite and positive.
+    /// The full scale is not finite, positive and at most
+    /// [`SensorCheckConfig::MAX_FULL_SCALE_M_S2`].
     FullScale,
 }
 
@@ -201,7 +202,7 @@ impl fmt::Display for AlertError {
             }
             AlertError::Hysteresis => "alert hysteresis must be within 0..=0.9",
             AlertError::Time => "alert dwell and sensor times must be within 0..=600 s",
-            AlertError::FullScale => "sensor full scale must be finite and positive",
+            AlertError::FullScale => "sensor full scale must be positive and at most 400 g",
         })
     }
 }
@@ -485,6 +486,12 @@ impl SensorCheckConfig {
         stuck_after_s: 1.0,
         clear_after_s: 1.0,
     };
+
+    /// Largest full scale accepted, m/s^2 (400 g, the widest MEMS accelerometers). The
+    /// pipeline clamps every sample to the full scale before the model, so this bounds
+    /// what the model and the exposure's squares and fourth powers can ever see: with it,
+    /// no finite sample can overflow their f32 state (docs/exposure.md#sensor-faults).
+    pub const MAX_FULL_SCALE_M_S2: f32 = 400.0 * STANDARD_GRAVITY_M_S2;
 }
 
 impl Default for SensorCheckConfig {
@@ -544,7 +551,8 @@ impl SensorCheckSettings {
     /// Validates `config` and converts its times to samples at `sample_rate`.
     pub fn new(config: SensorCheckConfig, sample_rate: SampleRate) -> Result<Self, AlertError> {
         let fs = sample_rate.hz_f64();
-        if !(config.full_scale_m_s2.is_finite() && config.full_scale_m_s2 > 0.0) {
+        let full_scale = config.full_scale_m_s2;
+        if !(full_scale > 0.0 && full_scale <= SensorCheckConfig::MAX_FULL_SCALE_M_S2) {
             return Err(AlertError::FullScale);
         }
         Ok(Self {

@@ -150,10 +150,14 @@ impl DeviceParams {
                 let _ = events.push(e);
             });
         let mut head = [[0.0f32; 3]; N];
+        let full_scale = self.sensor_checks.config.full_scale_m_s2;
         for (out, x) in head.iter_mut().zip(input_m_s2) {
-            let finite = x.iter().all(|v| v.is_finite());
-            if finite {
-                state.last_good_m_s2 = *x;
+            // A non-finite sample is replaced by the last good one; a finite one is clipped
+            // to the full scale, as the sensor itself would: a sample no sensor can produce
+            // (1e30 m/s^2) must not overflow the model's and the exposure's f32 state. Both
+            // raise their fault (non-finite, saturated) in the sensor checks above.
+            if x.iter().all(|v| v.is_finite()) {
+                state.last_good_m_s2 = x.map(|v| v.max(-full_scale).min(full_scale));
             }
             *out = self
                 .realization
@@ -229,7 +233,7 @@ impl DeviceParams {
     ) -> Telemetry {
         let k = self.exposure.config.axes.axes().map(|a| a.k);
         let running = |i: usize| sqrt_f32(exposure.axis_ms_m2_s4[i]) / k[i];
-        Telemetry {
+        let t = Telemetry {
             sample_index,
             head_acc_m_s2,
             running_rms_m_s2: [running(0), running(1), running(2)],
@@ -238,6 +242,18 @@ impl DeviceParams {
             alert_level: state.level,
             fault_flags: state.faults,
             valid: exposure.valid,
+        };
+        // Belt and braces: a value that is not finite is never reported as valid.
+        let finite = t
+            .running_rms_m_s2
+            .iter()
+            .chain(&t.head_acc_m_s2)
+            .all(|v| v.is_finite())
+            && t.vector_running_rms_m_s2.is_finite()
+            && t.vdv_m_s175.is_finite();
+        Telemetry {
+            valid: t.valid && finite,
+            ..t
         }
     }
 }

@@ -161,12 +161,10 @@ impl Monitor {
                 self.faults = t.fault_flags;
                 let [x, y, z] = t.head_acc_m_s2;
                 let magnitude = (x * x + y * y + z * z).sqrt();
-                if magnitude.is_finite() {
-                    self.peak_head_m_s2 = self.peak_head_m_s2.max(magnitude);
-                }
-                if t.valid && t.vector_running_rms_m_s2.is_finite() {
+                self.peak_head_m_s2 = peak_of(self.peak_head_m_s2, magnitude);
+                if t.valid {
                     self.peak_vector_rms_m_s2 =
-                        self.peak_vector_rms_m_s2.max(t.vector_running_rms_m_s2);
+                        peak_of(self.peak_vector_rms_m_s2, t.vector_running_rms_m_s2);
                 }
                 self.latest = Some(*t);
                 Ok(None)
@@ -387,6 +385,17 @@ pub fn device_line(g: &Greeting) -> String {
     )
 }
 
+/// The larger of a peak so far and a new value, where a NaN stays NaN: a summary must
+/// show that a device sent a value that is not a number, never skip it (`f32::max`
+/// ignores NaN).
+fn peak_of(peak: f32, value: f32) -> f32 {
+    if peak.is_nan() || value.is_nan() {
+        f32::NAN
+    } else {
+        peak.max(value)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -416,6 +425,24 @@ mod tests {
             fault_flags,
             valid: true,
         }
+    }
+
+    #[test]
+    fn a_non_finite_value_from_the_device_shows_in_the_summary() {
+        let mut m = Monitor::new(&greeting(PROTOCOL_VERSION)).expect("monitor");
+        let normal = telemetry(1, Level::Normal, FaultFlags::empty());
+        let nan = Telemetry {
+            vector_running_rms_m_s2: f32::NAN,
+            head_acc_m_s2: [f32::INFINITY, 0.0, 0.0],
+            ..telemetry(2, Level::Normal, FaultFlags::empty())
+        };
+        for t in [normal, nan, normal] {
+            m.on_message(&DeviceToHost::Telemetry(t)).expect("ok");
+        }
+        assert!(m.peak_vector_rms_m_s2().is_nan());
+        assert_eq!(m.peak_head_m_s2(), f32::INFINITY);
+        let summary = m.summary();
+        assert!(summary.contains("peak running rms NaN"), "{summary}");
     }
 
     #[test]
