@@ -19,6 +19,7 @@
 pub mod objective;
 pub mod report;
 pub mod solver;
+pub mod workflow;
 
 use anyhow::{Result, anyhow, bail};
 use nalgebra::DMatrix;
