@@ -29,9 +29,16 @@ pub struct Args {
     /// Seed of the random starts.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Number of starts (the paper's start, the paper's values, then random ones).
-    #[arg(long, default_value_t = 4)]
+    /// Number of starts (the paper's start, the paper's values with either damping, then
+    /// random ones).
+    #[arg(long, default_value_t = FitSettings::default().starts)]
     pub starts: usize,
+    /// Threads the starts run on (0: one per core). The result does not depend on it.
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Skip the final polish of the best start's minimum.
+    #[arg(long)]
+    pub no_polish: bool,
     /// Stop when an accepted step lowers the cost by less than this fraction (model.md: 1e-6).
     #[arg(long, default_value_t = DEFAULT_TOLERANCE)]
     pub ftol: f64,
@@ -55,17 +62,16 @@ pub struct Args {
     pub report: Option<PathBuf>,
 }
 
-/// A bar over every start's iterations on stderr; hidden when stderr is not a terminal
-/// (a log or a pipe gets the summary only).
-fn progress_bar(starts: usize, max_iterations: usize) -> indicatif::ProgressBar {
+/// A spinner with the latest accepted step on stderr; hidden when stderr is not a
+/// terminal (a log or a pipe gets the summary only).
+fn progress_spinner() -> indicatif::ProgressBar {
     if !std::io::stderr().is_terminal() {
         return indicatif::ProgressBar::hidden();
     }
-    let bar = indicatif::ProgressBar::new((starts * max_iterations) as u64);
+    let bar = indicatif::ProgressBar::new_spinner();
     bar.set_style(
-        indicatif::ProgressStyle::with_template("fit [{bar:25}] {elapsed} {msg}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-            .progress_chars("=> "),
+        indicatif::ProgressStyle::with_template("fit {spinner} {elapsed} {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
     );
     bar
 }
@@ -97,6 +103,8 @@ fn request(args: &Args) -> Result<FitRequest> {
                 max_iterations: args.max_iterations,
                 ..SolverSettings::default()
             },
+            threads: args.threads,
+            polish: !args.no_polish,
         },
     })
 }
@@ -104,22 +112,15 @@ fn request(args: &Args) -> Result<FitRequest> {
 /// Fits and writes the parameter file (and the report).
 pub fn run(args: &Args) -> Result<()> {
     let request = request(args)?;
-    let max_iterations = request.settings.solver.max_iterations;
-    // The bar's length is every start's iteration limit; a start that stops early jumps
-    // to its end. The number of starts is known once the problem is set up.
     let total = request.settings.starts.max(1);
-    let bar = progress_bar(total, max_iterations);
-    let (mut current, mut finished) = (None, 0u64);
-    let fitted = workflow::fit_dataset(&request, &mut |start, iteration, cost| {
-        if current != Some(start) {
-            finished += u64::from(current.is_some());
-            current = Some(start);
-        }
-        bar.set_position(finished * max_iterations as u64 + iteration as u64);
+    let bar = progress_spinner();
+    // Starts run in parallel: the message shows whichever reported last.
+    let fitted = workflow::fit_dataset(&request, &|start, iteration, cost| {
         bar.set_message(format!(
             "start {}/{total}, iteration {iteration}, cost {cost:.6}",
-            finished + 1
+            start + 1
         ));
+        bar.tick();
     });
     bar.finish_and_clear();
     let fitted = fitted?;

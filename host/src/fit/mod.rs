@@ -2,24 +2,34 @@
 //! section 2.2.3): bounded nonlinear least squares in log-parameters from several starts.
 //!
 //! - Rigid case: the 42 joint and contact parameters; bounds stiffness [1, 1e6] and damping
-//!   [0.001, 1e6] (model.md).
+//!   [0.001, 1e6] (docs/model.md).
 //! - Litter-board case: joints fixed to the rigid fit; the 18 contact parameters bounded by
 //!   [0, rigid-case value]. The lower bound 0 has no logarithm: it becomes
 //!   [`LITTER_FLOOR`] (1e-3 N/m or N s/m, under a millionth of any contact's effect).
 //! - Starts (deterministic for a seed): rigid: the paper's all-ones start, the paper's
-//!   Table 3-4 values, then random starts at the paper's values times e^(N(0, 1)); litter:
-//!   the rigid fit's contacts (the paper's start), the paper's litter-board contacts
-//!   (clamped to the bounds), then the rigid fit's contacts times e^(-|N(0, 2)|). The best
-//!   final cost wins.
-//! - Determinism: one thread, a fixed order, ChaCha8 from the seed: the same seed gives
-//!   bit-identical parameters and cost. Another seed changes only the random starts (the
-//!   third on); the first two run identically, so the result changes only when a random
-//!   start ends lowest.
+//!   Table 3-4 values (twice: with Levenberg's and with Marquardt's damping, which end in
+//!   different minima of this sloppy problem), then random starts at the paper's values
+//!   times e^(N(0, 1)), their damping alternating; litter: the rigid fit's contacts (the
+//!   paper's start), the paper's litter-board contacts (clamped to the bounds, both
+//!   dampings), then the rigid fit's contacts times e^(-|N(0, 2)|).
+//! - Rounds: the anchors (the paper's values) run first, to the end; every other start
+//!   then runs knowing the anchors' best cost, and is abandoned when it stagnates far above
+//!   it ([`SolverSettings::best_elsewhere`]). Each round spreads its starts over
+//!   `threads` threads; a start's path never depends on another's timing.
+//! - Polish: the best start's minimum is refined with Marquardt's damping and tolerances
+//!   10^4 times tighter ([`polish_settings`]): along the weakly determined directions the
+//!   cost keeps falling slowly long after a step's relative reduction is below ftol.
+//! - Determinism: a fixed order of rounds, ChaCha8 from the seed: the same seed gives
+//!   bit-identical parameters and cost, whatever the number of threads. Another seed
+//!   changes only the random starts (the fourth on).
 
 pub mod objective;
 pub mod report;
 pub mod solver;
+pub mod uncertainty;
 pub mod workflow;
+
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use anyhow::{Result, anyhow, bail};
 use nalgebra::DMatrix;
@@ -30,7 +40,7 @@ use supine_core::model::{ModelParams, ParamId, Preset, Subject};
 
 use crate::dataset::Case;
 use objective::{COMPONENTS, Objective, Target};
-use solver::{Problem, Solution, SolverSettings, Termination};
+use solver::{DampingScale, Problem, Solution, SolverSettings, Termination};
 
 /// Rigid-case stiffness bounds, N/m or N m/rad.
 pub const STIFFNESS_BOUNDS: (f64, f64) = (1.0, 1e6);
@@ -74,14 +84,96 @@ pub struct FitSettings {
     pub seed: u64,
     /// Solver tolerances.
     pub solver: SolverSettings,
+    /// Threads the starts of a round are spread over (0: one per core).
+    pub threads: usize,
+    /// Refine the best start's minimum ([`polish_settings`]).
+    pub polish: bool,
 }
 
 impl Default for FitSettings {
     fn default() -> Self {
         Self {
-            starts: 4,
+            starts: 6,
             seed: 1,
             solver: SolverSettings::default(),
+            threads: 0,
+            polish: true,
+        }
+    }
+}
+
+impl FitSettings {
+    /// The number of threads: `threads`, or one per core when 0.
+    pub fn thread_count(&self) -> usize {
+        if self.threads > 0 {
+            return self.threads;
+        }
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    }
+}
+
+/// One starting point of the solver.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Start {
+    /// Its name in the report.
+    pub label: String,
+    /// ln p.
+    pub theta: Vec<f64>,
+    /// The damping the solver uses from it.
+    pub damping: DampingScale,
+    /// Runs in the first round, to the end; the others run after it, against its cost.
+    pub anchor: bool,
+}
+
+impl Start {
+    /// A start that runs in the second round.
+    pub fn new(label: impl Into<String>, theta: Vec<f64>, damping: DampingScale) -> Self {
+        Self {
+            label: label.into(),
+            theta,
+            damping,
+            anchor: false,
+        }
+    }
+
+    /// The same start, run in the first round.
+    pub fn anchor(mut self) -> Self {
+        self.anchor = true;
+        self
+    }
+}
+
+/// The damping of the k-th random start: alternating, Levenberg's first.
+fn random_damping(k: usize) -> DampingScale {
+    if k % 2 == 1 {
+        DampingScale::Levenberg
+    } else {
+        DampingScale::Marquardt
+    }
+}
+
+/// How much tighter the polish's ftol, xtol and gtol are than the fit's.
+pub const POLISH_TIGHTENING: f64 = 1e-4;
+
+/// The polish's settings: Marquardt's damping, tolerances [`POLISH_TIGHTENING`] times the
+/// fit's, no geodesic acceleration (cheaper steps; the path no longer matters).
+pub fn polish_settings(solver: &SolverSettings) -> SolverSettings {
+    SolverSettings {
+        ftol: solver.ftol * POLISH_TIGHTENING,
+        xtol: solver.xtol * POLISH_TIGHTENING,
+        gtol: solver.gtol * POLISH_TIGHTENING,
+        damping: DampingScale::Marquardt,
+        geodesic_alpha: 0.0,
+        best_elsewhere: f64::INFINITY,
+        ..*solver
+    }
+}
+
+/// Clamps every start into the box.
+fn clamp_starts(starts: &mut [Start], lower: &[f64], upper: &[f64]) {
+    for start in starts {
+        for ((t, lo), hi) in start.theta.iter_mut().zip(lower).zip(upper) {
+            *t = t.clamp(*lo, *hi);
         }
     }
 }
@@ -97,8 +189,8 @@ pub struct Setup {
     pub lower: Vec<f64>,
     /// Upper bounds of ln p.
     pub upper: Vec<f64>,
-    /// Named starting points of ln p.
-    pub starts: Vec<(String, Vec<f64>)>,
+    /// The starting points.
+    pub starts: Vec<Start>,
 }
 
 fn normal(sd: f64) -> Result<Normal<f64>> {
@@ -121,21 +213,27 @@ pub fn rigid_setup(target: Target, subject: Subject, settings: &FitSettings) -> 
     let upper: Vec<f64> = free.iter().map(|id| bounds(id).1.ln()).collect();
     let paper: Vec<f64> = free.iter().map(|&id| base.get(id).ln()).collect();
     let mut starts = vec![
-        ("all ones (paper)".to_string(), vec![0.0; free.len()]),
-        ("paper Tables 3-4".to_string(), paper.clone()),
+        Start::new(
+            "all ones (paper)",
+            vec![0.0; free.len()],
+            DampingScale::Levenberg,
+        ),
+        Start::new("paper Tables 3-4", paper.clone(), DampingScale::Levenberg).anchor(),
+        Start::new(
+            "paper Tables 3-4, Marquardt",
+            paper.clone(),
+            DampingScale::Marquardt,
+        )
+        .anchor(),
     ];
     let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
     let spread = normal(1.0)?;
-    for k in starts.len()..settings.starts.max(1) {
+    for k in 1..=settings.starts.max(1).saturating_sub(starts.len()) {
         let theta = paper.iter().map(|t| t + spread.sample(&mut rng)).collect();
-        starts.push((format!("random {}", k - 1), theta));
+        starts.push(Start::new(format!("random {k}"), theta, random_damping(k)));
     }
     starts.truncate(settings.starts.max(1));
-    for (_, theta) in &mut starts {
-        for ((t, lo), hi) in theta.iter_mut().zip(&lower).zip(&upper) {
-            *t = t.clamp(*lo, *hi);
-        }
-    }
+    clamp_starts(&mut starts, &lower, &upper);
     Ok(Setup {
         case: Case::Rigid,
         objective: Objective::new(base, free, target),
@@ -164,28 +262,37 @@ pub fn litter_setup(
         .map(|&id| LITTER_FLOOR.min(rigid.get(id)).ln())
         .collect();
     let paper = ModelParams::preset(Preset::PaperLitter);
+    let paper_theta: Vec<f64> = free.iter().map(|&id| paper.get(id).ln()).collect();
     let mut starts = vec![
-        ("rigid-case contacts (paper)".to_string(), upper.clone()),
-        (
-            "paper Table 4 litter-board".to_string(),
-            free.iter().map(|&id| paper.get(id).ln()).collect(),
+        Start::new(
+            "rigid-case contacts (paper)",
+            upper.clone(),
+            DampingScale::Levenberg,
+        )
+        .anchor(),
+        Start::new(
+            "paper Table 4 litter-board",
+            paper_theta.clone(),
+            DampingScale::Levenberg,
+        )
+        .anchor(),
+        Start::new(
+            "paper Table 4 litter-board, Marquardt",
+            paper_theta,
+            DampingScale::Marquardt,
         ),
     ];
     let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
     let spread = normal(2.0)?;
-    for k in starts.len()..settings.starts.max(1) {
+    for k in 1..=settings.starts.max(1).saturating_sub(starts.len()) {
         let theta = upper
             .iter()
             .map(|t| t - spread.sample(&mut rng).abs())
             .collect();
-        starts.push((format!("random {}", k - 1), theta));
+        starts.push(Start::new(format!("random {k}"), theta, random_damping(k)));
     }
     starts.truncate(settings.starts.max(1));
-    for (_, theta) in &mut starts {
-        for ((t, lo), hi) in theta.iter_mut().zip(&lower).zip(&upper) {
-            *t = t.clamp(*lo, *hi);
-        }
-    }
+    clamp_starts(&mut starts, &lower, &upper);
     Ok(Setup {
         case: Case::Litter,
         objective: Objective::new(base, free, target),
@@ -219,72 +326,187 @@ pub struct StartOutcome {
 pub struct FitResult {
     /// The full fitted parameter set.
     pub params: ModelParams,
-    /// The best solution (log-parameters, residuals, Jacobian).
+    /// The best solution (log-parameters, residuals, Jacobian), polished if asked.
     pub solution: Solution,
     /// Every start.
     pub starts: Vec<StartOutcome>,
     /// Index of the best start.
     pub best: usize,
+    /// The polish of the best start's minimum, if any.
+    pub polish: Option<StartOutcome>,
 }
 
-/// Runs the solver from every start and keeps the lowest cost. The second start (the
-/// paper's values) runs first; each later start may be abandoned when it stagnates far
-/// above the best cost so far (see [`SolverSettings::best_elsewhere`]).
-///
-/// `progress(start, iteration, cost)` is called after every accepted step.
-pub fn run(
+/// `progress(start, iteration, cost)`: called after every accepted step, from the thread
+/// that runs the start.
+pub type Progress<'a> = &'a (dyn Fn(usize, usize, f64) + Sync);
+
+/// Runs `work(0..jobs)` on up to `threads` scoped threads; the results in job order.
+fn in_parallel<T: Send>(jobs: usize, threads: usize, work: impl Fn(usize) -> T + Sync) -> Vec<T> {
+    let next = AtomicUsize::new(0);
+    let worker = || {
+        let mut done = Vec::new();
+        loop {
+            let job = next.fetch_add(1, Ordering::Relaxed);
+            if job >= jobs {
+                return done;
+            }
+            done.push((job, work(job)));
+        }
+    };
+    let mut slots: Vec<Option<T>> = (0..jobs).map(|_| None).collect();
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = (1..threads.clamp(1, jobs.max(1)))
+            .map(|_| scope.spawn(worker))
+            .collect();
+        // This thread works too.
+        let mut finished = vec![worker()];
+        for handle in handles {
+            match handle.join() {
+                Ok(done) => finished.push(done),
+                Err(panic) => std::panic::resume_unwind(panic),
+            }
+        }
+        for (job, value) in finished.into_iter().flatten() {
+            slots[job] = Some(value);
+        }
+    });
+    slots.into_iter().flatten().collect()
+}
+
+/// Solves from one start with its damping; `best_elsewhere` lets it be abandoned.
+fn solve_from(
+    setup: &Setup,
+    index: usize,
+    solver_settings: &SolverSettings,
+    progress: Progress,
+) -> Result<(StartOutcome, Solution)> {
+    let start = &setup.starts[index];
+    let initial_cost = setup
+        .objective
+        .cost(&start.theta)
+        .map_err(|e| anyhow!("{e}"))?;
+    let started = std::time::Instant::now();
+    let solution = solver::solve(
+        &setup.objective,
+        &start.theta,
+        &setup.lower,
+        &setup.upper,
+        solver_settings,
+        &mut |iteration, cost| progress(index, iteration, cost),
+    )
+    .map_err(|e| anyhow!("start {}: {e}", start.label))?;
+    let outcome = StartOutcome {
+        label: start.label.clone(),
+        initial_cost,
+        final_cost: solution.cost,
+        iterations: solution.iterations,
+        evaluations: solution.evaluations,
+        termination: solution.termination,
+        seconds: started.elapsed().as_secs_f64(),
+    };
+    Ok((outcome, solution))
+}
+
+/// Solves from the starts `indices` in parallel, each abandoned when it stagnates far
+/// above `best_elsewhere`.
+fn solve_round(
     setup: &Setup,
     settings: &FitSettings,
-    progress: &mut dyn FnMut(usize, usize, f64),
-) -> Result<FitResult> {
+    indices: &[usize],
+    best_elsewhere: f64,
+    progress: Progress,
+) -> Result<Vec<(usize, StartOutcome, Solution)>> {
+    let results = in_parallel(indices.len(), settings.thread_count(), |job| {
+        let index = indices[job];
+        let solver_settings = SolverSettings {
+            damping: setup.starts[index].damping,
+            best_elsewhere: settings.solver.best_elsewhere.min(best_elsewhere),
+            ..settings.solver
+        };
+        solve_from(setup, index, &solver_settings, progress)
+            .map(|(outcome, solution)| (index, outcome, solution))
+    });
+    results.into_iter().collect()
+}
+
+/// Refines `solution` with [`polish_settings`]; the polish's outcome and the better of
+/// the two solutions.
+fn polish(
+    setup: &Setup,
+    settings: &FitSettings,
+    label: &str,
+    solution: Solution,
+) -> Result<(StartOutcome, Solution)> {
+    let started = std::time::Instant::now();
+    let polished = solver::solve(
+        &setup.objective,
+        &solution.x,
+        &setup.lower,
+        &setup.upper,
+        &polish_settings(&settings.solver),
+        &mut |_, _| {},
+    )
+    .map_err(|e| anyhow!("polish: {e}"))?;
+    let outcome = StartOutcome {
+        label: format!("polish of {label}"),
+        initial_cost: solution.cost,
+        final_cost: polished.cost,
+        iterations: polished.iterations,
+        evaluations: polished.evaluations,
+        termination: polished.termination,
+        seconds: started.elapsed().as_secs_f64(),
+    };
+    // The solver only accepts steps that lower the cost; the check keeps that explicit.
+    let best = if polished.cost <= solution.cost {
+        polished
+    } else {
+        solution
+    };
+    Ok((outcome, best))
+}
+
+/// Runs the solver from every start in two rounds (the anchors, then the others against
+/// the anchors' best cost), keeps the lowest cost (the first start on a tie) and polishes
+/// it (see the module documentation).
+pub fn run(setup: &Setup, settings: &FitSettings, progress: Progress) -> Result<FitResult> {
+    let (anchors, others): (Vec<usize>, Vec<usize>) =
+        (0..setup.starts.len()).partition(|&i| setup.starts[i].anchor);
+    let mut solved = solve_round(setup, settings, &anchors, f64::INFINITY, progress)?;
+    let best_anchor = solved
+        .iter()
+        .map(|(_, _, s)| s.cost)
+        .fold(f64::INFINITY, f64::min);
+    solved.extend(solve_round(
+        setup,
+        settings,
+        &others,
+        best_anchor,
+        progress,
+    )?);
+    solved.sort_by_key(|(index, _, _)| *index);
     let mut best: Option<(usize, Solution)> = None;
-    let mut outcomes: Vec<Option<StartOutcome>> = vec![None; setup.starts.len()];
-    // The paper's values run before the all-ones start: the best cost so far then lets
-    // a start that stagnates far above it stop early (`SolverSettings::best_elsewhere`).
-    // Outcomes are reported in the setup's order.
-    let mut order: Vec<usize> = (0..setup.starts.len()).collect();
-    if order.len() > 1 {
-        order.swap(0, 1);
-    }
-    for index in order {
-        let (label, theta0) = &setup.starts[index];
-        let initial_cost = setup.objective.cost(theta0).map_err(|e| anyhow!("{e}"))?;
-        let started = std::time::Instant::now();
-        let mut start_settings = settings.solver;
-        if let Some((_, b)) = &best {
-            start_settings.best_elsewhere = start_settings.best_elsewhere.min(b.cost);
-        }
-        let solution = solver::solve(
-            &setup.objective,
-            theta0,
-            &setup.lower,
-            &setup.upper,
-            &start_settings,
-            &mut |iteration, cost| progress(index, iteration, cost),
-        )
-        .map_err(|e| anyhow!("start {label}: {e}"))?;
-        outcomes[index] = Some(StartOutcome {
-            label: label.clone(),
-            initial_cost,
-            final_cost: solution.cost,
-            iterations: solution.iterations,
-            evaluations: solution.evaluations,
-            termination: solution.termination,
-            seconds: started.elapsed().as_secs_f64(),
-        });
+    let mut starts = Vec::with_capacity(solved.len());
+    for (index, outcome, solution) in solved {
+        starts.push(outcome);
         if best.as_ref().is_none_or(|(_, b)| solution.cost < b.cost) {
             best = Some((index, solution));
         }
     }
-    let starts: Vec<StartOutcome> = outcomes.into_iter().flatten().collect();
-    let Some((best, solution)) = best else {
+    let Some((best, mut solution)) = best else {
         bail!("no start to fit from");
     };
+    let mut polished = None;
+    if settings.polish {
+        let (outcome, better) = polish(setup, settings, &setup.starts[best].label, solution)?;
+        polished = Some(outcome);
+        solution = better;
+    }
     Ok(FitResult {
         params: setup.objective.params(&solution.x),
         solution,
         starts,
         best,
+        polish: polished,
     })
 }
 
@@ -334,6 +556,16 @@ pub struct ParamSummary {
     pub weak_loading: f64,
     /// The verdict.
     pub determination: Determination,
+    /// Standard error of ln p ([`uncertainty`]); determined parameters only.
+    pub standard_error: Option<f64>,
+}
+
+impl ParamSummary {
+    /// The 95 % interval of the value, for a determined parameter.
+    pub fn interval_95(&self) -> Option<(f64, f64)> {
+        self.standard_error
+            .map(|se| uncertainty::interval_95(self.value, se))
+    }
 }
 
 /// Identifiability from the Jacobian at the solution (in ln p).
@@ -343,6 +575,8 @@ pub struct Identifiability {
     pub singular_values: Vec<f64>,
     /// Per free parameter, in the fit's order.
     pub params: Vec<ParamSummary>,
+    /// The linearized covariance of ln p (None with no more residuals than unknowns).
+    pub covariance: Option<uncertainty::Covariance>,
 }
 
 /// Classifies every free parameter: no effect (zero Jacobian column), weak (mostly in the
@@ -363,6 +597,8 @@ pub fn identifiability(setup: &Setup, result: &FitResult) -> Identifiability {
     let singular_values: Vec<f64> = order.iter().map(|&k| svd.singular_values[k]).collect();
     let s_max = singular_values.first().copied().unwrap_or(0.0);
     let v_t = svd.v_t.unwrap_or_else(|| DMatrix::zeros(0, n));
+    let covariance = uncertainty::Covariance::at_minimum(jac, result.solution.cost);
+    let standard_errors = covariance.as_ref().map(|c| c.standard_errors());
     let params = (0..n)
         .map(|j| {
             let id = setup.objective.free[j];
@@ -386,6 +622,10 @@ pub fn identifiability(setup: &Setup, result: &FitResult) -> Identifiability {
             } else {
                 Determination::Determined
             };
+            let standard_error = match (&standard_errors, determination) {
+                (Some(se), Determination::Determined) => Some(se[j]),
+                _ => None,
+            };
             ParamSummary {
                 id,
                 value: theta.exp(),
@@ -393,10 +633,12 @@ pub fn identifiability(setup: &Setup, result: &FitResult) -> Identifiability {
                 sensitivity,
                 weak_loading,
                 determination,
+                standard_error,
             }
         })
         .collect();
     Identifiability {
+        covariance,
         singular_values,
         params,
     }

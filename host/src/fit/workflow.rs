@@ -9,7 +9,8 @@ use std::time::Instant;
 use anyhow::{Result, anyhow, bail};
 
 use super::objective::{COMPONENTS, Target};
-use super::{Determination, FitResult, FitSettings, Identifiability, Setup, report};
+use super::uncertainty::{self, StoredUncertainty};
+use super::{Determination, FitResult, FitSettings, Identifiability, Progress, Setup, report};
 use crate::commands::transmissibility::{CaseEstimate, estimate};
 use crate::dataset::{Case, Dataset};
 use crate::output::write_all_atomically;
@@ -97,10 +98,7 @@ fn problem(
 }
 
 /// Measures, sets up and fits. `progress(start, iteration, cost)` as in [`super::run`].
-pub fn fit_dataset(
-    request: &FitRequest,
-    progress: &mut dyn FnMut(usize, usize, f64),
-) -> Result<DatasetFit> {
+pub fn fit_dataset(request: &FitRequest, progress: Progress) -> Result<DatasetFit> {
     let started = Instant::now();
     let dataset = Dataset::load(&request.dataset)?;
     let joints = load_joints(request)?;
@@ -177,8 +175,9 @@ impl DatasetFit {
         table.insert("starts".into(), (setup.starts.len() as i64).into());
         table.insert(
             "best_start".into(),
-            setup.starts[self.result.best].0.clone().into(),
+            setup.starts[self.result.best].label.clone().into(),
         );
+        table.insert("polished".into(), self.result.polish.is_some().into());
         table.insert("final_cost".into(), solution.cost.into());
         table.insert(
             "frequencies".into(),
@@ -211,6 +210,16 @@ impl DatasetFit {
             .map(|p| p.id.to_string())
             .collect();
         table.insert("at_bound".into(), strings(at_bound));
+        if let Some(c) = &self.identifiability.covariance {
+            let determined: Vec<usize> = (0..setup.objective.free.len())
+                .filter(|&i| self.identifiability.params[i].standard_error.is_some())
+                .collect();
+            let stored = StoredUncertainty::of(c, &setup.objective.free, &determined);
+            table.insert(
+                uncertainty::FIT_KEY.into(),
+                stored.to_toml(&self.result.params).into(),
+            );
+        }
         table
     }
 
