@@ -23,6 +23,7 @@
 //!   bit-identical parameters and cost, whatever the number of threads. Another seed
 //!   changes only the random starts (the fourth on).
 
+pub mod band;
 pub mod objective;
 pub mod report;
 pub mod solver;
