@@ -143,10 +143,15 @@ fn exact_target(params: &ModelParams) -> Target {
 }
 
 fn fit_with_seed(seed: u64) -> (fit::Setup, fit::FitResult) {
+    fit_with(seed, 0)
+}
+
+fn fit_with(seed: u64, threads: usize) -> (fit::Setup, fit::FitResult) {
     let truth = truth();
     let mut settings = FitSettings {
-        starts: 4,
+        starts: 6,
         seed,
+        threads,
         ..FitSettings::default()
     };
     settings.solver.max_iterations = 60;
@@ -166,6 +171,20 @@ fn the_same_seed_gives_bit_identical_parameters_and_cost() {
     for (sa, sb) in a.starts.iter().zip(&b.starts) {
         assert_eq!(sa.final_cost.to_bits(), sb.final_cost.to_bits());
         assert_eq!(sa.iterations, sb.iterations);
+    }
+}
+
+/// Starts run in parallel, but none depends on another's timing: one thread or three give
+/// the same bits.
+#[test]
+fn the_number_of_threads_does_not_change_the_result() {
+    let (_, a) = fit_with(7, 1);
+    let (_, b) = fit_with(7, 3);
+    let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&a.solution.x), bits(&b.solution.x));
+    for (sa, sb) in a.starts.iter().zip(&b.starts) {
+        assert_eq!(sa.final_cost.to_bits(), sb.final_cost.to_bits());
+        assert_eq!(sa.termination, sb.termination);
     }
 }
 
