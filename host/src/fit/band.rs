@@ -57,9 +57,9 @@ pub fn head_exposure(params: &ModelParams, recording: &Recording) -> Result<Head
     if n > u32::MAX as usize {
         bail!("{n} samples: more than a 32-bit sample index");
     }
-    for k in 0..n {
-        let head = [0, 1, 2].map(|a| predicted[a][k] as f32);
-        settings.step(&mut state, head, k as u32);
+    let [x, y, z] = [&predicted[0], &predicted[1], &predicted[2]];
+    for (k, ((&x, &y), &z)) in x.iter().zip(y).zip(z).enumerate() {
+        settings.step(&mut state, [x as f32, y as f32, z as f32], k as u32);
     }
     let values = settings.values(&state);
     if !values.valid {
