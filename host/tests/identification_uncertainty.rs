@@ -243,3 +243,58 @@ fn the_prediction_band_contains_the_truth_at_about_its_nominal_rate() {
         "50 % band: {in_50} of {replicates}"
     );
 }
+
+/// The parameter file keeps the covariance (as standard errors and correlations) to 9
+/// digits; a `[fit]` table without it (files written before it existed) reads as none.
+#[test]
+fn the_stored_uncertainty_reads_back_and_old_files_have_none() {
+    let truth = common::perturbed_truth();
+    let mut rng = ChaCha8Rng::seed_from_u64(6);
+    let settings = FitSettings {
+        starts: 1,
+        ..FitSettings::default()
+    };
+    let mut setup = fit::rigid_setup(
+        noisy_target(&truth, 0.02, &mut rng),
+        truth.subject,
+        &settings,
+    )
+    .unwrap();
+    setup.starts = vec![fit::Start::new(
+        "truth",
+        setup.objective.theta(&truth),
+        DampingScale::Levenberg,
+    )];
+    let result = fit::run(&setup, &settings, &|_, _, _| {}).unwrap();
+    let ident = fit::identifiability(&setup, &result);
+    let determined: Vec<usize> = (0..ident.params.len())
+        .filter(|&i| ident.params[i].standard_error.is_some())
+        .collect();
+    assert!(determined.len() >= 30, "{} determined", determined.len());
+    let stored = StoredUncertainty::of(
+        ident.covariance.as_ref().unwrap(),
+        &setup.objective.free,
+        &determined,
+    );
+    let mut fit_table = toml::Table::new();
+    fit_table.insert("uncertainty".into(), stored.to_toml(&result.params).into());
+    let text = toml::to_string_pretty(&fit_table).unwrap();
+    let back: toml::Table = toml::from_str(&text).unwrap();
+    let read = StoredUncertainty::from_fit_table(Some(&back))
+        .unwrap()
+        .unwrap();
+    assert_eq!(read.parameters, stored.parameters);
+    assert_eq!(read.degrees_of_freedom, stored.degrees_of_freedom);
+    let n = stored.parameters.len();
+    let se = stored.standard_errors();
+    for i in 0..n {
+        for j in 0..n {
+            let diff = (read.covariance_ln_p[(i, j)] - stored.covariance_ln_p[(i, j)]).abs();
+            assert!(diff <= 1e-9 * se[i] * se[j], "({i}, {j})");
+        }
+    }
+    let mut old = back.clone();
+    old.remove("uncertainty");
+    assert_eq!(StoredUncertainty::from_fit_table(Some(&old)).unwrap(), None);
+    assert_eq!(StoredUncertainty::from_fit_table(None).unwrap(), None);
+}
