@@ -5,10 +5,12 @@
 //! where a variable is held (not free) when it sits on a bound and the gradient pushes it
 //! outward, or when it sits on a bound and the solved step would leave the box (it then
 //! joins the held set and the step is solved again: the binding set of projected Newton
-//! methods). D = max(diag J^T J) I: Levenberg's damping, scaled so that lambda is
-//! dimensionless; a parameter without effect gets a zero step, not a singular system.
-//! (Marquardt's D = diag J^T J and a More-style trust region on |d| were both tried on
-//! the fit's benchmark and found worse minima.)
+//! methods). D ([`DampingScale`]) is Levenberg's max(diag J^T J) I, scaled so that lambda
+//! is dimensionless (a parameter without effect gets a zero step, not a singular system),
+//! or Marquardt's diag J^T J (floored), which lets the parameters the data barely see
+//! move: from one start the two end in different minima of a sloppy problem, and the fit
+//! uses both (see `fit`). (A More-style trust region on |d| was tried and found worse
+//! minima.)
 //!
 //! Derivatives: the Jacobian comes from the problem (the fit's is analytic, exact to
 //! rounding); the second-order term of the geodesic acceleration is not: it is a finite
