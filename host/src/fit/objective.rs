@@ -215,7 +215,7 @@ impl Objective {
                     .iter()
                     .position(|(s, _)| s.entries() == shape.entries());
                 known.unwrap_or_else(|| {
-                    shapes.push((shape.clone(), block));
+                    shapes.push((*shape, block));
                     shapes.len() - 1
                 })
             })
