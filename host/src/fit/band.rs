@@ -143,9 +143,10 @@ pub fn head_exposure_band(
     }
     let fitted = head_exposure(params, recording)?;
     let sets = draw_params(params, uncertainty, draws, seed)?;
-    let exposures = super::in_parallel(sets.len(), threads, |k| head_exposure(&sets[k], recording))
-        .into_iter()
-        .collect::<Result<Vec<_>>>()?;
+    let exposures =
+        super::multistart::in_parallel(sets.len(), threads, |k| head_exposure(&sets[k], recording))
+            .into_iter()
+            .collect::<Result<Vec<_>>>()?;
     let bound = |q: f64| {
         HeadExposure::from_values(core::array::from_fn(|i| {
             let column: Vec<f64> = exposures.iter().map(|e| e.values()[i]).collect();

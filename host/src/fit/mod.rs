@@ -24,15 +24,15 @@
 //!   changes only the random starts (the fourth on).
 
 pub mod band;
+pub mod determination;
+pub mod multistart;
 pub mod objective;
 pub mod report;
 pub mod solver;
 pub mod uncertainty;
 pub mod workflow;
 
-use std::sync::atomic::{AtomicUsize, Ordering};
-
-use anyhow::{Result, anyhow, bail};
+use anyhow::{Result, anyhow};
 use nalgebra::DMatrix;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -41,7 +41,10 @@ use supine_core::model::{ModelParams, ParamId, Preset, Subject};
 
 use crate::dataset::Case;
 use objective::{COMPONENTS, Objective, Target};
-use solver::{DampingScale, Problem, Solution, SolverSettings, Termination};
+use solver::{DampingScale, Problem, SolverSettings};
+
+pub use determination::{AtBound, Determination, Identifiability, ParamSummary, identifiability};
+pub use multistart::{FitResult, POLISH_TIGHTENING, Progress, StartOutcome, polish_settings, run};
 
 /// Rigid-case stiffness bounds, N/m or N m/rad.
 pub const STIFFNESS_BOUNDS: (f64, f64) = (1.0, 1e6);
@@ -150,23 +153,6 @@ fn random_damping(k: usize) -> DampingScale {
         DampingScale::Levenberg
     } else {
         DampingScale::Marquardt
-    }
-}
-
-/// How much tighter the polish's ftol, xtol and gtol are than the fit's.
-pub const POLISH_TIGHTENING: f64 = 1e-4;
-
-/// The polish's settings: Marquardt's damping, tolerances [`POLISH_TIGHTENING`] times the
-/// fit's, no geodesic acceleration (cheaper steps; the path no longer matters).
-pub fn polish_settings(solver: &SolverSettings) -> SolverSettings {
-    SolverSettings {
-        ftol: solver.ftol * POLISH_TIGHTENING,
-        xtol: solver.xtol * POLISH_TIGHTENING,
-        gtol: solver.gtol * POLISH_TIGHTENING,
-        damping: DampingScale::Marquardt,
-        geodesic_alpha: 0.0,
-        best_elsewhere: f64::INFINITY,
-        ..*solver
     }
 }
 
@@ -301,348 +287,6 @@ pub fn litter_setup(
         upper,
         starts,
     })
-}
-
-/// One start's outcome.
-#[derive(Clone, Debug, PartialEq)]
-pub struct StartOutcome {
-    /// Which start.
-    pub label: String,
-    /// Cost at the start.
-    pub initial_cost: f64,
-    /// Cost at the end.
-    pub final_cost: f64,
-    /// Iterations.
-    pub iterations: usize,
-    /// Residual evaluations.
-    pub evaluations: usize,
-    /// Why it stopped.
-    pub termination: Termination,
-    /// Wall time of this start's solve, s.
-    pub seconds: f64,
-}
-
-/// The fit's result: the best start's solution and a summary of every start.
-#[derive(Clone, Debug)]
-pub struct FitResult {
-    /// The full fitted parameter set.
-    pub params: ModelParams,
-    /// The best solution (log-parameters, residuals, Jacobian), polished if asked.
-    pub solution: Solution,
-    /// Every start.
-    pub starts: Vec<StartOutcome>,
-    /// Index of the best start.
-    pub best: usize,
-    /// The polish of the best start's minimum, if any.
-    pub polish: Option<StartOutcome>,
-}
-
-/// `progress(start, iteration, cost)`: called after every accepted step, from the thread
-/// that runs the start.
-pub type Progress<'a> = &'a (dyn Fn(usize, usize, f64) + Sync);
-
-/// Runs `work(0..jobs)` on up to `threads` scoped threads; the results in job order.
-fn in_parallel<T: Send>(jobs: usize, threads: usize, work: impl Fn(usize) -> T + Sync) -> Vec<T> {
-    let next = AtomicUsize::new(0);
-    let worker = || {
-        let mut done = Vec::new();
-        loop {
-            let job = next.fetch_add(1, Ordering::Relaxed);
-            if job >= jobs {
-                return done;
-            }
-            done.push((job, work(job)));
-        }
-    };
-    let mut slots: Vec<Option<T>> = (0..jobs).map(|_| None).collect();
-    std::thread::scope(|scope| {
-        let handles: Vec<_> = (1..threads.clamp(1, jobs.max(1)))
-            .map(|_| scope.spawn(worker))
-            .collect();
-        // This thread works too.
-        let mut finished = vec![worker()];
-        for handle in handles {
-            match handle.join() {
-                Ok(done) => finished.push(done),
-                Err(panic) => std::panic::resume_unwind(panic),
-            }
-        }
-        for (job, value) in finished.into_iter().flatten() {
-            slots[job] = Some(value);
-        }
-    });
-    slots.into_iter().flatten().collect()
-}
-
-/// Solves from one start with its damping; `best_elsewhere` lets it be abandoned.
-fn solve_from(
-    setup: &Setup,
-    index: usize,
-    solver_settings: &SolverSettings,
-    progress: Progress,
-) -> Result<(StartOutcome, Solution)> {
-    let start = &setup.starts[index];
-    let initial_cost = setup
-        .objective
-        .cost(&start.theta)
-        .map_err(|e| anyhow!("{e}"))?;
-    let started = std::time::Instant::now();
-    let solution = solver::solve(
-        &setup.objective,
-        &start.theta,
-        &setup.lower,
-        &setup.upper,
-        solver_settings,
-        &mut |iteration, cost| progress(index, iteration, cost),
-    )
-    .map_err(|e| anyhow!("start {}: {e}", start.label))?;
-    let outcome = StartOutcome {
-        label: start.label.clone(),
-        initial_cost,
-        final_cost: solution.cost,
-        iterations: solution.iterations,
-        evaluations: solution.evaluations,
-        termination: solution.termination,
-        seconds: started.elapsed().as_secs_f64(),
-    };
-    Ok((outcome, solution))
-}
-
-/// Solves from the starts `indices` in parallel, each abandoned when it stagnates far
-/// above `best_elsewhere`.
-fn solve_round(
-    setup: &Setup,
-    settings: &FitSettings,
-    indices: &[usize],
-    best_elsewhere: f64,
-    progress: Progress,
-) -> Result<Vec<(usize, StartOutcome, Solution)>> {
-    let results = in_parallel(indices.len(), settings.thread_count(), |job| {
-        let index = indices[job];
-        let solver_settings = SolverSettings {
-            damping: setup.starts[index].damping,
-            best_elsewhere: settings.solver.best_elsewhere.min(best_elsewhere),
-            ..settings.solver
-        };
-        solve_from(setup, index, &solver_settings, progress)
-            .map(|(outcome, solution)| (index, outcome, solution))
-    });
-    results.into_iter().collect()
-}
-
-/// Refines `solution` with [`polish_settings`]; the polish's outcome and the better of
-/// the two solutions.
-fn polish(
-    setup: &Setup,
-    settings: &FitSettings,
-    label: &str,
-    solution: Solution,
-) -> Result<(StartOutcome, Solution)> {
-    let started = std::time::Instant::now();
-    let polished = solver::solve(
-        &setup.objective,
-        &solution.x,
-        &setup.lower,
-        &setup.upper,
-        &polish_settings(&settings.solver),
-        &mut |_, _| {},
-    )
-    .map_err(|e| anyhow!("polish: {e}"))?;
-    let outcome = StartOutcome {
-        label: format!("polish of {label}"),
-        initial_cost: solution.cost,
-        final_cost: polished.cost,
-        iterations: polished.iterations,
-        evaluations: polished.evaluations,
-        termination: polished.termination,
-        seconds: started.elapsed().as_secs_f64(),
-    };
-    // The solver only accepts steps that lower the cost; the check keeps that explicit.
-    let best = if polished.cost <= solution.cost {
-        polished
-    } else {
-        solution
-    };
-    Ok((outcome, best))
-}
-
-/// Runs the solver from every start in two rounds (the anchors, then the others against
-/// the anchors' best cost), keeps the lowest cost (the first start on a tie) and polishes
-/// it (see the module documentation).
-pub fn run(setup: &Setup, settings: &FitSettings, progress: Progress) -> Result<FitResult> {
-    let (anchors, others): (Vec<usize>, Vec<usize>) =
-        (0..setup.starts.len()).partition(|&i| setup.starts[i].anchor);
-    let mut solved = solve_round(setup, settings, &anchors, f64::INFINITY, progress)?;
-    let best_anchor = solved
-        .iter()
-        .map(|(_, _, s)| s.cost)
-        .fold(f64::INFINITY, f64::min);
-    solved.extend(solve_round(
-        setup,
-        settings,
-        &others,
-        best_anchor,
-        progress,
-    )?);
-    solved.sort_by_key(|(index, _, _)| *index);
-    let mut best: Option<(usize, Solution)> = None;
-    let mut starts = Vec::with_capacity(solved.len());
-    for (index, outcome, solution) in solved {
-        starts.push(outcome);
-        if best.as_ref().is_none_or(|(_, b)| solution.cost < b.cost) {
-            best = Some((index, solution));
-        }
-    }
-    let Some((best, mut solution)) = best else {
-        bail!("no start to fit from");
-    };
-    let mut polished = None;
-    if settings.polish {
-        let (outcome, better) = polish(setup, settings, &setup.starts[best].label, solution)?;
-        polished = Some(outcome);
-        solution = better;
-    }
-    Ok(FitResult {
-        params: setup.objective.params(&solution.x),
-        solution,
-        starts,
-        best,
-        polish: polished,
-    })
-}
-
-/// What the data says about one parameter.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Determination {
-    /// The parameter has no effect on the fitted components at all.
-    NoEffect,
-    /// It lies mostly in directions the data barely constrains.
-    Weak,
-    /// The data determines it.
-    Determined,
-}
-
-impl Determination {
-    /// `none`, `weak` or `determined`.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Determination::NoEffect => "none",
-            Determination::Weak => "weak",
-            Determination::Determined => "determined",
-        }
-    }
-}
-
-/// Which bound a parameter ended on.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum AtBound {
-    /// On its lower bound.
-    Lower,
-    /// On its upper bound.
-    Upper,
-}
-
-/// One free parameter's summary.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ParamSummary {
-    /// Which parameter.
-    pub id: ParamId,
-    /// Fitted value (in `id.unit()`).
-    pub value: f64,
-    /// Whether it ended on a bound (within 1e-6 in ln p).
-    pub at_bound: Option<AtBound>,
-    /// Jacobian column norm over the largest (sensitivity of the residuals to ln p).
-    pub sensitivity: f64,
-    /// Share of the parameter in the weakly determined directions, 0..=1.
-    pub weak_loading: f64,
-    /// The verdict.
-    pub determination: Determination,
-    /// Standard error of ln p ([`uncertainty`]); determined parameters only.
-    pub standard_error: Option<f64>,
-}
-
-impl ParamSummary {
-    /// The 95 % interval of the value, for a determined parameter.
-    pub fn interval_95(&self) -> Option<(f64, f64)> {
-        self.standard_error
-            .map(|se| uncertainty::interval_95(self.value, se))
-    }
-}
-
-/// Identifiability from the Jacobian at the solution (in ln p).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Identifiability {
-    /// Singular values of J, largest first.
-    pub singular_values: Vec<f64>,
-    /// Per free parameter, in the fit's order.
-    pub params: Vec<ParamSummary>,
-    /// The linearized covariance of ln p (None with no more residuals than unknowns).
-    pub covariance: Option<uncertainty::Covariance>,
-}
-
-/// Classifies every free parameter: no effect (zero Jacobian column), weak (mostly in the
-/// span of right singular vectors with singular value below 1e-3 of the largest), or
-/// determined; and flags those on a bound.
-pub fn identifiability(setup: &Setup, result: &FitResult) -> Identifiability {
-    let jac = &result.solution.jacobian;
-    let n = jac.ncols();
-    let norms: Vec<f64> = (0..n).map(|j| jac.column(j).norm()).collect();
-    let max_norm = norms
-        .iter()
-        .copied()
-        .fold(0.0, f64::max)
-        .max(f64::MIN_POSITIVE);
-    let svd = jac.clone().svd(false, true);
-    let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
-    order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
-    let singular_values: Vec<f64> = order.iter().map(|&k| svd.singular_values[k]).collect();
-    let s_max = singular_values.first().copied().unwrap_or(0.0);
-    let v_t = svd.v_t.unwrap_or_else(|| DMatrix::zeros(0, n));
-    let covariance = uncertainty::Covariance::at_minimum(jac, result.solution.cost);
-    let standard_errors = covariance.as_ref().map(|c| c.standard_errors());
-    let params = (0..n)
-        .map(|j| {
-            let id = setup.objective.free[j];
-            let theta = result.solution.x[j];
-            let at_bound = if theta <= setup.lower[j] + 1e-6 {
-                Some(AtBound::Lower)
-            } else if theta >= setup.upper[j] - 1e-6 {
-                Some(AtBound::Upper)
-            } else {
-                None
-            };
-            let weak_loading: f64 = (0..v_t.nrows())
-                .filter(|&k| svd.singular_values[k] < WEAK_SINGULAR_RATIO * s_max)
-                .map(|k| v_t[(k, j)].powi(2))
-                .sum();
-            let sensitivity = norms[j] / max_norm;
-            let determination = if sensitivity < NO_EFFECT_RATIO {
-                Determination::NoEffect
-            } else if weak_loading > WEAK_LOADING {
-                Determination::Weak
-            } else {
-                Determination::Determined
-            };
-            let standard_error = match (&standard_errors, determination) {
-                (Some(se), Determination::Determined) => Some(se[j]),
-                _ => None,
-            };
-            ParamSummary {
-                id,
-                value: theta.exp(),
-                at_bound,
-                sensitivity,
-                weak_loading,
-                determination,
-                standard_error,
-            }
-        })
-        .collect();
-    Identifiability {
-        covariance,
-        singular_values,
-        params,
-    }
 }
 
 /// Per fitted component: rms relative magnitude error and rms phase error (degrees).
