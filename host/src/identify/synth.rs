@@ -251,6 +251,12 @@ pub fn write_dataset(
             settings.noise_m_s2
         );
     }
+    if !(settings.param_log_sd >= 0.0 && settings.param_log_sd.is_finite()) {
+        bail!(
+            "--param-log-sd: expected a finite number >= 0, found {}",
+            settings.param_log_sd
+        );
+    }
     std::fs::create_dir_all(dir.join("truth"))
         .map_err(|e| anyhow!("{}: cannot create: {e}", dir.display()))?;
     let _ = std::fs::remove_file(dir.join(crate::io::dataset::DATASET_FILE));
