@@ -5,9 +5,10 @@
 //! HMAC-SHA256 over the counter and the blob with the device's key, a counter above every
 //! one accepted before (against replay), and the blob's own validation. Only then is the
 //! slot that is not running erased and written: the blob, then a commit record (magic,
-//! counter, CRC-32 of blob and counter), then read back. A cut transfer leaves flash as it
-//! was; a power cut mid-write leaves the new slot without a valid commit record, and the
-//! slot that ran before is chosen again at the next boot.
+//! counter, CRC-32 of blob and counter), the blob's header last, then read back. A cut
+//! transfer leaves flash as it was; a power cut mid-write leaves the new slot without a
+//! valid blob or commit record, and the slot that ran before is chosen again at the next
+//! boot. A write that fails its read-back is scrubbed, so a refused update never boots.
 //!
 //! Choosing at boot: the committed slot with the highest counter; else a plain blob
 //! without a commit record in slot 0 (as placed by a programmer or QEMU's loader); else
@@ -16,7 +17,9 @@
 use hmac::{Hmac, KeyInit, Mac};
 use sha2::Sha256;
 
-use crate::blob::{BlobError, DeviceParams, MAX_BLOB_LEN, announced_len};
+use crate::blob::{
+    BLOB_HEADER_LEN, BlobError, DeviceParams, MAX_BLOB_LEN, announced_len, blob_payload,
+};
 use crate::protocol::{ParamAck, ParamBegin, ParamChunk, ParamsIdentity, UploadError};
 
 /// Number of parameter slots.
@@ -282,7 +285,8 @@ impl Upload {
         Ok(ParamAck::Begun)
     }
 
-    /// Appends a chunk, which must continue where the previous one ended.
+    /// Appends a chunk, which must continue where the previous one ended; one that would
+    /// pass the announced length aborts the upload.
     pub fn chunk(&mut self, chunk: &ParamChunk) -> Result<ParamAck, UploadError> {
         if !self.open {
             return Err(UploadError::NotStarted);
@@ -297,7 +301,7 @@ impl Upload {
             .filter(|_| end <= self.expected)
         else {
             self.abort();
-            return Err(UploadError::BadLength);
+            return Err(UploadError::ChunkPastEnd);
         };
         dst.copy_from_slice(&chunk.bytes);
         self.received = end;
@@ -306,6 +310,10 @@ impl Upload {
 
     /// Verifies the received blob and, only if everything holds, writes it to the slot not
     /// running (`running_slot`, `None` for the built-in parameters) and reads it back.
+    ///
+    /// Checks, in order, each refused with its own code before flash is touched: all
+    /// bytes arrived, the HMAC, the counter, the blob's header, the length the header
+    /// announces against the length `ParamBegin` announced, then the rest of the blob.
     pub fn commit(
         &mut self,
         key: &[u8; KEY_LEN],
@@ -327,21 +335,18 @@ impl Upload {
         if self.counter <= last_counter(flash) {
             return Err(UploadError::Replayed);
         }
+        if header_len(blob).map_err(UploadError::Blob)? != blob.len() {
+            return Err(UploadError::LengthMismatch);
+        }
         let params = DeviceParams::decode(blob).map_err(UploadError::Blob)?;
         let target = match running_slot {
             Some(0) => 1,
             _ => 0,
         };
-        let record = commit_record(blob, self.counter);
-        flash.erase(target).map_err(|_| UploadError::Flash)?;
-        flash
-            .write(target, 0, blob)
-            .map_err(|_| UploadError::Flash)?;
-        flash
-            .write(target, blob.len(), &record)
-            .map_err(|_| UploadError::Flash)?;
-        let stored = flash.slot(target);
-        if stored.get(..blob.len()) != Some(blob) || commit_counter(stored) != Some(self.counter) {
+        if write_committed(flash, target, blob, self.counter).is_err() {
+            // Whatever reached the slot is refused, so it must not boot: on a device
+            // running its built-in parameters the slot is A, whose plain blob would.
+            scrub(flash, target);
             return Err(UploadError::Flash);
         }
         Ok(Committed {
@@ -350,5 +355,51 @@ impl Upload {
             slot: target as u8,
             counter: self.counter,
         })
+    }
+}
+
+/// The whole length (header included) that a blob's header announces, once the header
+/// itself is valid: blank, magic, version and length field are the blob's own errors.
+fn header_len(blob: &[u8]) -> Result<usize, BlobError> {
+    let header = blob.get(..BLOB_HEADER_LEN).ok_or(BlobError::Truncated)?;
+    // The header alone passes every check of `blob_payload` before the payload's: with a
+    // valid header the only answer left is that the (absent) payload is truncated.
+    match blob_payload(header) {
+        Err(BlobError::Truncated) | Ok(_) => announced_len(header).ok_or(BlobError::BadLength),
+        Err(e) => Err(e),
+    }
+}
+
+/// Erases `slot` and writes `blob` and its commit record, then reads both back.
+///
+/// The header goes last: until its final byte is written the slot holds no valid blob,
+/// so a power cut at any point leaves nothing that boots (slot A's plain blob included,
+/// which boot would otherwise accept without a commit record).
+fn write_committed(
+    flash: &mut impl ParamFlash,
+    slot: usize,
+    blob: &[u8],
+    counter: u32,
+) -> Result<(), FlashError> {
+    let (header, payload) = blob.split_at(BLOB_HEADER_LEN.min(blob.len()));
+    flash.erase(slot)?;
+    flash.write(slot, header.len(), payload)?;
+    flash.write(slot, blob.len(), &commit_record(blob, counter))?;
+    flash.write(slot, 0, header)?;
+    let stored = flash.slot(slot);
+    if stored.get(..blob.len()) != Some(blob) || commit_counter(stored) != Some(counter) {
+        return Err(FlashError);
+    }
+    Ok(())
+}
+
+/// Makes `slot` unbootable after a failed write: erased again, or, if the erase fails
+/// too, its header programmed to zeros (programming only clears bits, so that works on
+/// a slot that cannot be erased), which reads as a blank slot.
+fn scrub(flash: &mut impl ParamFlash, slot: usize) {
+    if flash.erase(slot).is_err() {
+        // Nothing more can be done if this fails too: the read-back of a slot that takes
+        // neither erase nor write cannot have matched, and boot checks every slot again.
+        let _ = flash.write(slot, 0, &[0; BLOB_HEADER_LEN]);
     }
 }
