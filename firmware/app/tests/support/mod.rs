@@ -130,8 +130,8 @@ pub struct FlashView {
 pub struct FlashFaults {
     /// This operation fails and changes nothing.
     pub fail_op: Option<usize>,
-    /// This operation, a write, stores its first byte with bit 0 cleared and reports
-    /// success: only the read-back can tell.
+    /// This operation, a write, stores one bit cleared (the lowest of its first non-zero
+    /// byte) and reports success: only the read-back can tell.
     pub corrupt_op: Option<usize>,
     /// Every erase from this operation on fails and changes nothing.
     pub erase_fails_from: Option<usize>,
@@ -178,14 +178,21 @@ impl ParamFlash for RamFlash {
         if !ok {
             return Err(FlashError);
         }
-        let corrupt = self.faults.corrupt_op == Some(op);
+        // The first byte with a bit set loses its lowest one.
+        let corrupt_at = (self.faults.corrupt_op == Some(op))
+            .then(|| bytes.iter().position(|&b| b != 0))
+            .flatten();
         let cells = self
             .slots
             .get_mut(slot)
             .and_then(|s| s.get_mut(offset..offset + bytes.len()))
             .ok_or(FlashError)?;
         for (k, (cell, &b)) in cells.iter_mut().zip(bytes).enumerate() {
-            let b = if corrupt && k == 0 { b & !1 } else { b };
+            let b = if corrupt_at == Some(k) {
+                b & (b - 1)
+            } else {
+                b
+            };
             *cell &= b;
         }
         self.publish();
