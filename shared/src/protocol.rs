@@ -204,7 +204,9 @@ pub struct Status {
     pub bad_frames: u32,
     /// Samples run through the pipeline.
     pub samples_processed: u32,
-    /// Samples lost: missing indices, or samples that arrived when the device was busy.
+    /// Samples lost: indices skipped by a jump forward of at most a minute of samples (a
+    /// longer jump, or one back, is a new stream and counts nothing), or samples that
+    /// arrived when the device was busy.
     pub samples_dropped: u32,
     /// Telemetry frames sent.
     pub telemetry_sent: u32,

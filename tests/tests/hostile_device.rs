@@ -306,6 +306,7 @@ fn upload_steps_out_of_order_or_bounds_are_refused_with_their_codes() {
         })
         .collect();
     let expected: Vec<_> = steps.iter().map(|(_, a)| *a).collect();
+    println!("upload steps: {} sent, answers {answers:?}", steps.len());
     assert_eq!(answers, expected);
     let refusals = expected.iter().filter(|a| a.is_err()).count() as u32;
     assert_eq!(s.status().uploads_rejected, refusals);
