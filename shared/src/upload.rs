@@ -374,10 +374,9 @@ fn write_committed(
     let (header, payload) = blob.split_at(BLOB_HEADER_LEN.min(blob.len()));
     let record = commit_record(blob, counter);
     flash.erase(slot)?;
-    // One loop rather than three calls: the flash's write is inlined once (flash space).
-    for (offset, bytes) in [(header.len(), payload), (blob.len(), &record), (0, header)] {
-        flash.write(slot, offset, bytes)?;
-    }
+    flash.write(slot, header.len(), payload)?;
+    flash.write(slot, blob.len(), &record)?;
+    flash.write(slot, 0, header)?;
     let stored = flash.slot(slot);
     if stored.get(..blob.len()) != Some(blob) || commit_counter(stored) != Some(counter) {
         return Err(FlashError);
@@ -390,8 +389,8 @@ fn write_committed(
 /// a slot that cannot be erased), which reads as a blank slot.
 fn scrub(flash: &mut impl ParamFlash, slot: usize) {
     if flash.erase(slot).is_err() {
-        // Nothing more can be done if this fails too: the read-back of a slot that takes
-        // neither erase nor write cannot have matched, and boot checks every slot again.
+        // If this fails too, the flash takes neither erase nor write and nothing more can
+        // be done from here; boot validates every slot again anyway.
         let _ = flash.write(slot, 0, &[0; BLOB_HEADER_LEN]);
     }
 }
