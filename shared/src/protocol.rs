@@ -23,7 +23,7 @@ pub use crate::blob::{IDENTITY_LEN, ParamsIdentity};
 pub use crate::pipeline::Telemetry;
 
 /// Version of this module's encodings; the host refuses a device that speaks another.
-pub const PROTOCOL_VERSION: u16 = 2;
+pub const PROTOCOL_VERSION: u16 = 3;
 /// Largest encoded frame, including COBS overhead and the terminating zero, bytes.
 pub const MAX_FRAME_LEN: usize = 256;
 /// Samples carried by one [`HostToDevice::Samples`] frame at most.
@@ -172,7 +172,9 @@ pub struct Status {
     pub bad_frames: u32,
     /// Samples run through the pipeline.
     pub samples_processed: u32,
-    /// Samples lost: missing indices, or samples that arrived when the device was busy.
+    /// Samples lost: indices skipped by a jump forward of at most a minute of samples (a
+    /// longer jump, or one back, is a new stream and counts nothing), or samples that
+    /// arrived when the device was busy.
     pub samples_dropped: u32,
     /// Telemetry frames sent.
     pub telemetry_sent: u32,
@@ -207,12 +209,14 @@ pub enum ParamAck {
     },
 }
 
-/// Why an upload was refused.
+/// Why an upload was refused: one variant per cause, so that the code a host shows names
+/// the cause itself (see the error table in `docs/protocol.md`). New variants go last:
+/// the codes of the others are stable.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum UploadError {
-    /// A chunk or commit arrived without a begin.
+    /// A chunk or commit arrived without an open upload.
     NotStarted,
-    /// The announced length is zero or larger than a slot.
+    /// The length announced by `ParamBegin` is zero or larger than a blob can be.
     BadLength,
     /// A chunk did not continue where the last one ended.
     OutOfOrder,
@@ -224,8 +228,16 @@ pub enum UploadError {
     BadSignature,
     /// The blob itself is invalid.
     Blob(BlobError),
-    /// Writing or verifying flash failed.
+    /// Erasing, writing or reading back flash failed; the slot written is left
+    /// unbootable, so what boots next is what ran before.
     Flash,
+    /// The length announced by `ParamBegin` differs from the length in the blob's own
+    /// header (for example a valid blob followed by padding).
+    LengthMismatch,
+    /// A chunk would pass the length announced by `ParamBegin`.
+    ChunkPastEnd,
+    /// This device image takes no parameter updates over the link.
+    UpdatesUnsupported,
 }
 
 impl UploadError {
@@ -238,8 +250,11 @@ impl UploadError {
             UploadError::Incomplete => 4,
             UploadError::Replayed => 5,
             UploadError::BadSignature => 6,
-            UploadError::Blob(e) => 0x40 | e.code(),
             UploadError::Flash => 7,
+            UploadError::LengthMismatch => 8,
+            UploadError::ChunkPastEnd => 9,
+            UploadError::UpdatesUnsupported => 10,
+            UploadError::Blob(e) => 0x40 | e.code(),
         }
     }
 }
@@ -249,12 +264,19 @@ impl core::fmt::Display for UploadError {
         match self {
             UploadError::NotStarted => f.write_str("upload not started"),
             UploadError::BadLength => f.write_str("announced length is zero or too large"),
+            UploadError::LengthMismatch => {
+                f.write_str("announced length differs from the blob header's")
+            }
+            UploadError::ChunkPastEnd => f.write_str("chunk passes the announced length"),
             UploadError::OutOfOrder => f.write_str("chunk out of order"),
             UploadError::Incomplete => f.write_str("commit before all bytes arrived"),
             UploadError::Replayed => f.write_str("update counter not above the last accepted one"),
             UploadError::BadSignature => f.write_str("HMAC does not match"),
             UploadError::Blob(e) => write!(f, "invalid blob: {e}"),
-            UploadError::Flash => f.write_str("flash write or verify failed"),
+            UploadError::Flash => f.write_str("flash erase, write or read-back failed"),
+            UploadError::UpdatesUnsupported => {
+                f.write_str("this device takes no updates over the link")
+            }
         }?;
         write!(f, " (code {})", self.code())
     }

@@ -25,7 +25,7 @@ mod updates;
 pub use boot::Boot;
 pub use counter::TickCounter;
 pub use link::Link;
-pub use monitor::{App, IDLE_FLUSH_TICKS};
+pub use monitor::{App, IDLE_FLUSH_TICKS, MAX_LOST_SPAN_S};
 pub use stack_gauge::StackGauge;
 pub use updates::NoUpdates;
 
