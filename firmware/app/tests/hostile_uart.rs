@@ -310,9 +310,9 @@ fn no_nan_or_infinite_sample_makes_valid_telemetry_non_finite() {
     assert_eq!(values_that_poison(&non_finite), Vec::<String>::new());
 }
 
-// D1 (issue 17): one absurd but finite sample (from about 1e20 m/s^2) overflows the f32
-// exposure state, and the device then streams NaN running rms with `valid` set. Fails on
-// this branch; un-ignore with the D1 fix (pipeline/exposure), which must make it pass.
+// D1 (issue 17): one absurd but finite sample (from about 1e20 m/s^2) overflowed the f32
+// exposure state, and the device then streamed NaN running rms with `valid` set. The
+// pipeline now clips every sample to the full scale before the model.
 #[test]
 fn no_extreme_finite_sample_makes_valid_telemetry_non_finite() {
     let extreme = [1e20, -1e20, 1e30, -1e30, f32::MAX, f32::MIN];
