@@ -17,6 +17,7 @@ use std::path::PathBuf;
 
 use supine_core::blob::{DeviceParams, MAX_BLOB_LEN};
 use supine_core::model::{DEFAULT_SAMPLE_RATE_HZ, ModelParams, Preset, device_realization};
+use supine_core::sample_rate::SampleRate;
 
 /// Identity of the built-in default parameters (not a SHA-256: a fixed, readable name that
 /// the host prints as "built-in").
@@ -106,7 +107,9 @@ fn write_default_blob(out_dir: &std::path::Path) {
         DEFAULT_SAMPLE_RATE_HZ,
     )
     .unwrap_or_else(|err| panic!("the paper-litter preset does not discretize: {err}"));
-    let params = DeviceParams::with_defaults(BUILTIN_IDENTITY, realization)
+    let sample_rate = SampleRate::from_hz_f64(DEFAULT_SAMPLE_RATE_HZ)
+        .unwrap_or_else(|err| panic!("the default sample rate: {err}"));
+    let params = DeviceParams::with_defaults(BUILTIN_IDENTITY, sample_rate, realization)
         .unwrap_or_else(|err| panic!("the default device parameters are refused: {err}"));
     let mut buf = vec![0u8; MAX_BLOB_LEN];
     let len = params

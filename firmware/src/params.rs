@@ -32,7 +32,7 @@ pub enum ParamsError {
     Decode,
     /// The bytes decode but more follow: the producer and the device disagree on the format.
     TrailingBytes,
-    /// The realization decodes but is unfit to run (not finite, unstable, bad rate).
+    /// The realization decodes but is unfit to run (not finite, unstable, bad layout).
     Invalid(RealizationError),
 }
 
@@ -58,7 +58,7 @@ pub fn identity(bytes: &[u8]) -> u32 {
     IDENTITY_CRC.checksum(bytes)
 }
 
-/// Decodes a realization and checks it (finite, stable, supported rate), refusing
+/// Decodes a realization and checks it (finite, stable, consistent layout), refusing
 /// anything but exactly one valid realization.
 pub fn decode(bytes: &[u8]) -> Result<DeviceRealization, ParamsError> {
     let (realization, rest) =

@@ -22,7 +22,7 @@ use supine_host::io::dataset::{Case, Dataset};
 use supine_host::io::params_file;
 
 /// ftol = xtol = gtol of the recorded table (and of `scipy_fit.py`): tighter than the
-/// defaults (model.md's 1e-6), so the figures in BENCHMARKS.md stay reproducible.
+/// defaults (1e-6, docs/model.md#solver-and-tolerances), so the figures in BENCHMARKS.md stay reproducible.
 const BENCH_TOLERANCE: f64 = 1e-8;
 
 fn truth_geomean(
@@ -97,7 +97,7 @@ fn main() {
         };
         let setup = fit::rigid_setup(target.clone(), subject, &fit_settings).unwrap();
         let t1 = Instant::now();
-        let rigid = fit::run(&setup, &fit_settings, &mut |_, _, _| {}).unwrap();
+        let rigid = fit::run(&setup, &fit_settings, &|_, _, _| {}).unwrap();
         let rigid_s = t1.elapsed().as_secs_f64();
         let mut base = setup.objective.base;
         base.subject = subject;
@@ -116,7 +116,7 @@ fn main() {
             fit::litter_setup(litter_target.clone(), subject, &rigid.params, &fit_settings)
                 .unwrap();
         let t2 = Instant::now();
-        let litter = fit::run(&lsetup, &fit_settings, &mut |_, _, _| {}).unwrap();
+        let litter = fit::run(&lsetup, &fit_settings, &|_, _, _| {}).unwrap();
         let litter_s = t2.elapsed().as_secs_f64();
         let truth_litter = truth_geomean(&dir, &ids, "litter", base);
         let clamped: Vec<f64> = lsetup

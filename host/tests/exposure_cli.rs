@@ -200,7 +200,7 @@ fn the_model_form_equals_the_device_stages_stepped_by_hand() {
             events.push(ev);
         }
     }
-    let values = params.exposure.values(&exposure);
+    let values = params.exposure.values(params.sample_rate, &exposure);
     let same = |json: &Value, key: &str, expected: f32| {
         assert_eq!(num(json, key) as f32, expected, "{key}");
     };
@@ -527,4 +527,48 @@ fn the_binary_exits_non_zero_with_one_line_on_stderr() {
     ])
     .unwrap())
     .unwrap();
+}
+
+/// Issue 17, D1: one absurd but finite sample (1e30 m/s^2) used to print inf and NaN with
+/// exit 0. It is clipped at the sensor's full scale, raises the saturation fault, and
+/// every value stays finite.
+#[test]
+fn one_sample_of_1e30_gives_finite_values_and_a_saturation_fault() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = ride_file(dir.path(), Profile::Ambulance, 20.0, 500.0, 3);
+    let text = std::fs::read_to_string(&path).unwrap();
+    let spiked: Vec<String> = text
+        .lines()
+        .enumerate()
+        .map(|(k, line)| {
+            if k == 2000 {
+                let mut cells: Vec<&str> = line.split(',').collect();
+                cells[3] = "1e30";
+                cells.join(",")
+            } else {
+                line.to_string()
+            }
+        })
+        .collect();
+    std::fs::write(&path, spiked.join("\n") + "\n").unwrap();
+    let v = json(&["--preset", "paper-litter", "--input", s(&path)]);
+    let mut numbers = Vec::new();
+    fn collect(v: &Value, out: &mut Vec<f64>) {
+        match v {
+            Value::Number(n) => out.push(n.as_f64().unwrap()),
+            Value::Array(a) => a.iter().for_each(|x| collect(x, out)),
+            Value::Object(o) => o.values().for_each(|x| collect(x, out)),
+            _ => {}
+        }
+    }
+    collect(&v, &mut numbers);
+    assert!(numbers.iter().all(|x| x.is_finite()), "{v}");
+    // JSON has no inf or NaN: serde_json writes them as null, which must not appear in the
+    // exposure values either.
+    for values in [&v["head"], &v["vector"]] {
+        assert!(!values.to_string().contains("null"), "{values}");
+    }
+    let text = exposure(&["--preset", "paper-litter", "--input", s(&path)]).unwrap();
+    assert!(!text.contains("inf") && !text.contains("NaN"), "{text}");
+    assert!(text.contains("fault saturated raised"), "{text}");
 }

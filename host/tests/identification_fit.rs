@@ -7,6 +7,7 @@ use clap::Parser;
 use supine_core::model::{ModelParams, ParamId, Preset, SystemMatrices};
 use supine_host::cli::{Cli, run};
 use supine_host::identify::fit::objective::Target;
+use supine_host::identify::fit::solver::DampingScale;
 use supine_host::identify::fit::{self, Determination, FitSettings};
 use supine_host::identify::transmissibility::estimate;
 use supine_host::io::dataset::{Case, Dataset};
@@ -46,9 +47,13 @@ fn the_rigid_fit_recovers_every_determined_parameter_from_exact_data_within_2_pe
     let mut setup = fit::rigid_setup(exact_target(&truth), truth.subject, &settings).unwrap();
     // Start from the paper's values (every parameter off the truth by up to 12 %).
     let paper = ModelParams::preset(Preset::PaperRigid);
-    setup.starts = vec![("paper".into(), setup.objective.theta(&paper))];
-    let result = fit::run(&setup, &settings, &mut |_, _, _| {}).unwrap();
-    // Exact data: zero residual, up to where the default gtol (1e-6, model.md) stops.
+    setup.starts = vec![fit::Start::new(
+        "paper",
+        setup.objective.theta(&paper),
+        DampingScale::Levenberg,
+    )];
+    let result = fit::run(&setup, &settings, &|_, _, _| {}).unwrap();
+    // Exact data: zero residual, up to where the default gtol (1e-6, docs/model.md#solver-and-tolerances) stops.
     assert!(
         result.solution.cost < 1e-10,
         "cost {}",
@@ -105,8 +110,8 @@ fn the_litter_fit_recovers_the_contacts_with_the_joints_fixed() {
     };
     let setup = fit::litter_setup(exact_target(&truth), truth.subject, &rigid, &settings).unwrap();
     assert_eq!(setup.objective.free.len(), 18);
-    let result = fit::run(&setup, &settings, &mut |_, _, _| {}).unwrap();
-    // Exact data: zero residual, up to where the default gtol (1e-6, model.md) stops.
+    let result = fit::run(&setup, &settings, &|_, _, _| {}).unwrap();
+    // Exact data: zero residual, up to where the default gtol (1e-6, docs/model.md#solver-and-tolerances) stops.
     assert!(
         result.solution.cost < 1e-10,
         "cost {}",

@@ -12,7 +12,7 @@ use std::thread;
 use std::time::Duration;
 
 use nix::pty::openpty;
-use supine_core::alerts::{AlertEvent, Level, SensorFault};
+use supine_core::alerts::{AlertEvent, FaultFlags, Level, SensorFault};
 use supine_core::protocol::{
     DeviceFrame, DeviceToHost, Greeting, HostToDevice, MAX_FRAME_LEN, PROTOCOL_VERSION,
     ParamsSource, ResetCause, Telemetry, encode_frame,
@@ -98,7 +98,7 @@ fn telemetry(sample_index: u32, level: Level) -> DeviceToHost {
         vector_running_rms_m_s2: 1.0625,
         vdv_m_s175: 2.5,
         alert_level: level,
-        fault_flags: 0,
+        fault_flags: FaultFlags::empty(),
         valid: true,
     })
 }

@@ -1,6 +1,7 @@
 //! `supine weighting`, run in-process.
 
 use clap::Parser;
+use supine_core::sample_rate::SampleRate;
 use supine_core::weighting::{WeightingKind, WeightingSettings, analog_response};
 use supine_host::cli::{Cli, one_line, run};
 
@@ -29,11 +30,12 @@ fn weighting_writes_the_device_filter_at_exact_one_third_octave_centres_below_ny
     assert_eq!(header, "freq_hz,magnitude,phase_rad,analog_magnitude");
     // 0.1 Hz (n = -10) up to 199.5 Hz (n = 23): the next centre, 251 Hz, is above fs/2.
     assert_eq!(rows.len(), 34);
-    let device = WeightingSettings::new(WeightingKind::Wk, 500.0).unwrap();
+    let fs = SampleRate::new(500.0).unwrap();
+    let device = WeightingSettings::new(WeightingKind::Wk, fs).unwrap();
     for (r, n) in rows.iter().zip(-10..) {
         let f = 10f64.powf(n as f64 / 10.0);
         assert_eq!(r[0], f);
-        let h = device.response(f);
+        let h = device.response(fs, f);
         assert_eq!(r[1], h.abs());
         assert_eq!(r[2], h.arg());
         assert_eq!(r[3], analog_response(WeightingKind::Wk, f).abs());

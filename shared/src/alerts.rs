@@ -26,10 +26,11 @@
 
 use core::fmt;
 
+use enumset::{EnumSet, EnumSetType};
 use serde::{Deserialize, Serialize};
 
 use crate::exposure::ExposureSample;
-use crate::weighting::{MAX_SAMPLE_RATE_HZ, MIN_SAMPLE_RATE_HZ};
+use crate::sample_rate::SampleRate;
 
 /// Standard gravity, m/s^2 (for full scales quoted in g).
 pub const STANDARD_GRAVITY_M_S2: f32 = 9.806_65;
@@ -83,8 +84,11 @@ impl fmt::Display for Level {
     }
 }
 
-/// A fault of the accelerometer stream.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+/// A fault of the accelerometer stream. Its declaration order is its bit in
+/// [`FaultFlags`]: changing it changes the wire format.
+// EnumSetType also derives Clone, Copy, PartialEq and Eq.
+#[derive(Debug, Hash, Serialize, Deserialize, EnumSetType)]
+#[enumset(repr = "u8", serialize_deny_unknown)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum SensorFault {
     /// A sample is NaN or infinite.
@@ -106,10 +110,6 @@ impl SensorFault {
         SensorFault::IndexGap,
     ];
 
-    const fn bit(self) -> u8 {
-        1 << (self as u8)
-    }
-
     /// Lower-case name (`non-finite`, `saturated`, `stuck`, `index-gap`).
     pub const fn name(self) -> &'static str {
         match self {
@@ -126,6 +126,12 @@ impl fmt::Display for SensorFault {
         f.write_str(self.name())
     }
 }
+
+/// A set of active sensor faults, one bit per [`SensorFault`] (bit `n` for the `n`th of
+/// [`SensorFault::ALL`]). The device, the telemetry and the host share it; on the wire it
+/// is that byte ([`as_repr`](EnumSet::as_repr)), and a byte with a bit no fault owns does
+/// not decode.
+pub type FaultFlags = EnumSet<SensorFault>;
 
 /// A time-stamped alert edge.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -183,10 +189,9 @@ pub enum AlertError {
     Hysteresis,
     /// A dwell, stuck or clear time is not finite or outside 0..=600 s.
     Time,
-    /// The full scale is not finite and positive.
+    /// The full scale is not finite, positive and at most
+    /// [`SensorCheckConfig::MAX_FULL_SCALE_M_S2`].
     FullScale,
-    /// The sample rate is not finite or outside 100..=2000 Hz.
-    SampleRate,
 }
 
 impl fmt::Display for AlertError {
@@ -197,8 +202,7 @@ impl fmt::Display for AlertError {
             }
             AlertError::Hysteresis => "alert hysteresis must be within 0..=0.9",
             AlertError::Time => "alert dwell and sensor times must be within 0..=600 s",
-            AlertError::FullScale => "sensor full scale must be finite and positive",
-            AlertError::SampleRate => "alert sample rate must be within 100..=2000 Hz",
+            AlertError::FullScale => "sensor full scale must be positive and at most 400 g",
         })
     }
 }
@@ -238,16 +242,6 @@ impl Default for AlertConfig {
     }
 }
 
-fn check_rate(sample_rate_hz: f32) -> Result<f64, AlertError> {
-    if sample_rate_hz.is_finite()
-        && (MIN_SAMPLE_RATE_HZ..=MAX_SAMPLE_RATE_HZ).contains(&sample_rate_hz)
-    {
-        Ok(sample_rate_hz as f64)
-    } else {
-        Err(AlertError::SampleRate)
-    }
-}
-
 fn samples_of(t_s: f32, fs: f64) -> Result<u32, AlertError> {
     if t_s.is_finite() && (0.0..=MAX_DWELL_S).contains(&t_s) {
         Ok((libm::round(t_s as f64 * fs) as u32).max(1))
@@ -265,8 +259,6 @@ fn increasing_positive(t: &[f32; 3]) -> bool {
 pub struct AlertSettings {
     /// The configuration these settings were built from.
     pub config: AlertConfig,
-    /// Sample rate, Hz.
-    pub sample_rate_hz: f32,
     /// Squared running-rms raise thresholds, (m/s^2)^2.
     pub raise_ms_m2_s4: [f32; 3],
     /// Squared running-rms clear thresholds `((1 - h) threshold)^2`, (m/s^2)^2.
@@ -306,9 +298,9 @@ impl AlertState {
 }
 
 impl AlertSettings {
-    /// Validates `config` and precomputes thresholds for `sample_rate_hz`.
-    pub fn new(config: AlertConfig, sample_rate_hz: f32) -> Result<Self, AlertError> {
-        let fs = check_rate(sample_rate_hz)?;
+    /// Validates `config` and precomputes thresholds for `sample_rate`.
+    pub fn new(config: AlertConfig, sample_rate: SampleRate) -> Result<Self, AlertError> {
+        let fs = sample_rate.hz_f64();
         if !(increasing_positive(&config.running_rms_m_s2)
             && increasing_positive(&config.vdv_m_s175))
         {
@@ -323,7 +315,6 @@ impl AlertSettings {
         let rms = config.running_rms_m_s2.map(|t| t as f64);
         Ok(Self {
             config,
-            sample_rate_hz,
             raise_ms_m2_s4: rms.map(|t| (t * t) as f32),
             clear_ms_m2_s4: rms.map(|t| (h * h * t * t) as f32),
             vdv4_m4_s7: config.vdv_m_s175.map(|t| {
@@ -335,9 +326,10 @@ impl AlertSettings {
         })
     }
 
-    /// Checks stored settings (from a parameter blob) by rebuilding them from their config.
-    pub fn validate(&self) -> Result<(), AlertError> {
-        if Self::new(self.config, self.sample_rate_hz)? == *self {
+    /// Checks stored settings (from a parameter blob, built for `sample_rate`) by
+    /// rebuilding them from their config.
+    pub fn validate(&self, sample_rate: SampleRate) -> Result<(), AlertError> {
+        if Self::new(self.config, sample_rate)? == *self {
             Ok(())
         } else {
             Err(AlertError::Thresholds)
@@ -494,6 +486,12 @@ impl SensorCheckConfig {
         stuck_after_s: 1.0,
         clear_after_s: 1.0,
     };
+
+    /// Largest full scale accepted, m/s^2 (400 g, the widest MEMS accelerometers). The
+    /// pipeline clamps every sample to the full scale before the model, so this bounds
+    /// what the model and the exposure's squares and fourth powers can ever see: with it,
+    /// no finite sample can overflow their f32 state (docs/exposure.md#sensor-faults).
+    pub const MAX_FULL_SCALE_M_S2: f32 = 400.0 * STANDARD_GRAVITY_M_S2;
 }
 
 impl Default for SensorCheckConfig {
@@ -502,13 +500,12 @@ impl Default for SensorCheckConfig {
     }
 }
 
-/// The sensor-fault check's precomputed limits, for one sample rate.
+/// The sensor-fault check's precomputed limits, for one sample rate (which the parameter
+/// blob stores once, beside these settings).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SensorCheckSettings {
     /// The configuration these settings were built from.
     pub config: SensorCheckConfig,
-    /// Sample rate, Hz.
-    pub sample_rate_hz: f32,
     /// Identical samples (per axis) after which the axis is stuck.
     pub stuck_after_samples: u32,
     /// Fault-free samples after which a fault clears.
@@ -518,8 +515,8 @@ pub struct SensorCheckSettings {
 /// Running state of the sensor-fault check.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SensorCheckState {
-    /// Active faults, one bit per [`SensorFault`].
-    active: u8,
+    /// Active faults.
+    active: FaultFlags,
     /// Fault-free samples since each fault was last seen.
     good_run: [u32; 4],
     last_bits: [u32; 3],
@@ -532,7 +529,7 @@ impl SensorCheckState {
     /// No fault active, no sample seen.
     pub const fn new() -> Self {
         Self {
-            active: 0,
+            active: FaultFlags::empty(),
             good_run: [0; 4],
             last_bits: [0; 3],
             unchanged: [0; 3],
@@ -541,14 +538,9 @@ impl SensorCheckState {
         }
     }
 
-    /// Whether `fault` is active.
-    pub const fn is_active(&self, fault: SensorFault) -> bool {
-        self.active & fault.bit() != 0
-    }
-
-    /// Whether any fault is active.
-    pub const fn any_active(&self) -> bool {
-        self.active != 0
+    /// The active faults.
+    pub fn active(&self) -> FaultFlags {
+        self.active
     }
 }
 
@@ -556,23 +548,24 @@ impl SensorCheckState {
 pub type SensorEvents = heapless::Vec<AlertEvent, 4>;
 
 impl SensorCheckSettings {
-    /// Validates `config` and converts its times to samples at `sample_rate_hz`.
-    pub fn new(config: SensorCheckConfig, sample_rate_hz: f32) -> Result<Self, AlertError> {
-        let fs = check_rate(sample_rate_hz)?;
-        if !(config.full_scale_m_s2.is_finite() && config.full_scale_m_s2 > 0.0) {
+    /// Validates `config` and converts its times to samples at `sample_rate`.
+    pub fn new(config: SensorCheckConfig, sample_rate: SampleRate) -> Result<Self, AlertError> {
+        let fs = sample_rate.hz_f64();
+        let full_scale = config.full_scale_m_s2;
+        if !(full_scale > 0.0 && full_scale <= SensorCheckConfig::MAX_FULL_SCALE_M_S2) {
             return Err(AlertError::FullScale);
         }
         Ok(Self {
             config,
-            sample_rate_hz,
             stuck_after_samples: samples_of(config.stuck_after_s, fs)?,
             clear_after_samples: samples_of(config.clear_after_s, fs)?,
         })
     }
 
-    /// Checks stored settings (from a parameter blob) by rebuilding them from their config.
-    pub fn validate(&self) -> Result<(), AlertError> {
-        if Self::new(self.config, self.sample_rate_hz)? == *self {
+    /// Checks stored settings (from a parameter blob, built for `sample_rate`) by
+    /// rebuilding them from their config.
+    pub fn validate(&self, sample_rate: SampleRate) -> Result<(), AlertError> {
+        if Self::new(self.config, sample_rate)? == *self {
             Ok(())
         } else {
             Err(AlertError::Time)
@@ -587,22 +580,22 @@ impl SensorCheckSettings {
         sample_m_s2: [f32; 3],
         sample_index: u32,
     ) -> SensorEvents {
-        let mut bad = 0u8;
+        let mut bad = FaultFlags::empty();
         for (i, &x) in sample_m_s2.iter().enumerate() {
             // One comparison catches NaN, infinities and saturation: NaN compares false.
             #[allow(clippy::neg_cmp_op_on_partial_ord)]
             if !(x.abs() < self.config.full_scale_m_s2) {
                 bad |= if x.is_finite() {
-                    SensorFault::Saturated.bit()
+                    SensorFault::Saturated
                 } else {
-                    SensorFault::NonFinite.bit()
+                    SensorFault::NonFinite
                 };
             }
             let bits = x.to_bits();
             if bits == state.last_bits[i] && state.started {
                 state.unchanged[i] = state.unchanged[i].saturating_add(1);
                 if state.unchanged[i] >= self.stuck_after_samples {
-                    bad |= SensorFault::Stuck.bit();
+                    bad |= SensorFault::Stuck;
                 }
             } else {
                 state.unchanged[i] = 0;
@@ -610,30 +603,29 @@ impl SensorCheckSettings {
             }
         }
         if state.started && sample_index != state.last_index.wrapping_add(1) {
-            bad |= SensorFault::IndexGap.bit();
+            bad |= SensorFault::IndexGap;
         }
         state.last_index = sample_index;
         state.started = true;
         let mut events = SensorEvents::new();
-        if bad == 0 && state.active == 0 {
+        if bad.is_empty() && state.active.is_empty() {
             return events;
         }
         for fault in SensorFault::ALL {
-            let (b, k) = (fault.bit(), fault as usize);
-            if bad & b != 0 {
+            let k = fault as usize;
+            if bad.contains(fault) {
                 state.good_run[k] = 0;
-                if state.active & b == 0 {
-                    state.active |= b;
+                if state.active.insert(fault) {
                     let _ = events.push(AlertEvent::Fault {
                         fault,
                         active: true,
                         at_sample: sample_index,
                     });
                 }
-            } else if state.active & b != 0 {
+            } else if state.active.contains(fault) {
                 state.good_run[k] += 1;
                 if state.good_run[k] >= self.clear_after_samples {
-                    state.active &= !b;
+                    state.active.remove(fault);
                     let _ = events.push(AlertEvent::Fault {
                         fault,
                         active: false,
@@ -663,7 +655,7 @@ impl SensorCheckSettings {
         let stuck = self.stuck_after_samples;
         let mut n = 0;
         while n < N {
-            if state.active == 0 && state.started {
+            if state.active.is_empty() && state.started {
                 let (mut last, mut unchanged, mut last_index) =
                     (state.last_bits, state.unchanged, state.last_index);
                 while n < N {

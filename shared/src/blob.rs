@@ -19,17 +19,24 @@ use crate::alerts::{AlertConfig, AlertSettings, SensorCheckConfig, SensorCheckSe
 use crate::exposure::{ExposureConfig, ExposureError, ExposureSettings};
 use crate::model::{DeviceRealization, RealizationError};
 use crate::mounting::Mounting;
-use crate::protocol::ParamsIdentity;
+use crate::sample_rate::SampleRate;
 use crate::weighting::WeightingError;
 
 /// First four bytes of every blob.
 pub const BLOB_MAGIC: [u8; 4] = *b"SUPB";
-/// Version of the header and payload encoding.
-pub const BLOB_FORMAT_VERSION: u16 = 2;
+/// Version of the header and payload encoding (3: the sample rate stored once, not per
+/// stage).
+pub const BLOB_FORMAT_VERSION: u16 = 3;
 /// Header length, bytes.
 pub const BLOB_HEADER_LEN: usize = 16;
 /// Largest blob the device accepts (header and payload), bytes.
 pub const MAX_BLOB_LEN: usize = 4096;
+
+/// Bytes of the parameter identity (the start of the SHA-256 of the parameter file).
+pub const IDENTITY_LEN: usize = 16;
+
+/// Identity of a parameter set: the first 16 bytes of the SHA-256 of its parameter file.
+pub type ParamsIdentity = [u8; IDENTITY_LEN];
 
 /// The CRC-32/ISO-HDLC engine used for blobs and commit records.
 pub(crate) const CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
@@ -79,6 +86,9 @@ impl TelemetryConfig {
 pub struct DeviceParams {
     /// Identity of the parameter file these came from (start of its SHA-256).
     pub identity: ParamsIdentity,
+    /// The sample rate every stage below was built for: stored here once, and given to
+    /// the stages that need it rather than kept by each.
+    pub sample_rate: SampleRate,
     /// The model's discretized head-output realization.
     pub realization: DeviceRealization,
     /// Weighting and exposure evaluation, with the axis mapping.
@@ -94,9 +104,13 @@ pub struct DeviceParams {
 }
 
 impl DeviceParams {
-    /// Builds the settings of every stage at the realization's sample rate.
+    /// Builds the settings of every stage at `sample_rate`, the rate `realization` was
+    /// discretized at.
+    // One argument per stage: a builder would only rename them.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         identity: ParamsIdentity,
+        sample_rate: SampleRate,
         realization: DeviceRealization,
         exposure: ExposureConfig,
         alerts: AlertConfig,
@@ -104,13 +118,14 @@ impl DeviceParams {
         mounting: Mounting,
         telemetry: TelemetryConfig,
     ) -> Result<Self, BlobError> {
-        let fs = realization.sample_rate_hz;
         let params = Self {
             identity,
+            sample_rate,
             realization,
-            exposure: ExposureSettings::new(exposure, fs).map_err(BlobError::from_exposure)?,
-            alerts: AlertSettings::new(alerts, fs).map_err(|_| BlobError::BadConfig)?,
-            sensor_checks: SensorCheckSettings::new(sensor_checks, fs)
+            exposure: ExposureSettings::new(exposure, sample_rate)
+                .map_err(BlobError::from_exposure)?,
+            alerts: AlertSettings::new(alerts, sample_rate).map_err(|_| BlobError::BadConfig)?,
+            sensor_checks: SensorCheckSettings::new(sensor_checks, sample_rate)
                 .map_err(|_| BlobError::BadConfig)?,
             mounting,
             telemetry,
@@ -119,53 +134,52 @@ impl DeviceParams {
         Ok(params)
     }
 
-    /// A realization with the documented default configuration: weighting and axes
-    /// ([`ExposureConfig::DEFAULT`]), alert thresholds, sensor checks, a level mounting,
-    /// and telemetry at [`TelemetryConfig::DEFAULT_RATE_HZ`].
+    /// A realization (discretized at `sample_rate`) with the documented default
+    /// configuration: weighting and axes ([`ExposureConfig::DEFAULT`]), alert thresholds,
+    /// sensor checks, a level mounting, and telemetry at
+    /// [`TelemetryConfig::DEFAULT_RATE_HZ`].
     pub fn with_defaults(
         identity: ParamsIdentity,
+        sample_rate: SampleRate,
         realization: DeviceRealization,
     ) -> Result<Self, BlobError> {
         Self::new(
             identity,
+            sample_rate,
             realization,
             ExposureConfig::DEFAULT,
             AlertConfig::DEFAULT,
             SensorCheckConfig::DEFAULT,
             Mounting::LEVEL,
-            TelemetryConfig::default_for(realization.sample_rate_hz),
+            TelemetryConfig::default_for(sample_rate.hz()),
         )
     }
 
     /// The sample rate every stage was built for, Hz.
     pub fn sample_rate_hz(&self) -> f32 {
-        self.realization.sample_rate_hz
+        self.sample_rate.hz()
     }
 
     /// Checks what must hold before the device runs these parameters.
     pub fn validate(&self) -> Result<(), BlobError> {
+        let fs = self
+            .sample_rate
+            .check()
+            .map_err(|_| BlobError::SampleRate)?;
         self.realization.check().map_err(|e| match e {
             RealizationError::NotFinite => BlobError::NonFinite,
             RealizationError::Unstable => BlobError::Unstable,
-            RealizationError::SampleRate => BlobError::SampleRate,
             RealizationError::TooManyBlocks | RealizationError::Layout => BlobError::Malformed,
         })?;
-        let fs = self.sample_rate_hz();
-        let rates = [
-            self.exposure.sample_rate_hz,
-            self.alerts.sample_rate_hz,
-            self.sensor_checks.sample_rate_hz,
-        ];
-        if rates.iter().any(|r| *r != fs) {
-            return Err(BlobError::SampleRate);
-        }
         if !self.config_numbers().all(f32::is_finite) {
             return Err(BlobError::NonFinite);
         }
-        self.exposure.validate().map_err(BlobError::from_exposure)?;
-        self.alerts.validate().map_err(|_| BlobError::BadConfig)?;
+        self.exposure
+            .validate(fs)
+            .map_err(BlobError::from_exposure)?;
+        self.alerts.validate(fs).map_err(|_| BlobError::BadConfig)?;
         self.sensor_checks
-            .validate()
+            .validate(fs)
             .map_err(|_| BlobError::BadConfig)?;
         self.mounting.validate().map_err(|e| match e {
             crate::mounting::MountingError::NotFinite => BlobError::NonFinite,
@@ -306,7 +320,7 @@ pub enum BlobError {
     NonFinite,
     /// The model realization or a weighting filter has a pole on or outside |z| = 1.
     Unstable,
-    /// The sample rate is outside 100..=2000 Hz, or differs between stages.
+    /// The sample rate is outside the supported range ([`SampleRate`]).
     SampleRate,
     /// A configuration value is out of its range (thresholds, times, mounting, decimation).
     BadConfig,
@@ -337,7 +351,6 @@ impl BlobError {
         match e {
             ExposureError::Weighting(WeightingError::NonFiniteCoefficient) => BlobError::NonFinite,
             ExposureError::Weighting(WeightingError::Unstable) => BlobError::Unstable,
-            ExposureError::Weighting(WeightingError::SampleRateOutOfRange) => BlobError::SampleRate,
             _ => BlobError::BadConfig,
         }
     }
@@ -355,7 +368,7 @@ impl fmt::Display for BlobError {
             BlobError::Malformed => "payload does not decode",
             BlobError::NonFinite => "a number is not finite",
             BlobError::Unstable => "unstable filter or model realization",
-            BlobError::SampleRate => "sample rate out of range or inconsistent",
+            BlobError::SampleRate => "sample rate out of range",
             BlobError::BadConfig => "a configuration value is out of range",
             BlobError::TooLong => "blob too long",
         };

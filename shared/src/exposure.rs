@@ -43,6 +43,7 @@ use core::fmt;
 
 use serde::{Deserialize, Serialize};
 
+use crate::sample_rate::SampleRate;
 use crate::weighting::{WeightingError, WeightingKind, WeightingSettings, WeightingState};
 
 /// Crest factor above which ISO 2631-1 says the basic rms method may underestimate.
@@ -136,10 +137,10 @@ impl ExposureConfig {
 }
 
 impl ExposureConfig {
-    /// The numbers a configuration must hold at `sample_rate_hz`, whether it is about to be
+    /// The numbers a configuration must hold at `sample_rate`, whether it is about to be
     /// built or was read from a blob: finite positive axis factors, a running-rms time
     /// constant of at least two samples, a warm-up within 0..=120 s.
-    fn check(&self, sample_rate_hz: f32) -> Result<(), ExposureError> {
+    fn check(&self, sample_rate: SampleRate) -> Result<(), ExposureError> {
         if !self
             .axes
             .axes()
@@ -149,7 +150,7 @@ impl ExposureConfig {
             return Err(ExposureError::AxisFactor);
         }
         let tau = self.running_tau_s as f64;
-        if !(tau.is_finite() && tau * sample_rate_hz as f64 >= 2.0) {
+        if !(tau.is_finite() && tau * sample_rate.hz_f64() >= 2.0) {
             return Err(ExposureError::TimeConstant);
         }
         if !(self.warmup_s.is_finite() && (0.0..=MAX_WARMUP_S).contains(&self.warmup_s)) {
@@ -169,7 +170,7 @@ impl Default for ExposureConfig {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ExposureError {
-    /// A weighting could not be built (bad sample rate or coefficients).
+    /// A weighting could not be built, or a stored one is unsound (coefficients, gain).
     Weighting(WeightingError),
     /// A vector-sum factor `k` is not finite and positive.
     AxisFactor,
@@ -177,7 +178,7 @@ pub enum ExposureError {
     TimeConstant,
     /// The warm-up is not finite or outside 0..=120 s.
     Warmup,
-    /// Stored settings differ from what their own config and sample rate give.
+    /// Stored settings differ from what their own config and the sample rate give.
     Mismatch,
 }
 
@@ -214,7 +215,8 @@ impl From<WeightingError> for ExposureError {
     }
 }
 
-/// Everything the per-sample evaluation needs, precomputed for one sample rate.
+/// Everything the per-sample evaluation needs, precomputed for one sample rate (which the
+/// parameter blob stores once, beside these settings).
 ///
 /// Each axis filter carries its `k` in its gain, so the per-sample path never multiplies
 /// by `k`; per-axis reports divide it out again.
@@ -222,8 +224,6 @@ impl From<WeightingError> for ExposureError {
 pub struct ExposureSettings {
     /// The configuration these settings were built from.
     pub config: ExposureConfig,
-    /// Sample rate, Hz.
-    pub sample_rate_hz: f32,
     /// Weighting per axis (x, y, z), gain multiplied by that axis' `k`.
     pub weighting: [WeightingSettings; 3],
     /// `1 - alpha = 1 - exp(-1/(fs tau))`, the running mean square's update gain.
@@ -376,22 +376,21 @@ pub struct ExposureValues {
 }
 
 impl ExposureSettings {
-    /// Builds the evaluation for `sample_rate_hz` (100..=2000 Hz); validates `config`.
-    pub fn new(config: ExposureConfig, sample_rate_hz: f32) -> Result<Self, ExposureError> {
-        config.check(sample_rate_hz)?;
+    /// Builds the evaluation for `sample_rate`; validates `config`.
+    pub fn new(config: ExposureConfig, sample_rate: SampleRate) -> Result<Self, ExposureError> {
+        config.check(sample_rate)?;
         let axes = config.axes.axes();
-        let mut weighting = [WeightingSettings::new(axes[0].kind, sample_rate_hz)?; 3];
+        let mut weighting = [WeightingSettings::new(axes[0].kind, sample_rate)?; 3];
         for (w, a) in weighting.iter_mut().zip(axes.iter()) {
-            *w = WeightingSettings::new(a.kind, sample_rate_hz)?.scaled(a.k);
+            *w = WeightingSettings::new(a.kind, sample_rate)?.scaled(a.k);
         }
-        let fs = sample_rate_hz as f64;
+        let fs = sample_rate.hz_f64();
         let tau = config.running_tau_s as f64;
         let running_gain = -libm::expm1(-1.0 / (fs * tau)) as f32;
         let warmup_samples = libm::round(config.warmup_s as f64 * fs) as u32;
         let sample_period_s = (1.0 / fs) as f32;
         Ok(Self {
             config,
-            sample_rate_hz,
             weighting,
             running_gain,
             sample_period_s,
@@ -399,19 +398,19 @@ impl ExposureSettings {
         })
     }
 
-    /// Checks stored settings (from a parameter blob) before use: every filter finite and
-    /// stable at the settings' rate, the axes sharing one band limiting, the kinds and
+    /// Checks stored settings (from a parameter blob, built for `sample_rate`) before use:
+    /// every filter finite and stable, the axes sharing one band limiting, the kinds and
     /// factors matching the config, the integration constants in range.
-    pub fn validate(&self) -> Result<(), ExposureError> {
+    pub fn validate(&self, sample_rate: SampleRate) -> Result<(), ExposureError> {
         // Structural checks only: redesigning the filters here would pull the whole f64
         // design (tan, exp, cos in software) into the device image. The blob's CRC and
         // signature vouch that the coefficients are the host's; this vouches they are sane.
-        let fs = self.sample_rate_hz;
-        self.config.check(fs)?;
+        self.config.check(sample_rate)?;
+        let fs = sample_rate.hz();
         let band = &self.weighting[0].band;
         for (w, axis) in self.weighting.iter().zip(self.config.axes.axes()) {
             w.validate_gain(axis.k)?;
-            if w.sample_rate_hz != fs || w.kind != axis.kind || w.band != *band {
+            if w.kind != axis.kind || w.band != *band {
                 return Err(ExposureError::Mismatch);
             }
         }
@@ -428,7 +427,7 @@ impl ExposureSettings {
         Ok(())
     }
 
-    /// One sample of predicted head acceleration (m/s^2, head x, y, z, at `sample_rate_hz`).
+    /// One sample of predicted head acceleration (m/s^2, head x, y, z, at the design rate).
     ///
     /// Never fails: a non-finite input propagates into the values (the sensor check in
     /// [`crate::alerts`] reports it); call [`ExposureState::new`] to restart afterwards.
@@ -554,10 +553,11 @@ impl ExposureSettings {
         state.last_index = first_index.wrapping_add(N as u32).wrapping_sub(1);
     }
 
-    /// The current values, per axis and for the vector sum (square and fourth roots here).
+    /// The current values, per axis and for the vector sum (square and fourth roots here);
+    /// `sample_rate` is the rate these settings were built for.
     #[allow(clippy::needless_range_loop)]
-    pub fn values(&self, state: &ExposureState) -> ExposureValues {
-        let dt = 1.0 / self.sample_rate_hz as f64;
+    pub fn values(&self, sample_rate: SampleRate, state: &ExposureState) -> ExposureValues {
+        let dt = 1.0 / sample_rate.hz_f64();
         let (acc, totals) = (&state.acc, &state.totals);
         let n = totals.blocks as f64 * BLOCK_SAMPLES as f64 + acc.block_n as f64;
         let duration = n * dt;

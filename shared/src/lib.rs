@@ -5,6 +5,11 @@
 //! protocol and the parameter blob. `no_std` and heap-free so the same code runs on the
 //! Cortex-M4F and on the workstation.
 //!
+//! The data path reads one way: `model`, `weighting` and `mounting`, then `exposure`,
+//! `alerts`, `blob`, `pipeline`, `protocol` and `upload`; a module uses only those before
+//! it, and the leaf utilities (`fpu`, `sample_rate`, `test_vector`) anywhere
+//! (`tests/module_layers.rs` checks it).
+//!
 //! Float functions that core lacks come from `libm` explicitly, never from an extension
 //! trait, so that host and device compute bit-identical numbers (see `README.md`).
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
@@ -19,6 +24,7 @@ pub mod model;
 pub mod mounting;
 pub mod pipeline;
 pub mod protocol;
+pub mod sample_rate;
 pub mod test_vector;
 pub mod timing;
 pub mod upload;

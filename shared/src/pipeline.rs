@@ -8,13 +8,13 @@
 //! bit those of one sample at a time, so how a stream is cut into batches never matters.
 
 use heapless::Vec;
+use serde::{Deserialize, Serialize};
 
-use crate::alerts::{AlertEvent, AlertState, Level, SensorCheckState, SensorFault};
+use crate::alerts::{AlertEvent, AlertState, FaultFlags, Level, SensorCheckState};
 use crate::blob::DeviceParams;
 use crate::exposure::{ExposureSample, ExposureState};
 use crate::fpu::sqrt_f32;
 use crate::model::ModalState;
-use crate::protocol::Telemetry;
 
 /// Samples per block on the device (32 ms at 500 Hz, far below the alert dwell times).
 pub const BLOCK_LEN: usize = 16;
@@ -32,6 +32,28 @@ pub enum PipelineOutput {
     Telemetry(Telemetry),
 }
 
+/// One telemetry record: what the device reports about one sample (the protocol sends it
+/// as [`DeviceToHost::Telemetry`](crate::protocol::DeviceToHost::Telemetry)).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Telemetry {
+    /// Index of the input sample this describes.
+    pub sample_index: u32,
+    /// Predicted head acceleration x, y, z (litter axes), m/s^2.
+    pub head_acc_m_s2: [f32; 3],
+    /// Frequency-weighted running rms (tau = 1 s) per axis, m/s^2.
+    pub running_rms_m_s2: [f32; 3],
+    /// Vector sum of the weighted running rms, m/s^2.
+    pub vector_running_rms_m_s2: f32,
+    /// Vibration dose value of the vector sum so far, m/s^1.75.
+    pub vdv_m_s175: f32,
+    /// Current exposure alert level.
+    pub alert_level: Level,
+    /// Active sensor faults.
+    pub fault_flags: FaultFlags,
+    /// Whether the weighting has settled and the exposure values mean something yet.
+    pub valid: bool,
+}
+
 /// The running memory of the whole chain: constant size, no heap.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PipelineState {
@@ -43,7 +65,7 @@ pub struct PipelineState {
     last_good_m_s2: [f32; 3],
     /// Alert level and active faults as of the last processed sample.
     level: Level,
-    faults: u8,
+    faults: FaultFlags,
     /// Samples until the next telemetry record.
     telemetry_countdown: u16,
     /// Samples processed since start.
@@ -68,7 +90,7 @@ impl PipelineState {
             sensors: SensorCheckState::new(),
             last_good_m_s2: [0.0; 3],
             level: Level::Normal,
-            faults: 0,
+            faults: FaultFlags::empty(),
             telemetry_countdown: 0,
             processed: 0,
         }
@@ -128,10 +150,24 @@ impl DeviceParams {
                 let _ = events.push(e);
             });
         let mut head = [[0.0f32; 3]; N];
+        let full_scale = self.sensor_checks.config.full_scale_m_s2;
         for (out, x) in head.iter_mut().zip(input_m_s2) {
-            let finite = x.iter().all(|v| v.is_finite());
-            if finite {
-                state.last_good_m_s2 = *x;
+            // A non-finite sample is replaced by the last good one; a finite one is clipped
+            // to the full scale, as the sensor itself would: a sample no sensor can produce
+            // (1e30 m/s^2) must not overflow the model's and the exposure's f32 state. Both
+            // raise their fault (non-finite, saturated) in the sensor checks above.
+            if x.iter().all(|v| v.is_finite()) {
+                // Plain comparisons: f32::min/max would add NaN handling the check above
+                // has made unnecessary, on every axis of every sample.
+                state.last_good_m_s2 = x.map(|v| {
+                    if v > full_scale {
+                        full_scale
+                    } else if v < -full_scale {
+                        -full_scale
+                    } else {
+                        v
+                    }
+                });
             }
             *out = self
                 .realization
@@ -167,7 +203,13 @@ impl DeviceParams {
         let (mut fi, mut li) = (0, 0);
         for (n, &index) in indices.iter().enumerate() {
             while let Some(e) = faults.get(fi).filter(|e| e.at_sample() == index) {
-                state.faults = apply_fault(state.faults, e);
+                if let AlertEvent::Fault { fault, active, .. } = *e {
+                    if active {
+                        state.faults.insert(fault);
+                    } else {
+                        state.faults.remove(fault);
+                    }
+                }
                 emit(PipelineOutput::Alert(*e));
                 fi += 1;
             }
@@ -201,7 +243,7 @@ impl DeviceParams {
     ) -> Telemetry {
         let k = self.exposure.config.axes.axes().map(|a| a.k);
         let running = |i: usize| sqrt_f32(exposure.axis_ms_m2_s4[i]) / k[i];
-        Telemetry {
+        let t = Telemetry {
             sample_index,
             head_acc_m_s2,
             running_rms_m_s2: [running(0), running(1), running(2)],
@@ -210,20 +252,18 @@ impl DeviceParams {
             alert_level: state.level,
             fault_flags: state.faults,
             valid: exposure.valid,
+        };
+        // Belt and braces: a value that is not finite is never reported as valid. The sum is
+        // finite only if every term is (NaN and infinities propagate; an overflow of the sum
+        // alone would only err towards not valid), and costs seven additions, not eight
+        // branches, per record.
+        let [h0, h1, h2] = t.head_acc_m_s2;
+        let [r0, r1, r2] = t.running_rms_m_s2;
+        let finite =
+            (h0 + h1 + h2 + r0 + r1 + r2 + t.vector_running_rms_m_s2 + t.vdv_m_s175).is_finite();
+        Telemetry {
+            valid: t.valid && finite,
+            ..t
         }
-    }
-}
-
-fn apply_fault(flags: u8, event: &AlertEvent) -> u8 {
-    match *event {
-        AlertEvent::Fault { fault, active, .. } => {
-            let bit = 1u8
-                << SensorFault::ALL
-                    .iter()
-                    .position(|f| *f == fault)
-                    .unwrap_or(7);
-            if active { flags | bit } else { flags & !bit }
-        }
-        AlertEvent::Level { .. } => flags,
     }
 }

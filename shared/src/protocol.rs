@@ -8,17 +8,22 @@
 
 pub mod framing;
 pub mod golden;
+pub mod telemetry_frame;
 
 use heapless::{String, Vec};
 use serde::{Deserialize, Serialize};
 
-use crate::alerts::{AlertEvent, Level, SensorFault};
+use crate::alerts::AlertEvent;
 use crate::blob::BlobError;
 
 pub use framing::{FrameAccumulator, FrameError, FrameEvent, encode_frame};
+// What the messages carry, defined where it is made: the identity with the blob, the
+// telemetry record with the pipeline.
+pub use crate::blob::{IDENTITY_LEN, ParamsIdentity};
+pub use crate::pipeline::Telemetry;
 
 /// Version of this module's encodings; the host refuses a device that speaks another.
-pub const PROTOCOL_VERSION: u16 = 2;
+pub const PROTOCOL_VERSION: u16 = 3;
 /// Largest encoded frame, including COBS overhead and the terminating zero, bytes.
 pub const MAX_FRAME_LEN: usize = 256;
 /// Samples carried by one [`HostToDevice::Samples`] frame at most.
@@ -29,11 +34,6 @@ pub const PARAM_CHUNK_LEN: usize = 128;
 pub const VERSION_LEN: usize = 24;
 /// Longest panic message kept for the next greeting, bytes.
 pub const PANIC_MESSAGE_LEN: usize = 96;
-/// Bytes of the parameter identity (the start of the SHA-256 of the parameter file).
-pub const IDENTITY_LEN: usize = 16;
-
-/// Identity of a parameter set: the first 16 bytes of the SHA-256 of its parameter file.
-pub type ParamsIdentity = [u8; IDENTITY_LEN];
 
 /// Messages from the host to the device.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -163,38 +163,6 @@ pub enum ResetCause {
     Software,
 }
 
-/// One telemetry record.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Telemetry {
-    /// Index of the input sample this describes.
-    pub sample_index: u32,
-    /// Predicted head acceleration x, y, z (litter axes), m/s^2.
-    pub head_acc_m_s2: [f32; 3],
-    /// Frequency-weighted running rms (tau = 1 s) per axis, m/s^2.
-    pub running_rms_m_s2: [f32; 3],
-    /// Vector sum of the weighted running rms, m/s^2.
-    pub vector_running_rms_m_s2: f32,
-    /// Vibration dose value of the vector sum so far, m/s^1.75.
-    pub vdv_m_s175: f32,
-    /// Current exposure alert level.
-    pub alert_level: Level,
-    /// Active sensor faults, one bit per [`SensorFault`] in `SensorFault::ALL` order.
-    pub fault_flags: u8,
-    /// Whether the weighting has settled and the exposure values mean something yet.
-    pub valid: bool,
-}
-
-impl Telemetry {
-    /// Whether `fault` is among the active faults.
-    pub fn has_fault(&self, fault: SensorFault) -> bool {
-        let bit = SensorFault::ALL
-            .iter()
-            .position(|f| *f == fault)
-            .unwrap_or(7);
-        self.fault_flags & (1 << bit) != 0
-    }
-}
-
 /// The device's counters.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Status {
@@ -204,7 +172,9 @@ pub struct Status {
     pub bad_frames: u32,
     /// Samples run through the pipeline.
     pub samples_processed: u32,
-    /// Samples lost: missing indices, or samples that arrived when the device was busy.
+    /// Samples lost: indices skipped by a jump forward of at most a minute of samples (a
+    /// longer jump, or one back, is a new stream and counts nothing), or samples that
+    /// arrived when the device was busy.
     pub samples_dropped: u32,
     /// Telemetry frames sent.
     pub telemetry_sent: u32,
@@ -239,12 +209,14 @@ pub enum ParamAck {
     },
 }
 
-/// Why an upload was refused.
+/// Why an upload was refused: one variant per cause, so that the code a host shows names
+/// the cause itself (see the error table in `docs/protocol.md`). New variants go last:
+/// the codes of the others are stable.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum UploadError {
-    /// A chunk or commit arrived without a begin.
+    /// A chunk or commit arrived without an open upload.
     NotStarted,
-    /// The announced length is zero or larger than a slot.
+    /// The length announced by `ParamBegin` is zero or larger than a blob can be.
     BadLength,
     /// A chunk did not continue where the last one ended.
     OutOfOrder,
@@ -256,8 +228,16 @@ pub enum UploadError {
     BadSignature,
     /// The blob itself is invalid.
     Blob(BlobError),
-    /// Writing or verifying flash failed.
+    /// Erasing, writing or reading back flash failed; the slot written is left
+    /// unbootable, so what boots next is what ran before.
     Flash,
+    /// The length announced by `ParamBegin` differs from the length in the blob's own
+    /// header (for example a valid blob followed by padding).
+    LengthMismatch,
+    /// A chunk would pass the length announced by `ParamBegin`.
+    ChunkPastEnd,
+    /// This device image takes no parameter updates over the link.
+    UpdatesUnsupported,
 }
 
 impl UploadError {
@@ -270,8 +250,11 @@ impl UploadError {
             UploadError::Incomplete => 4,
             UploadError::Replayed => 5,
             UploadError::BadSignature => 6,
-            UploadError::Blob(e) => 0x40 | e.code(),
             UploadError::Flash => 7,
+            UploadError::LengthMismatch => 8,
+            UploadError::ChunkPastEnd => 9,
+            UploadError::UpdatesUnsupported => 10,
+            UploadError::Blob(e) => 0x40 | e.code(),
         }
     }
 }
@@ -281,12 +264,19 @@ impl core::fmt::Display for UploadError {
         match self {
             UploadError::NotStarted => f.write_str("upload not started"),
             UploadError::BadLength => f.write_str("announced length is zero or too large"),
+            UploadError::LengthMismatch => {
+                f.write_str("announced length differs from the blob header's")
+            }
+            UploadError::ChunkPastEnd => f.write_str("chunk passes the announced length"),
             UploadError::OutOfOrder => f.write_str("chunk out of order"),
             UploadError::Incomplete => f.write_str("commit before all bytes arrived"),
             UploadError::Replayed => f.write_str("update counter not above the last accepted one"),
             UploadError::BadSignature => f.write_str("HMAC does not match"),
             UploadError::Blob(e) => write!(f, "invalid blob: {e}"),
-            UploadError::Flash => f.write_str("flash write or verify failed"),
+            UploadError::Flash => f.write_str("flash erase, write or read-back failed"),
+            UploadError::UpdatesUnsupported => {
+                f.write_str("this device takes no updates over the link")
+            }
         }?;
         write!(f, " (code {})", self.code())
     }

@@ -5,9 +5,10 @@
 //! HMAC-SHA256 over the counter and the blob with the device's key, a counter above every
 //! one accepted before (against replay), and the blob's own validation. Only then is the
 //! slot that is not running erased and written: the blob, then a commit record (magic,
-//! counter, CRC-32 of blob and counter), then read back. A cut transfer leaves flash as it
-//! was; a power cut mid-write leaves the new slot without a valid commit record, and the
-//! slot that ran before is chosen again at the next boot.
+//! counter, CRC-32 of blob and counter), the blob's header last, then read back. A cut
+//! transfer leaves flash as it was; a power cut mid-write leaves the new slot without a
+//! valid blob or commit record, and the slot that ran before is chosen again at the next
+//! boot. A write that fails its read-back is scrubbed, so a refused update never boots.
 //!
 //! Choosing at boot: the committed slot with the highest counter; else a plain blob
 //! without a commit record in slot 0 (as placed by a programmer or QEMU's loader); else
@@ -16,7 +17,7 @@
 use hmac::{Hmac, KeyInit, Mac};
 use sha2::Sha256;
 
-use crate::blob::{BlobError, DeviceParams, MAX_BLOB_LEN, announced_len};
+use crate::blob::{BLOB_HEADER_LEN, BlobError, DeviceParams, MAX_BLOB_LEN, announced_len};
 use crate::protocol::{ParamAck, ParamBegin, ParamChunk, ParamsIdentity, UploadError};
 
 /// Number of parameter slots.
@@ -282,7 +283,8 @@ impl Upload {
         Ok(ParamAck::Begun)
     }
 
-    /// Appends a chunk, which must continue where the previous one ended.
+    /// Appends a chunk, which must continue where the previous one ended; one that would
+    /// pass the announced length aborts the upload.
     pub fn chunk(&mut self, chunk: &ParamChunk) -> Result<ParamAck, UploadError> {
         if !self.open {
             return Err(UploadError::NotStarted);
@@ -297,7 +299,7 @@ impl Upload {
             .filter(|_| end <= self.expected)
         else {
             self.abort();
-            return Err(UploadError::BadLength);
+            return Err(UploadError::ChunkPastEnd);
         };
         dst.copy_from_slice(&chunk.bytes);
         self.received = end;
@@ -306,6 +308,10 @@ impl Upload {
 
     /// Verifies the received blob and, only if everything holds, writes it to the slot not
     /// running (`running_slot`, `None` for the built-in parameters) and reads it back.
+    ///
+    /// Checks, each refused with its own code before flash is touched: all bytes arrived,
+    /// the HMAC, the counter, the blob's own validation, and that its header announces
+    /// the length `ParamBegin` did.
     pub fn commit(
         &mut self,
         key: &[u8; KEY_LEN],
@@ -327,21 +333,22 @@ impl Upload {
         if self.counter <= last_counter(flash) {
             return Err(UploadError::Replayed);
         }
-        let params = DeviceParams::decode(blob).map_err(UploadError::Blob)?;
+        let decoded = DeviceParams::decode(blob);
+        // A header that announces another length than `ParamBegin` did: a valid blob with
+        // bytes after it, or one cut short (its only fault then is being truncated).
+        let other_len = announced_len(blob).is_some_and(|len| len != blob.len());
+        if other_len && matches!(decoded, Ok(_) | Err(BlobError::Truncated)) {
+            return Err(UploadError::LengthMismatch);
+        }
+        let params = decoded.map_err(UploadError::Blob)?;
         let target = match running_slot {
             Some(0) => 1,
             _ => 0,
         };
-        let record = commit_record(blob, self.counter);
-        flash.erase(target).map_err(|_| UploadError::Flash)?;
-        flash
-            .write(target, 0, blob)
-            .map_err(|_| UploadError::Flash)?;
-        flash
-            .write(target, blob.len(), &record)
-            .map_err(|_| UploadError::Flash)?;
-        let stored = flash.slot(target);
-        if stored.get(..blob.len()) != Some(blob) || commit_counter(stored) != Some(self.counter) {
+        if write_committed(flash, target, blob, self.counter).is_err() {
+            // Whatever reached the slot is refused, so it must not boot: on a device
+            // running its built-in parameters the slot is A, whose plain blob would.
+            scrub(flash, target);
             return Err(UploadError::Flash);
         }
         Ok(Committed {
@@ -350,5 +357,40 @@ impl Upload {
             slot: target as u8,
             counter: self.counter,
         })
+    }
+}
+
+/// Erases `slot` and writes `blob` and its commit record, then reads both back.
+///
+/// The header goes last: until its final byte is written the slot holds no valid blob,
+/// so a power cut at any point leaves nothing that boots (slot A's plain blob included,
+/// which boot would otherwise accept without a commit record).
+fn write_committed(
+    flash: &mut impl ParamFlash,
+    slot: usize,
+    blob: &[u8],
+    counter: u32,
+) -> Result<(), FlashError> {
+    let (header, payload) = blob.split_at(BLOB_HEADER_LEN.min(blob.len()));
+    let record = commit_record(blob, counter);
+    flash.erase(slot)?;
+    flash.write(slot, header.len(), payload)?;
+    flash.write(slot, blob.len(), &record)?;
+    flash.write(slot, 0, header)?;
+    let stored = flash.slot(slot);
+    if stored.get(..blob.len()) != Some(blob) || commit_counter(stored) != Some(counter) {
+        return Err(FlashError);
+    }
+    Ok(())
+}
+
+/// Makes `slot` unbootable after a failed write: erased again, or, if the erase fails
+/// too, its header programmed to zeros (programming only clears bits, so that works on
+/// a slot that cannot be erased), which reads as a blank slot.
+fn scrub(flash: &mut impl ParamFlash, slot: usize) {
+    if flash.erase(slot).is_err() {
+        // If this fails too, the flash takes neither erase nor write and nothing more can
+        // be done from here; boot validates every slot again anyway.
+        let _ = flash.write(slot, 0, &[0; BLOB_HEADER_LEN]);
     }
 }

@@ -1,5 +1,5 @@
 //! ISO 2631-1 / ISO 8041 frequency weightings Wk, Wd and Wj as cascaded second-order
-//! sections, for any sample rate from 100 Hz to 2 kHz.
+//! sections, for any supported sample rate ([`SampleRate`]: 100 Hz to 2 kHz).
 //!
 //! # The analog definition
 //! Each weighting is the product of four sections (`s = j 2 pi f`, `w_i = 2 pi f_i`):
@@ -46,10 +46,7 @@ use core::fmt;
 
 use serde::{Deserialize, Serialize};
 
-/// Lowest supported sample rate, Hz.
-pub const MIN_SAMPLE_RATE_HZ: f32 = 100.0;
-/// Highest supported sample rate, Hz.
-pub const MAX_SAMPLE_RATE_HZ: f32 = 2000.0;
+use crate::sample_rate::SampleRate;
 
 const TAU: f64 = 2.0 * core::f64::consts::PI;
 const Q_BAND: f64 = core::f64::consts::FRAC_1_SQRT_2;
@@ -320,13 +317,11 @@ pub fn analog_response(kind: WeightingKind, f_hz: f64) -> Complex64 {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum WeightingError {
-    /// The sample rate is not a finite number in 100..=2000 Hz.
-    SampleRateOutOfRange,
     /// A coefficient is NaN or infinite.
     NonFiniteCoefficient,
     /// A section has a pole on or outside the unit circle.
     Unstable,
-    /// The magnitude-matched numerator has no real solution (not seen for 100..=2000 Hz).
+    /// The magnitude-matched numerator has no real solution (not seen at any supported rate).
     DesignFailed,
     /// The number of active shaping sections is not the one this kind has.
     WrongSectionCount,
@@ -337,9 +332,6 @@ pub enum WeightingError {
 impl fmt::Display for WeightingError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
-            WeightingError::SampleRateOutOfRange => {
-                "weighting sample rate must be finite and within 100..=2000 Hz"
-            }
             WeightingError::NonFiniteCoefficient => "weighting coefficient is not finite",
             WeightingError::Unstable => {
                 "weighting section is unstable (pole on or outside |z| = 1)"
@@ -579,13 +571,12 @@ pub struct BandLimit {
 /// A frequency weighting ready to run: f32 coefficients designed for one sample rate.
 ///
 /// Plain data for the parameter blob; build it with [`WeightingSettings::new`], or check
-/// a stored one with [`WeightingSettings::validate`].
+/// a stored one with [`WeightingSettings::validate`]. The rate is not stored here: the
+/// blob holds it once for every stage.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct WeightingSettings {
     /// Which weighting these coefficients realize.
     pub kind: WeightingKind,
-    /// The sample rate they were designed for, Hz.
-    pub sample_rate_hz: f32,
     /// Band limiting, shared by all weightings at this rate.
     pub band: BandLimit,
     /// Transition and/or upward step; only the first `n_shaping` run.
@@ -617,14 +608,9 @@ impl WeightingState {
 }
 
 impl WeightingSettings {
-    /// Designs `kind` for `sample_rate_hz` (100..=2000 Hz) in f64 and stores f32 coefficients.
-    pub fn new(kind: WeightingKind, sample_rate_hz: f32) -> Result<Self, WeightingError> {
-        if !(sample_rate_hz.is_finite()
-            && (MIN_SAMPLE_RATE_HZ..=MAX_SAMPLE_RATE_HZ).contains(&sample_rate_hz))
-        {
-            return Err(WeightingError::SampleRateOutOfRange);
-        }
-        let fs = sample_rate_hz as f64;
+    /// Designs `kind` for `sample_rate` in f64 and stores f32 coefficients.
+    pub fn new(kind: WeightingKind, sample_rate: SampleRate) -> Result<Self, WeightingError> {
+        let fs = sample_rate.hz_f64();
         let params = kind.params();
         let ([lp, tr, st], hp) = params.sections();
         let high_pass = HighPassSvf::design(hp.f_char_hz, Q_BAND, fs);
@@ -640,7 +626,6 @@ impl WeightingSettings {
         }
         let settings = Self {
             kind,
-            sample_rate_hz,
             band: BandLimit {
                 high_pass,
                 low_pass,
@@ -652,13 +637,9 @@ impl WeightingSettings {
         Ok(settings)
     }
 
-    /// Checks stored settings: sample rate in range, coefficients finite, all sections stable.
+    /// Checks stored settings: the kind's number of sections, coefficients finite, all
+    /// sections stable.
     pub fn validate(&self) -> Result<(), WeightingError> {
-        if !(self.sample_rate_hz.is_finite()
-            && (MIN_SAMPLE_RATE_HZ..=MAX_SAMPLE_RATE_HZ).contains(&self.sample_rate_hz))
-        {
-            return Err(WeightingError::SampleRateOutOfRange);
-        }
         if self.n_shaping as usize != self.kind.params().shaping_sections() {
             return Err(WeightingError::WrongSectionCount);
         }
@@ -685,7 +666,7 @@ impl WeightingSettings {
         Ok(())
     }
 
-    /// One acceleration sample (m/s^2, at `sample_rate_hz`) in, the weighted sample (m/s^2) out.
+    /// One acceleration sample (m/s^2, at the design rate) in, the weighted sample (m/s^2) out.
     #[inline]
     pub fn step(&self, state: &mut WeightingState, x_m_s2: f32) -> f32 {
         self.step_with_band(&self.band, state, x_m_s2)
@@ -715,9 +696,10 @@ impl WeightingSettings {
         self
     }
 
-    /// Frequency response at `f_hz` of the filter the device runs (its f32 coefficients).
-    pub fn response(&self, f_hz: f64) -> Complex64 {
-        let z = Complex64::from_angle(TAU * f_hz / self.sample_rate_hz as f64);
+    /// Frequency response at `f_hz` of the filter the device runs (its f32 coefficients),
+    /// at `sample_rate`, the rate it was designed for.
+    pub fn response(&self, sample_rate: SampleRate, f_hz: f64) -> Complex64 {
+        let z = Complex64::from_angle(TAU * f_hz / sample_rate.hz_f64());
         let n = (self.n_shaping as usize).min(MAX_SHAPING);
         let band = self.band.high_pass.response_at(z) * self.band.low_pass.response_at(z);
         self.shaping[..n]

@@ -100,8 +100,6 @@ fn a_sealed_blob_with_a_nan_or_an_unstable_pole_is_refused_behind_the_crc() {
     unused_nan.realization.blocks[15].output[1][1] = f32::NAN;
     let mut unstable = example;
     unstable.realization.blocks[0].transition_minus_identity[0][0] = 0.5;
-    let mut bad_rate = example;
-    bad_rate.alerts.sample_rate_hz = 1000.0;
     let mut bad_decimation = example;
     bad_decimation.telemetry.decimation = 0;
     // The band-limiting high-pass with plausible positive values that recur unstably.
@@ -122,7 +120,6 @@ fn a_sealed_blob_with_a_nan_or_an_unstable_pole_is_refused_behind_the_crc() {
         ("nan", nan, BlobError::NonFinite),
         ("nan in an unused block", unused_nan, BlobError::NonFinite),
         ("unstable model", unstable, BlobError::Unstable),
-        ("bad rate", bad_rate, BlobError::SampleRate),
         ("bad decimation", bad_decimation, BlobError::BadConfig),
         (
             "unstable weighting",
@@ -141,6 +138,24 @@ fn a_sealed_blob_with_a_nan_or_an_unstable_pole_is_refused_behind_the_crc() {
             DeviceParams::decode(&reseal(buf[..len].to_vec())).unwrap_err(),
             expected,
             "{name}"
+        );
+    }
+    // The one stored rate, right after the 16-byte identity: out of range, not a number,
+    // or in range but not the rate the stages were built for.
+    let rate_at = BLOB_HEADER_LEN + 16;
+    assert_eq!(BLOB[rate_at..rate_at + 4], 500f32.to_le_bytes());
+    for (hz, expected) in [
+        (5000.0f32, BlobError::SampleRate),
+        (99.0, BlobError::SampleRate),
+        (f32::NAN, BlobError::SampleRate),
+        (1000.0, BlobError::BadConfig),
+    ] {
+        let mut bytes = BLOB.to_vec();
+        bytes[rate_at..rate_at + 4].copy_from_slice(&hz.to_le_bytes());
+        assert_eq!(
+            DeviceParams::decode(&reseal(bytes)).unwrap_err(),
+            expected,
+            "rate {hz} Hz"
         );
     }
     let mut trailing = BLOB.to_vec();

@@ -33,7 +33,7 @@ fn worst_frequency_error(preset: Preset, sample_rate_hz: f64) -> (f64, f64) {
     for i in 0..=390 {
         let freq_hz = 0.5 + 0.05 * i as f64;
         let h = model.matrices.transmissibility(freq_hz).unwrap();
-        let hd = device.frequency_response(freq_hz);
+        let hd = device.frequency_response(sample_rate_hz, freq_hz);
         for &(o, axis) in &head_components() {
             let (c, d) = (h[(o, axis.index())], hd[o][axis.index()]);
             mag = mag.max((modulus(d) / modulus(c) - 1.0).abs());

@@ -16,6 +16,7 @@ use supine_core::protocol::{
     FrameAccumulator, FrameEvent, HostToDevice, ParamBegin, ParamsSource, Status, Telemetry,
     UploadError, encode_frame,
 };
+use supine_core::sample_rate::SampleRate;
 use supine_host::device::device_params;
 use supine_host::device::firmware::PRODUCT_BINARY;
 use supine_host::device::replay::{Outgoing, Session, SessionConfig, sample_messages, session};
@@ -234,6 +235,7 @@ fn builtin_params() -> DeviceParams {
         .expect("preset discretizes");
     DeviceParams::new(
         *b"builtin-litter\0\0",
+        SampleRate::new(500.0).expect("supported"),
         realization,
         ExposureConfig::DEFAULT,
         AlertConfig::DEFAULT,

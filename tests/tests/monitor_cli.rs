@@ -107,7 +107,7 @@ fn monitor_logs_what_the_host_pipeline_predicts_for_a_scripted_ride() {
         assert_eq!(row[10], t.alert_level.name(), "level at sample {sample}");
         assert_eq!(
             row[11],
-            t.fault_flags.to_string(),
+            t.fault_flags.as_repr().to_string(),
             "faults at sample {sample}"
         );
     }

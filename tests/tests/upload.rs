@@ -217,11 +217,12 @@ fn unauthenticated_replayed_truncated_and_corrupted_uploads_are_refused_and_chan
     // A blob whose payload CRC is wrong, signed by the key holder.
     let mut bad_crc = blob_b.clone();
     bad_crc[40] ^= 0x04;
-    // A blob cut in half (the header still announces the whole), signed.
+    // A blob cut in half (the header still announces the whole), signed: its header and
+    // the upload disagree on the length.
     let cut = blob_b[..blob_b.len() / 2].to_vec();
     let expect_decode = |blob: &[u8]| DeviceParams::decode(blob).expect_err("refused");
     assert_eq!(expect_decode(&bad_crc), BlobError::BadCrc);
-    let cut_reason = expect_decode(&cut);
+    assert_eq!(expect_decode(&cut), BlobError::Truncated);
     // A bit flipped in transit in the second chunk of a well-signed blob.
     let mut in_transit = blob_b.clone();
     in_transit[PARAM_CHUNK_LEN + 5] ^= 0x10;
@@ -270,7 +271,7 @@ fn unauthenticated_replayed_truncated_and_corrupted_uploads_are_refused_and_chan
         (
             "a truncated blob, signed",
             signed(&cut, counter),
-            UploadError::Blob(cut_reason),
+            UploadError::LengthMismatch,
         ),
         (
             "a bad CRC inside a signed blob",
@@ -484,11 +485,95 @@ fn a_cut_mid_upload_boots_the_last_good_parameters_and_a_good_upload_survives_a_
     assert_eq!(after_reset.params_identity, a.identity);
 }
 
+/// The region in which slot A holds A (counter 1) and slot B holds B (counter 2): the
+/// device runs B.
+fn region_a_then_b() -> Vec<u8> {
+    let (_, blob_b) = params_and_blob(Preset::PaperRigid);
+    let mut region = region_a();
+    let slot_b = supine_core::upload::SLOT_LEN;
+    region[slot_b..slot_b + blob_b.len()].copy_from_slice(&blob_b);
+    let record = supine_core::upload::commit_record(&blob_b, REGION_IMAGE_COUNTER + 1);
+    let at = slot_b + blob_b.len();
+    region[at..at + record.len()].copy_from_slice(&record);
+    region
+}
+
+/// Sends every message of an upload; returns the answer to the last one (the commit).
+fn answer_to_upload(device: &mut Device, messages: &[Outgoing]) -> Result<ParamAck, UploadError> {
+    let mut last = None;
+    for m in messages {
+        let Outgoing::Message(m) = m else {
+            unreachable!()
+        };
+        last = Some(device.step(m));
+    }
+    last.expect("an upload has messages")
+}
+
+#[test]
+fn an_upload_whose_length_differs_from_its_header_is_refused_before_flash_from_every_state() {
+    // D3: a correctly signed valid blob followed by padding (and a blob cut short) used to
+    // pass decoding; the device wrote the idle slot, failed the read-back and answered
+    // "flash", and from the built-in parameters the next boot ran the refused blob.
+    let (a, blob_a) = params_and_blob(Preset::PaperLitter);
+    let (b, blob_b) = params_and_blob(Preset::PaperRigid);
+    let builtin = ParamsSource::BuiltInDefault {
+        reason: BlobError::Empty,
+    };
+    let states: Vec<(&str, Vec<u8>, ParamsSource, &[u8])> = vec![
+        (
+            "slot A",
+            region_a(),
+            ParamsSource::Flash { slot: 0 },
+            &blob_b,
+        ),
+        (
+            "slot B",
+            region_a_then_b(),
+            ParamsSource::Flash { slot: 1 },
+            &blob_a,
+        ),
+        ("built-in", vec![0xFF; REGION_LEN], builtin, &blob_b),
+    ];
+    let dir = tempfile::tempdir().expect("temp dir");
+    for (name, region, source, upload) in states {
+        let before = dir.path().join("before.bin");
+        std::fs::write(&before, &region).expect("write");
+        let (mut device, greeting) = Device::boot(&before);
+        assert_eq!(greeting.params_source, source, "{name}");
+        let mut padded = upload.to_vec();
+        padded.extend(std::iter::repeat_n(0u8, 300));
+        let cut = &upload[..upload.len() - 100];
+        for (what, blob) in [("padded", &padded[..]), ("cut short", cut)] {
+            assert_eq!(
+                answer_to_upload(&mut device, &signed(blob, 7_000)),
+                Err(UploadError::LengthMismatch),
+                "{name}, {what}"
+            );
+        }
+        let after = dir.path().join("after.bin");
+        device.cut_power(&after);
+        assert!(
+            std::fs::read(&after).expect("read") == region,
+            "{name}: flash touched"
+        );
+        let (_, rebooted) = Device::boot(&after);
+        println!("{name}: boots {:?} again", rebooted.params_source);
+        assert_eq!(
+            (rebooted.params_identity, rebooted.params_source),
+            (greeting.params_identity, greeting.params_source),
+            "{name}"
+        );
+    }
+    assert_ne!(a.identity, b.identity);
+}
+
 #[test]
 fn a_cut_while_the_new_slot_is_written_boots_the_running_slot() {
-    // The device erases the slot not running, writes the blob, then the commit record.
-    // Power lost anywhere before the record is complete leaves that slot without a valid
-    // record; these are the states such cuts leave, booted for real.
+    // The device erases the slot not running, writes the payload, the commit record and
+    // the header last. Power lost anywhere before the header is complete leaves that slot
+    // without a valid blob; these states, and the ones of the older order (blob first,
+    // then the record) that a programmer may leave, are booted for real.
     let (a, blob_a) = params_and_blob(Preset::PaperLitter);
     let (_, blob_b) = params_and_blob(Preset::PaperRigid);
     let region = region_a();
@@ -497,6 +582,14 @@ fn a_cut_while_the_new_slot_is_written_boots_the_running_slot() {
     let dir = tempfile::tempdir().expect("temp dir");
     let states: Vec<(&str, Vec<u8>)> = vec![
         ("slot B erased", region.clone()),
+        ("the payload and record without the header", {
+            let mut r = region.clone();
+            let h = supine_core::blob::BLOB_HEADER_LEN;
+            r[slot_b + h..slot_b + blob_b.len()].copy_from_slice(&blob_b[h..]);
+            let at = slot_b + blob_b.len();
+            r[at..at + record.len()].copy_from_slice(&record);
+            r
+        }),
         ("half the blob written", {
             let mut r = region.clone();
             let half = blob_b.len() / 2;
@@ -715,13 +808,18 @@ fn power_cuts_during_the_device_own_flash_update_boot_the_last_committed_slot() 
     let cut = dir.path().join("cut.bin");
     let slot = |image: &[u8], i: usize| image[i * SLOT_LEN..(i + 1) * SLOT_LEN].to_vec();
 
-    // Running A (slot A, counter 1): B goes to slot B. Every cut before the commit record's
-    // last byte boots A again.
+    // Running A (slot A, counter 1): B goes to slot B, payload first, then the commit
+    // record, then the header. Every cut before the header's last byte boots A again.
     let need_b = SLOT_LEN + blob_b.len() + COMMIT_LEN;
+    let header = supine_core::blob::BLOB_HEADER_LEN;
     for (name, budget) in [
         ("while erasing slot B", 10_000),
-        ("halfway through the blob", SLOT_LEN + blob_b.len() / 2),
-        ("in the commit record", SLOT_LEN + blob_b.len() + 6),
+        ("halfway through the payload", SLOT_LEN + blob_b.len() / 2),
+        ("in the commit record", SLOT_LEN + blob_b.len() - header + 6),
+        (
+            "in the header",
+            SLOT_LEN + blob_b.len() + COMMIT_LEN - header + 8,
+        ),
         ("one byte short", need_b - 1),
     ] {
         assert!(
@@ -762,7 +860,7 @@ fn power_cuts_during_the_device_own_flash_update_boot_the_last_committed_slot() 
     let need_c = SLOT_LEN + blob_c.len() + COMMIT_LEN;
     for (name, budget) in [
         ("while erasing slot A", 1_000),
-        ("halfway through the blob", SLOT_LEN + blob_c.len() / 2),
+        ("halfway through the payload", SLOT_LEN + blob_c.len() / 2),
         ("one byte short", need_c - 1),
     ] {
         assert!(
@@ -789,6 +887,29 @@ fn power_cuts_during_the_device_own_flash_update_boot_the_last_committed_slot() 
         boots(&flash_c),
         (c.identity, ParamsSource::Flash { slot: 0 })
     );
+
+    // Running the built-in parameters: B goes to slot A, whose blob boot takes even
+    // without a commit record. Before the header is whole nothing there may look valid.
+    let blank = dir.path().join("blank.bin");
+    std::fs::write(&blank, vec![0xFF; REGION_LEN]).expect("region");
+    for (name, budget) in [
+        (
+            "before the header",
+            SLOT_LEN + blob_b.len() + COMMIT_LEN - header,
+        ),
+        ("one byte short", need_b - 1),
+    ] {
+        assert!(
+            !upload_with_power_cut(&blank, budget, &blob_b, 300, &cut),
+            "{name}"
+        );
+        let (_, source) = boots(&cut);
+        println!("cut from the built-in parameters {name} ({budget} B): boots {source:?}");
+        assert!(
+            matches!(source, ParamsSource::BuiltInDefault { .. }),
+            "{name}: boots {source:?}"
+        );
+    }
 }
 
 /// `supine flash --qemu` blocks on the device's answers rather than polling: SIGTERM must

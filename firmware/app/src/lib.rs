@@ -9,8 +9,8 @@
 //! buffers and a simulated flash and compare its output with `supine_core::pipeline`.
 //!
 //! Each module has one job: [`Boot`] says what the device starts with, `link` moves single
-//! bytes over the link, `tx_ring` queues outgoing frames, [`telemetry_frame`] encodes the
-//! per-sample frame, `updates` holds the parameter slots and the upload in progress, and
+//! bytes over the link, `tx_ring` queues outgoing frames (encoded by
+//! `supine_core::protocol::telemetry_frame`), `updates` holds the parameter slots and the upload in progress, and
 //! `monitor` is the loop itself.
 #![no_std]
 
@@ -19,14 +19,13 @@ mod counter;
 mod link;
 mod monitor;
 mod stack_gauge;
-pub mod telemetry_frame;
 mod tx_ring;
 mod updates;
 
 pub use boot::Boot;
 pub use counter::TickCounter;
 pub use link::Link;
-pub use monitor::{App, IDLE_FLUSH_TICKS};
+pub use monitor::{App, IDLE_FLUSH_TICKS, MAX_LOST_SPAN_S};
 pub use stack_gauge::StackGauge;
 pub use updates::NoUpdates;
 

@@ -17,8 +17,9 @@
 //! Frames are encoded into a RAM ring while the pipeline runs and written to the link from
 //! the loop, so [`Status::busy_ticks`] (the tick counter around `process`, frame encoding
 //! included) excludes waiting on the link. Every byte of every input is handled without a
-//! panic path: bad frames are counted and dropped, index gaps counted as dropped samples
-//! (and raised by the pipeline's sensor checks as an index-gap fault).
+//! panic path: bad frames are counted and dropped, index gaps of up to a minute of samples
+//! counted as dropped samples, longer jumps and jumps back taken as a new stream (the
+//! pipeline's sensor checks raise the index-gap fault for every one).
 
 use supine_core::mounting::Mounting;
 use supine_core::pipeline::{BLOCK_LEN, PipelineOutput, PipelineState};
@@ -41,6 +42,12 @@ use crate::updates::{NoUpdates, Updates};
 /// Free ring space required before a block is processed, so the pipeline never waits on
 /// the link: 16 telemetry frames and a few alert frames need about 1 KiB.
 const TX_HEADROOM: usize = 2048;
+
+/// The longest stretch of missing sample indices, in seconds of samples at the running
+/// rate, counted as lost: longer than any stall of a running device (the Black Pill's
+/// 1-4 s sector erase during an upload), far shorter than the 2^31-sample jumps that
+/// would otherwise swamp `samples_dropped` when a stream restarts elsewhere.
+pub const MAX_LOST_SPAN_S: f32 = 60.0;
 
 /// Ticks (100 ms of mps2-an386's 25 MHz SysTick) without a received byte after which a
 /// partial block is processed: the host paused or the stream ended. Shorter waits would
@@ -73,7 +80,7 @@ pub struct App<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash = NoUpdates
 impl<L: Link, C: TickCounter, S: StackGauge> App<L, C, S> {
     /// A monitor on `link`, timing its pipeline with `counter`, reporting `stack`'s depth,
     /// running `boot.params`, that refuses parameter updates over the link
-    /// (`UploadError::Flash`).
+    /// (`UploadError::UpdatesUnsupported`).
     pub fn new(link: L, counter: C, stack: S, boot: Boot) -> Self {
         App::build(link, counter, stack, boot, None)
     }
@@ -194,14 +201,14 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
             HostToDevice::ParamBegin(begin) => {
                 let answer = match self.updates.as_mut() {
                     Some(u) => u.upload.begin(&begin, last_counter(&u.flash)),
-                    None => Err(UploadError::Flash),
+                    None => Err(UploadError::UpdatesUnsupported),
                 };
                 self.answer_upload(answer);
             }
             HostToDevice::ParamChunk(chunk) => {
                 let answer = match self.updates.as_mut() {
                     Some(u) => u.upload.chunk(&chunk),
-                    None => Err(UploadError::Flash),
+                    None => Err(UploadError::UpdatesUnsupported),
                 };
                 self.answer_upload(answer);
             }
@@ -221,7 +228,7 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
         };
         let result = match self.updates.as_mut() {
             Some(u) => u.upload.commit(u.key, &mut u.flash, running),
-            None => Err(UploadError::Flash),
+            None => Err(UploadError::UpdatesUnsupported),
         };
         let committed = match result {
             Ok(c) => c,
@@ -267,10 +274,9 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
 
     fn accept_sample(&mut self, index: u32, sample: [f32; 3]) {
         if let Some(expected) = self.next_index
-            && index > expected
+            && index != expected
         {
-            let missing = index - expected;
-            self.status.samples_dropped = self.status.samples_dropped.saturating_add(missing);
+            self.count_lost(index.wrapping_sub(expected));
         }
         self.next_index = Some(index.wrapping_add(1));
         if let (Some(i), Some(x)) = (
@@ -286,6 +292,20 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
         }
         if self.buffered == BLOCK_LEN {
             self.process_buffered();
+        }
+    }
+
+    /// Counts the samples a jump of `gap` indices past the expected one skipped (wrapping:
+    /// the index runs on past `u32::MAX` to 0). A jump forward of at most
+    /// [`MAX_LOST_SPAN_S`] of samples is a loss and counted in `samples_dropped`; a longer
+    /// one, or a jump back, is a new stream (a restarted replay, another source), not a
+    /// loss, and counts nothing. The pipeline raises the index-gap fault for both.
+    // Out of line: off the per-sample path, which only compares the index.
+    #[inline(never)]
+    fn count_lost(&mut self, gap: u32) {
+        let max_lost = (self.boot.params.sample_rate_hz() * MAX_LOST_SPAN_S) as u32;
+        if gap <= max_lost {
+            self.status.samples_dropped = self.status.samples_dropped.saturating_add(gap);
         }
     }
 

@@ -4,7 +4,7 @@
 use supine_core::protocol::Telemetry;
 
 use crate::link::{self, Link};
-use crate::telemetry_frame;
+use supine_core::protocol::telemetry_frame;
 
 /// Bytes of the transmit ring: more than one block's worst-case output. A power of two,
 /// so `i & TX_MASK` indexes it without a bounds check.

@@ -4,464 +4,17 @@
 //! compared, bit for bit, with what `supine_core::pipeline` computes directly from the
 //! same samples and parameters.
 
-use std::cell::{Cell, RefCell};
-use std::collections::VecDeque;
-use std::convert::Infallible;
-use std::rc::Rc;
+mod support;
 
-use supine_app::{App, Boot, IDLE_FLUSH_TICKS, StackGauge, TickCounter};
+use supine_app::IDLE_FLUSH_TICKS;
 use supine_core::alerts::{AlertEvent, Level, SensorFault};
-use supine_core::blob::{DeviceParams, MAX_BLOB_LEN, TelemetryConfig};
-use supine_core::model::{ModelParams, Preset, device_realization};
-use supine_core::pipeline::{PipelineOutput, PipelineState};
+use supine_core::pipeline::PipelineState;
 use supine_core::protocol::{
-    DeviceFrame, DeviceToHost, FrameAccumulator, FrameEvent, Greeting, HostToDevice, MAX_FRAME_LEN,
-    MAX_SAMPLES_PER_FRAME, PARAM_CHUNK_LEN, PROTOCOL_VERSION, ParamAck, ParamBegin, ParamChunk,
-    ParamsIdentity, ParamsSource, ResetCause, SampleBatch, Status, Telemetry, UploadError,
-    encode_frame,
+    DeviceToHost, Greeting, HostToDevice, PROTOCOL_VERSION, ParamAck, ParamsSource, ResetCause,
+    Status, UploadError,
 };
-use supine_core::test_vector::TestVector;
-use supine_core::upload::{
-    FlashError, KEY_LEN, ParamFlash, SLOT_COUNT, SLOT_LEN, parse_key, select, update_mac,
-};
-
-/// Sample rate of every parameter set here, Hz.
-const SAMPLE_RATE_HZ: f64 = 500.0;
-/// What the simulated stack gauge reports, bytes.
-const STACK_BYTES: usize = 3_172;
-/// Identity of the parameters the device boots with.
-const BOOT_IDENTITY: ParamsIdentity = [0x11; 16];
-/// Identity of the parameters uploaded.
-const UPLOAD_IDENTITY: ParamsIdentity = [0x42; 16];
-/// The build suffix of the greeting.
-const BUILD: &str = "+host-test";
-
-/// The bytes on the wire, both ways.
-#[derive(Default)]
-struct Wire {
-    /// Host to device, not yet read.
-    rx: VecDeque<u8>,
-    /// Device to host, everything written.
-    tx: Vec<u8>,
-    /// A slow link takes a byte without waiting only at every other attempt, so the
-    /// transmit ring fills, wraps and drains with waiting.
-    slow: bool,
-    ready_toggle: bool,
-}
-
-/// The monitor's end of the wire.
-struct MemLink(Rc<RefCell<Wire>>);
-
-impl embedded_io::ErrorType for MemLink {
-    type Error = Infallible;
-}
-
-impl embedded_io::ReadReady for MemLink {
-    fn read_ready(&mut self) -> Result<bool, Infallible> {
-        Ok(!self.0.borrow().rx.is_empty())
-    }
-}
-
-impl embedded_io::Read for MemLink {
-    fn read(&mut self, buf: &mut [u8]) -> Result<usize, Infallible> {
-        let mut wire = self.0.borrow_mut();
-        let n = buf.len().min(wire.rx.len());
-        for (dst, src) in buf.iter_mut().zip(wire.rx.drain(..n)) {
-            *dst = src;
-        }
-        Ok(n)
-    }
-}
-
-impl embedded_io::WriteReady for MemLink {
-    fn write_ready(&mut self) -> Result<bool, Infallible> {
-        let mut wire = self.0.borrow_mut();
-        wire.ready_toggle = !wire.ready_toggle;
-        Ok(!wire.slow || wire.ready_toggle)
-    }
-}
-
-impl embedded_io::Write for MemLink {
-    fn write(&mut self, buf: &[u8]) -> Result<usize, Infallible> {
-        self.0.borrow_mut().tx.extend_from_slice(buf);
-        Ok(buf.len())
-    }
-    fn flush(&mut self) -> Result<(), Infallible> {
-        Ok(())
-    }
-}
-
-/// A counter that moves only when the test says.
-struct Clock(Rc<Cell<u32>>);
-
-impl TickCounter for Clock {
-    fn now(&self) -> u32 {
-        self.0.get()
-    }
-    fn ticks_since(&self, start: u32) -> u32 {
-        self.0.get().wrapping_sub(start)
-    }
-}
-
-struct Gauge;
-
-impl StackGauge for Gauge {
-    fn high_water_bytes(&self) -> usize {
-        STACK_BYTES
-    }
-}
-
-/// What the test sees of the flash the monitor owns: its bytes after every operation,
-/// and how many erases and writes it took.
-#[derive(Clone, Default)]
-struct FlashView {
-    slots: Vec<Vec<u8>>,
-    operations: usize,
-}
-
-/// Two slots in RAM with NOR flash rules: erase to 0xFF, programming clears bits only.
-struct RamFlash {
-    slots: [Vec<u8>; SLOT_COUNT],
-    view: Rc<RefCell<FlashView>>,
-}
-
-impl RamFlash {
-    fn publish(&self) {
-        let mut view = self.view.borrow_mut();
-        view.slots = self.slots.to_vec();
-        view.operations += 1;
-    }
-}
-
-impl ParamFlash for RamFlash {
-    fn slot(&self, slot: usize) -> &[u8] {
-        self.slots.get(slot).map_or(&[], |s| s.as_slice())
-    }
-    fn erase(&mut self, slot: usize) -> Result<(), FlashError> {
-        self.slots.get_mut(slot).ok_or(FlashError)?.fill(0xFF);
-        self.publish();
-        Ok(())
-    }
-    fn write(&mut self, slot: usize, offset: usize, bytes: &[u8]) -> Result<(), FlashError> {
-        let cells = self
-            .slots
-            .get_mut(slot)
-            .and_then(|s| s.get_mut(offset..offset + bytes.len()))
-            .ok_or(FlashError)?;
-        for (cell, &b) in cells.iter_mut().zip(bytes) {
-            *cell &= b;
-        }
-        self.publish();
-        Ok(())
-    }
-}
-
-/// A read-only copy of flash as the test last saw it, for `select`.
-struct Snapshot(Vec<Vec<u8>>);
-
-impl ParamFlash for Snapshot {
-    fn slot(&self, slot: usize) -> &[u8] {
-        &self.0[slot]
-    }
-    fn erase(&mut self, _slot: usize) -> Result<(), FlashError> {
-        Err(FlashError)
-    }
-    fn write(&mut self, _slot: usize, _offset: usize, _bytes: &[u8]) -> Result<(), FlashError> {
-        Err(FlashError)
-    }
-}
-
-/// The monitor with everything it is connected to.
-struct Rig {
-    app: App<MemLink, Clock, Gauge, RamFlash>,
-    wire: Rc<RefCell<Wire>>,
-    clock: Rc<Cell<u32>>,
-    flash: Rc<RefCell<FlashView>>,
-    decoder: FrameAccumulator,
-    decoded_bytes: usize,
-    next_seq: u32,
-}
-
-impl Rig {
-    /// A monitor booted, as the firmware boots, from slot A holding `boot_blob` as QEMU's
-    /// loader places it (no commit record), taking updates signed with the development
-    /// key. It has greeted; the greeting is returned.
-    fn boot(boot_blob: &[u8], slow: bool) -> (Self, Greeting) {
-        let mut slots = [vec![0xFF; SLOT_LEN], vec![0xFF; SLOT_LEN]];
-        slots[0][..boot_blob.len()].copy_from_slice(boot_blob);
-        let view = Rc::new(RefCell::new(FlashView {
-            slots: slots.to_vec(),
-            operations: 0,
-        }));
-        let flash = RamFlash {
-            slots,
-            view: Rc::clone(&view),
-        };
-        let active = select(&flash).expect("slot A holds a valid blob");
-        let boot = Boot {
-            build: BUILD,
-            params: active.params,
-            source: ParamsSource::Flash { slot: active.slot },
-            reset_cause: ResetCause::PowerOn,
-            last_panic: heapless::String::new(),
-        };
-        let wire = Rc::new(RefCell::new(Wire {
-            slow,
-            ..Wire::default()
-        }));
-        let clock = Rc::new(Cell::new(0x00FF_FF00));
-        let key: &'static [u8; KEY_LEN] = Box::leak(Box::new(development_key()));
-        let app = App::with_updates(
-            MemLink(Rc::clone(&wire)),
-            Clock(Rc::clone(&clock)),
-            Gauge,
-            boot,
-            flash,
-            key,
-        );
-        let mut rig = Self {
-            app,
-            wire,
-            clock,
-            flash: view,
-            decoder: FrameAccumulator::new(),
-            decoded_bytes: 0,
-            next_seq: 0,
-        };
-        rig.app.greet();
-        let greeting = match rig.run().as_slice() {
-            [DeviceToHost::Greeting(g)] => g.clone(),
-            other => panic!("expected one greeting at boot, got {other:?}"),
-        };
-        (rig, greeting)
-    }
-
-    /// Queues a message for the monitor, framed as the host frames it.
-    fn send(&mut self, message: &HostToDevice) {
-        let mut buf = [0u8; MAX_FRAME_LEN];
-        let frame = encode_frame(message, &mut buf).expect("every message fits a frame");
-        self.wire.borrow_mut().rx.extend(frame.iter().copied());
-    }
-
-    fn send_all(&mut self, messages: &[HostToDevice]) {
-        messages.iter().for_each(|m| self.send(m));
-    }
-
-    /// Runs the main loop until every byte sent is read and the transmit ring is empty;
-    /// returns the messages sent since the last call, checking their sequence numbers.
-    fn run(&mut self) -> Vec<DeviceToHost> {
-        let mut quiet_passes = 0;
-        for _ in 0..10_000_000 {
-            let before = self.wire.borrow().tx.len();
-            self.app.poll();
-            let wire = self.wire.borrow();
-            if wire.rx.is_empty() && wire.tx.len() == before {
-                quiet_passes += 1;
-                // A slow link refuses every other attempt: two quiet passes mean empty.
-                if quiet_passes == 2 {
-                    drop(wire);
-                    return self.decode_new();
-                }
-            } else {
-                quiet_passes = 0;
-            }
-        }
-        panic!("the monitor never went quiet");
-    }
-
-    fn decode_new(&mut self) -> Vec<DeviceToHost> {
-        let wire = self.wire.borrow();
-        let mut messages = Vec::new();
-        for &byte in &wire.tx[self.decoded_bytes..] {
-            match self.decoder.push::<DeviceFrame>(byte) {
-                FrameEvent::Pending => {}
-                FrameEvent::Message(frame) => {
-                    assert_eq!(frame.seq, self.next_seq, "a frame lost or out of order");
-                    self.next_seq += 1;
-                    messages.push(frame.message);
-                }
-                FrameEvent::Dropped(e) => panic!("the monitor sent a bad frame: {e}"),
-            }
-        }
-        self.decoded_bytes = wire.tx.len();
-        messages
-    }
-
-    /// Moves the simulated clock on.
-    fn advance_ticks(&self, ticks: u32) {
-        self.clock.set(self.clock.get().wrapping_add(ticks));
-    }
-
-    /// Asks for the status, which also processes what is buffered; returns what came
-    /// before it and the status.
-    fn status(&mut self) -> (Vec<DeviceToHost>, Status) {
-        self.send(&HostToDevice::GetStatus);
-        let mut messages = self.run();
-        match messages.pop() {
-            Some(DeviceToHost::Status(status)) => (messages, status),
-            other => panic!("expected a status last, got {other:?}"),
-        }
-    }
-}
-
-/// The committed development key, the one `firmware/build.rs` provisions by default.
-fn development_key() -> [u8; KEY_LEN] {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../keys/dev-device.key");
-    let text = std::fs::read_to_string(path).expect("read the development key");
-    parse_key(&text).expect("a valid key file")
-}
-
-/// Parameters from one of the paper's presets at 500 Hz, with the default settings.
-fn preset_params(
-    preset: Preset,
-    identity: ParamsIdentity,
-    telemetry: TelemetryConfig,
-) -> DeviceParams {
-    let realization = device_realization(&ModelParams::preset(preset), SAMPLE_RATE_HZ)
-        .expect("the preset discretizes");
-    let mut params = DeviceParams::with_defaults(identity, realization).expect("valid defaults");
-    params.telemetry = telemetry;
-    params.validate().expect("valid parameters");
-    params
-}
-
-fn encode(params: &DeviceParams) -> Vec<u8> {
-    let mut buf = vec![0u8; MAX_BLOB_LEN];
-    let len = params.encode(&mut buf).expect("the blob encodes");
-    buf.truncate(len);
-    buf
-}
-
-/// The boot parameters: paper litter board, telemetry for every sample (as replay uses).
-fn boot_params() -> DeviceParams {
-    preset_params(
-        Preset::PaperLitter,
-        BOOT_IDENTITY,
-        TelemetryConfig::EVERY_SAMPLE,
-    )
-}
-
-/// The uploaded parameters differ in the model and the telemetry rate (every 5th sample).
-fn upload_params() -> DeviceParams {
-    preset_params(
-        Preset::PaperRigid,
-        UPLOAD_IDENTITY,
-        TelemetryConfig::default_for(SAMPLE_RATE_HZ as f32),
-    )
-}
-
-/// `n` samples of the test vector, scaled up so that exposure builds.
-fn samples(seed: u32, n: usize) -> Vec<[f32; 3]> {
-    TestVector::new(seed)
-        .take(n)
-        .map(|x| x.map(|v| 8.0 * v))
-        .collect()
-}
-
-/// Sample frames for consecutive indices from `first_index`, as the host batches them.
-fn sample_frames(first_index: u32, samples: &[[f32; 3]]) -> Vec<HostToDevice> {
-    samples
-        .chunks(MAX_SAMPLES_PER_FRAME)
-        .enumerate()
-        .map(|(k, chunk)| {
-            HostToDevice::Samples(SampleBatch {
-                first_sample_index: first_index + (k * MAX_SAMPLES_PER_FRAME) as u32,
-                accel_m_s2: heapless::Vec::from_slice(chunk).expect("a chunk fits a frame"),
-            })
-        })
-        .collect()
-}
-
-/// What the pipeline itself gives for these samples from a fresh state, as messages.
-fn pipeline_messages(
-    params: &DeviceParams,
-    indices: &[u32],
-    samples: &[[f32; 3]],
-) -> Vec<DeviceToHost> {
-    pipeline_messages_from(&mut PipelineState::new(), params, indices, samples)
-}
-
-/// What the pipeline gives for these samples from `state`, as messages.
-fn pipeline_messages_from(
-    state: &mut PipelineState,
-    params: &DeviceParams,
-    indices: &[u32],
-    samples: &[[f32; 3]],
-) -> Vec<DeviceToHost> {
-    let mut out = Vec::new();
-    params.process(state, indices, samples, |o| {
-        out.push(match o {
-            PipelineOutput::Telemetry(t) => DeviceToHost::Telemetry(t),
-            PipelineOutput::Alert(e) => DeviceToHost::Alert(e),
-        })
-    });
-    out
-}
-
-/// Every float by its bits: NaN-safe and exact (0.0 and -0.0 differ).
-fn telemetry_bits(t: &Telemetry) -> String {
-    format!(
-        "{} {:?} {:?} {} {} {:?} {} {}",
-        t.sample_index,
-        t.head_acc_m_s2.map(f32::to_bits),
-        t.running_rms_m_s2.map(f32::to_bits),
-        t.vector_running_rms_m_s2.to_bits(),
-        t.vdv_m_s175.to_bits(),
-        t.alert_level,
-        t.fault_flags,
-        t.valid
-    )
-}
-
-fn assert_same_messages(actual: &[DeviceToHost], expected: &[DeviceToHost]) {
-    assert_eq!(actual.len(), expected.len(), "number of messages");
-    for (k, (a, e)) in actual.iter().zip(expected).enumerate() {
-        match (a, e) {
-            (DeviceToHost::Telemetry(a), DeviceToHost::Telemetry(e)) => {
-                assert_eq!(telemetry_bits(a), telemetry_bits(e), "telemetry {k}")
-            }
-            _ => assert_eq!(a, e, "message {k}"),
-        }
-    }
-}
-
-fn count_telemetry(messages: &[DeviceToHost]) -> usize {
-    messages
-        .iter()
-        .filter(|m| matches!(m, DeviceToHost::Telemetry(_)))
-        .count()
-}
-
-/// The messages of a whole upload, signed with `key`.
-fn upload_messages(blob: &[u8], counter: u32, key: &[u8; KEY_LEN]) -> Vec<HostToDevice> {
-    let mut messages = vec![HostToDevice::ParamBegin(ParamBegin {
-        length_bytes: blob.len() as u32,
-        counter,
-        hmac_sha256: update_mac(key, counter, blob),
-    })];
-    for (k, piece) in blob.chunks(PARAM_CHUNK_LEN).enumerate() {
-        messages.push(HostToDevice::ParamChunk(ParamChunk {
-            offset_bytes: (k * PARAM_CHUNK_LEN) as u32,
-            bytes: heapless::Vec::from_slice(piece).expect("a chunk fits"),
-        }));
-    }
-    messages.push(HostToDevice::ParamCommit);
-    messages
-}
-
-/// The acknowledgements of every step of an upload of `blob` before its commit.
-fn transfer_acks(blob: &[u8]) -> Vec<DeviceToHost> {
-    let mut acks = vec![DeviceToHost::ParamAck(ParamAck::Begun)];
-    for end in (PARAM_CHUNK_LEN..blob.len()).step_by(PARAM_CHUNK_LEN) {
-        acks.push(DeviceToHost::ParamAck(ParamAck::Received {
-            bytes: end as u32,
-        }));
-    }
-    acks.push(DeviceToHost::ParamAck(ParamAck::Received {
-        bytes: blob.len() as u32,
-    }));
-    acks
-}
+use supine_core::upload::select;
+use support::*;
 
 #[test]
 fn greets_at_boot_and_again_on_hello() {
@@ -670,4 +223,60 @@ fn an_accepted_upload_is_stored_in_the_other_slot_and_runs_from_the_next_sample(
     assert_eq!(status.params_source, ParamsSource::Flash { slot: 1 });
     assert_eq!(status.uploads_rejected, 0);
     assert_eq!(status.samples_processed, 120);
+}
+
+/// The index-gap faults raised while `frames` are processed, and the samples counted as
+/// dropped.
+fn gaps_after(frames: &[HostToDevice]) -> (usize, u32) {
+    let (mut rig, _) = Rig::boot(&encode(&boot_params()), false);
+    rig.send_all(frames);
+    let (messages, status) = rig.status();
+    let raised = messages
+        .iter()
+        .filter(|m| {
+            matches!(
+                m,
+                DeviceToHost::Alert(AlertEvent::Fault {
+                    fault: SensorFault::IndexGap,
+                    active: true,
+                    ..
+                })
+            )
+        })
+        .count();
+    (raised, status.samples_dropped)
+}
+
+#[test]
+fn a_gap_of_up_to_a_minute_of_samples_is_counted_as_lost_and_a_longer_jump_as_a_new_stream() {
+    let max_lost = (SAMPLE_RATE_HZ * f64::from(supine_app::MAX_LOST_SPAN_S)) as u32;
+    assert_eq!(max_lost, 30_000);
+    let input = samples(9, 16);
+    // Eight samples, then eight more `jump` indices further on than the next expected.
+    let after = |start: u32, jump: u32| {
+        let mut frames = sample_frames(start, &input[..8]);
+        frames.extend(sample_frames(
+            start.wrapping_add(8).wrapping_add(jump),
+            &input[8..],
+        ));
+        frames
+    };
+    for (name, frames, dropped) in [
+        ("no gap", after(0, 0), 0),
+        ("one sample", after(100, 1), 1),
+        ("a minute of samples", after(100, max_lost), max_lost),
+        ("across u32::MAX", after(u32::MAX - 10, 5), 5),
+        ("a minute and a sample", after(100, max_lost + 1), 0),
+        ("2^31 samples", after(100, 1 << 31), 0),
+        ("back to 0", after(1000, 0u32.wrapping_sub(1008)), 0),
+        ("one back (a repeat)", after(1000, u32::MAX), 0),
+    ] {
+        let (raised, counted) = gaps_after(&frames);
+        assert_eq!(counted, dropped, "{name}: samples_dropped");
+        assert_eq!(
+            raised,
+            usize::from(name != "no gap"),
+            "{name}: index-gap fault"
+        );
+    }
 }

@@ -276,11 +276,10 @@ const STAGE_SAMPLES: usize = 1024;
 /// `DeviceParams::process` with a no-op `emit`, one telemetry frame's encoding and one
 /// `libm::sqrtf` (the telemetry's six square roots are in software on this target).
 fn time_stages(counter: &InstructionCounter, out: &mut Console) -> Result<(), Failure> {
-    use supine_app::telemetry_frame;
-    use supine_core::alerts::AlertState;
+    use supine_core::alerts::{AlertState, FaultFlags};
     use supine_core::exposure::{ExposureSample, ExposureState};
     use supine_core::pipeline::{BLOCK_LEN, PipelineState};
-    use supine_core::protocol::Telemetry;
+    use supine_core::protocol::{Telemetry, telemetry_frame};
 
     let failure = Failure::Golden {
         what: "default blob",
@@ -375,7 +374,7 @@ fn time_stages(counter: &InstructionCounter, out: &mut Console) -> Result<(), Fa
         vector_running_rms_m_s2: 0.7,
         vdv_m_s175: 3.5,
         alert_level: supine_core::alerts::Level::Warning,
-        fault_flags: 0,
+        fault_flags: FaultFlags::empty(),
         valid: true,
     };
     let mut frame = [0u8; telemetry_frame::MAX_FRAME];

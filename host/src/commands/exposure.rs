@@ -14,6 +14,7 @@ use std::path::PathBuf;
 use anyhow::{Result, anyhow};
 use clap::{ArgGroup, ValueEnum};
 
+use crate::commands::values;
 use crate::commands::weighting::Kind;
 use crate::exposure::report::{evaluate_channel, evaluate_model};
 use crate::io::params_file::{ModelSource, PresetArg};
@@ -41,8 +42,13 @@ pub struct Args {
     /// Channel form: the weighting to apply to the channel.
     #[arg(long, value_enum, requires = "channel")]
     pub weighting: Option<Kind>,
-    /// Resample to this rate first, Hz (100..=2000; Kaiser-windowed sinc, zero phase).
-    #[arg(long = "fs", value_name = "HZ")]
+    /// Resample to this rate first, Hz (a rate the device supports; Kaiser-windowed sinc,
+    /// zero phase).
+    #[arg(
+        long = "fs",
+        value_name = "HZ",
+        help = values::sample_rate_help("Resample to this rate first (Kaiser-windowed sinc, zero phase)")
+    )]
     pub fs_hz: Option<f64>,
     /// Print one JSON object instead of the table.
     #[arg(long)]

@@ -45,12 +45,13 @@ pub struct Args {
     /// Length of the generated ride, s.
     #[arg(long, default_value_t = 60.0, requires = "profile")]
     pub duration_s: f64,
-    /// Sample rate of the generated ride, Hz (100..=2000).
+    /// Sample rate of the generated ride, Hz (a rate the device supports).
     #[arg(
         long = "fs",
         value_name = "HZ",
         default_value_t = 500.0,
-        requires = "profile"
+        requires = "profile",
+        help = values::sample_rate_help("Sample rate of the generated ride")
     )]
     pub fs_hz: f64,
     /// Seed of the generated ride.

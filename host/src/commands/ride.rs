@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 
+use crate::commands::values;
 use crate::exposure::ride::{Profile, generate, write_ride};
 
 /// Arguments of `supine ride`.
@@ -16,8 +17,13 @@ pub struct Args {
     /// Length of the ride, s.
     #[arg(long, default_value_t = 600.0)]
     pub duration_s: f64,
-    /// Sample rate, Hz (100..=2000).
-    #[arg(long = "fs", value_name = "HZ", default_value_t = 500.0)]
+    /// Sample rate, Hz (a rate the device supports).
+    #[arg(
+        long = "fs",
+        value_name = "HZ",
+        default_value_t = 500.0,
+        help = values::sample_rate_help("Sample rate")
+    )]
     pub fs_hz: f64,
     /// Seed of every random draw (ChaCha8): the same seed gives the same file.
     #[arg(long, default_value_t = 0)]

@@ -27,6 +27,9 @@ pub struct Args {
     /// Standard deviation of the white noise on every channel, m/s^2.
     #[arg(long, default_value_t = 0.01)]
     pub noise_m_s2: f64,
+    /// Spread of the subjects' parameters: each is the paper's value times e^N(0, this).
+    #[arg(long, default_value_t = SynthSettings::default().param_log_sd)]
+    pub param_log_sd: f64,
 }
 
 /// Writes the dataset.
@@ -37,6 +40,7 @@ pub fn run(args: &Args) -> Result<()> {
         duration_s: args.duration_s,
         sample_rate_hz: args.fs,
         noise_m_s2: args.noise_m_s2,
+        param_log_sd: args.param_log_sd,
         ..SynthSettings::default()
     };
     let bar = indicatif::ProgressBar::new((2 * args.subjects) as u64);

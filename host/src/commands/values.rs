@@ -3,6 +3,8 @@
 
 use std::time::Duration;
 
+use supine_core::sample_rate::SampleRate;
+
 /// Longest timeout any flag accepts, s: one day. Longer waits are mistakes, and
 /// `Duration::from_secs_f64` panics on values it cannot hold.
 pub const MAX_TIMEOUT_S: f64 = 86_400.0;
@@ -41,6 +43,15 @@ pub fn positive_hz(text: &str) -> Result<f64, String> {
     } else {
         Err(format!("expected a frequency above 0 Hz, got {text}"))
     }
+}
+
+/// The help line of a sample-rate flag: `what`, then the device's range in Hz.
+pub fn sample_rate_help(what: &str) -> String {
+    format!(
+        "{what}, Hz ({}..={})",
+        SampleRate::MIN_HZ,
+        SampleRate::MAX_HZ
+    )
 }
 
 #[cfg(test)]

@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use anyhow::{Result, anyhow};
+use supine_core::sample_rate::SampleRate;
 use supine_core::weighting::{WeightingKind, WeightingSettings};
 
 use crate::commands::values;
@@ -36,8 +37,13 @@ pub struct Args {
     /// Which weighting.
     #[arg(long, value_enum)]
     pub kind: Kind,
-    /// Sample rate the filter is designed for, Hz (100..=2000).
-    #[arg(long = "fs", value_name = "HZ", default_value_t = 500.0)]
+    /// Sample rate the filter is designed for, Hz (a rate the device supports).
+    #[arg(
+        long = "fs",
+        value_name = "HZ",
+        default_value_t = 500.0,
+        help = values::sample_rate_help("Sample rate the filter is designed for")
+    )]
     pub fs_hz: f32,
     /// Lowest frequency, Hz.
     #[arg(long = "fmin", value_name = "HZ", default_value_t = 0.1, value_parser = values::positive_hz)]
@@ -56,7 +62,9 @@ pub struct Args {
 /// Writes the response of the device's filter and of the analog weighting on the grid.
 pub fn run(args: &Args) -> Result<()> {
     let kind = WeightingKind::from(args.kind);
-    let filter = WeightingSettings::new(kind, args.fs_hz)
+    let sample_rate =
+        SampleRate::new(args.fs_hz).map_err(|e| anyhow!("--fs {}: {e}", args.fs_hz))?;
+    let filter = WeightingSettings::new(kind, sample_rate)
         .map_err(|e| anyhow!("--fs {}: {e}", args.fs_hz))?;
     let freqs = centre_frequencies(
         args.fmin_hz,
@@ -64,7 +72,7 @@ pub fn run(args: &Args) -> Result<()> {
         args.per_decade,
         args.fs_hz as f64,
     )?;
-    write_response(&args.out, kind, &filter, &freqs)?;
+    write_response(&args.out, kind, &filter, sample_rate, &freqs)?;
     eprintln!(
         "wrote {} ({} frequencies, {kind} at {} Hz)",
         args.out.display(),

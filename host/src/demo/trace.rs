@@ -4,7 +4,7 @@
 //! Reading the files back rather than keeping the messages makes the CSVs the report's
 //! single source: a number in the report can always be found in a file beside it.
 
-use supine_core::alerts::Level;
+use supine_core::alerts::{FaultFlags, Level};
 use supine_core::protocol::Telemetry;
 
 /// Telemetry records as columns, in sample order.
@@ -24,8 +24,8 @@ pub struct Trace {
     pub vdv_m_s175: Vec<f64>,
     /// Exposure alert level.
     pub level: Vec<Level>,
-    /// Active sensor faults (bit per `SensorFault::ALL`).
-    pub fault_flags: Vec<u8>,
+    /// Active sensor faults.
+    pub fault_flags: Vec<FaultFlags>,
     /// Exposure values are valid (warm-up over).
     pub valid: Vec<bool>,
 }

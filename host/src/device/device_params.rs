@@ -9,6 +9,7 @@ use sha2::{Digest, Sha256};
 use supine_core::blob::{DeviceParams, MAX_BLOB_LEN};
 use supine_core::model::device_realization;
 use supine_core::protocol::{IDENTITY_LEN, ParamsIdentity};
+use supine_core::sample_rate::SampleRate;
 
 use crate::io::device_section::check;
 use crate::io::params_file::ParamFile;
@@ -33,27 +34,32 @@ pub fn identity_hex(id: &ParamsIdentity) -> String {
 /// rate) is named by its key.
 pub fn build(file: &ParamFile, sample_rate_hz: f64) -> Result<DeviceParams> {
     let device = file.device.unwrap_or_default();
+    let sample_rate = SampleRate::from_hz_f64(sample_rate_hz)
+        .map_err(|e| anyhow!("{e}, found {sample_rate_hz} Hz"))?;
+    // Discretized at the rate as given, the blob's stages at its f32 value (as before the
+    // rate was stored once: the same bytes for the same file and rate).
     let realization =
         device_realization(&file.params, sample_rate_hz).map_err(|e| anyhow!("{e}"))?;
     DeviceParams::new(
         identity(file)?,
+        sample_rate,
         realization,
         device.exposure,
         device.alerts,
         device.sensor_checks,
         device.mounting,
-        device.telemetry(sample_rate_hz as f32),
+        device.telemetry(sample_rate.hz()),
     )
     .map_err(|e| {
-        let refused = check(&device, realization.sample_rate_hz, Some(&realization)).err();
+        let refused = check(&device, sample_rate, Some(&realization)).err();
         match refused
             .as_ref()
             .and_then(|r| r.first())
             .filter(|r| !r.key.is_empty())
         {
             Some(r) => anyhow!(
-                "device configuration at {} Hz: device.{}: {}",
-                realization.sample_rate_hz,
+                "device configuration at {}: device.{}: {}",
+                sample_rate,
                 r.key,
                 r.reason
             ),

@@ -295,12 +295,7 @@ impl Qemu {
                 return Ok(body.to_owned());
             }
             if Instant::now() >= self.deadline {
-                let output = self.kill()?;
-                return Err(QemuError::Timeout {
-                    timeout: self.timeout,
-                    stdout: output.stdout,
-                    stderr: output.stderr,
-                });
+                return Err(self.kill_for_timeout());
             }
         }
     }
@@ -353,12 +348,7 @@ impl Qemu {
                 return Ok(self.output(status));
             }
             if Instant::now() >= self.deadline {
-                let output = self.kill()?;
-                return Err(QemuError::Timeout {
-                    timeout: self.timeout,
-                    stdout: output.stdout,
-                    stderr: output.stderr,
-                });
+                return Err(self.kill_for_timeout());
             }
             thread::sleep(POLL);
         }
@@ -367,6 +357,18 @@ impl Qemu {
     /// Kills QEMU now (for images that never exit) and returns what it printed.
     pub fn stop(mut self) -> Result<QemuOutput, QemuError> {
         self.kill()
+    }
+
+    /// Kills QEMU past its deadline; the error carries what it printed.
+    fn kill_for_timeout(&mut self) -> QemuError {
+        match self.kill() {
+            Ok(output) => QemuError::Timeout {
+                timeout: self.timeout,
+                stdout: output.stdout,
+                stderr: output.stderr,
+            },
+            Err(e) => e,
+        }
     }
 
     fn kill(&mut self) -> Result<QemuOutput, QemuError> {
@@ -409,12 +411,7 @@ impl Qemu {
                 });
             }
             if Instant::now() >= self.deadline {
-                let output = self.kill()?;
-                return Err(QemuError::Timeout {
-                    timeout: self.timeout,
-                    stdout: output.stdout,
-                    stderr: output.stderr,
-                });
+                return Err(self.kill_for_timeout());
             }
             thread::sleep(POLL);
         }

@@ -45,8 +45,8 @@ pub fn upload<R: Read, W: Write>(
     expect_ack(reader, timeout, |a| matches!(a, ParamAck::Begun)).map_err(|e| {
         // Refused before any byte arrived: this device cannot write its own flash.
         match e.downcast_ref::<Refused>() {
-            Some(Refused(UploadError::Flash)) => {
-                e.context("this device takes no updates over the link: use `supine flash --probe`")
+            Some(Refused(UploadError::UpdatesUnsupported)) => {
+                e.context("write its parameters with `supine flash --probe` instead")
             }
             _ => e,
         }

@@ -8,7 +8,7 @@
 //!   weighted with Wk, Wd or Wj, no model: an `ExposureSettings` whose x axis carries the
 //!   channel and whose other axes carry zeros, so the x axis' values are the channel's.
 //!
-//! Both need the sample rate within the weightings' 100..=2000 Hz; a recording at another
+//! Both need a sample rate the device supports ([`SampleRate`]); a recording at another
 //! rate is converted first by the band-limited [`crate::exposure::resample`] (zero phase), at the
 //! user's request only.
 //!
@@ -27,7 +27,8 @@ use supine_core::exposure::{
     AxisMapping, AxisValues, AxisWeighting, ExposureConfig, ExposureSettings, ExposureState,
 };
 use supine_core::pipeline::{PipelineOutput, PipelineState};
-use supine_core::weighting::{MAX_SAMPLE_RATE_HZ, MIN_SAMPLE_RATE_HZ, WeightingKind};
+use supine_core::sample_rate::{SampleRate, SampleRateError};
+use supine_core::weighting::WeightingKind;
 
 use crate::device::device_params;
 use crate::exposure::resample::Resampler;
@@ -36,12 +37,6 @@ use crate::io::recording::{COLUMNS, Layout, Recording};
 
 /// Samples handed to the device pipeline per call (bounds the index buffer, not the result).
 const CHUNK_SAMPLES: usize = 4096;
-
-/// Whether a rate is one the device's weighting and alert stages accept.
-pub fn rate_supported(sample_rate_hz: f64) -> bool {
-    sample_rate_hz.is_finite()
-        && (MIN_SAMPLE_RATE_HZ as f64..=MAX_SAMPLE_RATE_HZ as f64).contains(&sample_rate_hz)
-}
 
 /// Signals at the rate they will be evaluated at.
 #[derive(Clone, Debug, PartialEq)]
@@ -57,24 +52,23 @@ pub struct Prepared {
 }
 
 /// Brings `channels` of `recording` to `fs_hz` if given (band-limited, see
-/// [`crate::exposure::resample`]), else checks that the recording's own rate is within 100..=2000 Hz.
+/// [`crate::exposure::resample`]), else checks that the recording's own rate is one the device supports.
 pub fn prepare(recording: &Recording, channels: &[&[f64]], fs_hz: Option<f64>) -> Result<Prepared> {
     let own_hz = recording.sample_rate_hz();
     let path = recording.path.display();
     let start_s = recording.time_s.first().copied().unwrap_or(0.0);
-    if let Some(target_hz) = fs_hz.filter(|f| !rate_supported(*f)) {
-        bail!(
-            "--fs {target_hz}: expected a sample rate within {MIN_SAMPLE_RATE_HZ}..={MAX_SAMPLE_RATE_HZ} Hz"
-        );
+    if let Some(target_hz) = fs_hz.filter(|f| !SampleRate::supports_hz(*f)) {
+        bail!("--fs {target_hz}: {SampleRateError}");
     }
     // `--fs` at the recording's own rate (to 1 ppm) changes nothing: no conversion.
     let fs_hz = fs_hz.filter(|f| (f - own_hz).abs() > 1e-6 * own_hz);
     let Some(target_hz) = fs_hz else {
-        if !rate_supported(own_hz) {
+        if !SampleRate::supports_hz(own_hz) {
             bail!(
                 "{path}: sample rate {own_hz:.6} Hz (from column time_s) is outside \
-                 {MIN_SAMPLE_RATE_HZ}..={MAX_SAMPLE_RATE_HZ} Hz, the device's range; \
-                 give --fs HZ to resample"
+                 {}..={} Hz, the device's range; give --fs HZ to resample",
+                SampleRate::MIN_HZ,
+                SampleRate::MAX_HZ
             );
         }
         return Ok(Prepared {
@@ -325,7 +319,7 @@ pub fn run_pipeline(
             }
         });
     }
-    let values = params.exposure.values(state.exposure());
+    let values = params.exposure.values(params.sample_rate, state.exposure());
     Ok((values, events, state.level()))
 }
 
@@ -525,7 +519,9 @@ pub fn channel_values(
         },
         ..ExposureConfig::DEFAULT
     };
-    let settings = ExposureSettings::new(config, sample_rate_hz as f32)
+    let sample_rate = SampleRate::from_hz_f64(sample_rate_hz)
+        .map_err(|e| anyhow!("{e}, found {sample_rate_hz} Hz"))?;
+    let settings = ExposureSettings::new(config, sample_rate)
         .map_err(|e| anyhow!("{e} (at {sample_rate_hz} Hz)"))?;
     let mut state = ExposureState::new();
     if x_m_s2.len() > u32::MAX as usize {
@@ -534,7 +530,7 @@ pub fn channel_values(
     for (k, &x) in x_m_s2.iter().enumerate() {
         settings.step(&mut state, [x as f32, 0.0, 0.0], k as u32);
     }
-    Ok(settings.values(&state))
+    Ok(settings.values(sample_rate, &state))
 }
 
 /// The channel form of `supine exposure`: `prepared.channels` holds the one channel.

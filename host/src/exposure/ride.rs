@@ -37,8 +37,8 @@ use rand_distr::{Distribution, StandardNormal};
 use realfft::RealFftPlanner;
 use realfft::num_complex::Complex;
 use serde::Serialize;
+use supine_core::sample_rate::{SampleRate, SampleRateError};
 
-use crate::exposure::report::rate_supported;
 use crate::io::output::write_atomically;
 use crate::io::recording::{PLATFORM_HEADER_LINE, device_samples};
 
@@ -523,10 +523,11 @@ pub fn draw_shocks(duration_s: f64, rng: &mut ChaCha8Rng) -> Vec<Shock> {
     }
 }
 
-/// Generates a ride of `duration_s` at `sample_rate_hz` (100..=2000 Hz) for `seed`.
+/// Generates a ride of `duration_s` at `sample_rate_hz` (a rate the device supports) for
+/// `seed`.
 pub fn generate(profile: Profile, duration_s: f64, sample_rate_hz: f64, seed: u64) -> Result<Ride> {
-    if !rate_supported(sample_rate_hz) {
-        bail!("--fs {sample_rate_hz}: expected a sample rate within 100..=2000 Hz");
+    if !SampleRate::supports_hz(sample_rate_hz) {
+        bail!("--fs {sample_rate_hz}: {SampleRateError}");
     }
     if !(duration_s.is_finite() && duration_s >= MIN_DURATION_S) {
         bail!("--duration-s {duration_s}: expected at least {MIN_DURATION_S} s");

@@ -6,6 +6,7 @@ use std::io::Write as _;
 use std::path::Path;
 
 use anyhow::{Result, bail};
+use supine_core::sample_rate::SampleRate;
 use supine_core::weighting::{WeightingKind, WeightingSettings, analog_response};
 
 use crate::io::output::write_atomically;
@@ -44,12 +45,13 @@ pub fn write_response(
     path: &Path,
     kind: WeightingKind,
     filter: &WeightingSettings,
+    sample_rate: SampleRate,
     freqs_hz: &[f64],
 ) -> Result<()> {
     write_atomically(path, |w| {
         writeln!(w, "{HEADER}")?;
         for &f in freqs_hz {
-            let h = filter.response(f);
+            let h = filter.response(sample_rate, f);
             let a = analog_response(kind, f);
             writeln!(w, "{f},{},{},{}", h.abs(), h.arg(), a.abs())?;
         }

@@ -20,9 +20,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use realfft::RealFftPlanner;
-use supine_core::model::{
-    MAX_SAMPLE_RATE_HZ, ModalState, Model, ModelParams, Output, ParamId, Preset, Subject,
-};
+use supine_core::model::{ModalState, Model, ModelParams, Output, ParamId, Preset, Subject};
+use supine_core::sample_rate::SampleRate;
 
 use crate::io::dataset::{Dataset, SubjectEntry};
 use crate::io::params_file::{self, ParamFile};
@@ -201,13 +200,14 @@ pub fn synth_recording(
     path: PathBuf,
 ) -> Result<Recording> {
     let fs = settings.sample_rate_hz;
-    if !(fs.is_finite() && fs > 0.0 && fs <= MAX_SAMPLE_RATE_HZ) {
-        bail!("--fs: expected a sample rate in (0, {MAX_SAMPLE_RATE_HZ}] Hz, found {fs}");
+    let max_hz = f64::from(SampleRate::MAX_HZ);
+    if !(fs.is_finite() && fs > 0.0 && fs <= max_hz) {
+        bail!("--fs: expected a sample rate in (0, {max_hz}] Hz, found {fs}");
     }
     if fs < 2.0 * settings.band_hz.1 {
         bail!("--fs: expected at least twice the 16 Hz band edge, found {fs} Hz");
     }
-    let decimation = (MAX_SAMPLE_RATE_HZ / fs).floor().max(1.0) as usize;
+    let decimation = (max_hz / fs).floor().max(1.0) as usize;
     let sim_rate_hz = fs * decimation as f64;
     let n = (settings.duration_s * fs).round() as usize;
     if n < 16 {
@@ -249,6 +249,12 @@ pub fn write_dataset(
         bail!(
             "--noise-m-s2: expected a finite number >= 0, found {}",
             settings.noise_m_s2
+        );
+    }
+    if !(settings.param_log_sd >= 0.0 && settings.param_log_sd.is_finite()) {
+        bail!(
+            "--param-log-sd: expected a finite number >= 0, found {}",
+            settings.param_log_sd
         );
     }
     std::fs::create_dir_all(dir.join("truth"))

@@ -16,9 +16,8 @@ use anyhow::{Result, anyhow, bail};
 use nalgebra::Complex;
 use realfft::RealFftPlanner;
 use serde::Serialize;
-use supine_core::model::{
-    MAX_SAMPLE_RATE_HZ, MIN_SAMPLE_RATE_HZ, ModalState, Model, ModelParams, Output,
-};
+use supine_core::model::{ModalState, Model, ModelParams, Output};
+use supine_core::sample_rate::SampleRate;
 
 use crate::identify::spectral::{DEFAULT_RESOLUTION_HZ, WelchSettings, psd};
 use crate::io::output::write_atomically;
@@ -68,9 +67,14 @@ pub fn upsample(x: &[f64], factor: usize) -> Result<Vec<f64>> {
 /// recording's support acceleration, one per input sample, starting from rest.
 pub fn predict(params: &ModelParams, recording: &Recording) -> Result<[Vec<f64>; 9]> {
     let fs = recording.sample_rate_hz();
-    if !(MIN_SAMPLE_RATE_HZ / 10.0..=MAX_SAMPLE_RATE_HZ).contains(&fs) {
+    // Slower recordings than the device's are upsampled for the simulation, down to a tenth.
+    let (lowest_hz, highest_hz) = (
+        f64::from(SampleRate::MIN_HZ) / 10.0,
+        f64::from(SampleRate::MAX_HZ),
+    );
+    if !(lowest_hz..=highest_hz).contains(&fs) {
         bail!(
-            "{}: column time_s: expected a sample rate of 10..=2000 Hz, found {fs:.3} Hz",
+            "{}: column time_s: expected a sample rate of {lowest_hz}..={highest_hz} Hz, found {fs:.3} Hz",
             recording.path.display()
         );
     }

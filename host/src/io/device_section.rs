@@ -14,6 +14,7 @@ use supine_core::blob::{DeviceParams, TelemetryConfig};
 use supine_core::exposure::{ExposureConfig, ExposureSettings};
 use supine_core::model::DeviceRealization;
 use supine_core::mounting::Mounting;
+use supine_core::sample_rate::SampleRate;
 
 use crate::io::excerpt::value;
 use crate::io::text_position::line_column;
@@ -76,28 +77,29 @@ pub struct Refusal {
     pub reason: String,
 }
 
-/// The core's verdict on `section` at `sample_rate_hz`: each stage's own check (whose
-/// error says what is expected), then, given a realization, the whole blob's.
+/// The core's verdict on `section` at `sample_rate`: each stage's own check (whose error
+/// says what is expected), then, given a realization at that rate, the whole blob's.
 pub fn core_check(
     section: &DeviceSection,
-    sample_rate_hz: f32,
+    sample_rate: SampleRate,
     realization: Option<&DeviceRealization>,
 ) -> Result<(), String> {
-    ExposureSettings::new(section.exposure, sample_rate_hz).map_err(|e| e.to_string())?;
-    AlertSettings::new(section.alerts, sample_rate_hz).map_err(|e| e.to_string())?;
-    SensorCheckSettings::new(section.sensor_checks, sample_rate_hz).map_err(|e| e.to_string())?;
+    ExposureSettings::new(section.exposure, sample_rate).map_err(|e| e.to_string())?;
+    AlertSettings::new(section.alerts, sample_rate).map_err(|e| e.to_string())?;
+    SensorCheckSettings::new(section.sensor_checks, sample_rate).map_err(|e| e.to_string())?;
     section.mounting.validate().map_err(|e| e.to_string())?;
     if let Some(realization) = realization {
         DeviceParams::new(
             [0; supine_core::protocol::IDENTITY_LEN],
+            sample_rate,
             *realization,
             section.exposure,
             section.alerts,
             section.sensor_checks,
             section.mounting,
-            section.telemetry(sample_rate_hz),
+            section.telemetry(sample_rate.hz()),
         )
-        .map_err(|e| match section.telemetry(sample_rate_hz).decimation {
+        .map_err(|e| match section.telemetry(sample_rate.hz()).decimation {
             // The blob's only rule without a stage of its own (its error says only "out of
             // range"): say what it expects.
             0 => "expected telemetry every 1 or more samples".to_string(),
@@ -107,19 +109,18 @@ pub fn core_check(
     Ok(())
 }
 
-/// Whether the core accepts `section` at `sample_rate_hz`; if not, the keys it refuses
+/// Whether the core accepts `section` at `sample_rate`; if not, the keys it refuses
 /// alone (every other key at its default, in key order), or, when no key is refused
 /// alone, one refusal of the whole table (an empty `key`). A realization that the default
 /// table fails with is not used: the fault is then the model's, not a key's.
 pub fn check(
     section: &DeviceSection,
-    sample_rate_hz: f32,
+    sample_rate: SampleRate,
     realization: Option<&DeviceRealization>,
 ) -> Result<(), Vec<Refusal>> {
     let defaults = DeviceSection::default();
-    let realization =
-        realization.filter(|r| core_check(&defaults, sample_rate_hz, Some(r)).is_ok());
-    let Err(whole) = core_check(section, sample_rate_hz, realization) else {
+    let realization = realization.filter(|r| core_check(&defaults, sample_rate, Some(r)).is_ok());
+    let Err(whole) = core_check(section, sample_rate, realization) else {
         return Ok(());
     };
     let mut refusals = Vec::new();
@@ -133,7 +134,7 @@ pub fn check(
             let Ok(alone) = toml::Value::Table(candidate).try_into::<DeviceSection>() else {
                 continue;
             };
-            if let Err(reason) = core_check(&alone, sample_rate_hz, realization) {
+            if let Err(reason) = core_check(&alone, sample_rate, realization) {
                 refusals.push(Refusal {
                     key: path.join("."),
                     reason,
@@ -207,12 +208,16 @@ mod tests {
     use super::*;
     use supine_core::model::{ModelParams, Preset, device_realization};
 
+    fn rate(hz: f32) -> SampleRate {
+        SampleRate::new(hz).unwrap()
+    }
+
     fn realization() -> DeviceRealization {
         device_realization(&ModelParams::preset(Preset::PaperLitter), 500.0).unwrap()
     }
 
     fn refused(section: &DeviceSection) -> Vec<String> {
-        let mut keys: Vec<String> = match check(section, 500.0, Some(&realization())) {
+        let mut keys: Vec<String> = match check(section, rate(500.0), Some(&realization())) {
             Ok(()) => Vec::new(),
             Err(refusals) => refusals.into_iter().map(|r| r.key).collect(),
         };
@@ -222,7 +227,7 @@ mod tests {
 
     #[test]
     fn the_defaults_pass_and_each_bad_value_is_blamed_on_its_own_key() {
-        assert!(core_check(&DeviceSection::default(), 500.0, Some(&realization())).is_ok());
+        assert!(core_check(&DeviceSection::default(), rate(500.0), Some(&realization())).is_ok());
         assert!(refused(&DeviceSection::default()).is_empty());
         let mut s = DeviceSection::default();
         s.alerts.hysteresis = 2.0;
@@ -242,7 +247,7 @@ mod tests {
         );
         let mut s = DeviceSection::default();
         s.exposure.axes.y.k = 0.0;
-        let r = check(&s, 500.0, None).unwrap_err();
+        let r = check(&s, rate(500.0), None).unwrap_err();
         assert_eq!(r.len(), 1);
         assert_eq!(r[0].key, "exposure.axes.y.k");
         assert_eq!(
@@ -256,9 +261,9 @@ mod tests {
         let mut s = DeviceSection::default();
         // Two samples at 2 kHz, under one at 100 Hz.
         s.exposure.running_tau_s = 0.001;
-        assert_eq!(check(&s, 2000.0, None), Ok(()));
+        assert_eq!(check(&s, rate(2000.0), None), Ok(()));
         assert_eq!(
-            check(&s, 100.0, None).unwrap_err()[0].key,
+            check(&s, rate(100.0), None).unwrap_err()[0].key,
             "exposure.running_tau_s"
         );
     }

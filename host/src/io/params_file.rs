@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 use supine_core::model::params::{Contacts, Joints, SensorOffsets};
 use supine_core::model::{ModelParams, ParamError, Preset, Subject, device_realization};
 use supine_core::mounting::Mounting;
-use supine_core::weighting::MAX_SAMPLE_RATE_HZ;
+use supine_core::sample_rate::SampleRate;
 
 pub use crate::io::device_section::DeviceSection;
 use crate::io::device_section::{check, locate};
@@ -186,8 +186,8 @@ fn check_device(
     text: &str,
     path: &Path,
 ) -> Result<()> {
-    let realization = device_realization(params, f64::from(MAX_SAMPLE_RATE_HZ)).ok();
-    let Err(refusals) = check(device, MAX_SAMPLE_RATE_HZ, realization.as_ref()) else {
+    let realization = device_realization(params, LOOSEST_RATE.hz_f64()).ok();
+    let Err(refusals) = check(device, LOOSEST_RATE, realization.as_ref()) else {
         return Ok(());
     };
     // The refused key written first in the file; every refusal has a key or the table.
@@ -223,6 +223,12 @@ fn check_device(
         ),
     })
 }
+
+/// The highest rate the device runs at, where the `[device]` table is checked at load.
+const LOOSEST_RATE: SampleRate = match SampleRate::new(SampleRate::MAX_HZ) {
+    Ok(rate) => rate,
+    Err(_) => panic!("the highest supported rate is supported"),
+};
 
 /// Names the line of the offending key: the table header, then the key under it.
 fn validation_error(text: &str, path: &Path, err: &ParamError) -> anyhow::Error {

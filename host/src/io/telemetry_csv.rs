@@ -9,7 +9,7 @@ use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Result, anyhow, bail};
-use supine_core::alerts::{AlertEvent, Level};
+use supine_core::alerts::{AlertEvent, FaultFlags, Level};
 use supine_core::protocol::Telemetry;
 
 use super::csv_lines::CsvLines;
@@ -47,7 +47,7 @@ pub fn telemetry_row(t: &Telemetry, sample_rate_hz: f64) -> String {
         t.vector_running_rms_m_s2,
         t.vdv_m_s175,
         t.alert_level.name(),
-        t.fault_flags,
+        t.fault_flags.as_repr(),
         u8::from(t.valid),
     )
 }
@@ -173,12 +173,17 @@ pub fn read_telemetry(path: &Path) -> Result<Vec<Telemetry>> {
                 excerpt(cells[10])
             )
         })?;
-        let fault_flags: u8 = cells[11].parse().map_err(|_| {
-            anyhow!(
-                "{at}, column fault_flags: expected 0..=255, found {}",
-                excerpt(cells[11])
-            )
-        })?;
+        let fault_flags = cells[11]
+            .parse()
+            .ok()
+            .and_then(FaultFlags::try_from_repr)
+            .ok_or_else(|| {
+                anyhow!(
+                    "{at}, column fault_flags: expected 0..={}, found {}",
+                    FaultFlags::all().as_repr(),
+                    excerpt(cells[11])
+                )
+            })?;
         let valid = match cells[12] {
             "0" => false,
             "1" => true,
@@ -311,7 +316,7 @@ mod tests {
             vector_running_rms_m_s2: 7.001,
             vdv_m_s175: 2.25,
             alert_level: Level::Warning,
-            fault_flags: 0b0100,
+            fault_flags: FaultFlags::try_from_repr(0b0100).expect("a known fault bit"),
             valid: true,
         };
         let dir = tempfile::tempdir().expect("temp dir");

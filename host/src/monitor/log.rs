@@ -154,7 +154,7 @@ impl MonitorLog {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use supine_core::alerts::{AlertEvent, Level};
+    use supine_core::alerts::{AlertEvent, Level, SensorFault};
     use supine_core::protocol::Telemetry;
 
     fn telemetry(sample_index: u32) -> Telemetry {
@@ -165,7 +165,7 @@ mod tests {
             vector_running_rms_m_s2: 0.4,
             vdv_m_s175: 0.5,
             alert_level: Level::Advisory,
-            fault_flags: 0b1000,
+            fault_flags: SensorFault::IndexGap.into(),
             valid: true,
         }
     }

@@ -357,7 +357,7 @@ mod tests {
 
     use super::*;
     use crate::monitor::view::PlainView;
-    use supine_core::alerts::{AlertEvent, Level, SensorFault};
+    use supine_core::alerts::{AlertEvent, FaultFlags, Level, SensorFault};
     use supine_core::protocol::{
         DeviceFrame, MAX_FRAME_LEN, PROTOCOL_VERSION, ParamsSource, ResetCause, Status, Telemetry,
         encode_frame,
@@ -390,7 +390,7 @@ mod tests {
             vector_running_rms_m_s2: 0.95,
             vdv_m_s175: 2.0,
             alert_level: Level::Advisory,
-            fault_flags: 0,
+            fault_flags: FaultFlags::empty(),
             valid: true,
         })
     }

@@ -5,7 +5,7 @@
 use std::collections::VecDeque;
 
 use anyhow::Result;
-use supine_core::alerts::{AlertEvent, Level, SensorFault};
+use supine_core::alerts::{AlertEvent, FaultFlags, Level};
 use supine_core::protocol::{DeviceToHost, Greeting, ParamsSource, Status, Telemetry};
 
 use crate::device::device_params::identity_hex;
@@ -70,16 +70,9 @@ pub struct Notice {
     pub text: String,
 }
 
-/// Names of the faults set in a telemetry record's `fault_flags` (bit order of
-/// `SensorFault::ALL`); bits no fault owns are named `bit N` rather than dropped.
-pub fn fault_names(fault_flags: u8) -> Vec<String> {
-    (0..8u8)
-        .filter(|bit| fault_flags & (1 << bit) != 0)
-        .map(|bit| match SensorFault::ALL.get(usize::from(bit)) {
-            Some(f) => f.name().to_string(),
-            None => format!("bit {bit}"),
-        })
-        .collect()
+/// Names of the faults in `fault_flags`, in bit order (`SensorFault::ALL`).
+pub fn fault_names(fault_flags: FaultFlags) -> Vec<String> {
+    fault_flags.iter().map(|f| f.name().to_string()).collect()
 }
 
 /// One line describing an alert event, with its time at `sample_rate_hz`.
@@ -125,7 +118,7 @@ pub struct Monitor {
     latest: Option<Telemetry>,
     level: Level,
     highest_level: Level,
-    faults: u8,
+    faults: FaultFlags,
     peak_head_m_s2: f32,
     peak_vector_rms_m_s2: f32,
     history: VecDeque<AlertEvent>,
@@ -148,7 +141,7 @@ impl Monitor {
             latest: None,
             level: Level::Normal,
             highest_level: Level::Normal,
-            faults: 0,
+            faults: FaultFlags::empty(),
             peak_head_m_s2: 0.0,
             peak_vector_rms_m_s2: 0.0,
             history: VecDeque::with_capacity(HISTORY_LEN),
@@ -168,12 +161,10 @@ impl Monitor {
                 self.faults = t.fault_flags;
                 let [x, y, z] = t.head_acc_m_s2;
                 let magnitude = (x * x + y * y + z * z).sqrt();
-                if magnitude.is_finite() {
-                    self.peak_head_m_s2 = self.peak_head_m_s2.max(magnitude);
-                }
-                if t.valid && t.vector_running_rms_m_s2.is_finite() {
+                self.peak_head_m_s2 = peak_of(self.peak_head_m_s2, magnitude);
+                if t.valid {
                     self.peak_vector_rms_m_s2 =
-                        self.peak_vector_rms_m_s2.max(t.vector_running_rms_m_s2);
+                        peak_of(self.peak_vector_rms_m_s2, t.vector_running_rms_m_s2);
                 }
                 self.latest = Some(*t);
                 Ok(None)
@@ -189,14 +180,10 @@ impl Monitor {
                         self.highest_level = self.highest_level.max(to);
                     }
                     AlertEvent::Fault { fault, active, .. } => {
-                        let bit = SensorFault::ALL
-                            .iter()
-                            .position(|f| *f == fault)
-                            .unwrap_or(0);
                         if active {
-                            self.faults |= 1 << bit;
+                            self.faults.insert(fault);
                         } else {
-                            self.faults &= !(1 << bit);
+                            self.faults.remove(fault);
                         }
                     }
                 }
@@ -270,8 +257,8 @@ impl Monitor {
         self.highest_level
     }
 
-    /// Active fault flags (bit order of `SensorFault::ALL`).
-    pub fn fault_flags(&self) -> u8 {
+    /// The active faults.
+    pub fn fault_flags(&self) -> FaultFlags {
         self.faults
     }
 
@@ -398,9 +385,21 @@ pub fn device_line(g: &Greeting) -> String {
     )
 }
 
+/// The larger of a peak so far and a new value, where a NaN stays NaN: a summary must
+/// show that a device sent a value that is not a number, never skip it (`f32::max`
+/// ignores NaN).
+fn peak_of(peak: f32, value: f32) -> f32 {
+    if peak.is_nan() || value.is_nan() {
+        f32::NAN
+    } else {
+        peak.max(value)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use supine_core::alerts::SensorFault;
     use supine_core::protocol::{PROTOCOL_VERSION, ResetCause};
 
     pub(crate) fn greeting(protocol_version: u16) -> Greeting {
@@ -415,7 +414,7 @@ mod tests {
         }
     }
 
-    fn telemetry(sample_index: u32, level: Level, fault_flags: u8) -> Telemetry {
+    fn telemetry(sample_index: u32, level: Level, fault_flags: FaultFlags) -> Telemetry {
         Telemetry {
             sample_index,
             head_acc_m_s2: [0.3, -0.4, 1.2],
@@ -426,6 +425,24 @@ mod tests {
             fault_flags,
             valid: true,
         }
+    }
+
+    #[test]
+    fn a_non_finite_value_from_the_device_shows_in_the_summary() {
+        let mut m = Monitor::new(&greeting(PROTOCOL_VERSION)).expect("monitor");
+        let normal = telemetry(1, Level::Normal, FaultFlags::empty());
+        let nan = Telemetry {
+            vector_running_rms_m_s2: f32::NAN,
+            head_acc_m_s2: [f32::INFINITY, 0.0, 0.0],
+            ..telemetry(2, Level::Normal, FaultFlags::empty())
+        };
+        for t in [normal, nan, normal] {
+            m.on_message(&DeviceToHost::Telemetry(t)).expect("ok");
+        }
+        assert!(m.peak_vector_rms_m_s2().is_nan());
+        assert_eq!(m.peak_head_m_s2(), f32::INFINITY);
+        let summary = m.summary();
+        assert!(summary.contains("peak running rms NaN"), "{summary}");
     }
 
     #[test]
@@ -452,20 +469,15 @@ mod tests {
     }
 
     #[test]
-    fn fault_flags_are_named_in_bit_order_and_unknown_bits_kept() {
-        assert!(fault_names(0).is_empty());
-        assert_eq!(fault_names(0b0001), ["non-finite"]);
-        assert_eq!(fault_names(0b1010), ["saturated", "index-gap"]);
-        assert_eq!(fault_names(0b1000_0100), ["stuck", "bit 7"]);
-        // The names follow the protocol's own bit test.
-        let t = telemetry(0, Level::Normal, 0b0110);
-        for f in SensorFault::ALL {
-            assert_eq!(
-                t.has_fault(f),
-                fault_names(t.fault_flags).contains(&f.name().to_string()),
-                "{f}"
-            );
-        }
+    fn fault_flags_are_named_in_bit_order() {
+        let named = |byte: u8| fault_names(FaultFlags::try_from_repr(byte).expect("known bits"));
+        assert!(named(0).is_empty());
+        assert_eq!(named(0b0001), ["non-finite"]);
+        assert_eq!(named(0b1010), ["saturated", "index-gap"]);
+        assert_eq!(
+            named(0b1111),
+            ["non-finite", "saturated", "stuck", "index-gap"]
+        );
     }
 
     #[test]
@@ -513,7 +525,7 @@ mod tests {
         let mut m = Monitor::new(&greeting(PROTOCOL_VERSION)).expect("monitor");
         assert!(m.latest().is_none());
         assert!(m.render_line().starts_with("no telemetry yet"));
-        let t = telemetry(1000, Level::Normal, 0);
+        let t = telemetry(1000, Level::Normal, FaultFlags::empty());
         assert_eq!(m.on_message(&DeviceToHost::Telemetry(t)).expect("ok"), None);
         assert_eq!(m.time_s(), 2.0);
         let raise = AlertEvent::Level {
@@ -545,7 +557,7 @@ mod tests {
         m.on_message(&DeviceToHost::Telemetry(telemetry(
             4001,
             Level::Normal,
-            0b0010,
+            SensorFault::Saturated.into(),
         )))
         .expect("ok");
         assert_eq!(m.level(), Level::Normal);

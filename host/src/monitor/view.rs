@@ -336,7 +336,7 @@ mod tests {
             vector_running_rms_m_s2: 1.3,
             vdv_m_s175: 3.25,
             alert_level: Level::Alarm,
-            fault_flags: 0b0100,
+            fault_flags: SensorFault::Stuck.into(),
             valid: true,
         }))
         .expect("telemetry");

@@ -5,6 +5,11 @@ use crate::exposure::{ExposureConfig, ExposureSettings, ExposureState};
 
 const FS: f32 = 500.0;
 
+/// A supported rate (every rate these tests build for is one).
+fn rate(hz: f32) -> SampleRate {
+    SampleRate::new(hz).expect("a supported rate")
+}
+
 fn sample(rms_m_s2: f32, vdv_m_s175: f32) -> ExposureSample {
     ExposureSample {
         running_ms_m2_s4: rms_m_s2 * rms_m_s2,
@@ -29,7 +34,7 @@ fn feed(
 
 #[test]
 fn a_rising_running_rms_raises_advisory_warning_and_alarm_after_the_raise_dwell() {
-    let s = AlertSettings::new(AlertConfig::DEFAULT, FS).unwrap();
+    let s = AlertSettings::new(AlertConfig::DEFAULT, rate(FS)).unwrap();
     assert_eq!(s.raise_dwell_samples, 250);
     let mut st = AlertState::new();
     let mut ev = feed(&s, &mut st, 0, 1000, |_| 0.6);
@@ -61,7 +66,7 @@ fn a_rising_running_rms_raises_advisory_warning_and_alarm_after_the_raise_dwell(
 
 #[test]
 fn a_jump_straight_to_alarm_is_one_event() {
-    let s = AlertSettings::new(AlertConfig::DEFAULT, FS).unwrap();
+    let s = AlertSettings::new(AlertConfig::DEFAULT, rate(FS)).unwrap();
     let mut st = AlertState::new();
     let ev = feed(&s, &mut st, 0, 500, |_| 3.0);
     assert_eq!(
@@ -76,7 +81,7 @@ fn a_jump_straight_to_alarm_is_one_event() {
 
 #[test]
 fn a_spike_shorter_than_the_raise_dwell_raises_nothing() {
-    let s = AlertSettings::new(AlertConfig::DEFAULT, FS).unwrap();
+    let s = AlertSettings::new(AlertConfig::DEFAULT, rate(FS)).unwrap();
     let mut st = AlertState::new();
     let ev = feed(&s, &mut st, 0, 2000, |i| {
         if (100..300).contains(&i) { 2.0 } else { 0.1 }
@@ -87,7 +92,7 @@ fn a_spike_shorter_than_the_raise_dwell_raises_nothing() {
 
 #[test]
 fn a_running_rms_hovering_around_a_threshold_does_not_chatter() {
-    let s = AlertSettings::new(AlertConfig::DEFAULT, FS).unwrap();
+    let s = AlertSettings::new(AlertConfig::DEFAULT, rate(FS)).unwrap();
     let mut st = AlertState::new();
     // 0.5 m/s^2 +/- 8 %, alternating every 0.6 s: inside the 20 % hysteresis band.
     let ev = feed(&s, &mut st, 0, 30_000, |i| {
@@ -99,7 +104,7 @@ fn a_running_rms_hovering_around_a_threshold_does_not_chatter() {
 
 #[test]
 fn a_level_clears_only_below_the_hysteresis_band_and_after_the_clear_dwell() {
-    let s = AlertSettings::new(AlertConfig::DEFAULT, FS).unwrap();
+    let s = AlertSettings::new(AlertConfig::DEFAULT, rate(FS)).unwrap();
     let mut st = AlertState::new();
     feed(&s, &mut st, 0, 1000, |_| 0.9);
     assert_eq!(st.level(), Level::Warning);
@@ -130,7 +135,7 @@ fn a_level_clears_only_below_the_hysteresis_band_and_after_the_clear_dwell() {
 
 #[test]
 fn a_vdv_over_its_threshold_raises_a_level_that_stays() {
-    let s = AlertSettings::new(AlertConfig::DEFAULT, FS).unwrap();
+    let s = AlertSettings::new(AlertConfig::DEFAULT, rate(FS)).unwrap();
     let mut st = AlertState::new();
     let mut ev = Vec::new();
     for i in 0..2000u32 {
@@ -158,7 +163,7 @@ fn a_vdv_over_its_threshold_raises_a_level_that_stays() {
 
 #[test]
 fn nothing_is_raised_while_the_exposure_is_still_warming_up() {
-    let s = AlertSettings::new(AlertConfig::DEFAULT, FS).unwrap();
+    let s = AlertSettings::new(AlertConfig::DEFAULT, rate(FS)).unwrap();
     let mut st = AlertState::new();
     let warming = ExposureSample {
         valid: false,
@@ -170,8 +175,8 @@ fn nothing_is_raised_while_the_exposure_is_still_warming_up() {
 
 #[test]
 fn a_five_hertz_sine_through_the_exposure_stage_raises_advisory_half_a_second_after_warm_up() {
-    let e = ExposureSettings::new(ExposureConfig::DEFAULT, FS).unwrap();
-    let a = AlertSettings::new(AlertConfig::DEFAULT, FS).unwrap();
+    let e = ExposureSettings::new(ExposureConfig::DEFAULT, rate(FS)).unwrap();
+    let a = AlertSettings::new(AlertConfig::DEFAULT, rate(FS)).unwrap();
     let (mut es, mut ast) = (ExposureState::new(), AlertState::new());
     let mut ev = Vec::new();
     for i in 0..(20.0 * FS) as u32 {
@@ -197,7 +202,7 @@ fn alert_configurations_that_make_no_sense_are_refused() {
     let bad = |f: fn(&mut AlertConfig)| {
         let mut c = AlertConfig::DEFAULT;
         f(&mut c);
-        AlertSettings::new(c, FS).unwrap_err()
+        AlertSettings::new(c, rate(FS)).unwrap_err()
     };
     assert_eq!(
         bad(|c| c.running_rms_m_s2 = [0.8, 0.5, 1.25]),
@@ -208,26 +213,27 @@ fn alert_configurations_that_make_no_sense_are_refused() {
     assert_eq!(bad(|c| c.hysteresis = 1.0), AlertError::Hysteresis);
     assert_eq!(bad(|c| c.raise_dwell_s = -1.0), AlertError::Time);
     assert_eq!(bad(|c| c.clear_dwell_s = f32::INFINITY), AlertError::Time);
-    assert_eq!(
-        AlertSettings::new(AlertConfig::DEFAULT, 5000.0),
-        Err(AlertError::SampleRate)
-    );
-    let mut s = AlertSettings::new(AlertConfig::DEFAULT, FS).unwrap();
-    assert_eq!(s.validate(), Ok(()));
+    let mut s = AlertSettings::new(AlertConfig::DEFAULT, rate(FS)).unwrap();
+    assert_eq!(s.validate(rate(FS)), Ok(()));
+    // Dwell times count samples: settings built for one rate are refused at another.
+    assert!(s.validate(rate(2.0 * FS)).is_err());
     s.raise_ms_m2_s4[0] = 0.0;
-    assert!(s.validate().is_err());
+    assert!(s.validate(rate(FS)).is_err());
     let mut c = SensorCheckConfig::DEFAULT;
     c.full_scale_m_s2 = -1.0;
-    assert_eq!(SensorCheckSettings::new(c, FS), Err(AlertError::FullScale));
+    assert_eq!(
+        SensorCheckSettings::new(c, rate(FS)),
+        Err(AlertError::FullScale)
+    );
 }
 
 #[test]
 fn alert_settings_survive_a_postcard_round_trip() {
-    let s = AlertSettings::new(AlertConfig::DEFAULT, FS).unwrap();
+    let s = AlertSettings::new(AlertConfig::DEFAULT, rate(FS)).unwrap();
     let mut buf = [0u8; 256];
     let bytes = postcard::to_slice(&s, &mut buf).unwrap();
     assert_eq!(postcard::from_bytes::<AlertSettings>(bytes).unwrap(), s);
-    let c = SensorCheckSettings::new(SensorCheckConfig::DEFAULT, FS).unwrap();
+    let c = SensorCheckSettings::new(SensorCheckConfig::DEFAULT, rate(FS)).unwrap();
     let bytes = postcard::to_slice(&c, &mut buf).unwrap();
     assert_eq!(
         postcard::from_bytes::<SensorCheckSettings>(bytes).unwrap(),
@@ -257,14 +263,14 @@ fn run_sensor(
 
 #[test]
 fn a_healthy_stream_raises_no_fault() {
-    let s = SensorCheckSettings::new(SensorCheckConfig::DEFAULT, FS).unwrap();
+    let s = SensorCheckSettings::new(SensorCheckConfig::DEFAULT, rate(FS)).unwrap();
     let mut st = SensorCheckState::new();
     assert!(run_sensor(&s, &mut st, 0..10_000, healthy).is_empty());
 }
 
 #[test]
 fn a_nan_sample_raises_non_finite_and_clears_after_a_second_of_finite_samples() {
-    let s = SensorCheckSettings::new(SensorCheckConfig::DEFAULT, FS).unwrap();
+    let s = SensorCheckSettings::new(SensorCheckConfig::DEFAULT, rate(FS)).unwrap();
     let mut st = SensorCheckState::new();
     let ev = run_sensor(&s, &mut st, 0..2000, |i| {
         let mut x = healthy(i);
@@ -292,7 +298,7 @@ fn a_nan_sample_raises_non_finite_and_clears_after_a_second_of_finite_samples() 
 
 #[test]
 fn an_infinite_sample_is_non_finite_and_a_full_scale_sample_is_saturation() {
-    let s = SensorCheckSettings::new(SensorCheckConfig::DEFAULT, FS).unwrap();
+    let s = SensorCheckSettings::new(SensorCheckConfig::DEFAULT, rate(FS)).unwrap();
     let fs = SensorCheckConfig::DEFAULT.full_scale_m_s2;
     let mut st = SensorCheckState::new();
     let ev = run_sensor(&s, &mut st, 0..300, |i| {
@@ -320,12 +326,13 @@ fn an_infinite_sample_is_non_finite_and_a_full_scale_sample_is_saturation() {
             },
         ]
     );
-    assert!(st.is_active(SensorFault::Saturated) && st.any_active());
+    // The non-finite sample at 10 has not been cleared yet (that takes a second).
+    assert_eq!(st.active(), SensorFault::NonFinite | SensorFault::Saturated);
 }
 
 #[test]
 fn an_axis_repeating_the_same_value_for_a_second_is_stuck_until_it_moves() {
-    let s = SensorCheckSettings::new(SensorCheckConfig::DEFAULT, FS).unwrap();
+    let s = SensorCheckSettings::new(SensorCheckConfig::DEFAULT, rate(FS)).unwrap();
     let mut st = SensorCheckState::new();
     let ev = run_sensor(&s, &mut st, 0..3000, |i| {
         let mut x = healthy(i);
@@ -354,7 +361,7 @@ fn an_axis_repeating_the_same_value_for_a_second_is_stuck_until_it_moves() {
 
 #[test]
 fn a_skipped_or_repeated_sample_index_raises_an_index_gap() {
-    let s = SensorCheckSettings::new(SensorCheckConfig::DEFAULT, FS).unwrap();
+    let s = SensorCheckSettings::new(SensorCheckConfig::DEFAULT, rate(FS)).unwrap();
     let mut st = SensorCheckState::new();
     let indices = (0..100).chain(103..200).chain(199..1000);
     let ev = run_sensor(&s, &mut st, indices, healthy);
@@ -377,7 +384,7 @@ fn a_skipped_or_repeated_sample_index_raises_an_index_gap() {
 
 #[test]
 fn the_sample_index_wrapping_past_u32_max_is_not_a_gap() {
-    let s = SensorCheckSettings::new(SensorCheckConfig::DEFAULT, FS).unwrap();
+    let s = SensorCheckSettings::new(SensorCheckConfig::DEFAULT, rate(FS)).unwrap();
     let mut st = SensorCheckState::new();
     let indices = (u32::MAX - 10..=u32::MAX).chain(0..10);
     assert!(run_sensor(&s, &mut st, indices, healthy).is_empty());
@@ -388,7 +395,7 @@ fn a_block_of_32_samples_gives_the_same_events_and_state_as_32_single_steps() {
     let mut cfg = AlertConfig::DEFAULT;
     cfg.raise_dwell_s = 0.02;
     cfg.clear_dwell_s = 0.1;
-    let s = AlertSettings::new(cfg, FS).unwrap();
+    let s = AlertSettings::new(cfg, rate(FS)).unwrap();
     // A running rms that wanders through every level, with invalid stretches and a VDV
     // that creeps up past its thresholds.
     let rms = |i: u32| {
@@ -417,7 +424,7 @@ fn a_block_of_32_samples_gives_the_same_events_and_state_as_32_single_steps() {
 
 #[test]
 fn a_sensor_block_of_32_samples_gives_the_same_events_and_state_as_32_single_steps() {
-    let s = SensorCheckSettings::new(SensorCheckConfig::DEFAULT, FS).unwrap();
+    let s = SensorCheckSettings::new(SensorCheckConfig::DEFAULT, rate(FS)).unwrap();
     let fs = SensorCheckConfig::DEFAULT.full_scale_m_s2;
     // Healthy noise with a NaN, a saturation, a stuck stretch and index gaps.
     let x = |i: u32| {
@@ -452,4 +459,28 @@ fn a_sensor_block_of_32_samples_gives_the_same_events_and_state_as_32_single_ste
     }
     assert_eq!(ev_one.len(), 10, "{ev_one:?}");
     assert_eq!(ev_one, ev_block);
+}
+
+#[test]
+fn fault_flags_are_one_byte_with_bit_n_for_the_nth_fault_and_other_bits_do_not_decode() {
+    for byte in 0u8..=255 {
+        let decoded = postcard::from_bytes::<FaultFlags>(&[byte]);
+        if byte >= 1 << SensorFault::ALL.len() {
+            assert!(decoded.is_err(), "{byte:#010b} decoded");
+            continue;
+        }
+        let flags = decoded.unwrap();
+        for (n, fault) in SensorFault::ALL.into_iter().enumerate() {
+            assert_eq!(flags.contains(fault), byte & (1 << n) != 0, "{byte:#06b}");
+        }
+        assert_eq!(flags.as_repr(), byte);
+        let mut buf = [0u8; 4];
+        assert_eq!(postcard::to_slice(&flags, &mut buf).unwrap(), [byte]);
+        let listed: Vec<SensorFault> = flags.iter().collect();
+        let expected: Vec<SensorFault> = SensorFault::ALL
+            .into_iter()
+            .filter(|f| flags.contains(*f))
+            .collect();
+        assert_eq!(listed, expected, "iteration in bit order");
+    }
 }

@@ -7,6 +7,11 @@ use crate::weighting::analog_response;
 
 const FS: f32 = 500.0;
 
+/// A supported rate (every rate these tests build for is one).
+fn rate(hz: f32) -> SampleRate {
+    SampleRate::new(hz).expect("a supported rate")
+}
+
 fn run(settings: &ExposureSettings, signal: impl Fn(usize) -> [f32; 3], n: usize) -> ExposureState {
     let mut st = ExposureState::new();
     for i in 0..n {
@@ -21,7 +26,7 @@ fn close(got: f32, want: f64, rel: f64) -> bool {
 
 #[test]
 fn a_sine_on_each_axis_gives_rms_of_amplitude_times_factor_over_root_two() {
-    let s = ExposureSettings::new(ExposureConfig::DEFAULT, FS).unwrap();
+    let s = ExposureSettings::new(ExposureConfig::DEFAULT, rate(FS)).unwrap();
     let (f, amp) = ([4.0, 1.5, 8.0], [1.0, 0.5, 2.0]);
     let secs = 60.0;
     let n = ((5.0 + secs) * FS as f64) as usize;
@@ -33,7 +38,7 @@ fn a_sine_on_each_axis_gives_rms_of_amplitude_times_factor_over_root_two() {
         },
         n,
     );
-    let v = s.values(&st);
+    let v = s.values(rate(FS), &st);
     assert!(v.valid);
     assert!((v.duration_s as f64 - secs).abs() < 1e-3);
     let kinds = [WeightingKind::Wd, WeightingKind::Wd, WeightingKind::Wj];
@@ -97,17 +102,17 @@ fn a_sine_on_each_axis_gives_rms_of_amplitude_times_factor_over_root_two() {
 
 #[test]
 fn values_are_not_valid_during_the_warm_up_and_valid_after_it() {
-    let s = ExposureSettings::new(ExposureConfig::DEFAULT, FS).unwrap();
+    let s = ExposureSettings::new(ExposureConfig::DEFAULT, rate(FS)).unwrap();
     assert_eq!(s.warmup_samples, 2500);
     let mut st = ExposureState::new();
     for i in 0..2500u32 {
         let out = s.step(&mut st, [0.1, 0.2, 0.3], i);
         assert!(!out.valid);
-        assert!(!s.values(&st).valid);
+        assert!(!s.values(rate(FS), &st).valid);
     }
     let out = s.step(&mut st, [0.1, 0.2, 0.3], 2500);
     assert!(out.valid);
-    let v = s.values(&st);
+    let v = s.values(rate(FS), &st);
     assert!(v.valid);
     assert_eq!(v.at_sample, 2500);
     assert!((v.duration_s - 1.0 / FS).abs() < 1e-9);
@@ -115,7 +120,7 @@ fn values_are_not_valid_during_the_warm_up_and_valid_after_it() {
 
 #[test]
 fn a_single_shock_on_a_quiet_ride_raises_the_crest_factor_and_mtvv_flags() {
-    let s = ExposureSettings::new(ExposureConfig::DEFAULT, FS).unwrap();
+    let s = ExposureSettings::new(ExposureConfig::DEFAULT, rate(FS)).unwrap();
     let n = (65.0 * FS) as usize;
     let shock_at = (40.0 * FS) as usize;
     let st = run(
@@ -134,7 +139,7 @@ fn a_single_shock_on_a_quiet_ride_raises_the_crest_factor_and_mtvv_flags() {
         },
         n,
     );
-    let v = s.values(&st);
+    let v = s.values(rate(FS), &st);
     let z = v.axes[2];
     assert!(
         z.crest_factor > CREST_FACTOR_LIMIT && z.additional.crest_factor,
@@ -150,7 +155,7 @@ fn a_single_shock_on_a_quiet_ride_raises_the_crest_factor_and_mtvv_flags() {
 #[test]
 fn an_eight_hour_dose_keeps_its_precision() {
     let fs = 100.0f32;
-    let s = ExposureSettings::new(ExposureConfig::DEFAULT, fs).unwrap();
+    let s = ExposureSettings::new(ExposureConfig::DEFAULT, rate(fs)).unwrap();
     let hours = 8.0;
     let n = ((5.0 + hours * 3600.0) * fs as f64) as usize;
     let f = 4.0;
@@ -162,8 +167,8 @@ fn an_eight_hour_dose_keeps_its_precision() {
         },
         n,
     );
-    let v = s.values(&st);
-    let own = s.weighting[2].response(f).abs();
+    let v = s.values(rate(fs), &st);
+    let own = s.weighting[2].response(rate(fs), f).abs();
     let t = hours * 3600.0;
     assert!(
         close(v.axes[2].rms_m_s2, own / 2f64.sqrt(), 1e-4),
@@ -182,14 +187,17 @@ fn an_eight_hour_dose_keeps_its_precision() {
 fn the_vector_factor_k_scales_only_the_vector_sum() {
     let mut cfg = ExposureConfig::DEFAULT;
     cfg.axes.z.k = 1.4;
-    let s1 = ExposureSettings::new(ExposureConfig::DEFAULT, FS).unwrap();
-    let s2 = ExposureSettings::new(cfg, FS).unwrap();
+    let s1 = ExposureSettings::new(ExposureConfig::DEFAULT, rate(FS)).unwrap();
+    let s2 = ExposureSettings::new(cfg, rate(FS)).unwrap();
     let sig = |i: usize| {
         let t = i as f64 / FS as f64;
         [0.0, 0.0, (2.0 * PI * 6.0 * t).sin() as f32]
     };
     let n = (20.0 * FS) as usize;
-    let (v1, v2) = (s1.values(&run(&s1, sig, n)), s2.values(&run(&s2, sig, n)));
+    let (v1, v2) = (
+        s1.values(rate(FS), &run(&s1, sig, n)),
+        s2.values(rate(FS), &run(&s2, sig, n)),
+    );
     assert!(close(v2.axes[2].rms_m_s2, v1.axes[2].rms_m_s2 as f64, 1e-5));
     assert!(close(
         v2.axes[2].vdv_m_s175,
@@ -207,38 +215,53 @@ fn the_vector_factor_k_scales_only_the_vector_sum() {
 fn invalid_configurations_are_refused_with_the_reason() {
     let mut c = ExposureConfig::DEFAULT;
     c.axes.y.k = 0.0;
-    assert_eq!(ExposureSettings::new(c, FS), Err(ExposureError::AxisFactor));
+    assert_eq!(
+        ExposureSettings::new(c, rate(FS)),
+        Err(ExposureError::AxisFactor)
+    );
     c.axes.y.k = f32::NAN;
-    assert_eq!(ExposureSettings::new(c, FS), Err(ExposureError::AxisFactor));
+    assert_eq!(
+        ExposureSettings::new(c, rate(FS)),
+        Err(ExposureError::AxisFactor)
+    );
     let mut c = ExposureConfig::DEFAULT;
     c.running_tau_s = 0.0;
     assert_eq!(
-        ExposureSettings::new(c, FS),
+        ExposureSettings::new(c, rate(FS)),
         Err(ExposureError::TimeConstant)
     );
     let mut c = ExposureConfig::DEFAULT;
     c.warmup_s = -1.0;
-    assert_eq!(ExposureSettings::new(c, FS), Err(ExposureError::Warmup));
-    c.warmup_s = 1e6;
-    assert_eq!(ExposureSettings::new(c, FS), Err(ExposureError::Warmup));
     assert_eq!(
-        ExposureSettings::new(ExposureConfig::DEFAULT, 50.0),
-        Err(ExposureError::Weighting(
-            WeightingError::SampleRateOutOfRange
-        ))
+        ExposureSettings::new(c, rate(FS)),
+        Err(ExposureError::Warmup)
     );
-    let mut s = ExposureSettings::new(ExposureConfig::DEFAULT, FS).unwrap();
-    assert_eq!(s.validate(), Ok(()));
+    c.warmup_s = 1e6;
+    assert_eq!(
+        ExposureSettings::new(c, rate(FS)),
+        Err(ExposureError::Warmup)
+    );
+    // Too short a time constant for the rate: under two samples at 2 kHz.
+    let mut c = ExposureConfig::DEFAULT;
+    c.running_tau_s = 0.9e-3;
+    assert_eq!(
+        ExposureSettings::new(c, rate(SampleRate::MAX_HZ)),
+        Err(ExposureError::TimeConstant)
+    );
+    c.running_tau_s = 1.1e-3;
+    assert!(ExposureSettings::new(c, rate(SampleRate::MAX_HZ)).is_ok());
+    let mut s = ExposureSettings::new(ExposureConfig::DEFAULT, rate(FS)).unwrap();
+    assert_eq!(s.validate(rate(FS)), Ok(()));
     s.running_gain = 2.0;
-    assert_eq!(s.validate(), Err(ExposureError::TimeConstant));
-    let mut s = ExposureSettings::new(ExposureConfig::DEFAULT, FS).unwrap();
+    assert_eq!(s.validate(rate(FS)), Err(ExposureError::TimeConstant));
+    let mut s = ExposureSettings::new(ExposureConfig::DEFAULT, rate(FS)).unwrap();
     s.weighting[1].band.high_pass.g *= 1.01;
-    assert_eq!(s.validate(), Err(ExposureError::Mismatch));
+    assert_eq!(s.validate(rate(FS)), Err(ExposureError::Mismatch));
 }
 
 #[test]
 fn config_and_settings_survive_a_postcard_round_trip() {
-    let s = ExposureSettings::new(ExposureConfig::DEFAULT, FS).unwrap();
+    let s = ExposureSettings::new(ExposureConfig::DEFAULT, rate(FS)).unwrap();
     let mut buf = [0u8; 512];
     let bytes = postcard::to_slice(&s, &mut buf).unwrap();
     let back: ExposureSettings = postcard::from_bytes(bytes).unwrap();
@@ -378,12 +401,12 @@ fn sawtooth_bursts_of_1_to_16_cycles_and_continuous_match_a_frequency_domain_ref
         },
         ..ExposureConfig::DEFAULT
     };
-    let s = ExposureSettings::new(cfg, FS).unwrap();
+    let s = ExposureSettings::new(cfg, rate(FS)).unwrap();
     let kinds = [WeightingKind::Wk, WeightingKind::Wd, WeightingKind::Wj];
     for cycles in [Some(1), Some(2), Some(4), Some(8), Some(16), None] {
         let x = sawtooth_burst(cycles, 10.0, 30.0, fs);
         let st = run(&s, |i| [x[i] as f32; 3], x.len());
-        let v = s.values(&st);
+        let v = s.values(rate(FS), &st);
         let weighted: Vec<Vec<f64>> = kinds
             .iter()
             .map(|&k| weighted_reference(k, &x, fs))
@@ -436,7 +459,7 @@ fn sawtooth_bursts_of_1_to_16_cycles_and_continuous_match_a_frequency_domain_ref
 
 #[test]
 fn the_per_sample_output_carries_the_vector_mean_square_and_dose_for_the_alerts() {
-    let s = ExposureSettings::new(ExposureConfig::DEFAULT, FS).unwrap();
+    let s = ExposureSettings::new(ExposureConfig::DEFAULT, rate(FS)).unwrap();
     let mut st = ExposureState::new();
     let mut last = ExposureSample::default();
     for i in 0..(20.0 * FS) as usize {
@@ -444,7 +467,7 @@ fn the_per_sample_output_carries_the_vector_mean_square_and_dose_for_the_alerts(
         let x = (2.0 * PI * 6.0 * t).sin() as f32;
         last = s.step(&mut st, [x, 0.5 * x, 2.0 * x], i as u32);
     }
-    let v = s.values(&st);
+    let v = s.values(rate(FS), &st);
     assert!(close(
         last.running_ms_m2_s4.sqrt(),
         v.vector.running_rms_m_s2 as f64,
@@ -459,7 +482,7 @@ fn the_per_sample_output_carries_the_vector_mean_square_and_dose_for_the_alerts(
 
 #[test]
 fn a_block_of_32_samples_gives_bit_for_bit_what_32_single_steps_give() {
-    let s = ExposureSettings::new(ExposureConfig::DEFAULT, FS).unwrap();
+    let s = ExposureSettings::new(ExposureConfig::DEFAULT, rate(FS)).unwrap();
     let (mut one, mut block) = (ExposureState::new(), ExposureState::new());
     let sig = |i: usize| {
         let t = i as f64 / FS as f64;
@@ -480,5 +503,5 @@ fn a_block_of_32_samples_gives_bit_for_bit_what_32_single_steps_give() {
         }
         assert_eq!(one, block);
     }
-    assert_eq!(s.values(&one), s.values(&block));
+    assert_eq!(s.values(rate(FS), &one), s.values(rate(FS), &block));
 }

@@ -35,14 +35,11 @@ use super::ModelError;
 use super::geometry::Axis;
 use super::modal::{ModalAnalysis, ModalComponent, Subsystem, modulus};
 use super::response::Output;
+use crate::sample_rate::SampleRate;
 
 /// Blocks a realization can hold: 15 reachable modes in this model, plus slack.
 pub const MAX_BLOCKS: usize = 16;
 
-/// Lowest sample rate the device supports, Hz.
-pub const MIN_SAMPLE_RATE_HZ: f64 = 100.0;
-/// Highest sample rate the device supports, Hz.
-pub const MAX_SAMPLE_RATE_HZ: f64 = 2000.0;
 /// The device's default sample rate, Hz: ISO 8041-grade weighting up to 80 Hz needs it.
 pub const DEFAULT_SAMPLE_RATE_HZ: f64 = 500.0;
 
@@ -134,15 +131,14 @@ impl<T: Scalar, const NY: usize> ModalGroup<T, NY> {
     }
 }
 
-/// A discrete-time realization from the three support accelerations to NY outputs.
+/// A discrete-time realization from the three support accelerations to NY outputs, for
+/// the sample rate it was built at (which the parameter blob stores beside it, once).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(bound(
     serialize = "T: Serialize, [[T; 2]; NY]: Serialize, [T; NY]: Serialize, [u8; NY]: Serialize",
     deserialize = "T: Deserialize<'de>, [[T; 2]; NY]: Deserialize<'de>, [T; NY]: Deserialize<'de>, [u8; NY]: Deserialize<'de>"
 ))]
 pub struct DiscreteModal<T, const NY: usize> {
-    /// The rate this realization was built for, Hz.
-    pub sample_rate_hz: f32,
     /// One group per support axis, in x, y, z order; their blocks follow each other.
     pub groups: [ModalGroup<T, NY>; 3],
     /// The modal blocks; only the first `block_count` are used.
@@ -181,8 +177,6 @@ pub enum RealizationError {
     NotFinite,
     /// A block has a pole on or outside the unit circle.
     Unstable,
-    /// The sample rate is outside 100..=2000 Hz.
-    SampleRate,
 }
 
 impl core::fmt::Display for RealizationError {
@@ -192,7 +186,6 @@ impl core::fmt::Display for RealizationError {
             RealizationError::Layout => "block groups and output rows are inconsistent",
             RealizationError::NotFinite => "a coefficient is not a finite number",
             RealizationError::Unstable => "a discrete pole lies on or outside the unit circle",
-            RealizationError::SampleRate => "sample rate outside 100..=2000 Hz",
         })
     }
 }
@@ -263,8 +256,8 @@ impl<T: Scalar, const NY: usize> DiscreteModal<T, NY> {
     }
 
     /// Checks what a loaded realization must satisfy before it runs: block count, layout
-    /// of groups and rows, finite coefficients, sample rate, and every block's poles
-    /// strictly inside the unit circle.
+    /// of groups and rows, finite coefficients, and every block's poles strictly inside
+    /// the unit circle.
     ///
     /// With Phi = I + D, the Jury conditions for z^2 - tr(Phi) z + det(Phi) read
     /// det D > 0, tr D + det D < 0 and 4 + 2 tr D + det D > 0, which stay precise for poles
@@ -272,10 +265,6 @@ impl<T: Scalar, const NY: usize> DiscreteModal<T, NY> {
     pub fn check(&self) -> Result<(), RealizationError> {
         if usize::from(self.block_count) > MAX_BLOCKS {
             return Err(RealizationError::TooManyBlocks);
-        }
-        let fs = f64::from(self.sample_rate_hz);
-        if !(MIN_SAMPLE_RATE_HZ..=MAX_SAMPLE_RATE_HZ).contains(&fs) {
-            return Err(RealizationError::SampleRate);
         }
         let finite = |v: &T| v.to_f64().is_finite();
         let group_values = self.groups.iter().flat_map(|g| g.feedthrough.iter());
@@ -326,9 +315,10 @@ impl<T: Scalar, const NY: usize> DiscreteModal<T, NY> {
     }
 
     /// The discrete frequency response D + sum C (zI - Phi)^-1 e1 at z = e^(j 2 pi f / fs),
-    /// per output (rows) and input axis (columns), computed in f64.
-    pub fn frequency_response(&self, freq_hz: f64) -> [[Complex<f64>; 3]; NY] {
-        let theta = 2.0 * PI * freq_hz / f64::from(self.sample_rate_hz);
+    /// per output (rows) and input axis (columns), computed in f64; `sample_rate_hz` is
+    /// the rate the realization was built at.
+    pub fn frequency_response(&self, sample_rate_hz: f64, freq_hz: f64) -> [[Complex<f64>; 3]; NY] {
+        let theta = 2.0 * PI * freq_hz / sample_rate_hz;
         let z = Complex::new(libm::cos(theta), libm::sin(theta));
         let mut h = [[Complex::new(0.0, 0.0); 3]; NY];
         for (axis, group, blocks) in self.grouped_blocks() {
@@ -362,7 +352,6 @@ impl<T: Scalar, const NY: usize> DiscreteModal<T, NY> {
     pub fn cast<U: Scalar>(&self) -> DiscreteModal<U, NY> {
         let conv = |v: T| U::from_f64(v.to_f64());
         DiscreteModal {
-            sample_rate_hz: self.sample_rate_hz,
             groups: self.groups.map(|g| ModalGroup {
                 block_count: g.block_count,
                 output_count: g.output_count,
@@ -411,18 +400,18 @@ impl<T: Scalar, const NY: usize> ModalGroup<T, NY> {
 
 impl<const NY: usize> DiscreteModal<f64, NY> {
     /// Discretizes the reachable modes that show in `outputs` at `sample_rate_hz` with a
-    /// first-order hold.
+    /// first-order hold. The rate is taken in f64 as given (a simulation may run at any
+    /// rate the device supports, not only at f32 values).
     pub fn from_modal(
         analysis: &ModalAnalysis,
         sample_rate_hz: f64,
         outputs: &[Output; NY],
     ) -> Result<Self, ModelError> {
-        if !(MIN_SAMPLE_RATE_HZ..=MAX_SAMPLE_RATE_HZ).contains(&sample_rate_hz) {
+        if !SampleRate::supports_hz(sample_rate_hz) {
             return Err(ModelError::SampleRate);
         }
         let period_s = 1.0 / sample_rate_hz;
         let mut realization = Self {
-            sample_rate_hz: sample_rate_hz as f32,
             groups: [ModalGroup::EMPTY; 3],
             blocks: [ModalBlock::EMPTY; MAX_BLOCKS],
             block_count: 0,

@@ -15,10 +15,12 @@ pub mod state_space;
 
 use core::fmt;
 
+use crate::sample_rate::SampleRateError;
+
 pub use assembly::SystemMatrices;
 pub use discrete::{
-    DEFAULT_SAMPLE_RATE_HZ, DeviceRealization, DiscreteModal, MAX_SAMPLE_RATE_HZ,
-    MIN_SAMPLE_RATE_HZ, ModalBlock, ModalGroup, ModalState, RealizationError, Scalar,
+    DEFAULT_SAMPLE_RATE_HZ, DeviceRealization, DiscreteModal, ModalBlock, ModalGroup, ModalState,
+    RealizationError, Scalar,
 };
 pub use geometry::{Axis, Segment, Subject};
 pub use modal::{ModalAnalysis, ModalComponent, Subsystem};
@@ -37,7 +39,8 @@ pub enum ModelError {
     DefectiveModes(Subsystem),
     /// More reachable modes than the device realization holds.
     TooManyModes,
-    /// The sample rate is outside 100..=2000 Hz.
+    /// The sample rate is outside the supported range
+    /// ([`SampleRate`](crate::sample_rate::SampleRate)).
     SampleRate,
     /// The rounded realization failed its own check.
     Realization(RealizationError),
@@ -55,12 +58,7 @@ impl fmt::Display for ModelError {
                 )
             }
             ModelError::TooManyModes => f.write_str("more modes than the device realization holds"),
-            ModelError::SampleRate => {
-                write!(
-                    f,
-                    "sample rate must be {MIN_SAMPLE_RATE_HZ}..={MAX_SAMPLE_RATE_HZ} Hz"
-                )
-            }
+            ModelError::SampleRate => SampleRateError.fmt(f),
             ModelError::Realization(e) => write!(f, "device realization: {e}"),
         }
     }

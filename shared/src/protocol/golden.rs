@@ -11,6 +11,7 @@ use super::{
 use crate::alerts::{AlertEvent, Level, SensorFault};
 use crate::blob::{BlobError, DeviceParams};
 use crate::model::{DiscreteModal, ModalBlock, ModalGroup};
+use crate::sample_rate::SampleRate;
 
 /// Example host-to-device messages, in [`HOST_TO_DEVICE`] order.
 pub fn host_to_device_examples() -> [HostToDevice; 6] {
@@ -40,7 +41,7 @@ pub fn host_to_device_examples() -> [HostToDevice; 6] {
 }
 
 /// Example device-to-host frames, in [`DEVICE_TO_HOST`] order.
-pub fn device_to_host_examples() -> [DeviceFrame; 10] {
+pub fn device_to_host_examples() -> [DeviceFrame; 11] {
     let mut firmware_version = String::new();
     let _ = firmware_version.push_str("0.1.0");
     let mut last_panic = String::new();
@@ -64,7 +65,7 @@ pub fn device_to_host_examples() -> [DeviceFrame; 10] {
             vector_running_rms_m_s2: 1.75,
             vdv_m_s175: 3.5,
             alert_level: Level::Warning,
-            fault_flags: 0b0101,
+            fault_flags: SensorFault::NonFinite | SensorFault::Stuck,
             valid: true,
         }),
         DeviceToHost::Alert(AlertEvent::Level {
@@ -96,6 +97,7 @@ pub fn device_to_host_examples() -> [DeviceFrame; 10] {
         DeviceToHost::ParamAck(ParamAck::Begun),
         DeviceToHost::ParamAck(ParamAck::Received { bytes: 300 }),
         DeviceToHost::ParamNack(UploadError::Replayed),
+        DeviceToHost::ParamNack(UploadError::LengthMismatch),
     ];
     let mut seq = 0;
     messages.map(|message| {
@@ -120,8 +122,8 @@ pub const HOST_TO_DEVICE: [&[u8]; 6] = [
 
 #[rustfmt::skip]
 /// COBS frames of [`device_to_host_examples`].
-pub const DEVICE_TO_HOST: [&[u8]; 10] = [
-    &[0x01, 0x01, 0x1a, 0x02, 0x05, 0x30, 0x2e, 0x31, 0x2e, 0x30, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x01, 0x05, 0x01, 0x09, 0xfa, 0x43, 0x01, 0x04, 0x6f, 0x6f, 0x70, 0x73, 0x00],
+pub const DEVICE_TO_HOST: [&[u8]; 11] = [
+    &[0x01, 0x01, 0x1a, 0x03, 0x05, 0x30, 0x2e, 0x31, 0x2e, 0x30, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x01, 0x05, 0x01, 0x09, 0xfa, 0x43, 0x01, 0x04, 0x6f, 0x6f, 0x70, 0x73, 0x00],
     &[0x06, 0x01, 0x01, 0xc0, 0xc4, 0x07, 0x01, 0x01, 0x02, 0x3f, 0x01, 0x03, 0x80, 0xbf, 0x01, 0x01, 0x02, 0x40, 0x01, 0x03, 0x80, 0x3e, 0x01, 0x01, 0x02, 0x3e, 0x01, 0x03, 0xc0, 0x3f, 0x01, 0x03, 0xe0, 0x3f, 0x01, 0x06, 0x60, 0x40, 0x02, 0x05, 0x01, 0x00],
     &[0x03, 0x02, 0x02, 0x01, 0x04, 0x01, 0xbc, 0x05, 0x00],
     &[0x07, 0x03, 0x02, 0x01, 0x02, 0x01, 0x09, 0x00],
@@ -131,6 +133,7 @@ pub const DEVICE_TO_HOST: [&[u8]; 10] = [
     &[0x03, 0x07, 0x04, 0x01, 0x00],
     &[0x06, 0x08, 0x04, 0x01, 0xac, 0x02, 0x00],
     &[0x04, 0x09, 0x05, 0x04, 0x00],
+    &[0x04, 0x0a, 0x05, 0x08, 0x00],
 ];
 
 /// A blob built from fixed numbers only (no eigen-solver in the loop), so its bytes
@@ -159,12 +162,12 @@ pub fn blob_example() -> Result<DeviceParams, BlobError> {
         feedthrough: [0.002, 0.003, 0.0],
     };
     let realization = DiscreteModal {
-        sample_rate_hz: 500.0,
         groups: [empty, empty, z_group],
         blocks,
         block_count: 1,
     };
-    DeviceParams::with_defaults([0x5A; 16], realization)
+    let sample_rate = SampleRate::new(500.0).map_err(|_| BlobError::SampleRate)?;
+    DeviceParams::with_defaults([0x5A; 16], sample_rate, realization)
 }
 
 /// The bytes of [`blob_example`]: header and payload (recorded with `cargo test -p supine-core

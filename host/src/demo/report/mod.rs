@@ -423,7 +423,7 @@ mod tests {
     use crate::demo::trace::Trace;
     use crate::exposure::report::AxisReport;
     use crate::io::telemetry_csv::EventRow;
-    use supine_core::alerts::{AlertConfig, AlertEvent};
+    use supine_core::alerts::{AlertConfig, AlertEvent, FaultFlags};
     use supine_core::exposure::AxisValues;
     use supine_core::protocol::Telemetry;
 
@@ -449,7 +449,7 @@ mod tests {
                     } else {
                         Level::Normal
                     },
-                    fault_flags: 0,
+                    fault_flags: FaultFlags::empty(),
                     valid: k >= 500,
                 }
             })

@@ -1,6 +1,6 @@
 //! The fit's residuals and their exact Jacobian.
 //!
-//! Residuals (model.md, the paper's Eq. 8): for each frequency f and each of the 12 fitted
+//! Residuals (docs/model.md#objective, the paper's Eq. 8): for each frequency f and each of the 12 fitted
 //! components h = H_jk (`COUPLED_COMPONENTS`), against the subjects' geometric mean g:
 //! r_mag = (|h| - |g|) / |g| and r_phase = wrap(arg h - arg g) / pi. The cost is
 //! 0.5 sum r^2 (scipy's `least_squares` convention).
@@ -48,7 +48,11 @@ pub struct Objective {
     pub free: Vec<ParamId>,
     /// What to fit.
     pub target: Target,
-    shapes: Vec<Shape>,
+    /// The distinct shape vectors of the free parameters (a stiffness and the damping of
+    /// the same element and axis share one), with the block each lies in.
+    shapes: Vec<(Shape, usize)>,
+    /// Per free parameter: its index in `shapes`.
+    param_shape: Vec<usize>,
     blocks: Vec<Block>,
     /// Per free parameter: the block its shape vector lies in.
     param_block: Vec<usize>,
@@ -163,7 +167,7 @@ impl Objective {
     /// Sets up the problem. Shapes depend on the subject only, so they are computed once.
     pub fn new(base: ModelParams, free: Vec<ParamId>, target: Target) -> Self {
         let body = Body::dempster(&base.subject);
-        let shapes: Vec<Shape> = free.iter().map(|&id| param_shape(id, &body)).collect();
+        let param_shapes: Vec<Shape> = free.iter().map(|&id| param_shape(id, &body)).collect();
         let matrices = SystemMatrices::assemble(&base);
         let blocks: Vec<Block> = uncoupled_blocks(&body)
             .into_iter()
@@ -192,7 +196,7 @@ impl Objective {
             blocks.iter().all(|b| b.dofs.len() <= MAX_BLOCK),
             "the model's geometry couples more than {MAX_BLOCK} DOFs"
         );
-        let param_block = shapes
+        let param_block: Vec<usize> = param_shapes
             .iter()
             .map(|shape: &Shape| {
                 let first = shape.entries().first().map_or(0, |e| e.0);
@@ -200,6 +204,20 @@ impl Objective {
                     .iter()
                     .position(|b| b.dofs.contains(&first))
                     .unwrap_or(0)
+            })
+            .collect();
+        let mut shapes: Vec<(Shape, usize)> = Vec::new();
+        let param_shape = param_shapes
+            .iter()
+            .zip(&param_block)
+            .map(|(shape, &block)| {
+                let known = shapes
+                    .iter()
+                    .position(|(s, _)| s.entries() == shape.entries());
+                known.unwrap_or_else(|| {
+                    shapes.push((*shape, block));
+                    shapes.len() - 1
+                })
             })
             .collect();
         let output_rows = (0..9)
@@ -215,6 +233,7 @@ impl Objective {
             free,
             target,
             shapes,
+            param_shape,
             blocks,
             param_block,
             output_rows,
@@ -343,12 +362,12 @@ impl Objective {
                 mag_factor[c] = hv.conj() / (hv.norm_sqr() * gv.norm_sqr()).sqrt();
                 phase_factor[c] = Cplx::new(1.0, 0.0) / (hv * PI);
             }
-            // W = A^-1 R^T, so (R A^-1)_(j, d) = W_(d, j) by symmetry of A.
-            for (p, (shape, &id)) in self.shapes.iter().zip(&self.free).enumerate() {
-                // u = R A^-1 b (9), v = b^T (G - X) (3).
-                let block = &self.blocks[self.param_block[p]];
-                let mut u = [Cplx::new(0.0, 0.0); 9];
-                let mut v = [Cplx::new(0.0, 0.0); 3];
+            // W = A^-1 R^T, so (R A^-1)_(j, d) = W_(d, j) by symmetry of A. Per distinct
+            // shape b: u = R A^-1 b (9) and v = b^T (G - X) (3), shared by the stiffness
+            // and the damping of its element and axis.
+            let mut uv = [([Cplx::new(0.0, 0.0); 9], [Cplx::new(0.0, 0.0); 3]); ParamId::COUNT];
+            for ((shape, b), (u, v)) in self.shapes.iter().zip(uv.iter_mut()) {
+                let block = &self.blocks[*b];
                 for &(d, wt) in shape.entries() {
                     for &j in &block.outputs {
                         u[j] += w[(d, j)] * wt;
@@ -357,6 +376,10 @@ impl Objective {
                         v[k] += (Cplx::new(g_real[(d, k)], 0.0) - x[(d, k)]) * wt;
                     }
                 }
+            }
+            for (p, &id) in self.free.iter().enumerate() {
+                let block = &self.blocks[self.param_block[p]];
+                let (u, v) = &uv[self.param_shape[p]];
                 let s = if id.is_stiffness() {
                     Cplx::new(values[p], 0.0)
                 } else {

@@ -67,6 +67,19 @@ pub fn summary(
             st.termination.describe()
         );
     }
+    if let Some(p) = &result.polish {
+        let _ = writeln!(
+            s,
+            "| {} (Marquardt, tolerances x 1e-4) | {:.6} | {:.6} | {} | {} | {:.3} | {} |",
+            p.label,
+            p.initial_cost,
+            p.final_cost,
+            p.iterations,
+            p.evaluations,
+            p.seconds,
+            p.termination.describe()
+        );
+    }
     let _ = writeln!(
         s,
         "\n| component | rms magnitude error (relative) | rms phase error (deg) |"
@@ -96,24 +109,35 @@ pub fn summary(
     );
     let _ = writeln!(
         s,
-        "| parameter | value | unit | at bound | sensitivity | weak share | determined by the data |"
+        "| parameter | value | unit | at bound | sensitivity | weak share | determined by the data | standard error (ln p) | 95 % interval |"
     );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|");
     for p in &ident.params {
         let bound = match p.at_bound {
             Some(AtBound::Lower) => "lower",
             Some(AtBound::Upper) => "upper",
             None => "",
         };
+        let (se, interval) = match (p.standard_error, p.interval_95()) {
+            (Some(se), Some((lo, hi))) => (format!("{se:.3}"), format!("{lo:.4e} .. {hi:.4e}")),
+            _ => (String::new(), String::new()),
+        };
         let _ = writeln!(
             s,
-            "| {} | {:.6e} | {} | {bound} | {:.2e} | {:.2} | {} |",
+            "| {} | {:.6e} | {} | {bound} | {:.2e} | {:.2} | {} | {se} | {interval} |",
             p.id,
             p.value,
             p.id.unit(),
             p.sensitivity,
             p.weak_loading,
             p.determination.name()
+        );
+    }
+    if let Some(c) = &ident.covariance {
+        let _ = writeln!(
+            s,
+            "\nStandard errors: s^2 (J^T J)^+ over the directions with singular value at least 1e-3 of the largest, s^2 = 2 cost / (m - n) = {:.4e} ({} degrees of freedom); 95 % interval p e^(+-1.96 se). Linearized: they describe the noise of these data around this minimum, not the model's structure or the spread between subjects (docs/model.md#uncertainty-of-a-fit).",
+            c.residual_variance, c.degrees_of_freedom
         );
     }
     s

@@ -1,5 +1,5 @@
-//! A telemetry frame encoded by hand, byte for byte what `encode_frame` (postcard + COBS)
-//! produces for `DeviceFrame { seq, message: DeviceToHost::Telemetry(t) }`.
+//! A telemetry frame encoded by hand, byte for byte what [`encode_frame`](super::encode_frame)
+//! (postcard + COBS) produces for `DeviceFrame { seq, message: DeviceToHost::Telemetry(t) }`.
 //!
 //! Telemetry goes out once per sample, so its encoding is on the hot path: serde's generic
 //! serializer with postcard's COBS flavour cost about 1,350 instructions per frame on the
@@ -13,12 +13,13 @@
 //! varint(alert level variant) u8 (fault flags) u8 (valid: 0 or 1)
 //! ```
 //!
-//! then COBS with the terminating zero. The QEMU tests decode every frame with postcard
-//! on the host and compare the values bit for bit with the host's pipeline, so a
-//! divergence from postcard fails them. A protocol change to `DeviceToHost`'s variant order
-//! (`TELEMETRY_VARIANT`) or to `Telemetry`'s fields must be mirrored here.
+//! then COBS with the terminating zero. `shared/tests/telemetry_frame.rs` compares it byte for
+//! byte with postcard's encoding over many random records (NaN, subnormals, infinities,
+//! zero bytes, every fault set and level, sequence numbers across the varint lengths), so
+//! a protocol change to `DeviceToHost`'s variant order (`TELEMETRY_VARIANT`) or to
+//! `Telemetry`'s fields that is not mirrored here fails on the host.
 
-use supine_core::protocol::Telemetry;
+use crate::pipeline::Telemetry;
 
 /// Postcard variant index of `DeviceToHost::Telemetry` (the second variant).
 const TELEMETRY_VARIANT: u8 = 1;
@@ -122,7 +123,7 @@ pub fn encode(seq: u32, t: &Telemetry, frame: &mut [u8; MAX_FRAME]) -> usize {
     // The level's variant index (< 128: one varint byte); postcard writes a u8 and a
     // bool as one raw byte each.
     c.byte(t.alert_level as u8);
-    c.byte(t.fault_flags);
+    c.byte(t.fault_flags.as_repr());
     c.byte(u8::from(t.valid));
     c.finish()
 }
