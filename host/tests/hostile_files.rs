@@ -24,7 +24,8 @@ use supine_host::identify::synth::{SynthSettings, write_dataset};
 use supine_host::io::params_file::{self, ParamFile};
 use supine_host::io::recording::{HEADER_LINE, PLATFORM_HEADER_LINE};
 
-/// Longest error line accepted, characters (the temporary paths take about 40).
+/// Longest error line accepted, characters (files are named relative to the working
+/// folder, as a user names them).
 const MAX_ERROR_CHARS: usize = 200;
 /// Largest peak resident set of one `supine` run, KiB: a few times what the valid inputs
 /// here take, and a hundredth of what reading a 2 GiB file whole costs.
