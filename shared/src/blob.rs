@@ -35,6 +35,17 @@ pub const MAX_BLOB_LEN: usize = 4096;
 /// Bytes of the parameter identity (the start of the SHA-256 of the parameter file).
 pub const IDENTITY_LEN: usize = 16;
 
+/// Largest predicted or weighted acceleration, m/s^2, that input within the sensor's full
+/// scale may drive a blob's realization and weighting to (a million g): ten times the bound
+/// of any blob the product builds (400 g full scale, any rate, any plausible subject), and
+/// low enough that one sample's fourth power and a block's sum of them stay far inside
+/// f32 (the exposure caps its f64 dose total where it narrows it to f32).
+pub const MAX_SIGNAL_M_S2: f32 = 1.0e7;
+
+/// Largest norm a realization's or filter's internal state may reach under input within
+/// the full scale: f32 overflows at 3.4e38, and a few such terms are added per step.
+pub const MAX_STATE: f32 = 1.0e30;
+
 /// Identity of a parameter set: the first 16 bytes of the SHA-256 of its parameter file.
 pub type ParamsIdentity = [u8; IDENTITY_LEN];
 
@@ -188,7 +199,35 @@ impl DeviceParams {
         if self.telemetry.decimation == 0 {
             return Err(BlobError::BadConfig);
         }
-        Ok(())
+        self.check_bounded()
+    }
+
+    /// That no input within the sensor's full scale can drive the realization or a
+    /// weighting past [`MAX_SIGNAL_M_S2`] or a state past [`MAX_STATE`]: stable poles are
+    /// not enough, a coefficient of 1e30 or a pole 1e-12 inside the unit circle passes the
+    /// checks above and still overflows f32 (docs/architecture.md, "What a blob may hold").
+    /// Such a blob is refused as `Unstable`: not bounded-input bounded-output in f32.
+    fn check_bounded(&self) -> Result<(), BlobError> {
+        let full_scale = self.sensor_checks.config.full_scale_m_s2;
+        let model = self
+            .realization
+            .amplification()
+            .ok_or(BlobError::Unstable)?;
+        let within = |state: f32, output: f32| state <= MAX_STATE && output <= MAX_SIGNAL_M_S2;
+        let head_m_s2 = model.outputs.map(|gain| gain * full_scale);
+        let mut bounded = within(
+            model.state * full_scale,
+            head_m_s2.iter().fold(0.0, |m, &v| v.max(m)),
+        );
+        for (weighting, head) in self.exposure.weighting.iter().zip(head_m_s2) {
+            let filter = weighting.amplification().ok_or(BlobError::Unstable)?;
+            bounded &= within(filter.state * head, filter.output * head);
+        }
+        if bounded {
+            Ok(())
+        } else {
+            Err(BlobError::Unstable)
+        }
     }
 
     /// Every number of the exposure, alert and sensor-check configurations and the tables
@@ -298,7 +337,7 @@ pub fn announced_len(bytes: &[u8]) -> Option<usize> {
 }
 
 /// Why a blob was refused; each has its own code.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum BlobError {
     /// The slot is erased (all 0xFF) or blank.
@@ -318,7 +357,9 @@ pub enum BlobError {
     Malformed,
     /// A number in the payload is NaN or infinite.
     NonFinite,
-    /// The model realization or a weighting filter has a pole on or outside |z| = 1.
+    /// The model realization or a weighting filter has a pole on or outside |z| = 1, or a
+    /// gain that lets input within the full scale overflow f32
+    /// ([`MAX_SIGNAL_M_S2`], [`MAX_STATE`]).
     Unstable,
     /// The sample rate is outside the supported range ([`SampleRate`]).
     SampleRate,
@@ -356,6 +397,35 @@ impl BlobError {
     }
 }
 
+/// [`BlobError`]'s variant names, in declaration order (index = code - 1).
+const BLOB_ERROR_NAMES: [&str; 12] = [
+    "Empty",
+    "BadMagic",
+    "UnsupportedVersion",
+    "BadLength",
+    "Truncated",
+    "BadCrc",
+    "Malformed",
+    "NonFinite",
+    "Unstable",
+    "SampleRate",
+    "BadConfig",
+    "TooLong",
+];
+
+/// By hand, with exactly the derived encoding (the variant's index, its code less one, and
+/// its name): one call instead of one per variant saves the device about 1 KiB of flash.
+impl Serialize for BlobError {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let index = self.code() - 1;
+        let name = BLOB_ERROR_NAMES
+            .get(usize::from(index))
+            .copied()
+            .unwrap_or("");
+        serializer.serialize_unit_variant("BlobError", u32::from(index), name)
+    }
+}
+
 impl fmt::Display for BlobError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let what = match self {
@@ -367,7 +437,9 @@ impl fmt::Display for BlobError {
             BlobError::BadCrc => "CRC-32 mismatch",
             BlobError::Malformed => "payload does not decode",
             BlobError::NonFinite => "a number is not finite",
-            BlobError::Unstable => "unstable filter or model realization",
+            BlobError::Unstable => {
+                "unstable filter or model realization, or a gain that can overflow"
+            }
             BlobError::SampleRate => "sample rate out of range",
             BlobError::BadConfig => "a configuration value is out of range",
             BlobError::TooLong => "blob too long",
@@ -377,3 +449,51 @@ impl fmt::Display for BlobError {
 }
 
 impl core::error::Error for BlobError {}
+
+#[cfg(test)]
+mod serialize_tests {
+    extern crate std;
+    use super::*;
+
+    /// The hand-written encoding against serde's derive on a twin enum, for every variant.
+    #[test]
+    fn blob_errors_encode_as_the_derive_would() {
+        #[derive(Serialize)]
+        enum Derived {
+            Empty,
+            BadMagic,
+            UnsupportedVersion,
+            BadLength,
+            Truncated,
+            BadCrc,
+            Malformed,
+            NonFinite,
+            Unstable,
+            SampleRate,
+            BadConfig,
+            TooLong,
+        }
+        let pairs = [
+            (BlobError::Empty, Derived::Empty),
+            (BlobError::BadMagic, Derived::BadMagic),
+            (BlobError::UnsupportedVersion, Derived::UnsupportedVersion),
+            (BlobError::BadLength, Derived::BadLength),
+            (BlobError::Truncated, Derived::Truncated),
+            (BlobError::BadCrc, Derived::BadCrc),
+            (BlobError::Malformed, Derived::Malformed),
+            (BlobError::NonFinite, Derived::NonFinite),
+            (BlobError::Unstable, Derived::Unstable),
+            (BlobError::SampleRate, Derived::SampleRate),
+            (BlobError::BadConfig, Derived::BadConfig),
+            (BlobError::TooLong, Derived::TooLong),
+        ];
+        for (ours, derived) in pairs {
+            let (mut a, mut b) = ([0u8; 8], [0u8; 8]);
+            let a = postcard::to_slice(&ours, &mut a).expect("fits");
+            let b = postcard::to_slice(&derived, &mut b).expect("fits");
+            assert_eq!(a, b, "{ours:?}");
+            let back: BlobError = postcard::from_bytes(a).expect("decodes");
+            assert_eq!(back, ours);
+        }
+    }
+}

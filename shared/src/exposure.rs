@@ -611,8 +611,20 @@ fn fold(s0: f32, s1: f32, s2: f32, q0: f32, q1: f32, q2: f32, q3: f32, totals: &
         *t += b as f64;
     }
     totals.blocks = totals.blocks.saturating_add(1);
-    totals.q[3] as f32
+    // Capped so that adding a block's sum and scaling by dt stays finite however long the
+    // run (a blob's gains are bounded so that a block's sum is under 1e32); no real dose
+    // comes near it.
+    let total = totals.q[3];
+    // A comparison, not f64::min: no NaN to handle, and no soft-float call on the device.
+    (if total > DOSE_TOTAL_CAP {
+        DOSE_TOTAL_CAP
+    } else {
+        total
+    }) as f32
 }
+
+/// Largest fourth-power total handed to f32 (half of `f32::MAX`).
+const DOSE_TOTAL_CAP: f64 = f32::MAX as f64 / 2.0;
 
 /// Derived values from the sums: `ms` running mean square, `sum_sq = sum a^2`,
 /// `sum_q = sum a^4`, `n` samples of `dt` seconds.

@@ -104,17 +104,24 @@ impl Mounting {
         if !(7.0..=12.0).contains(&self.gravity_m_s2) {
             return Err(MountingError::Gravity);
         }
-        let rows = r.map(|row| row.map(f64::from));
+        // In f32, on the FPU: a 1e-3 tolerance needs no more, and f64 in software would
+        // cost the device's flash.
+        let rows = r;
         for i in 0..3 {
             for j in 0..3 {
-                let dot: f64 = (0..3).map(|k| rows[i][k] * rows[j][k]).sum();
+                let dot: f32 = (0..3).map(|k| rows[i][k] * rows[j][k]).sum();
                 let expected = if i == j { 1.0 } else { 0.0 };
                 if (dot - expected).abs() > 1e-3 {
                     return Err(MountingError::NotARotation);
                 }
             }
         }
-        let handed = cross(rows[0], rows[1]);
+        let [a, b] = [rows[0], rows[1]];
+        let handed = [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ];
         if (0..3).any(|k| (handed[k] - rows[2][k]).abs() > 1e-3) {
             return Err(MountingError::NotARotation);
         }

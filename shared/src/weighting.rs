@@ -46,6 +46,7 @@ use core::fmt;
 
 use serde::{Deserialize, Serialize};
 
+use crate::gain_bound::{Amplification, Recursion2};
 use crate::sample_rate::SampleRate;
 
 const TAU: f64 = 2.0 * core::f64::consts::PI;
@@ -349,12 +350,6 @@ impl fmt::Display for WeightingError {
 
 impl core::error::Error for WeightingError {}
 
-/// Both roots of `z^2 + a1 z + a2` strictly inside the unit circle (the stability
-/// triangle `|a2| < 1`, `|a1| < 1 + a2`); false for NaN.
-fn stable_quadratic([a1, a2]: [f64; 2]) -> bool {
-    a2.abs() < 1.0 && a1.abs() < 1.0 + a2
-}
-
 /// The 0.4 Hz band-limiting high-pass as a topology-preserving (trapezoidal) SVF, f32.
 ///
 /// Per sample: `hp = d (x - (k + g) s1 - s2)`, `bp = g hp + s1`, `lp = g bp + s2`,
@@ -395,6 +390,22 @@ impl HighPassSvf {
         hp
     }
 
+    /// The recurrences above as one state-space recursion (for the blob's gain bound):
+    /// with `c = k + g`, `hp = d (x - c s1 - s2)`, `s1 <- s1 + 2 g hp`,
+    /// `s2 <- s2 + 2 g s1 + 2 g^2 hp`.
+    pub fn recursion(&self) -> Recursion2 {
+        let (g, c, d) = (self.g, self.k_plus_g, self.d);
+        Recursion2 {
+            a_minus_identity: [
+                [-2.0 * g * d * c, -2.0 * g * d],
+                [2.0 * g - 2.0 * g * g * d * c, -2.0 * g * g * d],
+            ],
+            b: [2.0 * g * d, 2.0 * g * g * d],
+            c: [-d * c, -d],
+            d,
+        }
+    }
+
     /// Transfer function of the recurrences above, from the stored f32 values, at `z`.
     ///
     /// Solving them for a phasor input: `hp = 1 / (1/d + 2 c g/(z-1) + 2 g^2 (z+1)/(z-1)^2)`
@@ -408,23 +419,9 @@ impl HighPassSvf {
         Complex64::ONE / Complex64::new(1.0 / d, 0.0).add(t1).add(t2)
     }
 
-    /// The recurrences' own denominator `z^2 + a1 z + a2`, from the stored values (which need
-    /// not be consistent with one another in a stored blob): multiplying the transfer
-    /// function above by `d (z-1)^2` gives `a1 = 2 d g c + 2 d g^2 - 2`, `a2 = 1 - 2 d g k`.
-    fn denominator(&self) -> [f64; 2] {
-        let (g, c, d) = (self.g as f64, self.k_plus_g as f64, self.d as f64);
-        let k = c - g;
-        [2.0 * d * g * (c + g) - 2.0, 1.0 - 2.0 * d * g * k]
-    }
-
     fn validate(&self) -> Result<(), WeightingError> {
         if !(self.g.is_finite() && self.k_plus_g.is_finite() && self.d.is_finite()) {
             return Err(WeightingError::NonFiniteCoefficient);
-        }
-        // The poles of what actually runs, not of the analog prototype: a blob whose g, k + g
-        // and d each look plausible can still combine into a pole outside |z| = 1.
-        if !stable_quadratic(self.denominator()) {
-            return Err(WeightingError::Unstable);
         }
         Ok(())
     }
@@ -457,6 +454,19 @@ impl Biquad {
         y
     }
 
+    /// The section as one state-space recursion (for the blob's gain bound): `y = b0 x + s1`,
+    /// `s1 <- (b1 - a1 b0) x - a1 s1 + s2`, `s2 <- (b2 - a2 b0) x - a2 s1`.
+    pub fn recursion(&self) -> Recursion2 {
+        let [b0, b1, b2] = self.b;
+        let [a1, a2] = self.a;
+        Recursion2 {
+            a_minus_identity: [[-a1 - 1.0, 1.0], [-a2, -1.0]],
+            b: [b1 - a1 * b0, b2 - a2 * b0],
+            c: [1.0, 0.0],
+            d: b0,
+        }
+    }
+
     /// `H(z)` from the stored f32 coefficients, evaluated in f64.
     pub fn response_at(&self, z: Complex64) -> Complex64 {
         let zi = Complex64::ONE / z;
@@ -473,9 +483,6 @@ impl Biquad {
     fn validate(&self) -> Result<(), WeightingError> {
         if !self.b.iter().chain(self.a.iter()).all(|c| c.is_finite()) {
             return Err(WeightingError::NonFiniteCoefficient);
-        }
-        if !stable_quadratic([self.a[0] as f64, self.a[1] as f64]) {
-            return Err(WeightingError::Unstable);
         }
         Ok(())
     }
@@ -645,7 +652,14 @@ impl WeightingSettings {
         }
         self.band.high_pass.validate()?;
         self.band.low_pass.validate()?;
-        self.shaping.iter().try_for_each(Biquad::validate)
+        self.shaping.iter().try_for_each(Biquad::validate)?;
+        // The poles of what actually runs, not of the analog prototype (a blob whose g,
+        // k + g and d each look plausible can still combine into a pole outside |z| = 1),
+        // with the margin the blob's gain bound needs: one test for both.
+        if self.amplification().is_none() {
+            return Err(WeightingError::Unstable);
+        }
+        Ok(())
     }
 
     /// [`validate`](Self::validate), then checks that the filter's gain is its kind's times
@@ -664,6 +678,34 @@ impl WeightingSettings {
             return Err(WeightingError::GainMismatch);
         }
         Ok(())
+    }
+
+    /// What the whole cascade can make of input bounded by 1 m/s^2: the largest state
+    /// norm of any section and the output bound; `None` if a section has no bound
+    /// ([`crate::gain_bound::ModalBound::new`]).
+    pub fn amplification(&self) -> Option<Amplification> {
+        let n = (self.n_shaping as usize).min(MAX_SHAPING);
+        let [first, second] = self.shaping;
+        let sections = [
+            self.band.high_pass.recursion(),
+            self.band.low_pass.recursion(),
+            first.recursion(),
+            second.recursion(),
+        ];
+        let mut total = Amplification {
+            state: 0.0,
+            output: 1.0,
+        };
+        for section in &sections[..2 + n] {
+            let gain = section.amplification()?;
+            let state = gain.state * total.output;
+            // Comparisons, not f32::max: no library call on the device.
+            if state > total.state {
+                total.state = state;
+            }
+            total.output *= gain.output;
+        }
+        (total.state.is_finite() && total.output.is_finite()).then_some(total)
     }
 
     /// One acceleration sample (m/s^2, at the design rate) in, the weighted sample (m/s^2) out.

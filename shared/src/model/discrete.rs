@@ -35,6 +35,7 @@ use super::ModelError;
 use super::geometry::Axis;
 use super::modal::{ModalAnalysis, ModalComponent, Subsystem, modulus};
 use super::response::Output;
+use crate::gain_bound::ModalBound;
 use crate::sample_rate::SampleRate;
 
 /// Blocks a realization can hold: 15 reachable modes in this model, plus slack.
@@ -150,6 +151,16 @@ pub struct DiscreteModal<T, const NY: usize> {
 /// What the firmware runs: head x, y, z in f32.
 pub type DeviceRealization = DiscreteModal<f32, 3>;
 
+/// What a realization can make of input bounded by 1 m/s^2 on each axis
+/// ([`DiscreteModal::amplification`]); scale by the input bound.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RealizationAmplification<const NY: usize> {
+    /// Bound on any block state's Euclidean norm.
+    pub state: f32,
+    /// Bound on each output's magnitude.
+    pub outputs: [f32; NY],
+}
+
 /// The running state of a realization: two numbers per block.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ModalState<T> {
@@ -256,12 +267,9 @@ impl<T: Scalar, const NY: usize> DiscreteModal<T, NY> {
     }
 
     /// Checks what a loaded realization must satisfy before it runs: block count, layout
-    /// of groups and rows, finite coefficients, and every block's poles strictly inside
-    /// the unit circle.
-    ///
-    /// With Phi = I + D, the Jury conditions for z^2 - tr(Phi) z + det(Phi) read
-    /// det D > 0, tr D + det D < 0 and 4 + 2 tr D + det D > 0, which stay precise for poles
-    /// close to z = 1.
+    /// of groups and rows, finite coefficients, and every block's poles inside the unit
+    /// circle with the margin [`amplification`](Self::amplification) needs (computed from
+    /// D = Phi - I, so it stays precise for poles close to z = 1).
     pub fn check(&self) -> Result<(), RealizationError> {
         if usize::from(self.block_count) > MAX_BLOCKS {
             return Err(RealizationError::TooManyBlocks);
@@ -301,17 +309,55 @@ impl<T: Scalar, const NY: usize> DiscreteModal<T, NY> {
                 return Err(RealizationError::Layout);
             }
         }
-        for block in self.active_blocks() {
-            let d = block
-                .transition_minus_identity
-                .map(|row| row.map(T::to_f64));
-            let trace = d[0][0] + d[1][1];
-            let det = d[0][0] * d[1][1] - d[0][1] * d[1][0];
-            if !(det > 0.0 && trace + det < 0.0 && 4.0 + 2.0 * trace + det > 0.0) {
-                return Err(RealizationError::Unstable);
-            }
+        // Stability and its margin in one test: the gain bound exists only if every pole
+        // lies inside the unit circle, no closer to it than the bound allows.
+        if self.amplification().is_none() {
+            return Err(RealizationError::Unstable);
         }
         Ok(())
+    }
+
+    /// Bounds on what input within `input_bound` (per axis, any sign) can make of the
+    /// block states (largest Euclidean norm of any block's state) and of each output, in
+    /// f32 (the device's arithmetic); `None` when a block is too slow or resonant to bound
+    /// ([`crate::gain_bound::MAX_POLE_SUM`]). The blob validator compares them with what
+    /// f32 can hold.
+    pub fn amplification(&self) -> Option<RealizationAmplification<NY>> {
+        let mut bound = RealizationAmplification {
+            state: 0.0,
+            outputs: [0.0; NY],
+        };
+        let to_f32 = |v: T| v.to_f64() as f32;
+        let mut first = 0;
+        for group in &self.groups {
+            let rows = group.outputs();
+            let end = (first + usize::from(group.block_count)).min(self.used_blocks());
+            let mut gains = [0.0f32; NY];
+            for (gain, &direct) in gains.iter_mut().zip(&group.feedthrough) {
+                *gain = to_f32(direct).abs();
+            }
+            for block in self.blocks.get(first..end).unwrap_or(&[]) {
+                let d = block.transition_minus_identity.map(|r| r.map(to_f32));
+                // The input enters the first state with unit gain (module doc).
+                let modes = ModalBound::new(d, [1.0, 0.0])?;
+                let state = modes.state();
+                // Comparisons, not f32::max: no library call on the device.
+                if state > bound.state {
+                    bound.state = state;
+                }
+                for (gain, row) in gains.iter_mut().zip(&block.output).take(rows.len()) {
+                    *gain += modes.output(row.map(to_f32));
+                }
+            }
+            for (&o, gain) in rows.iter().zip(gains) {
+                if let Some(out) = bound.outputs.get_mut(usize::from(o)) {
+                    *out += gain;
+                }
+            }
+            first = end;
+        }
+        let finite = bound.state.is_finite() && bound.outputs.iter().all(|v| v.is_finite());
+        finite.then_some(bound)
     }
 
     /// The discrete frequency response D + sum C (zI - Phi)^-1 e1 at z = e^(j 2 pi f / fs),

@@ -20,7 +20,7 @@ use crate::sample_rate::SampleRateError;
 pub use assembly::SystemMatrices;
 pub use discrete::{
     DEFAULT_SAMPLE_RATE_HZ, DeviceRealization, DiscreteModal, ModalBlock, ModalGroup, ModalState,
-    RealizationError, Scalar,
+    RealizationAmplification, RealizationError, Scalar,
 };
 pub use geometry::{Axis, Segment, Subject};
 pub use modal::{ModalAnalysis, ModalComponent, Subsystem};

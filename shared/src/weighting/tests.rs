@@ -591,3 +591,80 @@ fn the_f32_dc_gain_is_within_0_2_percent_of_f64_at_every_rate() {
         }
     }
 }
+
+/// Runs a [`Recursion2`](crate::gain_bound::Recursion2) in f64 on an impulse: its response.
+fn recursion_impulse(rec: &crate::gain_bound::Recursion2, n: usize) -> Vec<f64> {
+    let d = rec.a_minus_identity.map(|r| r.map(f64::from));
+    let (b, c) = (rec.b.map(f64::from), rec.c.map(f64::from));
+    let mut x = [0.0f64; 2];
+    (0..n)
+        .map(|k| {
+            let u = if k == 0 { 1.0 } else { 0.0 };
+            let y = c[0] * x[0] + c[1] * x[1] + f64::from(rec.d) * u;
+            x = [
+                x[0] + d[0][0] * x[0] + d[0][1] * x[1] + b[0] * u,
+                x[1] + d[1][0] * x[0] + d[1][1] * x[1] + b[1] * u,
+            ];
+            y
+        })
+        .collect()
+}
+
+#[test]
+fn the_state_space_forms_behind_the_gain_bound_are_the_filters_that_run() {
+    // Each section's recursion, run in f64, against the section's own f32 step: the same
+    // impulse response (to f32 rounding, amplified near z = 1 at 2 kHz; a wrong term would
+    // differ at the first samples by the term itself), so the blob's gain bound bounds what
+    // runs.
+    for hz in [100.0, 500.0, 2000.0] {
+        for kind in [WeightingKind::Wk, WeightingKind::Wd, WeightingKind::Wj] {
+            let w = WeightingSettings::new(kind, rate(hz)).unwrap();
+            let mut svf_state = [0.0f32; 2];
+            let svf: Vec<f64> = (0..400)
+                .map(|k| {
+                    w.band
+                        .high_pass
+                        .step(&mut svf_state, if k == 0 { 1.0 } else { 0.0 })
+                        as f64
+                })
+                .collect();
+            let sections = [(w.band.low_pass, "low-pass"), (w.shaping[0], "shaping")];
+            let mut pairs = vec![(
+                svf,
+                recursion_impulse(&w.band.high_pass.recursion(), 400),
+                "high-pass",
+            )];
+            for (q, name) in sections {
+                let mut st = [0.0f32; 2];
+                let run: Vec<f64> = (0..400)
+                    .map(|k| q.step(&mut st, if k == 0 { 1.0 } else { 0.0 }) as f64)
+                    .collect();
+                pairs.push((run, recursion_impulse(&q.recursion(), 400), name));
+            }
+            for (run, model, name) in pairs {
+                let scale = run.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                for (k, (a, b)) in run.iter().zip(&model).enumerate() {
+                    assert!(
+                        (a - b).abs() <= 1e-3 * scale,
+                        "{kind:?} {hz} Hz {name} at {k}: {a} vs {b}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn the_high_pass_recursion_has_the_denominator_of_its_transfer_function() {
+    // Multiplying `hp = 1 / (1/d + 2 c g/(z-1) + 2 g^2 (z+1)/(z-1)^2)` by `d (z-1)^2` gives
+    // the denominator `z^2 + a1 z + a2` with `a1 = 2 d g c + 2 d g^2 - 2`,
+    // `a2 = 1 - 2 d g k`: A's trace is -a1 and its determinant a2.
+    let w = WeightingSettings::new(WeightingKind::Wk, rate(500.0)).unwrap();
+    let hp = w.band.high_pass;
+    let (g, c, d) = (hp.g as f64, hp.k_plus_g as f64, hp.d as f64);
+    let (a1, a2) = (2.0 * d * g * (c + g) - 2.0, 1.0 - 2.0 * d * g * (c - g));
+    let m = hp.recursion().a_minus_identity.map(|r| r.map(f64::from));
+    let a = [[1.0 + m[0][0], m[0][1]], [m[1][0], 1.0 + m[1][1]]];
+    assert!((a[0][0] + a[1][1] + a1).abs() < 1e-6);
+    assert!((a[0][0] * a[1][1] - a[0][1] * a[1][0] - a2).abs() < 1e-6);
+}
