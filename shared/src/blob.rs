@@ -205,7 +205,7 @@ impl DeviceParams {
     /// That no input within the sensor's full scale can drive the realization or a
     /// weighting past [`MAX_SIGNAL_M_S2`] or a state past [`MAX_STATE`]: stable poles are
     /// not enough, a coefficient of 1e30 or a pole 1e-12 inside the unit circle passes the
-    /// checks above and still overflows f32 (docs/architecture.md, "What a blob may hold").
+    /// checks above and still overflows f32 (docs/protocol.md, "Validation", step 7).
     /// Such a blob is refused as `Unstable`: not bounded-input bounded-output in f32.
     fn check_bounded(&self) -> Result<(), BlobError> {
         let full_scale = self.sensor_checks.config.full_scale_m_s2;

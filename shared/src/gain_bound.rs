@@ -1,6 +1,6 @@
 //! Bounds on how far a stable two-state linear recursion can amplify a bounded input.
 //!
-//! The blob validator needs them (docs/architecture.md, "What a blob may hold"): a
+//! The blob validator needs them (docs/protocol.md, "Validation", step 7): a
 //! realization or filter whose poles are inside the unit circle can still carry a gain so
 //! large (a coefficient of 1e30, a pole 1e-12 inside the circle) that input within the
 //! sensor's full scale overflows f32.
