@@ -28,6 +28,9 @@ pub struct Args {
     /// Stream the ride in real time (otherwise as fast as the device takes it).
     #[arg(long)]
     pub realtime: bool,
+    /// Run this firmware ELF instead of the image built into supine (development).
+    #[arg(long, value_name = "ELF")]
+    pub firmware: Option<PathBuf>,
 }
 
 /// Runs the demo: step lines and the summary on standard output, the live view on
@@ -41,6 +44,7 @@ pub fn run(args: &Args) -> Result<()> {
         duration_s: args.duration_s,
         seed: args.seed,
         realtime: args.realtime,
+        firmware: args.firmware.clone(),
     };
     let stderr = std::io::stderr();
     let mut view: Box<dyn View> = if stderr.is_terminal() {
