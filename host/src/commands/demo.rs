@@ -19,7 +19,7 @@ pub struct Args {
     /// The ride (road-trip: paved road, rough road with shocks, paved road again).
     #[arg(long, value_enum, default_value_t = DemoProfile::RoadTrip)]
     pub profile: DemoProfile,
-    /// Length of the ride, s (at 500 Hz the device in QEMU runs about 4 times real time).
+    /// Length of the ride, s (the device in QEMU takes it faster than real time).
     #[arg(long, default_value_t = 60.0)]
     pub duration_s: f64,
     /// Seed of the ride's random draws: the same seed gives the same ride and report numbers.
