@@ -140,10 +140,18 @@ pub fn run(args: &Args) -> Result<()> {
 /// How often the plain progress line is printed when standard error is not a terminal.
 const PLAIN_PROGRESS_EVERY: Duration = Duration::from_secs(10);
 
+/// How often the bar's rate is recomputed.
+const BAR_RATE_EVERY: Duration = Duration::from_millis(500);
+
 /// The replay's progress on standard error: a bar (samples, rate, ETA) on a terminal,
 /// else a line every [`PLAIN_PROGRESS_EVERY`], so a log of a long ride shows it moving.
 enum Progress {
-    Bar(indicatif::ProgressBar),
+    Bar {
+        bar: indicatif::ProgressBar,
+        sample_rate_hz: f64,
+        started: Instant,
+        next: Instant,
+    },
     Lines {
         total: u64,
         sample_rate_hz: f64,
@@ -166,17 +174,39 @@ impl Progress {
         let bar = indicatif::ProgressBar::new(total);
         bar.set_style(
             indicatif::ProgressStyle::with_template(
-                "replay {bar:30} {human_pos}/{human_len} samples, {per_sec}, ETA {eta}",
+                "replay {bar:30} {human_pos}/{human_len} samples, {msg}, ETA {eta}",
             )
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
-        Self::Bar(bar)
+        let started = Instant::now();
+        Self::Bar {
+            bar,
+            sample_rate_hz,
+            started,
+            next: started + BAR_RATE_EVERY,
+        }
     }
 
     /// `done` samples have been processed by the device.
     fn update(&mut self, done: u64) {
         match self {
-            Self::Bar(bar) => bar.set_position(done),
+            Self::Bar {
+                bar,
+                sample_rate_hz,
+                started,
+                next,
+            } => {
+                bar.set_position(done);
+                let now = Instant::now();
+                if now >= *next {
+                    *next = now + BAR_RATE_EVERY;
+                    let rate = done as f64 / now.duration_since(*started).as_secs_f64();
+                    bar.set_message(format!(
+                        "{rate:.0} samples/s ({:.1}x real time)",
+                        rate / *sample_rate_hz
+                    ));
+                }
+            }
             Self::Lines {
                 total,
                 sample_rate_hz,
@@ -201,7 +231,7 @@ impl Progress {
     }
 
     fn finish(&self) {
-        if let Self::Bar(bar) = self {
+        if let Self::Bar { bar, .. } = self {
             bar.finish_and_clear();
         }
     }
