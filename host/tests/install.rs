@@ -1,9 +1,11 @@
-//! The installed tool needs no source tree and no cargo: its binary, copied alone into a
-//! temporary install root (what `cargo install --path host --root ROOT` puts there:
-//! `ROOT/bin/supine`; the copy is this build's binary, so the test runs in the normal
-//! suite without a second release build), runs `supine demo` from an empty folder with
-//! `PATH` reduced to that root and the system (`qemu-system-arm` in `/usr/bin`), with no
-//! `SUPINE_*` or `CARGO*` variable set.
+//! The installed tool needs no source tree and no cargo: its binary alone in a temporary
+//! install root (`ROOT/bin/supine`, what `cargo install --path host --root ROOT` puts
+//! there) runs `supine demo` from an empty folder with `PATH` reduced to that root and the
+//! system (`qemu-system-arm` in `/usr/bin`), with no `SUPINE_*` or `CARGO*` variable set.
+//!
+//! The first test copies this build's binary into the root (the same file `cargo install`
+//! copies, from a dev build: it runs in the normal suite); the second, `#[ignore]`d because
+//! its release build from scratch takes over ten minutes here, runs `cargo install` itself.
 
 use std::os::unix::fs::PermissionsExt as _;
 use std::path::Path;
@@ -25,9 +27,34 @@ fn the_installed_binary_runs_the_demo_from_an_empty_folder_without_the_source_tr
     let root = tempfile::tempdir().expect("install root");
     let bin = root.path().join("bin");
     std::fs::create_dir(&bin).expect("mkdir bin");
+    std::fs::copy(env!("CARGO_BIN_EXE_supine"), bin.join("supine")).expect("install the binary");
+    demo_runs_from_an_empty_folder(root.path());
+}
+
+#[test]
+#[ignore = "a release build from scratch: over ten minutes on the 2-core machine"]
+fn cargo_install_into_a_temporary_root_gives_a_tool_that_runs_the_demo() {
+    let root = tempfile::tempdir().expect("install root");
+    let host = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let status = Command::new(cargo)
+        .args(["install", "--locked", "--offline", "--path"])
+        .arg(host)
+        .arg("--root")
+        .arg(root.path())
+        .env_remove("CARGO_TARGET_DIR")
+        .status()
+        .expect("cargo runs");
+    assert!(status.success(), "cargo install failed");
+    demo_runs_from_an_empty_folder(root.path());
+}
+
+/// Runs `ROOT/bin/supine demo` from an empty folder as described above and checks what it
+/// wrote.
+fn demo_runs_from_an_empty_folder(root: &Path) {
+    let bin = root.join("bin");
     let supine = bin.join("supine");
-    std::fs::copy(env!("CARGO_BIN_EXE_supine"), &supine).expect("install the binary");
-    let marker = root.path().join("cargo-was-run");
+    let marker = root.join("cargo-was-run");
     trap_cargo(&bin, &marker);
     let work = tempfile::tempdir().expect("empty folder");
     let home = tempfile::tempdir().expect("home");

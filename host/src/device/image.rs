@@ -131,7 +131,7 @@ mod tests {
     }
 
     #[test]
-    fn the_development_key_is_the_committed_one() {
+    fn the_built_in_development_key_parses() {
         let key = development_key().expect("parses");
         assert_eq!(key.len(), KEY_LEN);
     }
