@@ -1,5 +1,5 @@
 //! Build script of the host library: the device's memory map, read from the repository's
-//! `memory.x`.
+//! `memory.x`, and the product firmware image the tool embeds (see `build/firmware_image.rs`).
 //!
 //! `memory.x` is what the QEMU images link with (`firmware/build.rs` copies it), so it is
 //! the one place the regions are defined. This reads each region's origin and length from
@@ -10,6 +10,9 @@
 use std::env;
 use std::fs;
 use std::path::PathBuf;
+
+#[path = "build/firmware_image.rs"]
+mod firmware_image;
 
 fn main() {
     let manifest_dir =
@@ -35,6 +38,8 @@ fn main() {
         ));
     }
     fs::write(out_dir.join("memory_map.rs"), out).expect("cannot write memory_map.rs to OUT_DIR");
+
+    firmware_image::build(&manifest_dir.join(".."), &out_dir);
 }
 
 /// One line of a `MEMORY` block: `NAME : ORIGIN = <number>, LENGTH = <number>`.

@@ -1,6 +1,7 @@
 //! Driver for the ARM CMSDK APB UART (the MPS2 boards' UART, modelled by QEMU).
 //!
-//! Polled, one byte deep in each direction. Registers (offsets from the base): DATA +0x00,
+//! Polled, one byte deep in each direction; an empty receiver is polled with a short pause
+//! in between ([`EMPTY_POLL_BACKOFF_CYCLES`]). Registers (offsets from the base): DATA +0x00,
 //! STATE +0x04 (bit 0 TX full, bit 1 RX full), CTRL +0x08 (bit 0 TX enable, bit 1 RX
 //! enable), BAUDDIV +0x10 (at least 16). Implements the `embedded-io` traits (embedded-hal
 //! 1.0 left serial ports to `embedded-io`) and `core::fmt::Write`.
@@ -20,6 +21,16 @@ const CTRL_RX_ENABLE: u32 = 1 << 1;
 
 /// The smallest divider the CMSDK UART accepts.
 const MIN_BAUDDIV: u32 = 16;
+
+/// Cycles the driver waits after finding RX empty, before the main loop polls again.
+///
+/// Under QEMU every register access takes the emulator's global lock, and the thread that
+/// moves the next received byte from the host's socket into the UART needs that lock too:
+/// a main loop that polls STATE back to back starves it, and each byte waits (see
+/// BENCHMARKS.md, "replay throughput"). A pause without register accesses leaves the lock
+/// free. 1,000 cycles are 40 us at the board's 25 MHz, under half of one byte's time at
+/// UART0's 115,200 baud (87 us), so the one-deep receiver cannot overrun during it.
+const EMPTY_POLL_BACKOFF_CYCLES: u32 = 1000;
 
 /// A CMSDK APB UART, enabled for transmit and receive.
 pub struct CmsdkUart {
@@ -117,7 +128,11 @@ impl embedded_io::Read for CmsdkUart {
 
 impl embedded_io::ReadReady for CmsdkUart {
     fn read_ready(&mut self) -> Result<bool, Infallible> {
-        Ok(self.read_reg(STATE) & STATE_RX_FULL != 0)
+        let ready = self.read_reg(STATE) & STATE_RX_FULL != 0;
+        if !ready {
+            cortex_m::asm::delay(EMPTY_POLL_BACKOFF_CYCLES);
+        }
+        Ok(ready)
     }
 }
 

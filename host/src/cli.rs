@@ -11,12 +11,20 @@ use crate::commands;
 
 /// Predict the vibration reaching a supine patient's head from a litter-frame accelerometer.
 #[derive(Debug, Parser)]
-#[command(name = "supine", version, about, long_about = None)]
+#[command(name = "supine", version, about, long_about = None, after_help = ENVIRONMENT_HELP)]
 pub struct Cli {
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
 }
+
+/// Every environment variable the tool reads (the README's "Environment" lists the same).
+pub const ENVIRONMENT_HELP: &str = "\
+Environment:
+  SUPINE_QEMU       the QEMU program for --qemu, demo and monitor (default: qemu-system-arm on PATH)
+  SUPINE_STATE_DIR  where flash keeps its last update counter (default: $XDG_STATE_HOME/supine,
+                    else $HOME/.local/state/supine)
+  TMPDIR            where QEMU runs get their private scratch folders (default: /tmp)";
 
 /// The subcommands of `supine`.
 #[derive(Debug, Subcommand)]

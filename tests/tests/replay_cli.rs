@@ -159,7 +159,16 @@ fn ctrl_c_sigterm_and_sighup_during_replay_leave_no_qemu_and_no_socket_folder() 
             !output.status.success(),
             "SIG{signal}: an interrupted replay must fail"
         );
-        assert!(stderr.contains("interrupted"), "SIG{signal}: {stderr}");
+        // How far the device had got, of the ride's 60,000 samples: some, not all.
+        let done: u64 = stderr
+            .split("interrupted after ")
+            .nth(1)
+            .and_then(|rest| rest.strip_suffix(" of 60000 samples\n"))
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| {
+                panic!("SIG{signal}: no \"interrupted after N of 60000 samples\": {stderr}")
+            });
+        assert!(done > 0 && done < 60_000, "SIG{signal}: {done}");
         assert!(
             !Path::new(&format!("/proc/{qemu_pid}")).exists() || qemu_cmdline(qemu_pid).is_none(),
             "SIG{signal}: QEMU {qemu_pid} still running"
@@ -183,6 +192,31 @@ fn a_finished_replay_leaves_no_qemu_and_no_socket_folder() {
     assert!(output.status.success(), "{stderr}");
     assert!(stderr.contains("replayed 1000 samples"), "{stderr}");
     assert_nothing_left(&tmp, "a finished replay");
+
+    // --json: one object on stdout, its counts those of the files written.
+    let output = replay_command(dir.path(), &ride, &tmp)
+        .args(["--json", "--telemetry-decimation", "5"])
+        .output()
+        .expect("supine runs");
+    assert!(output.status.success());
+    let report: serde_json::Value =
+        serde_json::from_slice(&output.stdout).expect("one JSON object");
+    let rows = std::fs::read_to_string(dir.path().join("device.csv"))
+        .expect("device.csv")
+        .lines()
+        .count()
+        - 1;
+    assert_eq!(report["samples"], 1000);
+    assert_eq!(report["sample_rate_hz"], 500.0);
+    assert_eq!(report["ride_duration_s"], 2.0);
+    assert_eq!(report["telemetry_records"], rows as u64);
+    assert_eq!(rows, 200, "every 5th of 1,000 samples");
+    let elapsed_s = report["elapsed_s"].as_f64().expect("elapsed_s");
+    let factor = report["real_time_factor"]
+        .as_f64()
+        .expect("real_time_factor");
+    assert!((factor * elapsed_s - 2.0).abs() < 1e-9, "{report}");
+    assert_nothing_left(&tmp, "a finished replay with --json");
 }
 
 #[test]

@@ -684,6 +684,18 @@ fn supine_flash_writes_a_bootable_qemu_image_uploads_into_qemu_and_explains_fail
         stdout.contains(&format!("parameters {rigid_hex} committed to slot 0")),
         "{stdout}"
     );
+    assert!(stderr.contains("public development key"), "{stderr}");
+
+    // --json: one object on stdout saying what the device acknowledged.
+    let (ok, stdout, stderr) =
+        run_cli(supine().args(["flash", "--preset", "paper-rigid", "--qemu", "--json"]));
+    assert!(ok, "{stderr}");
+    let report: serde_json::Value = serde_json::from_str(&stdout).expect("one JSON object");
+    assert_eq!(report["target"], "qemu");
+    assert_eq!(report["params_identity"], rigid_hex.as_str());
+    assert_eq!(report["slot"], 0);
+    assert_eq!(report["greeting_sample_rate_hz"], 500.0);
+    assert_eq!(report["development_key"], true);
 
     // The wrong key: the device's code, on one line, and a failing status.
     let wrong = dir.path().join("wrong.key");
@@ -958,9 +970,13 @@ fn sigterm_during_supine_flash_qemu_leaves_no_qemu_and_no_socket_folder() {
         signalled.elapsed()
     );
     assert!(!output.status.success());
+    // No --key: the tool says it signs with the public development key, then the error.
     assert_eq!(
-        stderr.trim(),
-        "supine: interrupted: QEMU stopped and its folder removed"
+        stderr.trim().lines().collect::<Vec<_>>(),
+        [
+            supine_host::device::image::DEVELOPMENT_KEY_NOTICE,
+            "supine: interrupted: QEMU stopped and its folder removed"
+        ]
     );
     assert_eq!(qemu_processes_mentioning(&tmp), Vec::<u32>::new());
     assert_eq!(entries(&tmp), Vec::<String>::new());

@@ -19,7 +19,7 @@ pub struct Args {
     /// The ride (road-trip: paved road, rough road with shocks, paved road again).
     #[arg(long, value_enum, default_value_t = DemoProfile::RoadTrip)]
     pub profile: DemoProfile,
-    /// Length of the ride, s (at 500 Hz the device in QEMU runs about 4 times real time).
+    /// Length of the ride, s (the device in QEMU takes it faster than real time).
     #[arg(long, default_value_t = 60.0)]
     pub duration_s: f64,
     /// Seed of the ride's random draws: the same seed gives the same ride and report numbers.
@@ -28,6 +28,9 @@ pub struct Args {
     /// Stream the ride in real time (otherwise as fast as the device takes it).
     #[arg(long)]
     pub realtime: bool,
+    /// Run this firmware ELF instead of the image built into supine (development).
+    #[arg(long, value_name = "ELF")]
+    pub firmware: Option<PathBuf>,
 }
 
 /// Runs the demo: step lines and the summary on standard output, the live view on
@@ -41,6 +44,7 @@ pub fn run(args: &Args) -> Result<()> {
         duration_s: args.duration_s,
         seed: args.seed,
         realtime: args.realtime,
+        firmware: args.firmware.clone(),
     };
     let stderr = std::io::stderr();
     let mut view: Box<dyn View> = if stderr.is_terminal() {

@@ -4,10 +4,12 @@
 use std::path::PathBuf;
 
 use anyhow::{Result, anyhow};
+use serde_json::json;
 
 use crate::commands::values;
 use crate::device::device_params::identity_hex;
 use crate::device::flash::{self, UploadOutcome};
+use crate::device::image::{DEVELOPMENT_KEY_NOTICE, ProductImage};
 use crate::io::params_file::ModelSource;
 
 /// Arguments of `supine flash`.
@@ -38,6 +40,12 @@ pub struct Args {
     /// Longest wait for each answer of the device, s (above 0, at most a day).
     #[arg(long, value_name = "S", default_value_t = 10.0, value_parser = values::timeout_s)]
     pub timeout_s: f64,
+    /// With --qemu: run this firmware ELF instead of the image built into supine.
+    #[arg(long, value_name = "ELF", requires = "qemu")]
+    pub firmware: Option<PathBuf>,
+    /// Print the result as one JSON object on standard output.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Exactly one destination.
@@ -75,54 +83,105 @@ pub fn run(args: &Args) -> Result<()> {
     let id = identity_hex(&params.identity);
     let counter = || flash::choose_counter(args.counter);
     let t = &args.target;
-    if let Some(out) = &t.qemu_image {
+    let (text, json) = if let Some(out) = &t.qemu_image {
         let image = flash::qemu_region_image(&blob)?;
         crate::io::output::write_atomically(out, |w| {
             std::io::Write::write_all(w, &image)
                 .map_err(|e| anyhow!("{}: cannot write: {e}", out.display()))
         })?;
-        println!(
-            "wrote {} ({} bytes: parameters {id} at {} Hz in slot A); run with -device loader,file={},addr={:#x}",
-            out.display(),
-            image.len(),
-            args.fs_hz,
-            out.display(),
-            crate::device::qemu::PARAMS_ADDR
-        );
+        let addr = crate::device::qemu::PARAMS_ADDR;
+        (
+            format!(
+                "wrote {} ({} bytes: parameters {id} at {} Hz in slot A); run with -device loader,file={},addr={addr:#x}",
+                out.display(),
+                image.len(),
+                args.fs_hz,
+                out.display(),
+            ),
+            json!({
+                "target": "qemu-image",
+                "path": out,
+                "bytes": image.len(),
+                "params_identity": id,
+                "sample_rate_hz": args.fs_hz,
+                "load_address": format!("{addr:#x}"),
+            }),
+        )
     } else if let Some(port) = &t.serial {
-        let key = flash::load_key(args.key.as_deref())?;
+        let key = key(args)?;
         let counter = counter()?;
         let outcome =
             flash::upload_serial(port, args.baud, &params, &blob, &key, counter, timeout)?;
-        report(&outcome, port, counter);
+        report(&outcome, port, counter, args.key.is_none())
     } else if let Some(chip) = &t.probe {
         let image =
             flash::region_image_with_stride(&blob, counter()?, flash::BLACKPILL_SLOT_STRIDE)?;
         flash::probe_download(chip, args.base_address, &image)?;
-        println!(
-            "flashed parameters {id} at {} Hz to {chip} at {:#010x}; now reset the board \
-             (`probe-rs reset --chip {chip}`, its reset button, or a power cycle): it reads \
-             its parameters only at boot",
-            args.fs_hz, args.base_address
-        );
-    } else if t.qemu {
-        let key = flash::load_key(args.key.as_deref())?;
+        (
+            format!(
+                "flashed parameters {id} at {} Hz to {chip} at {:#010x}; now reset the board \
+                 (`probe-rs reset --chip {chip}`, its reset button, or a power cycle): it reads \
+                 its parameters only at boot",
+                args.fs_hz, args.base_address
+            ),
+            json!({
+                "target": "probe",
+                "chip": chip,
+                "base_address": format!("{:#010x}", args.base_address),
+                "params_identity": id,
+                "sample_rate_hz": args.fs_hz,
+            }),
+        )
+    } else {
+        // The group requires one target: this is --qemu.
+        let kernel = ProductImage::select(args.firmware.as_deref())?;
+        let key = key(args)?;
         // A fresh QEMU device has accepted no counter: nothing to remember.
         let counter = args.counter.map_or_else(flash::unix_seconds, Ok)?;
-        let outcome = flash::upload_qemu(&params, &blob, &key, counter, timeout)?;
-        report(&outcome, "QEMU", counter);
+        let outcome = flash::upload_qemu(&kernel, &params, &blob, &key, counter, timeout)?;
+        report(&outcome, "QEMU", counter, args.key.is_none())
+    };
+    if args.json {
+        println!("{json}");
+    } else {
+        println!("{text}");
     }
     Ok(())
 }
 
-fn report(outcome: &UploadOutcome, device: &str, counter: u32) {
-    println!(
-        "{device}: parameters {} committed to slot {} and running (greeting: {} Hz, firmware {}; counter {counter})",
-        identity_hex(&outcome.uploaded.identity),
-        outcome.uploaded.slot,
-        outcome.greeting.sample_rate_hz,
-        outcome.greeting.firmware_version
-    );
+/// The signing key: `--key`, or the public development key, said so on standard error.
+fn key(args: &Args) -> Result<[u8; supine_core::upload::KEY_LEN]> {
+    if args.key.is_none() {
+        eprintln!("{DEVELOPMENT_KEY_NOTICE}");
+    }
+    flash::load_key(args.key.as_deref())
+}
+
+/// The line and the JSON object that report an upload.
+fn report(
+    outcome: &UploadOutcome,
+    device: &str,
+    counter: u32,
+    development_key: bool,
+) -> (String, serde_json::Value) {
+    let id = identity_hex(&outcome.uploaded.identity);
+    let g = &outcome.greeting;
+    (
+        format!(
+            "{device}: parameters {id} committed to slot {} and running (greeting: {} Hz, firmware {}; counter {counter})",
+            outcome.uploaded.slot, g.sample_rate_hz, g.firmware_version
+        ),
+        json!({
+            "target": if device == "QEMU" { "qemu" } else { "serial" },
+            "device": device,
+            "params_identity": id,
+            "slot": outcome.uploaded.slot,
+            "counter": counter,
+            "greeting_sample_rate_hz": g.sample_rate_hz,
+            "firmware_version": g.firmware_version.as_str(),
+            "development_key": development_key,
+        }),
+    )
 }
 
 #[cfg(test)]

@@ -60,6 +60,9 @@ pub struct Args {
     /// With --qemu: send the samples in real time (default: as fast as the device takes them).
     #[arg(long, requires = "qemu")]
     pub realtime: bool,
+    /// With --qemu: run this firmware ELF instead of the image built into supine.
+    #[arg(long, value_name = "ELF", requires = "qemu")]
+    pub firmware: Option<PathBuf>,
     /// Log every telemetry record to FILE.csv and every alert event to <stem>.events.csv
     /// (the formats of `supine replay`).
     #[arg(long, value_name = "FILE.csv")]
@@ -154,7 +157,9 @@ fn prepare_qemu(args: &Args, greeting_timeout: Duration) -> Result<QemuRun> {
         }
         (None, None) => bail!("--qemu needs a ride: --input RIDE.csv or --profile NAME"),
     };
+    let kernel = crate::device::image::ProductImage::select(args.firmware.as_deref())?;
     QemuRun::new(
+        kernel,
         &file,
         samples,
         sample_rate_hz,

@@ -1,10 +1,15 @@
 //! `supine replay`: a recording through the device image in QEMU, telemetry to CSV.
 
+use std::io::IsTerminal as _;
 use std::path::PathBuf;
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
 
 use anyhow::{Result, bail};
+use serde_json::json;
 use supine_core::blob::TelemetryConfig;
 
+use crate::device::image::ProductImage;
 use crate::device::replay::replay;
 use crate::io::params_file::ModelSource;
 use crate::io::recording::PlatformStream;
@@ -33,9 +38,16 @@ pub struct Args {
     #[arg(long, value_name = "N", default_value_t = 1,
           value_parser = clap::value_parser!(u16).range(1..))]
     pub telemetry_decimation: u16,
+    /// Run this firmware ELF instead of the image built into supine (development).
+    #[arg(long, value_name = "ELF")]
+    pub firmware: Option<PathBuf>,
+    /// Print the result as one JSON object on standard output.
+    #[arg(long)]
+    pub json: bool,
 }
 
-/// Replays and writes the CSVs; Ctrl-C stops QEMU and removes its socket folder.
+/// Replays and writes the CSVs; Ctrl-C stops QEMU, removes its socket folder and says how
+/// far the device had got.
 pub fn run(args: &Args) -> Result<()> {
     if !args.qemu {
         bail!("give --qemu: replay runs the firmware in QEMU (no hardware target yet)");
@@ -44,31 +56,77 @@ pub fn run(args: &Args) -> Result<()> {
     // A full recording or a `supine ride` file (platform columns only), checked whole
     // first, then streamed: a ride of any length fits in memory.
     let ride = PlatformStream::open(&args.input)?;
+    let kernel = ProductImage::select(args.firmware.as_deref())?;
     // Ctrl-C, SIGTERM and SIGHUP: QEMU stopped and its folder removed on the way out.
     let stop = crate::device::signals::stop_flag();
     let telemetry = TelemetryConfig {
         decimation: args.telemetry_decimation,
     };
+    let total = ride.len() as u64;
+    let mut progress = Progress::new(total, ride.sample_rate_hz());
     let mut records = 0usize;
+    let mut processed = 0u64;
     let result = write_telemetry_streamed(&args.out, ride.sample_rate_hz(), |emit| {
-        replay(&file, &ride, telemetry, args.icount, &stop, &mut |t| {
-            records += 1;
-            emit(t)
-        })
-    })?;
+        replay(
+            &kernel,
+            &file,
+            &ride,
+            telemetry,
+            args.icount,
+            &stop,
+            &mut |t| {
+                records += 1;
+                processed = u64::from(t.sample_index) + 1;
+                progress.update(processed);
+                emit(t)
+            },
+        )
+    });
+    progress.finish();
+    let result = match result {
+        Ok(r) => r,
+        Err(_) if stop.load(Ordering::Relaxed) => {
+            bail!("interrupted after {processed} of {total} samples")
+        }
+        Err(e) => return Err(e),
+    };
     let s = &result.session;
     let events = events_path(&args.out);
     write_events(&events, &s.events, result.sample_rate_hz)?;
+    let raised = s.events.iter().filter(|e| e.is_raise()).count();
+    let ride_s = result.samples as f64 / result.sample_rate_hz;
+    let elapsed_s = s.elapsed.as_secs_f64();
+    if args.json {
+        let mut object = json!({
+            "samples": result.samples,
+            "sample_rate_hz": result.sample_rate_hz,
+            "ride_duration_s": ride_s,
+            "elapsed_s": elapsed_s,
+            "real_time_factor": ride_s / elapsed_s,
+            "telemetry_records": records,
+            "telemetry_decimation": args.telemetry_decimation,
+            "frames_lost": s.link.lost_frames,
+            "frames_bad": s.link.bad_frames,
+            "alerts_raised": raised,
+            "telemetry_csv": args.out,
+            "events_csv": events,
+        });
+        if args.icount {
+            object["instructions_per_sample"] = json!(s.instructions_per_sample());
+        }
+        println!("{object}");
+        return Ok(());
+    }
     if args.icount {
         println!(
             "instructions_per_sample: {:.0}",
             s.instructions_per_sample()
         );
     }
-    let raised = s.events.iter().filter(|e| e.is_raise()).count();
     eprintln!(
-        "replayed {} samples: {} telemetry records, frames lost {}, bad {}, alerts raised {}; wrote {} and {}",
+        "replayed {} samples in {elapsed_s:.1} s ({:.1}x real time): {} telemetry records, frames lost {}, bad {}, alerts raised {}; wrote {} and {}",
         result.samples,
+        ride_s / elapsed_s,
         records,
         s.link.lost_frames,
         s.link.bad_frames,
@@ -77,4 +135,104 @@ pub fn run(args: &Args) -> Result<()> {
         events.display()
     );
     Ok(())
+}
+
+/// How often the plain progress line is printed when standard error is not a terminal.
+const PLAIN_PROGRESS_EVERY: Duration = Duration::from_secs(10);
+
+/// How often the bar's rate is recomputed.
+const BAR_RATE_EVERY: Duration = Duration::from_millis(500);
+
+/// The replay's progress on standard error: a bar (samples, rate, ETA) on a terminal,
+/// else a line every [`PLAIN_PROGRESS_EVERY`], so a log of a long ride shows it moving.
+enum Progress {
+    Bar {
+        bar: indicatif::ProgressBar,
+        sample_rate_hz: f64,
+        started: Instant,
+        next: Instant,
+    },
+    Lines {
+        total: u64,
+        sample_rate_hz: f64,
+        started: Instant,
+        next: Instant,
+    },
+}
+
+impl Progress {
+    fn new(total: u64, sample_rate_hz: f64) -> Self {
+        if !std::io::stderr().is_terminal() {
+            let started = Instant::now();
+            return Self::Lines {
+                total,
+                sample_rate_hz,
+                started,
+                next: started + PLAIN_PROGRESS_EVERY,
+            };
+        }
+        let bar = indicatif::ProgressBar::new(total);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "replay {bar:30} {human_pos}/{human_len} samples, {msg}, ETA {eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        let started = Instant::now();
+        Self::Bar {
+            bar,
+            sample_rate_hz,
+            started,
+            next: started + BAR_RATE_EVERY,
+        }
+    }
+
+    /// `done` samples have been processed by the device.
+    fn update(&mut self, done: u64) {
+        match self {
+            Self::Bar {
+                bar,
+                sample_rate_hz,
+                started,
+                next,
+            } => {
+                bar.set_position(done);
+                let now = Instant::now();
+                if now >= *next {
+                    *next = now + BAR_RATE_EVERY;
+                    let rate = done as f64 / now.duration_since(*started).as_secs_f64();
+                    bar.set_message(format!(
+                        "{rate:.0} samples/s ({:.1}x real time)",
+                        rate / *sample_rate_hz
+                    ));
+                }
+            }
+            Self::Lines {
+                total,
+                sample_rate_hz,
+                started,
+                next,
+            } => {
+                let now = Instant::now();
+                if now < *next {
+                    return;
+                }
+                *next = now + PLAIN_PROGRESS_EVERY;
+                let elapsed_s = now.duration_since(*started).as_secs_f64();
+                let rate = done as f64 / elapsed_s;
+                let eta_s = total.saturating_sub(done) as f64 / rate.max(1.0);
+                eprintln!(
+                    "replay: {done} of {total} samples ({:.0}%), {rate:.0} samples/s ({:.1}x real time), ETA {eta_s:.0} s",
+                    100.0 * done as f64 / (*total).max(1) as f64,
+                    rate / *sample_rate_hz,
+                );
+            }
+        }
+    }
+
+    fn finish(&self) {
+        if let Self::Bar { bar, .. } = self {
+            bar.finish_and_clear();
+        }
+    }
 }

@@ -1,6 +1,7 @@
 //! `supine demo`: the product end to end on one machine, with a report a user can read.
 //!
-//! Steps, each announced on one line: build the firmware image (if stale); make a ride
+//! Steps, each announced on one line: the firmware image (built into the tool, or
+//! `--firmware`); make a ride
 //! ([`ride`]); place the paper litter-board parameters in QEMU's PARAMS region (the
 //! region image `supine flash` makes); run the image in QEMU with the ride streamed over
 //! its UART, followed live by the monitor ([`crate::monitor`]) which logs the device's
@@ -30,8 +31,8 @@ use supine_core::blob::DeviceParams;
 use supine_core::model::Preset;
 
 use crate::device::device_params::identity_hex;
-use crate::device::firmware;
 use crate::device::flash;
+use crate::device::image::ProductImage;
 use crate::exposure::reference;
 use crate::exposure::report::{AxisReport, run_pipeline};
 use crate::io::params_file::{self, DeviceSection, ParamFile};
@@ -74,6 +75,8 @@ pub struct DemoConfig {
     pub seed: u64,
     /// Stream the samples in real time (otherwise as fast as the device takes them).
     pub realtime: bool,
+    /// A developer's firmware ELF instead of the image built into the tool.
+    pub firmware: Option<PathBuf>,
 }
 
 /// What a finished demo produced.
@@ -165,9 +168,12 @@ pub fn run(
 
     steps.start(
         "firmware",
-        "firmware: building the device image if it is stale (cargo fw; the first time takes a minute or two)",
+        &match &config.firmware {
+            Some(elf) => format!("firmware: {} (--firmware)", elf.display()),
+            None => "firmware: the device image built into supine".to_owned(),
+        },
     );
-    let kernel = firmware::build_binary(firmware::PRODUCT_BINARY)?;
+    let kernel = ProductImage::select(config.firmware.as_deref())?;
 
     steps.start(
         "ride",

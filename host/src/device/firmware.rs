@@ -1,6 +1,7 @@
-//! Building the device image from the host.
+//! Building device images from the source tree, for the QEMU tests and development.
 //!
-//! The QEMU tests and the host commands that run the firmware need its ELF files. This
+//! The installed tool does not use this: it runs the image built into it
+//! ([`crate::device::image`]). The tests need every image (self-test, fault images). This
 //! module runs the same build as `cargo fw` (package `supine-firmware`, profile `fw`,
 //! target `thumbv7em-none-eabihf`, target dir `<root>/target/firmware`) from the
 //! repository root, so the root `.cargo/config.toml` applies, and returns the path of a

@@ -31,9 +31,6 @@ pub const REGION_LEN: usize = SLOT_COUNT * SLOT_LEN;
 /// Uploads over the link use larger counters (by default from [`choose_counter`]).
 pub const REGION_IMAGE_COUNTER: u32 = 1;
 
-/// The development device key, committed for QEMU and tests (never for a real device).
-pub const DEV_KEY_PATH: &str = "firmware/keys/dev-device.key";
-
 /// The device parameters for `file` at `sample_rate_hz` and their blob bytes.
 pub fn device_blob(file: &ParamFile, sample_rate_hz: f64) -> Result<(DeviceParams, Vec<u8>)> {
     if !(sample_rate_hz.is_finite() && sample_rate_hz > 0.0) {
@@ -260,13 +257,12 @@ pub fn upload_over_link<R: Read, W: Write>(
     Ok(UploadOutcome { uploaded, greeting })
 }
 
-/// The key in `path`, or the development key when `path` is `None`.
+/// The key in `path`, or the public development key built into the tool when `path` is
+/// `None` (the caller says so: [`crate::device::image::DEVELOPMENT_KEY_NOTICE`]).
 pub fn load_key(path: Option<&Path>) -> Result<[u8; KEY_LEN]> {
     match path {
         Some(p) => upload_client::read_key(p),
-        None => {
-            upload_client::read_key(&crate::device::firmware::repository_root().join(DEV_KEY_PATH))
-        }
+        None => crate::device::image::development_key(),
     }
 }
 
@@ -307,17 +303,17 @@ pub fn upload_serial(
     .map_err(|e| anyhow!("{port}: {e}"))
 }
 
-/// Starts the product image in QEMU (built-in parameters), uploads `blob` over its UART
-/// and checks the greeting that follows: the upload path end to end, without hardware.
+/// Starts `kernel` in QEMU (built-in parameters), uploads `blob` over its UART and checks
+/// the greeting that follows: the upload path end to end, without hardware.
 pub fn upload_qemu(
+    kernel: &crate::device::image::ProductImage,
     params: &DeviceParams,
     blob: &[u8],
     key: &[u8; KEY_LEN],
     counter: u32,
     timeout: Duration,
 ) -> Result<UploadOutcome> {
-    let kernel = crate::device::firmware::build_binary(crate::device::firmware::PRODUCT_BINARY)?;
-    let config = QemuConfig::new(kernel)
+    let config = QemuConfig::new(kernel.path())
         .uart()
         .timeout(timeout + Duration::from_secs(30));
     let mut qemu = Qemu::start(&config)?;

@@ -2,7 +2,8 @@
 //! host talks to it.
 //!
 //! - [`device_params`]: a parameter file turned into the device's blob and its identity.
-//! - [`firmware`]: building the device image.
+//! - [`image`]: the firmware image and development key built into the tool.
+//! - [`firmware`]: building device images from the source tree (the QEMU tests).
 //! - [`qemu`]: running the image in QEMU (mps2-an386).
 //! - [`link`]: the host's end of the wire protocol.
 //! - [`memory_map`]: the device's memory regions, read from `memory.x` at build time.
@@ -15,6 +16,7 @@
 pub mod device_params;
 pub mod firmware;
 pub mod flash;
+pub mod image;
 pub mod link;
 pub mod memory_map;
 pub mod qemu;

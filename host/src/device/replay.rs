@@ -27,7 +27,7 @@ use supine_core::protocol::{DeviceToHost, Greeting, HostToDevice, SampleBatch, S
 use supine_core::timing::INSTRUCTIONS_PER_TICK;
 
 use crate::device::device_params;
-use crate::device::firmware;
+use crate::device::image::ProductImage;
 use crate::device::link::{FrameReader, FrameWriter, LinkStats};
 use crate::device::qemu::{Qemu, QemuConfig};
 use crate::device::scratch::ScratchDir;
@@ -348,6 +348,7 @@ pub struct ReplayResult {
 /// through the product image in QEMU as they are read, and hands each telemetry record to
 /// `on_telemetry` as it arrives: memory does not grow with the ride's length.
 pub fn replay(
+    kernel: &ProductImage,
     file: &ParamFile,
     ride: &PlatformStream,
     telemetry: TelemetryConfig,
@@ -364,11 +365,10 @@ pub fn replay(
     let mut params = device_params::build(file, sample_rate_hz)?;
     params.telemetry = telemetry;
     let blob = device_params::encode(&params)?;
-    let kernel = firmware::build_binary(firmware::PRODUCT_BINARY)?;
     // Generous: the device runs at tens of thousands of samples per second.
     let timeout = Duration::from_secs(60 + ride.len() as u64 / 1000);
     let config = SessionConfig {
-        kernel,
+        kernel: kernel.path().to_path_buf(),
         blob: Some(blob),
         icount,
         timeout,

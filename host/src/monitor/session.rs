@@ -23,7 +23,6 @@ use super::log::MonitorLog;
 use super::state::{Monitor, device_line};
 use super::view::View;
 use crate::device::device_params::{self, identity_hex};
-use crate::device::firmware;
 use crate::device::link::{FrameReader, FrameWriter, check_protocol, format_duration};
 use crate::device::qemu::{Qemu, QemuConfig};
 use crate::device::replay::{Outgoing, sample_messages};
@@ -145,8 +144,8 @@ pub fn follow<R: Read>(
 /// A ride to stream through the image in QEMU.
 #[derive(Clone, Debug)]
 pub struct QemuRun {
-    /// The firmware ELF (the product image).
-    pub kernel: std::path::PathBuf,
+    /// The product image (embedded, or `--firmware`).
+    pub kernel: crate::device::image::ProductImage,
     /// The parameter blob placed in the PARAMS region.
     pub blob: Vec<u8>,
     /// The identity of the parameters in the blob (the device must greet with it).
@@ -164,8 +163,9 @@ pub struct QemuRun {
 impl QemuRun {
     /// A run of the product image with `file`'s parameters at `sample_rate_hz` (built
     /// once: the blob and the identity the device must greet with come from one build),
-    /// streaming `samples`. Builds the image if it is stale.
+    /// streaming `samples` through `kernel`.
     pub fn new(
+        kernel: crate::device::image::ProductImage,
         file: &ParamFile,
         samples: Vec<[f32; 3]>,
         sample_rate_hz: f64,
@@ -174,7 +174,6 @@ impl QemuRun {
     ) -> Result<Self> {
         let params = device_params::build(file, sample_rate_hz)?;
         let blob = device_params::encode(&params)?;
-        let kernel = firmware::build_binary(firmware::PRODUCT_BINARY)?;
         Ok(Self {
             kernel,
             blob,
@@ -208,7 +207,7 @@ pub fn run_qemu(
     let blob_dir = ScratchDir::new("blob")?;
     let blob_path = blob_dir.path().join("params.bin");
     std::fs::write(&blob_path, &run.blob).context("writing the parameter blob")?;
-    let config = QemuConfig::new(&run.kernel)
+    let config = QemuConfig::new(run.kernel.path())
         .uart()
         .params_blob(blob_path)
         .timeout(run.timeout());
