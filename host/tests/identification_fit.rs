@@ -262,7 +262,7 @@ fn the_pipeline_fits_synthetic_data_at_least_as_well_as_the_truths_geometric_mea
         "validate",
         "--params",
         path(&litter),
-        "--recording",
+        "--input",
         path(&held_out),
         "--json",
         "--report",

@@ -124,7 +124,7 @@ fn finish(child: Child) -> (Output, String, String) {
 #[test]
 fn a_device_in_another_protocol_version_is_refused_with_what_to_do() {
     let mut device = FakeDevice::new();
-    let child = monitor(&device, &["--greeting-timeout-s", "20"]);
+    let child = monitor(&device, &["--timeout-s", "20"]);
     device.expect_hello();
     device.send(0, greeting(PROTOCOL_VERSION + 1));
     let (output, _, stderr) = finish(child);
@@ -153,7 +153,7 @@ struct OldGreeting {
 #[test]
 fn a_greeting_that_does_not_decode_is_refused_for_its_version_not_as_garbage() {
     let mut device = FakeDevice::new();
-    let child = monitor(&device, &["--greeting-timeout-s", "20"]);
+    let child = monitor(&device, &["--timeout-s", "20"]);
     device.expect_hello();
     let mut buf = [0u8; MAX_FRAME_LEN];
     let old = OldGreeting {
@@ -179,7 +179,7 @@ fn a_greeting_that_does_not_decode_is_refused_for_its_version_not_as_garbage() {
 #[test]
 fn a_silent_device_is_one_line_after_the_timeout() {
     let device = FakeDevice::new();
-    let child = monitor(&device, &["--greeting-timeout-s", "1", "--baud", "57600"]);
+    let child = monitor(&device, &["--timeout-s", "1", "--baud", "57600"]);
     device.expect_hello();
     let (output, stdout, stderr) = finish(child);
     assert!(!output.status.success());
@@ -200,12 +200,7 @@ fn a_session_counts_lost_and_bad_frames_logs_everything_and_ends_on_ctrl_c() {
     let mut device = FakeDevice::new();
     let child = monitor(
         &device,
-        &[
-            "--log",
-            log.to_str().expect("utf-8"),
-            "--greeting-timeout-s",
-            "20",
-        ],
+        &["--log", log.to_str().expect("utf-8"), "--timeout-s", "20"],
     );
     device.expect_hello();
     device.send(0, greeting(PROTOCOL_VERSION));

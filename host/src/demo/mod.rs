@@ -20,12 +20,13 @@ pub mod ride;
 pub mod summary;
 pub mod trace;
 
+use crate::io::output_folder::{self, OutputFolder};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
-use anyhow::{Context as _, Result, anyhow, bail};
+use anyhow::{Context as _, Result, bail};
 use supine_core::blob::DeviceParams;
 use supine_core::model::Preset;
 
@@ -74,6 +75,8 @@ pub struct DemoConfig {
     pub seed: u64,
     /// Stream the samples in real time (otherwise as fast as the device takes them).
     pub realtime: bool,
+    /// Write into an output folder that holds files the demo did not write.
+    pub force: bool,
 }
 
 /// What a finished demo produced.
@@ -107,6 +110,22 @@ pub struct DemoFiles {
 }
 
 impl DemoFiles {
+    /// Every file, in the order they are listed above.
+    pub fn all(&self) -> Vec<PathBuf> {
+        [
+            &self.ride,
+            &self.params,
+            &self.device,
+            &self.device_events,
+            &self.host,
+            &self.host_events,
+            &self.report,
+        ]
+        .into_iter()
+        .cloned()
+        .collect()
+    }
+
     /// The files in `dir`.
     pub fn in_dir(dir: &Path) -> Self {
         Self {
@@ -156,7 +175,7 @@ pub fn run(
             config.duration_s
         );
     }
-    let files = prepare_folder(&config.out_dir)?;
+    let (files, folder) = prepare_folder(&config.out_dir, config.force)?;
     let mut steps = Steps {
         announce,
         times: Vec::new(),
@@ -251,6 +270,7 @@ pub fn run(
     };
     let summary = Summary::new(&data);
     write_report(&files.report, &data, &summary)?;
+    folder.record(&files.all())?;
     (steps.announce)(&format!("[{STEPS}/{STEPS}] summary"));
     Ok(DemoOutcome {
         data,
@@ -259,15 +279,15 @@ pub fn run(
     })
 }
 
-/// Creates the output folder and removes a previous report, so that a failed run never
-/// leaves an older report that looks like this run's.
-fn prepare_folder(dir: &Path) -> Result<DemoFiles> {
-    std::fs::create_dir_all(dir)
-        .map_err(|e| anyhow!("{}: cannot create the output folder: {e}", dir.display()))?;
+/// Claims the output folder (refused if it holds a user's files, see
+/// [`crate::io::output_folder`]) and removes a previous report, so that a failed run
+/// never leaves an older report that looks like this run's.
+fn prepare_folder(dir: &Path, force: bool) -> Result<(DemoFiles, OutputFolder)> {
+    let folder = output_folder::claim(dir, "supine demo", "--out", force)?;
     let files = DemoFiles::in_dir(dir);
     match std::fs::remove_file(&files.report) {
-        Ok(()) => Ok(files),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(files),
+        Ok(()) => Ok((files, folder)),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok((files, folder)),
         Err(e) => bail!(
             "{}: cannot remove the previous report: {e}",
             files.report.display()

@@ -243,6 +243,7 @@ fn talk(
         );
     }
     let mut monitor = Monitor::new(&greeting)?;
+    monitor.set_ride_length_s(Some(run.samples.len() as f64 / run.sample_rate_hz));
     // The writer stops on `stop`, at the end of the ride, or when the reader is done
     // (`done`); shutting the socket down unblocks it if the device stopped reading.
     let done = Arc::new(AtomicBool::new(false));

@@ -124,6 +124,7 @@ pub struct Monitor {
     history: VecDeque<AlertEvent>,
     status: Option<Status>,
     counters: Counters,
+    ride_length_s: Option<f64>,
 }
 
 impl Monitor {
@@ -147,7 +148,19 @@ impl Monitor {
             history: VecDeque::with_capacity(HISTORY_LEN),
             status: None,
             counters: Counters::default(),
+            ride_length_s: None,
         })
+    }
+
+    /// Sets the length of the ride being streamed, s (known for QEMU, not for a device
+    /// in service): the panel then shows `t of T s`.
+    pub fn set_ride_length_s(&mut self, ride_length_s: Option<f64>) {
+        self.ride_length_s = ride_length_s;
+    }
+
+    /// The length of the ride being streamed, s, when it is known.
+    pub fn ride_length_s(&self) -> Option<f64> {
+        self.ride_length_s
     }
 
     /// Takes one message from the device; returns what to show at once, if anything.

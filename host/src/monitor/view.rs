@@ -127,14 +127,16 @@ pub trait View {
     fn close(&mut self, m: &Monitor) -> Result<()>;
 }
 
-/// The colour of a severity on a terminal.
+/// The colour of a severity on a terminal (256-colour palette): advisory yellow, warning
+/// orange, alarm red, distinct at a glance and in the order of a traffic light; faults
+/// magenta, which no level uses.
 pub fn colour(severity: Severity) -> Color {
     match severity {
-        Severity::Info => Color::Green,
-        Severity::Advisory => Color::Yellow,
-        Severity::Warning => Color::DarkYellow,
-        Severity::Alarm => Color::Red,
-        Severity::Fault => Color::Magenta,
+        Severity::Info => Color::AnsiValue(34),
+        Severity::Advisory => Color::AnsiValue(226),
+        Severity::Warning => Color::AnsiValue(208),
+        Severity::Alarm => Color::AnsiValue(196),
+        Severity::Fault => Color::AnsiValue(201),
     }
 }
 
@@ -142,18 +144,23 @@ pub fn colour(severity: Severity) -> Color {
 /// on an error or a panic unwinding through the caller).
 pub struct LiveView<W: Write> {
     out: W,
+    colour: bool,
     drawn_lines: u16,
+    drawn_width: Option<usize>,
     last_draw: Option<Instant>,
 }
 
 impl<W: Write> LiveView<W> {
-    /// Takes over `out` (a terminal): hides the cursor.
-    pub fn new(mut out: W) -> Result<Self> {
+    /// Takes over `out` (a terminal): hides the cursor. Without `colour` (NO_COLOR,
+    /// `--color never`) highlights are bold only.
+    pub fn new(mut out: W, colour: bool) -> Result<Self> {
         queue!(out, cursor::Hide).map_err(term_error)?;
         out.flush().map_err(term_error)?;
         Ok(Self {
             out,
+            colour,
             drawn_lines: 0,
+            drawn_width: None,
             last_draw: None,
         })
     }
@@ -180,9 +187,16 @@ impl<W: Write> LiveView<W> {
             let text: String = span.text.chars().take(room).collect();
             room -= text.chars().count();
             match span.severity {
-                Some(s) => queue!(
+                Some(s) if self.colour => queue!(
                     self.out,
                     SetForegroundColor(colour(s)),
+                    SetAttribute(Attribute::Bold),
+                    Print(text),
+                    SetAttribute(Attribute::Reset),
+                    ResetColor
+                )?,
+                Some(_) => queue!(
+                    self.out,
                     SetAttribute(Attribute::Bold),
                     Print(text),
                     SetAttribute(Attribute::Reset),
@@ -195,9 +209,16 @@ impl<W: Write> LiveView<W> {
     }
 
     fn draw(&mut self, m: &Monitor) -> io::Result<()> {
+        let width = terminal_width();
+        if self.drawn_width.is_some_and(|w| w != width) {
+            // A resized terminal rewraps the old panel: counting its lines back up no
+            // longer finds its top, so the screen is cleared and the panel starts afresh.
+            queue!(self.out, Clear(ClearType::All), cursor::MoveTo(0, 0))?;
+            self.drawn_lines = 0;
+        }
+        self.drawn_width = Some(width);
         self.erase()?;
         let lines = panel_lines(m);
-        let width = terminal_width();
         for line in &lines {
             self.print_spans(line, width)?;
         }
@@ -392,7 +413,7 @@ mod tests {
         let m = monitor();
         let mut out = Vec::new();
         {
-            let mut view = LiveView::new(&mut out).expect("view");
+            let mut view = LiveView::new(&mut out, true).expect("view");
             view.refresh(&m).expect("draw");
             view.notice(
                 &m,
@@ -407,9 +428,36 @@ mod tests {
         let text = String::from_utf8_lossy(&out);
         assert!(text.starts_with("\x1b[?25l"), "cursor hidden first");
         assert!(text.contains("[ALARM] alarm!"), "{text}");
-        // Red for the alarm, and the cursor shown again at the end.
-        assert!(text.contains("\x1b[38;5;9m"), "{text:?}");
+        // Red (196) for the alarm, and the cursor shown again at the end.
+        assert!(text.contains("\x1b[38;5;196m"), "{text:?}");
         assert!(text.ends_with("\x1b[?25h"), "{text:?}");
+        // Without colour (NO_COLOR, --color never): bold only, no colour at all.
+        let mut out = Vec::new();
+        {
+            let mut view = LiveView::new(&mut out, false).expect("view");
+            view.close(&m).expect("close");
+        }
+        let text = String::from_utf8_lossy(&out);
+        assert!(text.contains("\x1b[1mALARM"), "{text:?}");
+        assert!(!text.contains("\x1b[38;"), "{text:?}");
+    }
+
+    #[test]
+    fn every_severity_has_its_own_colour_and_warning_is_orange() {
+        let all = [
+            Severity::Info,
+            Severity::Advisory,
+            Severity::Warning,
+            Severity::Alarm,
+            Severity::Fault,
+        ];
+        for (i, a) in all.iter().enumerate() {
+            for b in &all[i + 1..] {
+                assert_ne!(colour(*a), colour(*b), "{a:?} and {b:?}");
+            }
+        }
+        // xterm-256 colour 208 is orange (#ff8700).
+        assert_eq!(colour(Severity::Warning), Color::AnsiValue(208));
     }
 
     #[test]
