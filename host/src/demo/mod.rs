@@ -237,6 +237,7 @@ pub fn run(
         sample_rate_hz: SAMPLE_RATE_HZ,
         realtime: config.realtime,
         greeting_timeout: Duration::from_secs(20),
+        thresholds: params.alerts.config,
     };
     let (monitor, device) = run_device(&qemu_run, &files, view, stop)?;
 

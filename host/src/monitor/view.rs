@@ -46,50 +46,85 @@ fn marked(severity: Severity, text: impl Into<String>) -> Span {
     }
 }
 
-/// The panel: device, time and level, head acceleration, running rms, VDV, link counters
-/// and the latest alert events.
+/// The thresholds of advisory, warning and alarm as the panel shows them beside a value.
+fn thresholds_text(thresholds: [f32; 3]) -> String {
+    let [a, w, x] = thresholds;
+    format!("  (advisory {a} / warning {w} / alarm {x})")
+}
+
+/// The panel. The most important first, each line starting with what matters most, so
+/// that a short or narrow terminal (lines are cut, never wrapped) keeps the level and the
+/// vector running rms: level and vector rms with its thresholds; VDV with its thresholds;
+/// time (of the ride's length when known), highest level and faults; head acceleration
+/// and per-axis running rms; the device; link counters; the latest alert events.
 pub fn panel_lines(m: &Monitor) -> Vec<Vec<Span>> {
     let g = m.greeting();
-    let mut lines = vec![vec![plain(format!(
-        "supine monitor  fw {}  params {} ({})  {} Hz",
-        g.firmware_version.as_str(),
-        // The first 8 hex digits name a parameter set well enough on screen.
-        &identity_hex(&g.params_identity)[..8],
-        params_source_text(g.params_source),
-        g.sample_rate_hz
-    ))]];
     let level = m.level();
+    let thresholds = m.thresholds();
+    let mut lines = Vec::new();
+    let level_span = marked(
+        Severity::of_level(level),
+        format!("{:<8}", level.name().to_ascii_uppercase()),
+    );
+    match m.latest() {
+        None => lines.push(vec![level_span, plain(" waiting for telemetry")]),
+        Some(t) => {
+            let mut first = vec![
+                level_span,
+                plain(format!(
+                    " vector rms {:.3} m/s^2",
+                    t.vector_running_rms_m_s2
+                )),
+            ];
+            if !t.valid {
+                first.push(plain(" (settling)"));
+            }
+            if let Some(c) = thresholds {
+                first.push(plain(thresholds_text(c.running_rms_m_s2)));
+            }
+            lines.push(first);
+            let mut vdv = vec![plain(format!(
+                "         VDV        {:.3} m/s^1.75",
+                t.vdv_m_s175
+            ))];
+            if let Some(c) = thresholds {
+                vdv.push(plain(thresholds_text(c.vdv_m_s175)));
+            }
+            lines.push(vdv);
+        }
+    }
     let faults = m.fault_names();
+    let time = match m.ride_length_s() {
+        Some(total_s) => format!("t {:.2} of {total_s:.2} s", m.time_s()),
+        None => format!("t {:.2} s", m.time_s()),
+    };
     lines.push(vec![
-        plain(format!("t {:>8.2} s    level ", m.time_s())),
-        marked(Severity::of_level(level), level.name().to_ascii_uppercase()),
-        plain(format!(" (highest {})   faults ", m.highest_level())),
+        plain(format!("{time}   highest {}   faults ", m.highest_level())),
         if faults.is_empty() {
             plain("none")
         } else {
             marked(Severity::Fault, faults.join(" + "))
         },
     ]);
-    match m.latest() {
-        None => lines.push(vec![plain("waiting for telemetry")]),
-        Some(t) => {
-            let [hx, hy, hz] = t.head_acc_m_s2;
-            let [rx, ry, rz] = t.running_rms_m_s2;
-            lines.push(vec![plain(format!(
-                "head          x {hx:+8.3}  y {hy:+8.3}  z {hz:+8.3} m/s^2  peak {:.2}",
-                m.peak_head_m_s2()
-            ))]);
-            lines.push(vec![plain(format!(
-                "weighted rms  x {rx:8.3}  y {ry:8.3}  z {rz:8.3} m/s^2  vector {:.3}{}",
-                t.vector_running_rms_m_s2,
-                if t.valid { "" } else { "  (settling)" }
-            ))]);
-            lines.push(vec![plain(format!(
-                "VDV           {:.3} m/s^1.75 (vector)",
-                t.vdv_m_s175
-            ))]);
-        }
+    if let Some(t) = m.latest() {
+        let [hx, hy, hz] = t.head_acc_m_s2;
+        let [rx, ry, rz] = t.running_rms_m_s2;
+        lines.push(vec![plain(format!(
+            "head          x {hx:+8.3}  y {hy:+8.3}  z {hz:+8.3} m/s^2  peak {:.2}",
+            m.peak_head_m_s2()
+        ))]);
+        lines.push(vec![plain(format!(
+            "weighted rms  x {rx:8.3}  y {ry:8.3}  z {rz:8.3} m/s^2"
+        ))]);
     }
+    lines.push(vec![plain(format!(
+        "device        fw {}  params {} ({})  {} Hz",
+        g.firmware_version.as_str(),
+        // The first 8 hex digits name a parameter set well enough on screen.
+        &identity_hex(&g.params_identity)[..8],
+        params_source_text(g.params_source),
+        g.sample_rate_hz
+    ))]);
     let c = m.counters();
     let link = &c.link;
     let losses = link.lost_frames + link.bad_frames;
@@ -396,8 +431,17 @@ mod tests {
         assert_eq!(find(&lines, "ALARM").severity, Some(Severity::Alarm));
         assert_eq!(find(&lines, "stuck").severity, Some(Severity::Fault));
         assert!(find(&lines, "z   +2.000 m/s^2").severity.is_none());
-        assert!(find(&lines, "vector 1.300").severity.is_none());
+        assert!(find(&lines, "vector rms 1.300 m/s^2").severity.is_none());
         assert!(find(&lines, "3.250 m/s^1.75").severity.is_none());
+        // The level and the vector rms open the panel: a narrow terminal keeps them.
+        let first: String = lines[0].iter().map(|s| s.text.as_str()).collect();
+        assert!(
+            first.starts_with("ALARM    vector rms 1.300 m/s^2"),
+            "{first}"
+        );
+        // Unknown thresholds and ride length (a device in service): none shown.
+        assert!(!first.contains("advisory"), "{first}");
+        assert!(find(&lines, "t 5.00 s").severity.is_none());
         assert_eq!(
             find(&lines, "frames 100 lost 2 bad 1").severity,
             Some(Severity::Warning)
@@ -406,6 +450,27 @@ mod tests {
             find(&lines, "sensor fault stuck raised").severity,
             Some(Severity::Fault)
         );
+    }
+
+    #[test]
+    fn known_thresholds_and_ride_length_are_shown_beside_the_values() {
+        let mut m = monitor();
+        m.set_thresholds(Some(supine_core::alerts::AlertConfig::DEFAULT));
+        m.set_ride_length_s(Some(60.0));
+        let lines = panel_lines(&m);
+        let text: Vec<String> = lines
+            .iter()
+            .map(|l| l.iter().map(|s| s.text.as_str()).collect())
+            .collect();
+        assert_eq!(
+            text[0],
+            "ALARM    vector rms 1.300 m/s^2  (advisory 0.5 / warning 0.8 / alarm 1.25)"
+        );
+        assert_eq!(
+            text[1],
+            "         VDV        3.250 m/s^1.75  (advisory 8.5 / warning 17 / alarm 21)"
+        );
+        assert!(text[2].starts_with("t 5.00 of 60.00 s"), "{}", text[2]);
     }
 
     #[test]
