@@ -11,6 +11,7 @@ use crate::identify::fit::workflow::{self, FitRequest};
 use crate::identify::fit::{Determination, FitSettings};
 use crate::identify::spectral::DEFAULT_RESOLUTION_HZ;
 use crate::io::dataset::Case;
+use crate::io::output_folder;
 use anyhow::{Result, bail};
 
 /// Arguments of `supine fit`.
@@ -59,9 +60,14 @@ pub struct Args {
     /// Where to write the fitted parameter file.
     #[arg(long)]
     pub out: PathBuf,
-    /// A folder for the SVG plots and the summary table.
+    /// A folder for the SVG plots and the summary table (a folder holding files supine
+    /// did not write is refused, see --force).
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// Write into the folder even if it holds files supine did not write there (those
+    /// are kept).
+    #[arg(long)]
+    pub force: bool,
     /// Print the fit's outcome as JSON (the summary table stays on standard error).
     #[command(flatten)]
     pub json: JsonFlag,
@@ -117,6 +123,12 @@ fn request(args: &Args) -> Result<FitRequest> {
 /// Fits and writes the parameter file (and the report).
 pub fn run(args: &Args) -> Result<()> {
     let request = request(args)?;
+    // Checked before the fit, so that a refused folder costs no wait.
+    let report_folder = args
+        .report
+        .as_deref()
+        .map(|dir| output_folder::claim(dir, "supine fit", "--report", args.force))
+        .transpose()?;
     let total = request.settings.starts.max(1);
     let bar = progress_spinner();
     // Starts run in parallel: the message shows whichever reported last.
@@ -130,6 +142,9 @@ pub fn run(args: &Args) -> Result<()> {
     bar.finish_and_clear();
     let fitted = fitted?;
     workflow::write_outputs(&fitted, &request, &args.out, args.report.as_deref())?;
+    if let Some(folder) = &report_folder {
+        folder.record_new_entries()?;
+    }
     eprintln!("{}", fitted.summary());
     let unknown = fitted.params_with(Determination::NoEffect);
     if args.json.json {

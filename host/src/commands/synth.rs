@@ -7,13 +7,19 @@ use anyhow::Result;
 use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
 use crate::identify::synth::{SynthSettings, write_dataset};
+use crate::io::output_folder;
 
 /// Arguments of `supine synth`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The dataset folder to write (created if missing).
+    /// The dataset folder to write (created if missing; a folder holding files supine did
+    /// not write is refused, see --force).
     #[arg(long)]
     pub out: PathBuf,
+    /// Write into the folder even if it holds files supine did not write there (those
+    /// are kept).
+    #[arg(long)]
+    pub force: bool,
     /// Number of subjects.
     #[arg(long, default_value_t = 8)]
     pub subjects: usize,
@@ -48,6 +54,7 @@ pub fn run(args: &Args) -> Result<()> {
         param_log_sd: args.param_log_sd,
         ..SynthSettings::default()
     };
+    let folder = output_folder::claim(&args.out, "supine synth", "--out", args.force)?;
     let bar = indicatif::ProgressBar::new((2 * args.subjects) as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template("synth {bar:30} {pos}/{len} recordings")
@@ -57,6 +64,7 @@ pub fn run(args: &Args) -> Result<()> {
         bar.set_position(done as u64)
     })?;
     bar.finish_and_clear();
+    folder.record_new_entries()?;
     if args.json.json {
         return json_output::print(&serde_json::json!({
             "out": args.out,

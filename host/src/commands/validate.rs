@@ -7,6 +7,7 @@ use anyhow::Result;
 
 use crate::commands::json_output::JsonFlag;
 use crate::identify::validate::{predict, table, validate, write_report};
+use crate::io::output_folder;
 use crate::io::params_file::{ModelSource, SubjectOverride};
 use crate::io::recording::Recording;
 
@@ -22,9 +23,14 @@ pub struct Args {
     /// Print the comparison as JSON instead of a table.
     #[command(flatten)]
     pub json: JsonFlag,
-    /// A folder for the PSD plots (psd.svg) and the JSON (validation.json).
+    /// A folder for the PSD plots (psd.svg) and the JSON (validation.json); a folder
+    /// holding files supine did not write is refused, see --force.
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// Write into the folder even if it holds files supine did not write there (those
+    /// are kept).
+    #[arg(long)]
+    pub force: bool,
     /// The subject, if not the parameters' own.
     #[command(flatten)]
     pub subject: SubjectOverride,
@@ -38,7 +44,9 @@ pub fn run(args: &Args) -> Result<()> {
     let result = validate(&recording, &predicted);
     let json = serde_json::to_string_pretty(&result)?;
     if let Some(dir) = &args.report {
+        let folder = output_folder::claim(dir, "supine validate", "--report", args.force)?;
         write_report(dir, &recording, &predicted, &json)?;
+        folder.record_new_entries()?;
     }
     if args.json.json {
         println!("{}", serde_json::to_string(&result)?);

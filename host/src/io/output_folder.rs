@@ -22,6 +22,10 @@ pub const MANIFEST: &str = ".supine-files";
 pub struct OutputFolder {
     dir: PathBuf,
     command: String,
+    /// What the manifest listed when the folder was claimed.
+    listed_before: BTreeSet<String>,
+    /// Every entry when the folder was claimed.
+    entries_before: BTreeSet<String>,
 }
 
 /// Creates `dir` if missing, and refuses it (naming the first foreign entry) when it
@@ -29,8 +33,14 @@ pub struct OutputFolder {
 /// `command` (`supine demo`) and `flag` (`--out`) name it in messages.
 pub fn claim(dir: &Path, command: &str, flag: &str, force: bool) -> Result<OutputFolder> {
     std::fs::create_dir_all(dir)
-        .map_err(|e| anyhow!("{flag} {}: cannot create the folder: {e}", dir.display()))?;
-    if !force && let Some(foreign) = first_foreign_entry(dir)? {
+        .map_err(|e| anyhow!("{}: {flag}: cannot create: {e}", dir.display()))?;
+    let listed_before = listed(dir)?;
+    let entries_before = entries(dir)?;
+    if !force
+        && let Some(foreign) = entries_before
+            .iter()
+            .find(|name| *name != MANIFEST && !listed_before.contains(*name))
+    {
         bail!(
             "{flag} {}: the folder holds {}, which supine did not write there; choose an empty or new folder, or give --force to write beside it",
             dir.display(),
@@ -40,6 +50,8 @@ pub fn claim(dir: &Path, command: &str, flag: &str, force: bool) -> Result<Outpu
     Ok(OutputFolder {
         dir: dir.to_path_buf(),
         command: command.to_string(),
+        listed_before,
+        entries_before,
     })
 }
 
@@ -59,12 +71,29 @@ impl OutputFolder {
                 names.insert(first.as_os_str().to_string_lossy().into_owned());
             }
         }
+        self.write_manifest(&names)
+    }
+
+    /// Records, for a command that does not list its files, every entry that appeared
+    /// since the folder was claimed, with those an earlier run recorded (a user's file
+    /// kept beside them under `--force` stays unlisted).
+    pub fn record_new_entries(&self) -> Result<()> {
+        let mut names: BTreeSet<String> = entries(&self.dir)?
+            .into_iter()
+            .filter(|name| name != MANIFEST)
+            .filter(|name| !self.entries_before.contains(name) || self.listed_before.contains(name))
+            .collect();
+        names.extend(self.listed_before.iter().cloned());
+        self.write_manifest(&names)
+    }
+
+    fn write_manifest(&self, names: &BTreeSet<String>) -> Result<()> {
         let mut text = format!(
             "# Written by {}: the files it wrote in this folder. supine writes into a folder\n\
              # only what this list names, unless given --force.\n",
             self.command
         );
-        for name in &names {
+        for name in names {
             text.push_str(name);
             text.push('\n');
         }
@@ -74,9 +103,9 @@ impl OutputFolder {
     }
 }
 
-/// The first entry of `dir` (in name order) that its manifest does not list.
-fn first_foreign_entry(dir: &Path) -> Result<Option<String>> {
-    let listed: BTreeSet<String> = match std::fs::read_to_string(dir.join(MANIFEST)) {
+/// What the manifest of `dir` lists (nothing without one).
+fn listed(dir: &Path) -> Result<BTreeSet<String>> {
+    Ok(match std::fs::read_to_string(dir.join(MANIFEST)) {
         Ok(text) => text
             .lines()
             .map(str::trim)
@@ -85,16 +114,16 @@ fn first_foreign_entry(dir: &Path) -> Result<Option<String>> {
             .collect(),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => BTreeSet::new(),
         Err(e) => bail!("{}: cannot read: {e}", dir.join(MANIFEST).display()),
-    };
-    let mut entries: Vec<String> = std::fs::read_dir(dir)
+    })
+}
+
+/// The names in `dir`, sorted.
+fn entries(dir: &Path) -> Result<BTreeSet<String>> {
+    Ok(std::fs::read_dir(dir)
         .map_err(|e| anyhow!("{}: cannot list the folder: {e}", dir.display()))?
         .filter_map(|entry| entry.ok())
         .map(|entry| entry.file_name().to_string_lossy().into_owned())
-        .collect();
-    entries.sort();
-    Ok(entries
-        .into_iter()
-        .find(|name| name != MANIFEST && !listed.contains(name)))
+        .collect())
 }
 
 #[cfg(test)]
@@ -132,6 +161,23 @@ mod tests {
             std::fs::read_to_string(dir.join("ride.csv")).unwrap(),
             "mine"
         );
+    }
+
+    #[test]
+    fn new_entries_are_recorded_and_a_forced_users_file_is_not() {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path();
+        std::fs::write(dir.join("mine.txt"), "m").unwrap();
+        let folder = claim(dir, "supine synth", "--out", true).unwrap();
+        std::fs::write(dir.join("dataset.toml"), "d").unwrap();
+        folder.record_new_entries().unwrap();
+        std::fs::remove_file(dir.join("mine.txt")).unwrap();
+        // A second run in its own folder: nothing foreign, and its files stay listed.
+        let folder = claim(dir, "supine synth", "--out", false).unwrap();
+        folder.record_new_entries().unwrap();
+        claim(dir, "supine synth", "--out", false).unwrap();
+        std::fs::write(dir.join("mine.txt"), "m").unwrap();
+        assert!(claim(dir, "supine synth", "--out", false).is_err());
     }
 
     #[test]
