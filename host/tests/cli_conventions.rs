@@ -156,7 +156,8 @@ fn every_command_that_prints_results_has_json() {
 #[test]
 fn every_command_that_builds_a_model_takes_preset_and_params() {
     for name in [
-        "model", "modes", "params", "predict", "validate", "exposure", "replay", "monitor", "flash",
+        "model", "modes", "params", "predict", "validate", "exposure", "replay", "monitor",
+        "flash", "demo",
     ] {
         let cmd = subcommands()
             .into_iter()

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use serde_json::json;
+use supine_core::model::Preset;
 
 use crate::cli::ColorChoice;
 use crate::commands::json_output::{self, JsonFlag};
@@ -13,6 +14,7 @@ use crate::commands::values;
 use crate::demo::ride::DemoProfile;
 use crate::demo::summary::Summary;
 use crate::demo::{self, DEFAULT_OUT_DIR, DemoConfig};
+use crate::io::params_file::{self, ParamFile, PresetArg};
 use crate::monitor::view::{LiveView, PlainView, View};
 
 /// Arguments of `supine demo`.
@@ -38,6 +40,13 @@ pub struct Args {
     /// Stream the ride in real time (otherwise as fast as the device takes it).
     #[arg(long)]
     pub realtime: bool,
+    /// One of the paper's parameter sets to flash (default: paper-litter).
+    #[arg(long, value_enum, conflicts_with = "params")]
+    pub preset: Option<PresetArg>,
+    /// A parameter file (TOML; its optional `[device]` table sets the weighting, the
+    /// alert thresholds and the sensor checks) to flash instead.
+    #[arg(long, value_name = "FILE")]
+    pub params: Option<PathBuf>,
     /// Print the summary as one JSON object on standard output (the steps and the live
     /// view go to standard error).
     #[command(flatten)]
@@ -49,7 +58,16 @@ pub struct Args {
 pub fn run(args: &Args, color: ColorChoice) -> Result<()> {
     // Ctrl-C, SIGTERM and SIGHUP: QEMU stopped and its folder removed on the way out.
     let stop = crate::device::signals::stop_flag();
+    let (model, model_name) = match (&args.params, args.preset) {
+        (Some(path), _) => (params_file::load(path)?, path.display().to_string()),
+        (None, preset) => {
+            let preset = preset.map_or(demo::PRESET, Preset::from);
+            (ParamFile::preset(preset), preset.name().to_string())
+        }
+    };
     let config = DemoConfig {
+        model,
+        model_name,
         out_dir: args.out.clone(),
         profile: args.profile,
         duration_s: args.duration_s,

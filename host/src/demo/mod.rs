@@ -20,7 +20,6 @@ pub mod ride;
 pub mod summary;
 pub mod trace;
 
-use crate::io::output_folder::{self, OutputFolder};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
@@ -35,6 +34,7 @@ use crate::device::firmware;
 use crate::device::flash;
 use crate::exposure::reference;
 use crate::exposure::report::{AxisReport, run_pipeline};
+use crate::io::output_folder::{self, OutputFolder};
 use crate::io::params_file::{self, DeviceSection, ParamFile};
 use crate::io::recording::read_input;
 use crate::io::telemetry_csv::{
@@ -53,7 +53,7 @@ use trace::Trace;
 pub const DEFAULT_OUT_DIR: &str = "supine-demo";
 /// The demo's sample rate, Hz (the device's default rate).
 pub const SAMPLE_RATE_HZ: f64 = 500.0;
-/// The parameters flashed: the paper's litter-board case.
+/// The parameters flashed unless told otherwise: the paper's litter-board case.
 pub const PRESET: Preset = Preset::PaperLitter;
 /// Shortest demo ride, s: the 5 s warm-up and something to evaluate after it.
 pub const MIN_DURATION_S: f64 = 10.0;
@@ -77,6 +77,10 @@ pub struct DemoConfig {
     pub realtime: bool,
     /// Write into an output folder that holds files the demo did not write.
     pub force: bool,
+    /// The parameters to flash (telemetry is set to every sample, see [`param_file`]).
+    pub model: ParamFile,
+    /// What they are called in the steps and the report (a preset's name, a file's path).
+    pub model_name: String,
 }
 
 /// What a finished demo produced.
@@ -201,14 +205,14 @@ pub fn run(
     let ride = make_ride(config, &files.ride)?;
     let samples = ride.samples();
 
-    let file = param_file();
+    let file = param_file(&config.model);
     // One build: the identity announced and checked is the one of the blob flashed.
     let (params, blob) = flash::device_blob(&file, SAMPLE_RATE_HZ)?;
     steps.start(
         "parameters",
         &format!(
-            "parameters: {} preset (identity {}) into QEMU's PARAMS region, slot A -> {}",
-            PRESET.name(),
+            "parameters: {} (identity {}) into QEMU's PARAMS region, slot A -> {}",
+            config.model_name,
             identity_hex(&params.identity),
             files.params.display()
         ),
@@ -320,15 +324,15 @@ fn make_ride(config: &DemoConfig, path: &Path) -> Result<DemoRide> {
     Ok(ride)
 }
 
-/// The parameters flashed: the preset, with telemetry for every sample (a device in
+/// The parameters flashed: `model`, with telemetry for every sample (a device in
 /// service sends 100 Hz). The report overlays the host's computation on each of the
 /// device's samples, and `supine replay` of ride.csv with these parameters reproduces
 /// device.csv.
-fn param_file() -> ParamFile {
-    let mut file = ParamFile::preset(PRESET);
+fn param_file(model: &ParamFile) -> ParamFile {
+    let mut file = model.clone();
     file.device = Some(DeviceSection {
         telemetry_decimation: Some(1),
-        ..DeviceSection::default()
+        ..model.device.unwrap_or_default()
     });
     file
 }
@@ -424,7 +428,7 @@ fn run_info(
         seed: config.seed,
         sample_rate_hz: SAMPLE_RATE_HZ,
         samples,
-        params_name: PRESET.name().to_string(),
+        params_name: config.model_name.clone(),
         identity: identity_hex(&params.identity),
         firmware_version: greeting.firmware_version.as_str().to_string(),
         device_line: device_line(greeting),
