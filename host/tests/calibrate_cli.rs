@@ -43,3 +43,41 @@ fn a_reading_that_is_not_gravity_at_rest_fails_in_one_line() {
         assert!(stderr.contains(says), "{reading}: {stderr}");
     }
 }
+
+#[test]
+fn a_level_reading_prints_exact_zeros_and_lists_may_have_spaces() {
+    // Separate shell words with spaces after the commas, as a user types them.
+    let out = Command::new(env!("CARGO_BIN_EXE_supine"))
+        .args(["calibrate", "--at-rest-m-s2", "0.12,", "-0.05,", "9.80"])
+        .output()
+        .expect("supine runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).expect("utf-8");
+    // Round-off such as -0.00000000000000000086736174 is printed as 0.
+    assert!(!text.contains("0000000000"), "{text}");
+    let table: Table = toml::from_str(&text).expect("a [device] table");
+    let expected = Mounting::from_rest([0.12, -0.05, 9.80]).expect("valid");
+    for (row, want) in table
+        .device
+        .mounting
+        .sensor_to_litter
+        .iter()
+        .zip(expected.sensor_to_litter)
+    {
+        for (got, want) in row.iter().zip(want) {
+            assert!((got - want).abs() < 1e-9, "{got} vs {want}");
+        }
+    }
+    let out = Command::new(env!("CARGO_BIN_EXE_supine"))
+        .args(["calibrate", "--at-rest-m-s2", "0,0,9.81", "--json"])
+        .output()
+        .expect("supine runs");
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    assert_eq!(json["mounting"]["sensor_to_litter"][0][1], 0.0);
+    assert_eq!(json["mounting"]["sensor_to_litter"][2][2], 1.0);
+    assert_eq!(json["at_rest_m_s2"][2], 9.81);
+}

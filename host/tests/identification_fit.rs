@@ -262,7 +262,7 @@ fn the_pipeline_fits_synthetic_data_at_least_as_well_as_the_truths_geometric_mea
         "validate",
         "--params",
         path(&litter),
-        "--recording",
+        "--input",
         path(&held_out),
         "--json",
         "--report",
@@ -399,7 +399,9 @@ fn a_report_file_that_cannot_be_replaced_leaves_no_parameter_file() {
     // summary.md is a folder: staging succeeds, renaming onto it fails; the parameter
     // file is renamed last, so it is not written.
     std::fs::create_dir_all(report.join("summary.md").join("x")).unwrap();
-    let args = quick_fit_args(&ds, &out, &report);
+    let mut args = quick_fit_args(&ds, &out, &report);
+    // The folder holds what supine did not write (summary.md as a folder): --force.
+    args.push("--force".to_string());
     let argv: Vec<&str> = args.iter().map(String::as_str).collect();
     let err = supine(&argv).expect_err("the report cannot be written");
     let line = supine_host::cli::one_line(&err);

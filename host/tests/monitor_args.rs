@@ -92,10 +92,7 @@ fn an_unwritable_log_is_refused_before_connecting() {
 #[test]
 fn timeouts_out_of_range_are_refused_by_name_without_a_panic() {
     for (command, flag) in [
-        (
-            &["monitor", "--serial", "/dev/null"][..],
-            "--greeting-timeout-s",
-        ),
+        (&["monitor", "--serial", "/dev/null"][..], "--timeout-s"),
         (
             &[
                 "flash",

@@ -124,7 +124,7 @@ fn finish(child: Child) -> (Output, String, String) {
 #[test]
 fn a_device_in_another_protocol_version_is_refused_with_what_to_do() {
     let mut device = FakeDevice::new();
-    let child = monitor(&device, &["--greeting-timeout-s", "20"]);
+    let child = monitor(&device, &["--timeout-s", "20"]);
     device.expect_hello();
     device.send(0, greeting(PROTOCOL_VERSION + 1));
     let (output, _, stderr) = finish(child);
@@ -153,7 +153,7 @@ struct OldGreeting {
 #[test]
 fn a_greeting_that_does_not_decode_is_refused_for_its_version_not_as_garbage() {
     let mut device = FakeDevice::new();
-    let child = monitor(&device, &["--greeting-timeout-s", "20"]);
+    let child = monitor(&device, &["--timeout-s", "20"]);
     device.expect_hello();
     let mut buf = [0u8; MAX_FRAME_LEN];
     let old = OldGreeting {
@@ -179,7 +179,7 @@ fn a_greeting_that_does_not_decode_is_refused_for_its_version_not_as_garbage() {
 #[test]
 fn a_silent_device_is_one_line_after_the_timeout() {
     let device = FakeDevice::new();
-    let child = monitor(&device, &["--greeting-timeout-s", "1", "--baud", "57600"]);
+    let child = monitor(&device, &["--timeout-s", "1", "--baud", "57600"]);
     device.expect_hello();
     let (output, stdout, stderr) = finish(child);
     assert!(!output.status.success());
@@ -200,12 +200,7 @@ fn a_session_counts_lost_and_bad_frames_logs_everything_and_ends_on_ctrl_c() {
     let mut device = FakeDevice::new();
     let child = monitor(
         &device,
-        &[
-            "--log",
-            log.to_str().expect("utf-8"),
-            "--greeting-timeout-s",
-            "20",
-        ],
+        &["--log", log.to_str().expect("utf-8"), "--timeout-s", "20"],
     );
     device.expect_hello();
     device.send(0, greeting(PROTOCOL_VERSION));
@@ -285,4 +280,68 @@ fn a_session_counts_lost_and_bad_frames_logs_everything_and_ends_on_ctrl_c() {
         events,
         format!("{EVENTS_HEADER}\n5,0.025,level,warning,1\n6,0.03,fault,stuck,1\n")
     );
+}
+
+#[test]
+fn jsonl_streams_each_record_and_event_and_json_summarises() {
+    for mode in ["--jsonl", "--json"] {
+        let mut device = FakeDevice::new();
+        let child = monitor(&device, &[mode, "--timeout-s", "20"]);
+        device.expect_hello();
+        device.send(0, greeting(PROTOCOL_VERSION));
+        device.send(1, telemetry(0, Level::Normal));
+        device.send(
+            2,
+            DeviceToHost::Alert(AlertEvent::Level {
+                from: Level::Normal,
+                to: Level::Advisory,
+                at_sample: 1,
+            }),
+        );
+        device.send(3, telemetry(2, Level::Advisory));
+        thread::sleep(Duration::from_millis(1500));
+        let status = Command::new("kill")
+            .args(["-INT", &child.id().to_string()])
+            .status()
+            .expect("kill runs");
+        assert!(status.success());
+        let (output, stdout, stderr) = finish(child);
+        assert!(output.status.success(), "{stderr}");
+        let objects: Vec<serde_json::Value> = stdout
+            .lines()
+            .map(|l| serde_json::from_str(l).expect("a JSON object per line"))
+            .collect();
+        if mode == "--json" {
+            assert_eq!(objects.len(), 1, "{stdout}");
+            let s = &objects[0];
+            assert_eq!(s["telemetry_records"], 2);
+            assert_eq!(s["alert_events"], 1);
+            assert_eq!(s["highest_level"], "advisory");
+            assert_eq!(s["peak_vector_running_rms_m_s2"], 1.0625);
+            assert_eq!(s["ride_s"], serde_json::Value::Null);
+            continue;
+        }
+        let kinds: Vec<&str> = objects
+            .iter()
+            .map(|o| o["type"].as_str().expect("type"))
+            .filter(|t| *t != "notice")
+            .collect();
+        assert_eq!(kinds, ["telemetry", "event", "telemetry"], "{stdout}");
+        let records: Vec<&serde_json::Value> = objects
+            .iter()
+            .filter(|o| o["type"] == "telemetry")
+            .collect();
+        // 200 Hz: sample 2 is at 0.01 s; the values are the device's.
+        assert_eq!(records[1]["sample"], 2);
+        assert_eq!(records[1]["time_s"], 0.01);
+        assert_eq!(records[1]["vector_running_rms_m_s2"], 1.0625);
+        assert_eq!(records[1]["head_m_s2"][2], 1.5);
+        assert_eq!(records[1]["level"], "advisory");
+        let event = objects
+            .iter()
+            .find(|o| o["type"] == "event")
+            .expect("event");
+        assert_eq!(event["to"], "advisory");
+        assert_eq!(event["time_s"], 0.005);
+    }
 }

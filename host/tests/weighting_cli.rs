@@ -25,7 +25,14 @@ fn rows(path: &std::path::Path) -> (String, Vec<Vec<f64>>) {
 fn weighting_writes_the_device_filter_at_exact_one_third_octave_centres_below_nyquist() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("W.csv");
-    supine(&["weighting", "--kind", "wk", "--out", out.to_str().unwrap()]).unwrap();
+    supine(&[
+        "weighting",
+        "--weighting",
+        "wk",
+        "--out",
+        out.to_str().unwrap(),
+    ])
+    .unwrap();
     let (header, rows) = rows(&out);
     assert_eq!(header, "freq_hz,magnitude,phase_rad,analog_magnitude");
     // 0.1 Hz (n = -10) up to 199.5 Hz (n = 23): the next centre, 251 Hz, is above fs/2.
@@ -50,7 +57,7 @@ fn weighting_at_2_khz_runs_up_to_398_hz() {
     let out = dir.path().join("W.csv");
     supine(&[
         "weighting",
-        "--kind",
+        "--weighting",
         "wj",
         "--fs",
         "2000",
@@ -73,7 +80,7 @@ fn weighting_refuses_a_sample_rate_outside_100_to_2000_hz() {
     let out = dir.path().join("W.csv");
     let err = supine(&[
         "weighting",
-        "--kind",
+        "--weighting",
         "wd",
         "--fs",
         "50",
@@ -88,5 +95,5 @@ fn weighting_refuses_a_sample_rate_outside_100_to_2000_hz() {
 
 #[test]
 fn weighting_refuses_an_unknown_kind() {
-    assert!(supine(&["weighting", "--kind", "wb", "--out", "x.csv"]).is_err());
+    assert!(supine(&["weighting", "--weighting", "wb", "--out", "x.csv"]).is_err());
 }

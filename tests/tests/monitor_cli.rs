@@ -54,7 +54,7 @@ fn monitor_logs_what_the_host_pipeline_predicts_for_a_scripted_ride() {
         &s(&ride),
     ]);
     assert!(ok, "{stderr}");
-    assert!(stderr.contains("1 shocks"), "{stderr}");
+    assert!(stderr.contains(", 1 shock\n"), "{stderr}");
     let (ok, stdout, stderr) = supine(&[
         "monitor",
         "--qemu",

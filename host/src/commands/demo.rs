@@ -5,25 +5,37 @@ use std::io::IsTerminal as _;
 use std::path::PathBuf;
 
 use anyhow::Result;
+use serde_json::json;
+use supine_core::model::Preset;
 
+use crate::cli::ColorChoice;
+use crate::commands::json_output::{self, JsonFlag};
+use crate::commands::values;
 use crate::demo::ride::DemoProfile;
+use crate::demo::summary::Summary;
 use crate::demo::{self, DEFAULT_OUT_DIR, DemoConfig};
+use crate::io::params_file::{self, ParamFile, PresetArg};
 use crate::monitor::view::{LiveView, PlainView, View};
 
 /// Arguments of `supine demo`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Output folder: report.html and the CSV files it was made from.
+    /// Output folder: report.html and the CSV files it was made from. A folder holding
+    /// files the demo did not write is refused (see --force).
     #[arg(long, value_name = "DIR", default_value = DEFAULT_OUT_DIR)]
     pub out: PathBuf,
+    /// Write into --out even if it holds files the demo did not write (those are kept;
+    /// the demo's own files are replaced).
+    #[arg(long)]
+    pub force: bool,
     /// The ride (road-trip: paved road, rough road with shocks, paved road again).
     #[arg(long, value_enum, default_value_t = DemoProfile::RoadTrip)]
     pub profile: DemoProfile,
-    /// Length of the ride, s (the device in QEMU takes it faster than real time).
-    #[arg(long, default_value_t = 60.0)]
+    /// Length of the ride, s (at 500 Hz the device in QEMU runs about 4 times real time).
+    #[arg(long, default_value_t = values::DEFAULT_DURATION_S)]
     pub duration_s: f64,
     /// Seed of the ride's random draws: the same seed gives the same ride and report numbers.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = values::DEFAULT_SEED)]
     pub seed: u64,
     /// Stream the ride in real time (otherwise as fast as the device takes it).
     #[arg(long)]
@@ -31,32 +43,92 @@ pub struct Args {
     /// Run this firmware ELF instead of the image built into supine (development).
     #[arg(long, value_name = "ELF")]
     pub firmware: Option<PathBuf>,
+    /// One of the paper's parameter sets to flash (default: paper-litter).
+    #[arg(long, value_enum, conflicts_with = "params")]
+    pub preset: Option<PresetArg>,
+    /// A parameter file (TOML; its optional `[device]` table sets the weighting, the
+    /// alert thresholds and the sensor checks) to flash instead.
+    #[arg(long, value_name = "FILE")]
+    pub params: Option<PathBuf>,
+    /// Print the summary as one JSON object on standard output (the steps and the live
+    /// view go to standard error).
+    #[command(flatten)]
+    pub json: JsonFlag,
 }
 
 /// Runs the demo: step lines and the summary on standard output, the live view on
 /// standard error; Ctrl-C stops QEMU and removes its folder.
-pub fn run(args: &Args) -> Result<()> {
+pub fn run(args: &Args, color: ColorChoice) -> Result<()> {
     // Ctrl-C, SIGTERM and SIGHUP: QEMU stopped and its folder removed on the way out.
     let stop = crate::device::signals::stop_flag();
+    let (model, model_name) = match (&args.params, args.preset) {
+        (Some(path), _) => (params_file::load(path)?, path.display().to_string()),
+        (None, preset) => {
+            let preset = preset.map_or(demo::PRESET, Preset::from);
+            (ParamFile::preset(preset), preset.name().to_string())
+        }
+    };
     let config = DemoConfig {
+        model,
+        model_name,
         out_dir: args.out.clone(),
         profile: args.profile,
         duration_s: args.duration_s,
         seed: args.seed,
         realtime: args.realtime,
         firmware: args.firmware.clone(),
+        force: args.force,
     };
     let stderr = std::io::stderr();
     let mut view: Box<dyn View> = if stderr.is_terminal() {
-        Box::new(LiveView::new(stderr)?)
+        Box::new(LiveView::new(stderr, color.enabled_here(true))?)
     } else {
         Box::new(PlainView::new(stderr))
     };
-    let mut announce = |line: &str| println!("{line}");
+    let json = args.json.json;
+    let mut announce = |line: &str| {
+        if json {
+            eprintln!("{line}");
+        } else {
+            println!("{line}");
+        }
+    };
     let outcome = demo::run(&config, &mut announce, view.as_mut(), &stop);
     drop(view);
     let outcome = outcome?;
+    if json {
+        return json_output::print(&summary_json(&outcome.summary, args, &outcome.report));
+    }
     print!("{}", outcome.summary.to_text(&outcome.data));
     println!("report: {}", outcome.report.display());
     Ok(())
+}
+
+/// The summary as the `--json` object.
+fn summary_json(s: &Summary, args: &Args, report: &std::path::Path) -> serde_json::Value {
+    let exposure: serde_json::Map<String, serde_json::Value> = s
+        .exposure
+        .iter()
+        .map(|(axis, r)| (axis.clone(), json!(r)))
+        .collect();
+    json!({
+        "report": report,
+        "profile": args.profile.name(),
+        "duration_s": args.duration_s,
+        "seed": args.seed,
+        "exposure": exposure,
+        "device_mtvv_m_s2": s.device_mtvv_m_s2,
+        "device_vdv_m_s175": s.device_vdv_m_s175,
+        "highest_level": s.highest_level.name(),
+        "highest_at_s": s.highest_at_s,
+        "final_level": s.final_level.name(),
+        "cleared_at_s": s.cleared_at_s,
+        "level_events": s.level_events,
+        "faults": s.faults.iter().map(|(name, t)| json!({"fault": name, "time_s": t})).collect::<Vec<_>>(),
+        "head_diff_f32_m_s2": s.head_diff_f32_m_s2,
+        "head_diff_f64_m_s2": s.head_diff_f64_m_s2,
+        "running_rms_diff_m_s2": s.rms_diff_m_s2,
+        "events_agree": s.events_agree,
+        "records_complete": s.records_complete,
+    })
 }

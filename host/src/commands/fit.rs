@@ -4,11 +4,14 @@
 use std::io::IsTerminal;
 use std::path::PathBuf;
 
+use crate::commands::json_output::{self, JsonFlag};
+use crate::commands::values;
 use crate::identify::fit::solver::{DEFAULT_TOLERANCE, SolverSettings};
 use crate::identify::fit::workflow::{self, FitRequest};
 use crate::identify::fit::{Determination, FitSettings};
 use crate::identify::spectral::DEFAULT_RESOLUTION_HZ;
 use crate::io::dataset::Case;
+use crate::io::output_folder;
 use anyhow::{Result, bail};
 
 /// Arguments of `supine fit`.
@@ -23,11 +26,11 @@ pub struct Args {
     /// The rigid fit (parameter file) whose joints the litter-board fit keeps.
     #[arg(long, value_name = "FILE")]
     pub joints: Option<PathBuf>,
-    /// Subjects to hold out, comma-separated (e.g. s8).
-    #[arg(long, value_delimiter = ',')]
+    /// Subjects to hold out, comma-separated (e.g. s8 or "s1, s2").
+    #[arg(long, value_name = "S1,S2")]
     pub exclude: Vec<String>,
     /// Seed of the random starts.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = values::DEFAULT_SEED)]
     pub seed: u64,
     /// Number of starts (the paper's start, the paper's values with either damping, then
     /// random ones).
@@ -57,9 +60,17 @@ pub struct Args {
     /// Where to write the fitted parameter file.
     #[arg(long)]
     pub out: PathBuf,
-    /// A folder for the SVG plots and the summary table.
+    /// A folder for the SVG plots and the summary table (a folder holding files supine
+    /// did not write is refused, see --force).
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// Write into the folder even if it holds files supine did not write there (those
+    /// are kept).
+    #[arg(long)]
+    pub force: bool,
+    /// Print the fit's outcome as JSON (the summary table stays on standard error).
+    #[command(flatten)]
+    pub json: JsonFlag,
 }
 
 /// A spinner with the latest accepted step on stderr; hidden when stderr is not a
@@ -91,7 +102,7 @@ fn request(args: &Args) -> Result<FitRequest> {
         dataset: args.dataset.clone(),
         case: args.case,
         joints: args.joints.clone(),
-        exclude: args.exclude.clone(),
+        exclude: values::comma_list("--exclude", &args.exclude)?,
         resolution_hz: args.resolution_hz,
         settings: FitSettings {
             starts: args.starts,
@@ -112,6 +123,12 @@ fn request(args: &Args) -> Result<FitRequest> {
 /// Fits and writes the parameter file (and the report).
 pub fn run(args: &Args) -> Result<()> {
     let request = request(args)?;
+    // Checked before the fit, so that a refused folder costs no wait.
+    let report_folder = args
+        .report
+        .as_deref()
+        .map(|dir| output_folder::claim(dir, "supine fit", "--report", args.force))
+        .transpose()?;
     let total = request.settings.starts.max(1);
     let bar = progress_spinner();
     // Starts run in parallel: the message shows whichever reported last.
@@ -125,14 +142,78 @@ pub fn run(args: &Args) -> Result<()> {
     bar.finish_and_clear();
     let fitted = fitted?;
     workflow::write_outputs(&fitted, &request, &args.out, args.report.as_deref())?;
+    if let Some(folder) = &report_folder {
+        folder.record_new_entries()?;
+    }
     eprintln!("{}", fitted.summary());
     let unknown = fitted.params_with(Determination::NoEffect);
+    if args.json.json {
+        return json_output::print(&outcome_json(&fitted, args));
+    }
     eprintln!(
-        "wrote {} (final cost {:.6}; {} parameter(s) without effect: {})",
+        "wrote {} (final cost {:.6}; {})",
         args.out.display(),
         fitted.result.solution.cost,
-        unknown.len(),
-        unknown.join(", ")
+        without_effect(&unknown)
     );
     Ok(())
+}
+
+/// `every parameter has an effect`, or how many have none and which.
+fn without_effect(names: &[String]) -> String {
+    match names {
+        [] => "every parameter has an effect".to_string(),
+        [one] => format!("1 parameter without effect: {one}"),
+        many => format!(
+            "{} parameters without effect: {}",
+            many.len(),
+            many.join(", ")
+        ),
+    }
+}
+
+/// The `--json` object: the cost, every start, and every free parameter's verdict.
+fn outcome_json(fitted: &workflow::DatasetFit, args: &Args) -> serde_json::Value {
+    let result = &fitted.result;
+    let starts: Vec<_> = result
+        .starts
+        .iter()
+        .map(|s| {
+            serde_json::json!({
+                "label": s.label,
+                "initial_cost": s.initial_cost,
+                "final_cost": s.final_cost,
+                "iterations": s.iterations,
+                "evaluations": s.evaluations,
+                "solver_s": s.seconds,
+            })
+        })
+        .collect();
+    let params: Vec<_> = fitted
+        .identifiability
+        .params
+        .iter()
+        .map(|p| {
+            serde_json::json!({
+                "name": p.id.to_string(),
+                "value": p.value,
+                "unit": p.id.unit(),
+                "determination": p.determination.name(),
+                "standard_error_ln": p.standard_error,
+                "interval_95": p.interval_95().map(|(lo, hi)| [lo, hi]),
+            })
+        })
+        .collect();
+    serde_json::json!({
+        "out": args.out,
+        "case": args.case.name(),
+        "final_cost": result.solution.cost,
+        "residuals": result.solution.residuals.len(),
+        "best_start": result.best,
+        "starts": starts,
+        "parameters": params,
+        "parameters_without_effect": fitted.params_with(Determination::NoEffect),
+        "spectra_s": fitted.spectra_s,
+        "solver_s": fitted.solver_s,
+    })
 }

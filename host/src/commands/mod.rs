@@ -1,10 +1,12 @@
 //! One module per `supine` subcommand.
 
 pub mod calibrate;
+pub mod completions;
 pub mod demo;
 pub mod exposure;
 pub mod fit;
 pub mod flash;
+pub mod json_output;
 pub mod model;
 pub mod modes;
 pub mod monitor;

@@ -2,12 +2,13 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Result, anyhow};
+use anyhow::Result;
 
+use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
 use crate::identify::transmissibility::model_h;
 use crate::io::h_csv;
-use crate::io::params_file::ModelSource;
+use crate::io::params_file::{ModelSource, SubjectOverride};
 
 /// Arguments of `supine model`.
 #[derive(Debug, clap::Args)]
@@ -15,12 +16,9 @@ pub struct Args {
     /// Which parameters.
     #[command(flatten)]
     pub source: ModelSource,
-    /// Override the subject's height, m.
-    #[arg(long)]
-    pub height_m: Option<f64>,
-    /// Override the subject's mass, kg.
-    #[arg(long)]
-    pub mass_kg: Option<f64>,
+    /// The subject, if not the parameters' own.
+    #[command(flatten)]
+    pub subject: SubjectOverride,
     /// Lowest frequency, Hz (above 0: H is the static response there, 1 on matching axes).
     #[arg(long = "fmin", value_name = "HZ", default_value_t = 0.5, value_parser = values::positive_hz)]
     pub fmin_hz: f64,
@@ -33,22 +31,28 @@ pub struct Args {
     /// Where to write the CSV.
     #[arg(long)]
     pub out: PathBuf,
+    /// Print what was written as JSON.
+    #[command(flatten)]
+    pub json: JsonFlag,
 }
 
 /// Writes H at every grid frequency for the chosen parameters.
 pub fn run(args: &Args) -> Result<()> {
-    let mut params = args.source.load()?.params;
-    if let Some(h) = args.height_m {
-        params.subject.height_m = h;
-    }
-    if let Some(m) = args.mass_kg {
-        params.subject.mass_kg = m;
-    }
-    params.validate().map_err(|e| anyhow!("{e}"))?;
+    let params = args.source.load_for_subject(&args.subject)?;
     let freqs = h_csv::frequency_grid(args.fmin_hz, args.fmax_hz, args.df_hz)?;
     let h = model_h(&params, &freqs)?;
     let rows = h_csv::rows(&freqs, &h, None);
     h_csv::write(&args.out, &rows)?;
+    if args.json.json {
+        return json_output::print(&serde_json::json!({
+            "out": args.out,
+            "frequencies": freqs.len(),
+            "components": 27,
+            "fmin_hz": freqs.first(),
+            "fmax_hz": freqs.last(),
+            "df_hz": args.df_hz,
+        }));
+    }
     eprintln!(
         "wrote {} ({} frequencies x 27 components)",
         args.out.display(),

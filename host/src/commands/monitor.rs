@@ -8,10 +8,13 @@ use std::time::Duration;
 use anyhow::{Result, anyhow, bail};
 use clap::ArgGroup;
 
+use crate::cli::ColorChoice;
+use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
-use crate::exposure::ride::{Profile, generate};
+use crate::demo::ride::{DemoProfile, make};
 use crate::io::params_file::{ModelSource, PresetArg};
 use crate::io::recording::PlatformStream;
+use crate::monitor::json::{JsonlView, summary_json};
 use crate::monitor::log::MonitorLog;
 use crate::monitor::session::{Ending, QemuRun, run_qemu, run_serial};
 use crate::monitor::view::{LiveView, PlainView, View};
@@ -41,21 +44,21 @@ pub struct Args {
     pub input: Option<PathBuf>,
     /// With --qemu: generate the ride instead (see `supine ride`).
     #[arg(long, value_enum, conflicts_with = "serial")]
-    pub profile: Option<Profile>,
+    pub profile: Option<DemoProfile>,
     /// Length of the generated ride, s.
-    #[arg(long, default_value_t = 60.0, requires = "profile")]
+    #[arg(long, default_value_t = values::DEFAULT_DURATION_S, requires = "profile")]
     pub duration_s: f64,
     /// Sample rate of the generated ride, Hz (a rate the device supports).
     #[arg(
         long = "fs",
         value_name = "HZ",
-        default_value_t = 500.0,
+        default_value_t = values::DEFAULT_SAMPLE_RATE_HZ,
         requires = "profile",
         help = values::sample_rate_help("Sample rate of the generated ride")
     )]
     pub fs_hz: f64,
     /// Seed of the generated ride.
-    #[arg(long, default_value_t = 0, requires = "profile")]
+    #[arg(long, default_value_t = values::DEFAULT_SEED, requires = "profile")]
     pub seed: u64,
     /// With --qemu: send the samples in real time (default: as fast as the device takes them).
     #[arg(long, requires = "qemu")]
@@ -67,14 +70,24 @@ pub struct Args {
     /// (the formats of `supine replay`).
     #[arg(long, value_name = "FILE.csv")]
     pub log: Option<PathBuf>,
-    /// Longest wait for the device's greeting, s (above 0, at most a day).
-    #[arg(long, default_value_t = 10.0, value_parser = values::timeout_s)]
-    pub greeting_timeout_s: f64,
+    /// Longest wait for the device's greeting, s (above 0, at most a day;
+    /// `--greeting-timeout-s` is an older spelling).
+    #[arg(long, value_name = "S", default_value_t = 10.0, value_parser = values::timeout_s,
+          alias = "greeting-timeout-s")]
+    pub timeout_s: f64,
+    /// Print the closing summary as one JSON object on standard output (instead of a
+    /// line on standard error).
+    #[command(flatten)]
+    pub json: JsonFlag,
+    /// Stream one JSON object per telemetry record and per event on standard output,
+    /// instead of the panel.
+    #[arg(long, conflicts_with = "json")]
+    pub jsonl: bool,
 }
 
 /// Runs the monitor until the ride ends (QEMU), Ctrl-C, or the link fails.
-pub fn run(args: &Args) -> Result<()> {
-    let greeting_timeout = values::timeout("--greeting-timeout-s", args.greeting_timeout_s)?;
+pub fn run(args: &Args, color: ColorChoice) -> Result<()> {
+    let greeting_timeout = values::timeout("--timeout-s", args.timeout_s)?;
     let qemu_run = if args.qemu {
         Some(prepare_qemu(args, greeting_timeout)?)
     } else {
@@ -84,8 +97,18 @@ pub fn run(args: &Args) -> Result<()> {
     let stop = crate::device::signals::stop_flag();
     let mut log = args.log.as_deref().map(MonitorLog::create).transpose()?;
     let stdout = std::io::stdout();
-    let mut view: Box<dyn View> = if stdout.is_terminal() {
-        Box::new(LiveView::new(stdout)?)
+    let mut view: Box<dyn View> = if args.jsonl {
+        Box::new(JsonlView::new(stdout))
+    } else if args.json.json {
+        // stdout is the summary's; the panel or the lines go to stderr.
+        let stderr = std::io::stderr();
+        if stderr.is_terminal() {
+            Box::new(LiveView::new(stderr, color.enabled_here(true))?)
+        } else {
+            Box::new(PlainView::new(stderr))
+        }
+    } else if stdout.is_terminal() {
+        Box::new(LiveView::new(stdout, color.enabled_here(true))?)
     } else {
         Box::new(PlainView::new(stdout))
     };
@@ -119,7 +142,11 @@ pub fn run(args: &Args) -> Result<()> {
         }
     };
     let written = log.map(MonitorLog::finish).transpose()?;
-    eprintln!("{}", monitor.summary());
+    if args.json.json {
+        json_output::print(&summary_json(&monitor))?;
+    } else {
+        eprintln!("{}", monitor.summary());
+    }
     if let Some((t, e)) = written {
         eprintln!("wrote {} and {}", t.display(), e.display());
     }
@@ -152,8 +179,8 @@ fn prepare_qemu(args: &Args, greeting_timeout: Duration) -> Result<QemuRun> {
             (samples, ride.sample_rate_hz())
         }
         (None, Some(profile)) => {
-            let ride = generate(profile, args.duration_s, args.fs_hz, args.seed)?;
-            (ride.samples(), ride.sample_rate_hz)
+            let ride = make(profile, args.duration_s, args.fs_hz, args.seed)?;
+            (ride.samples(), ride.ride.sample_rate_hz)
         }
         (None, None) => bail!("--qemu needs a ride: --input RIDE.csv or --profile NAME"),
     };

@@ -1,7 +1,10 @@
-//! `supine params`: prints a parameter file, the format `--params` reads and fits write.
+//! `supine params`: prints a parameter file, the format `--params` reads and fits write;
+//! without a `[device]` table of its own, the device's defaults follow, commented out, so
+//! that every key a file may set is in front of the user.
 
 use anyhow::Result;
 
+use crate::io::device_section::commented_defaults;
 use crate::io::params_file::ModelSource;
 
 /// Arguments of `supine params`.
@@ -14,6 +17,10 @@ pub struct Args {
 
 /// Prints the parameters as TOML on standard output.
 pub fn run(args: &Args) -> Result<()> {
-    print!("{}", args.source.load()?.to_toml()?);
+    let file = args.source.load()?;
+    print!("{}", file.to_toml()?);
+    if file.device.is_none() {
+        print!("\n{}", commented_defaults());
+    }
     Ok(())
 }

@@ -7,37 +7,39 @@ use std::path::PathBuf;
 
 use anyhow::{Result, anyhow};
 
+use crate::commands::json_output::{self, JsonFlag};
+use crate::commands::values;
 use crate::identify::fit::band::{BAND_QUANTILES, ExposureBand, head_exposure_band};
 use crate::identify::fit::uncertainty::StoredUncertainty;
 use crate::identify::validate::{predict, write_prediction};
-use crate::io::params_file;
+use crate::io::params_file::{ModelSource, SubjectOverride};
 use crate::io::recording::Recording;
 
 /// Arguments of `supine predict`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The parameter file (as `supine fit` writes).
-    #[arg(long, value_name = "FILE")]
-    pub params: PathBuf,
+    /// Which parameters (`supine fit` writes a file for --params; --band needs one).
+    #[command(flatten)]
+    pub source: ModelSource,
     /// The recording whose platform columns drive the model.
     #[arg(long, value_name = "REC.csv")]
     pub input: PathBuf,
     /// Where to write the prediction (same columns as a recording).
     #[arg(long, value_name = "PRED.csv")]
     pub out: PathBuf,
-    /// Override the subject's height, m.
-    #[arg(long)]
-    pub height_m: Option<f64>,
-    /// Override the subject's mass, kg.
-    #[arg(long)]
-    pub mass_kg: Option<f64>,
+    /// The subject, if not the parameters' own.
+    #[command(flatten)]
+    pub subject: SubjectOverride,
     /// Also print the head exposure's 95 % prediction band from this many parameter sets
     /// drawn from the fit's uncertainty (the file's [fit.uncertainty]).
     #[arg(long, value_name = "DRAWS")]
     pub band: Option<usize>,
-    /// Seed of the band's draws.
-    #[arg(long, default_value_t = 1)]
-    pub band_seed: u64,
+    /// Seed of the band's draws (`--band-seed` is an older spelling).
+    #[arg(long, default_value_t = values::DEFAULT_SEED, alias = "band-seed")]
+    pub seed: u64,
+    /// Print what was written, and the band, as JSON.
+    #[command(flatten)]
+    pub json: JsonFlag,
 }
 
 /// The band as a table.
@@ -61,17 +63,20 @@ fn band_table(band: &ExposureBand) -> String {
 
 /// Predicts and writes the CSV.
 pub fn run(args: &Args) -> Result<()> {
-    let params = params_file::load_for_subject(&args.params, args.height_m, args.mass_kg)?;
+    let file = args.source.load()?;
+    let params = args.subject.apply(file.params)?;
     let recording = Recording::read(&args.input)?;
     let band = match args.band {
         Some(draws) => {
-            let file = params_file::load(&args.params)?;
+            let path = args.source.params.as_ref().ok_or_else(|| {
+                anyhow!("--band: expected --params FILE written by supine fit (a preset has no uncertainty)")
+            })?;
             let uncertainty = StoredUncertainty::from_fit_table(file.fit.as_ref())
-                .map_err(|e| anyhow!("{}: {e}", args.params.display()))?
+                .map_err(|e| anyhow!("{}: {e}", path.display()))?
                 .ok_or_else(|| {
                     anyhow!(
                         "{}: --band: expected a [fit.uncertainty] table (written by supine fit)",
-                        args.params.display()
+                        path.display()
                     )
                 })?;
             let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
@@ -80,7 +85,7 @@ pub fn run(args: &Args) -> Result<()> {
                 &uncertainty,
                 &recording,
                 draws,
-                args.band_seed,
+                args.seed,
                 threads,
             )?)
         }
@@ -88,6 +93,21 @@ pub fn run(args: &Args) -> Result<()> {
     };
     let predicted = predict(&params, &recording)?;
     write_prediction(&recording, predicted, &args.out)?;
+    if args.json.json {
+        let axis =
+            |v: &[f64; 4]| serde_json::json!({"x": v[0], "y": v[1], "z": v[2], "vector": v[3]});
+        return json_output::print(&serde_json::json!({
+            "out": args.out,
+            "samples": recording.len(),
+            "head_exposure_band": band.as_ref().map(|b| serde_json::json!({
+                "draws": b.draws.len(),
+                "quantiles": [BAND_QUANTILES.0, BAND_QUANTILES.1],
+                "fitted_m_s2": axis(&b.fitted.values()),
+                "low_m_s2": axis(&b.low.values()),
+                "high_m_s2": axis(&b.high.values()),
+            })),
+        }));
+    }
     eprintln!("wrote {} ({} samples)", args.out.display(), recording.len());
     if let Some(band) = &band {
         print!("{}", band_table(band));

@@ -4,32 +4,43 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 
+use crate::commands::json_output::{self, JsonFlag};
+use crate::commands::values;
 use crate::identify::synth::{SynthSettings, write_dataset};
+use crate::io::output_folder;
 
 /// Arguments of `supine synth`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The dataset folder to write (created if missing).
+    /// The dataset folder to write (created if missing; a folder holding files supine did
+    /// not write is refused, see --force).
     #[arg(long)]
     pub out: PathBuf,
+    /// Write into the folder even if it holds files supine did not write there (those
+    /// are kept).
+    #[arg(long)]
+    pub force: bool,
     /// Number of subjects.
     #[arg(long, default_value_t = 8)]
     pub subjects: usize,
     /// Seed of every random draw.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = values::DEFAULT_SEED)]
     pub seed: u64,
     /// Length of each recording, s.
-    #[arg(long, default_value_t = 60.0)]
+    #[arg(long, default_value_t = values::DEFAULT_DURATION_S)]
     pub duration_s: f64,
-    /// Sample rate of the recordings, Hz.
-    #[arg(long, default_value_t = 200.0)]
-    pub fs: f64,
+    /// Sample rate of the recordings, Hz (200: the laboratory's, as in the paper).
+    #[arg(long = "fs", value_name = "HZ", default_value_t = SynthSettings::default().sample_rate_hz)]
+    pub fs_hz: f64,
     /// Standard deviation of the white noise on every channel, m/s^2.
     #[arg(long, default_value_t = 0.01)]
     pub noise_m_s2: f64,
     /// Spread of the subjects' parameters: each is the paper's value times e^N(0, this).
     #[arg(long, default_value_t = SynthSettings::default().param_log_sd)]
     pub param_log_sd: f64,
+    /// Print what was written as JSON.
+    #[command(flatten)]
+    pub json: JsonFlag,
 }
 
 /// Writes the dataset.
@@ -38,11 +49,12 @@ pub fn run(args: &Args) -> Result<()> {
         subjects: args.subjects,
         seed: args.seed,
         duration_s: args.duration_s,
-        sample_rate_hz: args.fs,
+        sample_rate_hz: args.fs_hz,
         noise_m_s2: args.noise_m_s2,
         param_log_sd: args.param_log_sd,
         ..SynthSettings::default()
     };
+    let folder = output_folder::claim(&args.out, "supine synth", "--out", args.force)?;
     let bar = indicatif::ProgressBar::new((2 * args.subjects) as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template("synth {bar:30} {pos}/{len} recordings")
@@ -52,11 +64,23 @@ pub fn run(args: &Args) -> Result<()> {
         bar.set_position(done as u64)
     })?;
     bar.finish_and_clear();
+    folder.record_new_entries()?;
+    if args.json.json {
+        return json_output::print(&serde_json::json!({
+            "out": args.out,
+            "subjects": subjects.len(),
+            "cases": 2,
+            "duration_s": args.duration_s,
+            "sample_rate_hz": args.fs_hz,
+            "seed": args.seed,
+            "truth": args.out.join("truth"),
+        }));
+    }
     eprintln!(
         "wrote {} subjects x 2 cases ({} s at {} Hz) to {}, true parameters in {}/truth",
         subjects.len(),
         args.duration_s,
-        args.fs,
+        args.fs_hz,
         args.out.display(),
         args.out.display()
     );

@@ -6,6 +6,8 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 
+use crate::commands::json_output::{self, JsonFlag};
+use crate::commands::values;
 use crate::identify::spectral::DEFAULT_RESOLUTION_HZ;
 use crate::identify::transmissibility::estimate;
 use crate::io::dataset::{Case, Dataset};
@@ -23,34 +25,38 @@ pub struct Args {
     /// One subject only (the file then adds a coherence column).
     #[arg(long, conflicts_with = "exclude")]
     pub subject: Option<String>,
-    /// Subjects to leave out of the mean, comma-separated (e.g. s8).
-    #[arg(long, value_delimiter = ',')]
+    /// Subjects to leave out of the mean, comma-separated (e.g. s8 or "s1, s2").
+    #[arg(long, value_name = "S1,S2")]
     pub exclude: Vec<String>,
     /// Frequency resolution, Hz: the Welch segment is the smallest power of two giving it.
     #[arg(long, default_value_t = DEFAULT_RESOLUTION_HZ)]
     pub resolution_hz: f64,
     /// Lowest frequency written, Hz.
-    #[arg(long, default_value_t = 0.5)]
-    pub fmin: f64,
+    #[arg(long = "fmin", value_name = "HZ", default_value_t = 0.5, value_parser = values::positive_hz)]
+    pub fmin_hz: f64,
     /// Highest frequency written, Hz.
-    #[arg(long, default_value_t = 16.0)]
-    pub fmax: f64,
+    #[arg(long = "fmax", value_name = "HZ", default_value_t = 16.0, value_parser = values::positive_hz)]
+    pub fmax_hz: f64,
     /// Where to write the CSV.
     #[arg(long)]
     pub out: PathBuf,
+    /// Print a summary of the estimate as JSON.
+    #[command(flatten)]
+    pub json: JsonFlag,
 }
 
 /// Estimates and writes the CSV.
 pub fn run(args: &Args) -> Result<()> {
+    let exclude = values::comma_list("--exclude", &args.exclude)?;
     let dataset = Dataset::load(&args.dataset)?;
     let est = estimate(
         &dataset,
         args.case,
         args.subject.as_deref(),
-        &args.exclude,
+        &exclude,
         args.resolution_hz,
-        args.fmin,
-        args.fmax,
+        args.fmin_hz,
+        args.fmax_hz,
     )?;
     let rows = match &args.subject {
         Some(_) => {
@@ -60,6 +66,19 @@ pub fn run(args: &Args) -> Result<()> {
         None => rows(&est.freqs_hz, &est.geomean, None),
     };
     h_csv::write(&args.out, &rows)?;
+    if args.json.json {
+        return json_output::print(&serde_json::json!({
+            "out": args.out,
+            "subjects": est.subjects.iter().map(|s| &s.id).collect::<Vec<_>>(),
+            "frequencies": est.freqs_hz.len(),
+            "resolution_hz": est.settings.resolution_hz(est.sample_rate_hz),
+            "sample_rate_hz": est.sample_rate_hz,
+            "window": "hann",
+            "segment_samples": est.settings.segment_len,
+            "overlap_samples": est.settings.overlap,
+            "segments": est.subjects[0].estimate.segments,
+        }));
+    }
     eprintln!(
         "wrote {} ({} subject(s), {} frequencies at {:.4} Hz: Hann, {} samples, {} overlap, {} segments)",
         args.out.display(),

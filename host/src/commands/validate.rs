@@ -5,45 +5,51 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 
+use crate::commands::json_output::JsonFlag;
 use crate::identify::validate::{predict, table, validate, write_report};
-use crate::io::params_file;
+use crate::io::output_folder;
+use crate::io::params_file::{ModelSource, SubjectOverride};
 use crate::io::recording::Recording;
 
 /// Arguments of `supine validate`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The parameter file (as `supine fit` writes).
-    #[arg(long, value_name = "FILE")]
-    pub params: PathBuf,
-    /// The recording to compare with.
-    #[arg(long, value_name = "REC.csv")]
-    pub recording: PathBuf,
-    /// Print JSON instead of a table.
-    #[arg(long)]
-    pub json: bool,
-    /// A folder for the PSD plots (psd.svg) and the JSON (validation.json).
+    /// Which parameters (`supine fit` writes a file for --params).
+    #[command(flatten)]
+    pub source: ModelSource,
+    /// The recording to compare with (`--recording` is an older spelling).
+    #[arg(long, value_name = "REC.csv", alias = "recording")]
+    pub input: PathBuf,
+    /// Print the comparison as JSON instead of a table.
+    #[command(flatten)]
+    pub json: JsonFlag,
+    /// A folder for the PSD plots (psd.svg) and the JSON (validation.json); a folder
+    /// holding files supine did not write is refused, see --force.
     #[arg(long)]
     pub report: Option<PathBuf>,
-    /// Override the subject's height, m.
+    /// Write into the folder even if it holds files supine did not write there (those
+    /// are kept).
     #[arg(long)]
-    pub height_m: Option<f64>,
-    /// Override the subject's mass, kg.
-    #[arg(long)]
-    pub mass_kg: Option<f64>,
+    pub force: bool,
+    /// The subject, if not the parameters' own.
+    #[command(flatten)]
+    pub subject: SubjectOverride,
 }
 
 /// Predicts, compares, prints.
 pub fn run(args: &Args) -> Result<()> {
-    let params = params_file::load_for_subject(&args.params, args.height_m, args.mass_kg)?;
-    let recording = Recording::read(&args.recording)?;
+    let params = args.source.load_for_subject(&args.subject)?;
+    let recording = Recording::read(&args.input)?;
     let predicted = predict(&params, &recording)?;
     let result = validate(&recording, &predicted);
     let json = serde_json::to_string_pretty(&result)?;
     if let Some(dir) = &args.report {
+        let folder = output_folder::claim(dir, "supine validate", "--report", args.force)?;
         write_report(dir, &recording, &predicted, &json)?;
+        folder.record_new_entries()?;
     }
-    if args.json {
-        println!("{json}");
+    if args.json.json {
+        println!("{}", serde_json::to_string(&result)?);
     } else {
         print!("{}", table(&result));
     }

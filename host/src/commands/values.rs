@@ -5,6 +5,50 @@ use std::time::Duration;
 
 use supine_core::sample_rate::SampleRate;
 
+/// Default seed of every random draw (rides, synthetic datasets, fits, bands): one value
+/// so that `--seed` means the same thing in every command.
+pub const DEFAULT_SEED: u64 = 1;
+
+/// Default length of a generated ride or recording, s (`ride`, `demo`, `monitor`, `synth`):
+/// a minute shows the alerts rise and clear and runs in seconds.
+pub const DEFAULT_DURATION_S: f64 = 60.0;
+
+/// Default sample rate of a generated ride and of the device, Hz.
+pub const DEFAULT_SAMPLE_RATE_HZ: f64 = 500.0;
+
+/// The items of a comma-separated list flag (given once or repeated), so that
+/// `--exclude s1,s2` and `--exclude "s1 , s2"` mean the same (`--exclude s1, s2`, two
+/// shell words, is joined into one by [`crate::cli::join_list_words`]); each item is
+/// trimmed and none may be empty. `flag` names the list in the error.
+pub fn comma_list(flag: &str, words: &[String]) -> anyhow::Result<Vec<String>> {
+    if words.is_empty() {
+        return Ok(Vec::new());
+    }
+    let joined = words.join(",");
+    joined
+        .split(',')
+        .map(|item| {
+            let item = item.trim();
+            if item.is_empty() {
+                Err(anyhow::anyhow!(
+                    "{flag} {joined}: expected comma-separated items, found an empty one"
+                ))
+            } else {
+                Ok(item.to_string())
+            }
+        })
+        .collect()
+}
+
+/// `n` and the noun, plural unless `n` is 1: `1 shock`, `3 shocks`, `0 shocks`.
+pub fn count(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
+}
+
 /// Longest timeout any flag accepts, s: one day. Longer waits are mistakes, and
 /// `Duration::from_secs_f64` panics on values it cannot hold.
 pub const MAX_TIMEOUT_S: f64 = 86_400.0;
@@ -73,6 +117,30 @@ mod tests {
             timeout("--timeout-s", 0.25).unwrap(),
             Duration::from_millis(250)
         );
+    }
+
+    #[test]
+    fn comma_lists_accept_spaces_around_commas_and_refuse_empty_items() {
+        let words = |w: &[&str]| w.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        for given in [&["s1,s2"][..], &["s1", "s2"], &["s1 , s2"]] {
+            assert_eq!(
+                comma_list("--exclude", &words(given)).unwrap(),
+                ["s1", "s2"]
+            );
+        }
+        assert!(comma_list("--exclude", &[]).unwrap().is_empty());
+        let err = comma_list("--exclude", &words(&["s1,,s2"])).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "--exclude s1,,s2: expected comma-separated items, found an empty one"
+        );
+    }
+
+    #[test]
+    fn counts_are_singular_for_one_only() {
+        assert_eq!(count(0, "shock"), "0 shocks");
+        assert_eq!(count(1, "shock"), "1 shock");
+        assert_eq!(count(2, "level change"), "2 level changes");
     }
 
     #[test]

@@ -7,6 +7,7 @@ use anyhow::{Result, anyhow};
 use supine_core::sample_rate::SampleRate;
 use supine_core::weighting::{WeightingKind, WeightingSettings};
 
+use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
 use crate::exposure::weighting_response::{centre_frequencies, write_response};
 
@@ -34,14 +35,14 @@ impl From<Kind> for WeightingKind {
 /// Arguments of `supine weighting`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Which weighting.
-    #[arg(long, value_enum)]
-    pub kind: Kind,
+    /// Which weighting (`--kind` is an older spelling).
+    #[arg(long, value_enum, alias = "kind")]
+    pub weighting: Kind,
     /// Sample rate the filter is designed for, Hz (a rate the device supports).
     #[arg(
         long = "fs",
         value_name = "HZ",
-        default_value_t = 500.0,
+        default_value_t = values::DEFAULT_SAMPLE_RATE_HZ as f32,
         help = values::sample_rate_help("Sample rate the filter is designed for")
     )]
     pub fs_hz: f32,
@@ -57,11 +58,14 @@ pub struct Args {
     /// Where to write the CSV (`freq_hz,magnitude,phase_rad,analog_magnitude`).
     #[arg(long)]
     pub out: PathBuf,
+    /// Print what was written as JSON.
+    #[command(flatten)]
+    pub json: JsonFlag,
 }
 
 /// Writes the response of the device's filter and of the analog weighting on the grid.
 pub fn run(args: &Args) -> Result<()> {
-    let kind = WeightingKind::from(args.kind);
+    let kind = WeightingKind::from(args.weighting);
     let sample_rate =
         SampleRate::new(args.fs_hz).map_err(|e| anyhow!("--fs {}: {e}", args.fs_hz))?;
     let filter = WeightingSettings::new(kind, sample_rate)
@@ -73,6 +77,14 @@ pub fn run(args: &Args) -> Result<()> {
         args.fs_hz as f64,
     )?;
     write_response(&args.out, kind, &filter, sample_rate, &freqs)?;
+    if args.json.json {
+        return json_output::print(&serde_json::json!({
+            "out": args.out,
+            "frequencies": freqs.len(),
+            "weighting": kind.to_string(),
+            "sample_rate_hz": args.fs_hz,
+        }));
+    }
     eprintln!(
         "wrote {} ({} frequencies, {kind} at {} Hz)",
         args.out.display(),

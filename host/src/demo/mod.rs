@@ -26,7 +26,7 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
-use anyhow::{Context as _, Result, anyhow, bail};
+use anyhow::{Context as _, Result, bail};
 use supine_core::blob::DeviceParams;
 use supine_core::model::Preset;
 
@@ -35,6 +35,7 @@ use crate::device::flash;
 use crate::device::image::ProductImage;
 use crate::exposure::reference;
 use crate::exposure::report::{AxisReport, run_pipeline};
+use crate::io::output_folder::{self, OutputFolder};
 use crate::io::params_file::{self, DeviceSection, ParamFile};
 use crate::io::recording::read_input;
 use crate::io::telemetry_csv::{
@@ -53,7 +54,7 @@ use trace::Trace;
 pub const DEFAULT_OUT_DIR: &str = "supine-demo";
 /// The demo's sample rate, Hz (the device's default rate).
 pub const SAMPLE_RATE_HZ: f64 = 500.0;
-/// The parameters flashed: the paper's litter-board case.
+/// The parameters flashed unless told otherwise: the paper's litter-board case.
 pub const PRESET: Preset = Preset::PaperLitter;
 /// Shortest demo ride, s: the 5 s warm-up and something to evaluate after it.
 pub const MIN_DURATION_S: f64 = 10.0;
@@ -77,6 +78,12 @@ pub struct DemoConfig {
     pub realtime: bool,
     /// A developer's firmware ELF instead of the image built into the tool.
     pub firmware: Option<PathBuf>,
+    /// Write into an output folder that holds files the demo did not write.
+    pub force: bool,
+    /// The parameters to flash (telemetry is set to every sample, see [`param_file`]).
+    pub model: ParamFile,
+    /// What they are called in the steps and the report (a preset's name, a file's path).
+    pub model_name: String,
 }
 
 /// What a finished demo produced.
@@ -110,6 +117,22 @@ pub struct DemoFiles {
 }
 
 impl DemoFiles {
+    /// Every file, in the order they are listed above.
+    pub fn all(&self) -> Vec<PathBuf> {
+        [
+            &self.ride,
+            &self.params,
+            &self.device,
+            &self.device_events,
+            &self.host,
+            &self.host_events,
+            &self.report,
+        ]
+        .into_iter()
+        .cloned()
+        .collect()
+    }
+
     /// The files in `dir`.
     pub fn in_dir(dir: &Path) -> Self {
         Self {
@@ -159,7 +182,7 @@ pub fn run(
             config.duration_s
         );
     }
-    let files = prepare_folder(&config.out_dir)?;
+    let (files, folder) = prepare_folder(&config.out_dir, config.force)?;
     let mut steps = Steps {
         announce,
         times: Vec::new(),
@@ -188,14 +211,14 @@ pub fn run(
     let ride = make_ride(config, &files.ride)?;
     let samples = ride.samples();
 
-    let file = param_file();
+    let file = param_file(&config.model);
     // One build: the identity announced and checked is the one of the blob flashed.
     let (params, blob) = flash::device_blob(&file, SAMPLE_RATE_HZ)?;
     steps.start(
         "parameters",
         &format!(
-            "parameters: {} preset (identity {}) into QEMU's PARAMS region, slot A -> {}",
-            PRESET.name(),
+            "parameters: {} (identity {}) into QEMU's PARAMS region, slot A -> {}",
+            config.model_name,
             identity_hex(&params.identity),
             files.params.display()
         ),
@@ -224,6 +247,7 @@ pub fn run(
         sample_rate_hz: SAMPLE_RATE_HZ,
         realtime: config.realtime,
         greeting_timeout: Duration::from_secs(20),
+        thresholds: params.alerts.config,
     };
     let (monitor, device) = run_device(&qemu_run, &files, view, stop)?;
 
@@ -257,6 +281,7 @@ pub fn run(
     };
     let summary = Summary::new(&data);
     write_report(&files.report, &data, &summary)?;
+    folder.record(&files.all())?;
     (steps.announce)(&format!("[{STEPS}/{STEPS}] summary"));
     Ok(DemoOutcome {
         data,
@@ -265,15 +290,15 @@ pub fn run(
     })
 }
 
-/// Creates the output folder and removes a previous report, so that a failed run never
-/// leaves an older report that looks like this run's.
-fn prepare_folder(dir: &Path) -> Result<DemoFiles> {
-    std::fs::create_dir_all(dir)
-        .map_err(|e| anyhow!("{}: cannot create the output folder: {e}", dir.display()))?;
+/// Claims the output folder (refused if it holds a user's files, see
+/// [`crate::io::output_folder`]) and removes a previous report, so that a failed run
+/// never leaves an older report that looks like this run's.
+fn prepare_folder(dir: &Path, force: bool) -> Result<(DemoFiles, OutputFolder)> {
+    let folder = output_folder::claim(dir, "supine demo", "--out", force)?;
     let files = DemoFiles::in_dir(dir);
     match std::fs::remove_file(&files.report) {
-        Ok(()) => Ok(files),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(files),
+        Ok(()) => Ok((files, folder)),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok((files, folder)),
         Err(e) => bail!(
             "{}: cannot remove the previous report: {e}",
             files.report.display()
@@ -305,15 +330,15 @@ fn make_ride(config: &DemoConfig, path: &Path) -> Result<DemoRide> {
     Ok(ride)
 }
 
-/// The parameters flashed: the preset, with telemetry for every sample (a device in
+/// The parameters flashed: `model`, with telemetry for every sample (a device in
 /// service sends 100 Hz). The report overlays the host's computation on each of the
 /// device's samples, and `supine replay` of ride.csv with these parameters reproduces
 /// device.csv.
-fn param_file() -> ParamFile {
-    let mut file = ParamFile::preset(PRESET);
+fn param_file(model: &ParamFile) -> ParamFile {
+    let mut file = model.clone();
     file.device = Some(DeviceSection {
         telemetry_decimation: Some(1),
-        ..DeviceSection::default()
+        ..model.device.unwrap_or_default()
     });
     file
 }
@@ -409,7 +434,7 @@ fn run_info(
         seed: config.seed,
         sample_rate_hz: SAMPLE_RATE_HZ,
         samples,
-        params_name: PRESET.name().to_string(),
+        params_name: config.model_name.clone(),
         identity: identity_hex(&params.identity),
         firmware_version: greeting.firmware_version.as_str().to_string(),
         device_line: device_line(greeting),

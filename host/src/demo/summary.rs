@@ -196,8 +196,8 @@ impl Summary {
         };
         let _ = writeln!(
             s,
-            "  alert events: {} level changes; sensor faults: {faults}",
-            self.level_events
+            "  alert events: {}; sensor faults: {faults}",
+            crate::commands::values::count(self.level_events, "level change")
         );
         let st = i.status.unwrap_or_default();
         let _ = writeln!(

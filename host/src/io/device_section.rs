@@ -7,43 +7,290 @@
 //! the table alone, every other key at its default, through those checks: a key refused
 //! alone is the one to name, with the core's words for what it must be. The file's text
 //! then gives the key's line and column ([`locate`]).
+//!
+//! The table is written by hand, so every key may be left out (a partial
+//! `[device.alerts]` with only the thresholds takes the other alert defaults) and a
+//! weighting is spelled as on the command line, in either case (`wd`, `Wd`). The file's
+//! form is [`DeviceTable`] and its parts, mirrors of the core's configurations whose
+//! defaults are the core's own constants; a test checks that they have the same keys.
 
-use serde::{Deserialize, Serialize};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use supine_core::alerts::{AlertConfig, AlertSettings, SensorCheckConfig, SensorCheckSettings};
 use supine_core::blob::{DeviceParams, TelemetryConfig};
-use supine_core::exposure::{ExposureConfig, ExposureSettings};
+use supine_core::exposure::{AxisMapping, AxisWeighting, ExposureConfig, ExposureSettings};
 use supine_core::model::DeviceRealization;
 use supine_core::mounting::Mounting;
 use supine_core::sample_rate::SampleRate;
+use supine_core::weighting::WeightingKind;
 
 use crate::io::excerpt::value;
 use crate::io::text_position::line_column;
 
 /// The optional `[device]` table: what goes into the parameter blob besides the model.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(from = "DeviceTable", into = "DeviceTable")]
 pub struct DeviceSection {
     /// Weighting per head axis, running-rms time constant, warm-up.
-    #[serde(default)]
     pub exposure: ExposureConfig,
     /// Alert thresholds on running rms and VDV, hysteresis, dwell.
-    #[serde(default)]
     pub alerts: AlertConfig,
     /// Sensor full scale, stuck time, fault clear time.
-    #[serde(default)]
     pub sensor_checks: SensorCheckConfig,
     /// Sensor-to-litter rotation and gravity (`supine calibrate` prints this table), level
     /// by default.
-    #[serde(default = "level_mounting")]
     pub mounting: Mounting,
     /// Telemetry every this many samples; absent, about 100 Hz at the blob's sample rate
     /// ([`TelemetryConfig::default_for`]).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub telemetry_decimation: Option<u16>,
 }
 
-fn level_mounting() -> Mounting {
-    Mounting::LEVEL
+/// The `[device]` table as a file holds it: every key optional.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct DeviceTable {
+    exposure: ExposureTable,
+    alerts: AlertTable,
+    sensor_checks: SensorChecksTable,
+    mounting: Mounting,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    telemetry_decimation: Option<u16>,
+}
+
+/// `[device.exposure]`: the core's [`ExposureConfig`], every key optional.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct ExposureTable {
+    axes: AxesTable,
+    running_tau_s: f32,
+    warmup_s: f32,
+}
+
+/// `[device.exposure.axes]`: an axis left out keeps its default weighting.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct AxesTable {
+    x: AxisTable,
+    y: AxisTable,
+    z: AxisTable,
+}
+
+/// One axis: its weighting (required: the defaults differ by axis) and `k` (default 1).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AxisTable {
+    kind: WeightingName,
+    #[serde(default = "default_k")]
+    k: f32,
+}
+
+fn default_k() -> f32 {
+    AxisMapping::SUPINE_HEAD.x.k
+}
+
+/// `[device.alerts]`: the core's [`AlertConfig`], every key optional.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct AlertTable {
+    running_rms_m_s2: [f32; 3],
+    vdv_m_s175: [f32; 3],
+    hysteresis: f32,
+    raise_dwell_s: f32,
+    clear_dwell_s: f32,
+}
+
+/// `[device.sensor_checks]`: the core's [`SensorCheckConfig`], every key optional.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct SensorChecksTable {
+    full_scale_m_s2: f32,
+    stuck_after_s: f32,
+    clear_after_s: f32,
+}
+
+/// A weighting as the command line spells it (`wk`, `wd`, `wj`), read in either case.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct WeightingName(WeightingKind);
+
+impl WeightingName {
+    fn name(self) -> &'static str {
+        match self.0 {
+            WeightingKind::Wk => "wk",
+            WeightingKind::Wd => "wd",
+            WeightingKind::Wj => "wj",
+        }
+    }
+}
+
+impl Serialize for WeightingName {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
+impl<'de> Deserialize<'de> for WeightingName {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let text = String::deserialize(d)?;
+        WeightingKind::ALL
+            .into_iter()
+            .map(WeightingName)
+            .find(|w| w.name().eq_ignore_ascii_case(text.trim()))
+            .ok_or_else(|| {
+                serde::de::Error::custom(format!(
+                    "expected one of wk, wd, wj (either case), found {}",
+                    crate::io::excerpt::value(&text)
+                ))
+            })
+    }
+}
+
+impl Default for DeviceTable {
+    fn default() -> Self {
+        DeviceSection::default().into()
+    }
+}
+
+impl Default for ExposureTable {
+    fn default() -> Self {
+        ExposureConfig::DEFAULT.into()
+    }
+}
+
+impl Default for AxesTable {
+    fn default() -> Self {
+        ExposureConfig::DEFAULT.axes.into()
+    }
+}
+
+impl Default for AlertTable {
+    fn default() -> Self {
+        AlertConfig::DEFAULT.into()
+    }
+}
+
+impl Default for SensorChecksTable {
+    fn default() -> Self {
+        SensorCheckConfig::DEFAULT.into()
+    }
+}
+
+impl From<DeviceTable> for DeviceSection {
+    fn from(t: DeviceTable) -> Self {
+        let axis = |a: AxisTable| AxisWeighting {
+            kind: a.kind.0,
+            k: a.k,
+        };
+        Self {
+            exposure: ExposureConfig {
+                axes: AxisMapping {
+                    x: axis(t.exposure.axes.x),
+                    y: axis(t.exposure.axes.y),
+                    z: axis(t.exposure.axes.z),
+                },
+                running_tau_s: t.exposure.running_tau_s,
+                warmup_s: t.exposure.warmup_s,
+            },
+            alerts: AlertConfig {
+                running_rms_m_s2: t.alerts.running_rms_m_s2,
+                vdv_m_s175: t.alerts.vdv_m_s175,
+                hysteresis: t.alerts.hysteresis,
+                raise_dwell_s: t.alerts.raise_dwell_s,
+                clear_dwell_s: t.alerts.clear_dwell_s,
+            },
+            sensor_checks: SensorCheckConfig {
+                full_scale_m_s2: t.sensor_checks.full_scale_m_s2,
+                stuck_after_s: t.sensor_checks.stuck_after_s,
+                clear_after_s: t.sensor_checks.clear_after_s,
+            },
+            mounting: t.mounting,
+            telemetry_decimation: t.telemetry_decimation,
+        }
+    }
+}
+
+impl From<DeviceSection> for DeviceTable {
+    fn from(s: DeviceSection) -> Self {
+        Self {
+            exposure: s.exposure.into(),
+            alerts: s.alerts.into(),
+            sensor_checks: s.sensor_checks.into(),
+            mounting: s.mounting,
+            telemetry_decimation: s.telemetry_decimation,
+        }
+    }
+}
+
+impl From<ExposureConfig> for ExposureTable {
+    fn from(c: ExposureConfig) -> Self {
+        Self {
+            axes: c.axes.into(),
+            running_tau_s: c.running_tau_s,
+            warmup_s: c.warmup_s,
+        }
+    }
+}
+
+impl From<AxisMapping> for AxesTable {
+    fn from(m: AxisMapping) -> Self {
+        let axis = |a: AxisWeighting| AxisTable {
+            kind: WeightingName(a.kind),
+            k: a.k,
+        };
+        Self {
+            x: axis(m.x),
+            y: axis(m.y),
+            z: axis(m.z),
+        }
+    }
+}
+
+impl From<AlertConfig> for AlertTable {
+    fn from(c: AlertConfig) -> Self {
+        Self {
+            running_rms_m_s2: c.running_rms_m_s2,
+            vdv_m_s175: c.vdv_m_s175,
+            hysteresis: c.hysteresis,
+            raise_dwell_s: c.raise_dwell_s,
+            clear_dwell_s: c.clear_dwell_s,
+        }
+    }
+}
+
+impl From<SensorCheckConfig> for SensorChecksTable {
+    fn from(c: SensorCheckConfig) -> Self {
+        Self {
+            full_scale_m_s2: c.full_scale_m_s2,
+            stuck_after_s: c.stuck_after_s,
+            clear_after_s: c.clear_after_s,
+        }
+    }
+}
+
+/// The `[device]` table with every default, commented out, for `supine params` to show
+/// what can be set (uncommented, it reads back as the defaults).
+pub fn commented_defaults() -> String {
+    #[derive(Serialize)]
+    struct Wrapper {
+        device: DeviceSection,
+    }
+    let body = toml::to_string(&Wrapper {
+        device: DeviceSection::default(),
+    })
+    .unwrap_or_default();
+    let mut text = String::from(
+        "# The device's configuration (docs/exposure.md), every key at its default. Uncomment\n\
+         # what you change; a key left out keeps its default. Weightings: wk, wd, wj.\n\
+         # telemetry_decimation (telemetry every N samples) defaults to about 100 Hz.\n\n",
+    );
+    for line in body.lines() {
+        if line.is_empty() {
+            text.push('\n');
+        } else {
+            text.push_str("# ");
+            text.push_str(line);
+            text.push('\n');
+        }
+    }
+    text
 }
 
 impl Default for DeviceSection {
@@ -254,6 +501,94 @@ mod tests {
             r[0].reason,
             "exposure: axis factor k must be finite and positive"
         );
+    }
+
+    #[test]
+    fn the_files_form_has_the_cores_keys_and_defaults() {
+        let keys = |v: toml::Value| -> Vec<String> {
+            let toml::Value::Table(t) = v else {
+                panic!("a table")
+            };
+            let mut k: Vec<String> = leaves(&t, Vec::new())
+                .into_iter()
+                .map(|(p, _)| p.join("."))
+                .collect();
+            k.sort();
+            k
+        };
+        // The core's own serialization (its field names) against the file's form.
+        let core = toml::Value::try_from(DeviceCore {
+            exposure: ExposureConfig::DEFAULT,
+            alerts: AlertConfig::DEFAULT,
+            sensor_checks: SensorCheckConfig::DEFAULT,
+            mounting: Mounting::LEVEL,
+        })
+        .unwrap();
+        let file = toml::Value::try_from(DeviceSection::default()).unwrap();
+        assert_eq!(keys(core), keys(file));
+        // An empty table is every default.
+        let empty: DeviceSection = toml::from_str("").unwrap();
+        assert_eq!(empty, DeviceSection::default());
+    }
+
+    /// The core's configurations as they serialize themselves.
+    #[derive(Serialize)]
+    struct DeviceCore {
+        exposure: ExposureConfig,
+        alerts: AlertConfig,
+        sensor_checks: SensorCheckConfig,
+        mounting: Mounting,
+    }
+
+    #[test]
+    fn a_partial_table_takes_the_defaults_and_weightings_are_read_in_either_case() {
+        let s: DeviceSection = toml::from_str(
+            "[alerts]\nrunning_rms_m_s2 = [0.4, 0.7, 1.1]\n\
+             [exposure.axes]\nz = { kind = \"wk\" }\ny = { kind = \"WD\", k = 1.4 }\n",
+        )
+        .unwrap();
+        assert_eq!(s.alerts.running_rms_m_s2, [0.4, 0.7, 1.1]);
+        assert_eq!(s.alerts.hysteresis, AlertConfig::DEFAULT.hysteresis);
+        assert_eq!(s.alerts.vdv_m_s175, AlertConfig::DEFAULT.vdv_m_s175);
+        assert_eq!(s.exposure.axes.z.kind, WeightingKind::Wk);
+        assert_eq!(s.exposure.axes.z.k, 1.0);
+        assert_eq!(s.exposure.axes.y.kind, WeightingKind::Wd);
+        assert_eq!(s.exposure.axes.y.k, 1.4);
+        assert_eq!(s.exposure.axes.x, AxisMapping::SUPINE_HEAD.x);
+        assert_eq!(s.sensor_checks, SensorCheckConfig::DEFAULT);
+        let err = toml::from_str::<DeviceSection>("[exposure.axes.x]\nkind = \"wb\"\n")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("expected one of wk, wd, wj (either case), found wb"),
+            "{err}"
+        );
+        let err = toml::from_str::<DeviceSection>("[alerts]\nhysterisis = 0.1\n")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("unknown field `hysterisis`"), "{err}");
+    }
+
+    #[test]
+    fn the_commented_defaults_read_back_as_the_defaults() {
+        let text = commented_defaults();
+        assert!(text.lines().all(|l| l.is_empty() || l.starts_with('#')));
+        let uncommented: String = text
+            .lines()
+            .filter(|l| {
+                !l.starts_with("# The ")
+                    && !l.starts_with("# what")
+                    && !l.starts_with("# telemetry_decimation (")
+            })
+            .map(|l| l.strip_prefix("# ").unwrap_or(l).to_string() + "\n")
+            .collect();
+        #[derive(Deserialize)]
+        struct Wrapper {
+            device: DeviceSection,
+        }
+        let read: Wrapper = toml::from_str(&uncommented).expect(&uncommented);
+        assert_eq!(read.device, DeviceSection::default());
+        assert!(uncommented.contains("kind = \"wj\""), "{uncommented}");
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! The file formats the host reads and writes, and writing files safely.
 //!
 //! - [`output`]: every output file is written whole or not at all.
+//! - [`output_folder`]: a folder a command writes, refused if it holds a user's files.
 //! - [`text_position`]: line and column of a parse error.
 //! - [`excerpt`]: quoting input in error messages, bounded and escaped.
 //! - [`small_file`]: reading a file that cannot legitimately be large, with a size limit.
@@ -18,6 +19,7 @@ pub mod device_section;
 pub mod excerpt;
 pub mod h_csv;
 pub mod output;
+pub mod output_folder;
 pub mod params_file;
 pub mod recording;
 pub mod small_file;

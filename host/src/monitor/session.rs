@@ -158,6 +158,8 @@ pub struct QemuRun {
     pub realtime: bool,
     /// Longest wait for the boot greeting.
     pub greeting_timeout: Duration,
+    /// The alert thresholds in the blob, shown beside the values.
+    pub thresholds: supine_core::alerts::AlertConfig,
 }
 
 impl QemuRun {
@@ -182,6 +184,7 @@ impl QemuRun {
             sample_rate_hz,
             realtime,
             greeting_timeout,
+            thresholds: params.alerts.config,
         })
     }
 
@@ -242,6 +245,8 @@ fn talk(
         );
     }
     let mut monitor = Monitor::new(&greeting)?;
+    monitor.set_ride_length_s(Some(run.samples.len() as f64 / run.sample_rate_hz));
+    monitor.set_thresholds(Some(run.thresholds));
     // The writer stops on `stop`, at the end of the ride, or when the reader is done
     // (`done`); shutting the socket down unblocks it if the device stopped reading.
     let done = Arc::new(AtomicBool::new(false));

@@ -5,7 +5,7 @@
 use std::collections::VecDeque;
 
 use anyhow::Result;
-use supine_core::alerts::{AlertEvent, FaultFlags, Level};
+use supine_core::alerts::{AlertConfig, AlertEvent, FaultFlags, Level};
 use supine_core::protocol::{DeviceToHost, Greeting, ParamsSource, Status, Telemetry};
 
 use crate::device::device_params::identity_hex;
@@ -124,6 +124,8 @@ pub struct Monitor {
     history: VecDeque<AlertEvent>,
     status: Option<Status>,
     counters: Counters,
+    ride_length_s: Option<f64>,
+    thresholds: Option<AlertConfig>,
 }
 
 impl Monitor {
@@ -147,7 +149,31 @@ impl Monitor {
             history: VecDeque::with_capacity(HISTORY_LEN),
             status: None,
             counters: Counters::default(),
+            ride_length_s: None,
+            thresholds: None,
         })
+    }
+
+    /// Sets the length of the ride being streamed, s (known for QEMU, not for a device
+    /// in service): the panel then shows `t of T s`.
+    pub fn set_ride_length_s(&mut self, ride_length_s: Option<f64>) {
+        self.ride_length_s = ride_length_s;
+    }
+
+    /// Sets the device's alert thresholds (known when this host built its parameters):
+    /// the panel then shows them beside the values.
+    pub fn set_thresholds(&mut self, thresholds: Option<AlertConfig>) {
+        self.thresholds = thresholds;
+    }
+
+    /// The device's alert thresholds, when they are known.
+    pub fn thresholds(&self) -> Option<AlertConfig> {
+        self.thresholds
+    }
+
+    /// The length of the ride being streamed, s, when it is known.
+    pub fn ride_length_s(&self) -> Option<f64> {
+        self.ride_length_s
     }
 
     /// Takes one message from the device; returns what to show at once, if anything.
@@ -307,8 +333,10 @@ impl Monitor {
                 let [hx, hy, hz] = t.head_acc_m_s2;
                 let [rx, ry, rz] = t.running_rms_m_s2;
                 format!(
-                    "t {:.2} s  head {hx:+.3} {hy:+.3} {hz:+.3} m/s^2  rms {rx:.3} {ry:.3} {rz:.3} (vector {:.3}) m/s^2  VDV {:.3} m/s^1.75{}",
+                    "t {:.2}{} s  head {hx:+.3} {hy:+.3} {hz:+.3} m/s^2  rms {rx:.3} {ry:.3} {rz:.3} (vector {:.3}) m/s^2  VDV {:.3} m/s^1.75{}",
                     self.time_s(),
+                    self.ride_length_s
+                        .map_or(String::new(), |total_s| format!(" of {total_s:.2}")),
                     t.vector_running_rms_m_s2,
                     t.vdv_m_s175,
                     if t.valid { "" } else { " (settling)" },

@@ -46,50 +46,85 @@ fn marked(severity: Severity, text: impl Into<String>) -> Span {
     }
 }
 
-/// The panel: device, time and level, head acceleration, running rms, VDV, link counters
-/// and the latest alert events.
+/// The thresholds of advisory, warning and alarm as the panel shows them beside a value.
+fn thresholds_text(thresholds: [f32; 3]) -> String {
+    let [a, w, x] = thresholds;
+    format!("  (advisory {a} / warning {w} / alarm {x})")
+}
+
+/// The panel. The most important first, each line starting with what matters most, so
+/// that a short or narrow terminal (lines are cut, never wrapped) keeps the level and the
+/// vector running rms: level and vector rms with its thresholds; VDV with its thresholds;
+/// time (of the ride's length when known), highest level and faults; head acceleration
+/// and per-axis running rms; the device; link counters; the latest alert events.
 pub fn panel_lines(m: &Monitor) -> Vec<Vec<Span>> {
     let g = m.greeting();
-    let mut lines = vec![vec![plain(format!(
-        "supine monitor  fw {}  params {} ({})  {} Hz",
-        g.firmware_version.as_str(),
-        // The first 8 hex digits name a parameter set well enough on screen.
-        &identity_hex(&g.params_identity)[..8],
-        params_source_text(g.params_source),
-        g.sample_rate_hz
-    ))]];
     let level = m.level();
+    let thresholds = m.thresholds();
+    let mut lines = Vec::new();
+    let level_span = marked(
+        Severity::of_level(level),
+        format!("{:<8}", level.name().to_ascii_uppercase()),
+    );
+    match m.latest() {
+        None => lines.push(vec![level_span, plain(" waiting for telemetry")]),
+        Some(t) => {
+            let mut first = vec![
+                level_span,
+                plain(format!(
+                    " vector rms {:.3} m/s^2",
+                    t.vector_running_rms_m_s2
+                )),
+            ];
+            if !t.valid {
+                first.push(plain(" (settling)"));
+            }
+            if let Some(c) = thresholds {
+                first.push(plain(thresholds_text(c.running_rms_m_s2)));
+            }
+            lines.push(first);
+            let mut vdv = vec![plain(format!(
+                "         VDV        {:.3} m/s^1.75",
+                t.vdv_m_s175
+            ))];
+            if let Some(c) = thresholds {
+                vdv.push(plain(thresholds_text(c.vdv_m_s175)));
+            }
+            lines.push(vdv);
+        }
+    }
     let faults = m.fault_names();
+    let time = match m.ride_length_s() {
+        Some(total_s) => format!("t {:.2} of {total_s:.2} s", m.time_s()),
+        None => format!("t {:.2} s", m.time_s()),
+    };
     lines.push(vec![
-        plain(format!("t {:>8.2} s    level ", m.time_s())),
-        marked(Severity::of_level(level), level.name().to_ascii_uppercase()),
-        plain(format!(" (highest {})   faults ", m.highest_level())),
+        plain(format!("{time}   highest {}   faults ", m.highest_level())),
         if faults.is_empty() {
             plain("none")
         } else {
             marked(Severity::Fault, faults.join(" + "))
         },
     ]);
-    match m.latest() {
-        None => lines.push(vec![plain("waiting for telemetry")]),
-        Some(t) => {
-            let [hx, hy, hz] = t.head_acc_m_s2;
-            let [rx, ry, rz] = t.running_rms_m_s2;
-            lines.push(vec![plain(format!(
-                "head          x {hx:+8.3}  y {hy:+8.3}  z {hz:+8.3} m/s^2  peak {:.2}",
-                m.peak_head_m_s2()
-            ))]);
-            lines.push(vec![plain(format!(
-                "weighted rms  x {rx:8.3}  y {ry:8.3}  z {rz:8.3} m/s^2  vector {:.3}{}",
-                t.vector_running_rms_m_s2,
-                if t.valid { "" } else { "  (settling)" }
-            ))]);
-            lines.push(vec![plain(format!(
-                "VDV           {:.3} m/s^1.75 (vector)",
-                t.vdv_m_s175
-            ))]);
-        }
+    if let Some(t) = m.latest() {
+        let [hx, hy, hz] = t.head_acc_m_s2;
+        let [rx, ry, rz] = t.running_rms_m_s2;
+        lines.push(vec![plain(format!(
+            "head          x {hx:+8.3}  y {hy:+8.3}  z {hz:+8.3} m/s^2  peak {:.2}",
+            m.peak_head_m_s2()
+        ))]);
+        lines.push(vec![plain(format!(
+            "weighted rms  x {rx:8.3}  y {ry:8.3}  z {rz:8.3} m/s^2"
+        ))]);
     }
+    lines.push(vec![plain(format!(
+        "device        fw {}  params {} ({})  {} Hz",
+        g.firmware_version.as_str(),
+        // The first 8 hex digits name a parameter set well enough on screen.
+        &identity_hex(&g.params_identity)[..8],
+        params_source_text(g.params_source),
+        g.sample_rate_hz
+    ))]);
     let c = m.counters();
     let link = &c.link;
     let losses = link.lost_frames + link.bad_frames;
@@ -127,14 +162,16 @@ pub trait View {
     fn close(&mut self, m: &Monitor) -> Result<()>;
 }
 
-/// The colour of a severity on a terminal.
+/// The colour of a severity on a terminal (256-colour palette): advisory yellow, warning
+/// orange, alarm red, distinct at a glance and in the order of a traffic light; faults
+/// magenta, which no level uses.
 pub fn colour(severity: Severity) -> Color {
     match severity {
-        Severity::Info => Color::Green,
-        Severity::Advisory => Color::Yellow,
-        Severity::Warning => Color::DarkYellow,
-        Severity::Alarm => Color::Red,
-        Severity::Fault => Color::Magenta,
+        Severity::Info => Color::AnsiValue(34),
+        Severity::Advisory => Color::AnsiValue(226),
+        Severity::Warning => Color::AnsiValue(208),
+        Severity::Alarm => Color::AnsiValue(196),
+        Severity::Fault => Color::AnsiValue(201),
     }
 }
 
@@ -142,18 +179,23 @@ pub fn colour(severity: Severity) -> Color {
 /// on an error or a panic unwinding through the caller).
 pub struct LiveView<W: Write> {
     out: W,
+    colour: bool,
     drawn_lines: u16,
+    drawn_width: Option<usize>,
     last_draw: Option<Instant>,
 }
 
 impl<W: Write> LiveView<W> {
-    /// Takes over `out` (a terminal): hides the cursor.
-    pub fn new(mut out: W) -> Result<Self> {
+    /// Takes over `out` (a terminal): hides the cursor. Without `colour` (NO_COLOR,
+    /// `--color never`) highlights are bold only.
+    pub fn new(mut out: W, colour: bool) -> Result<Self> {
         queue!(out, cursor::Hide).map_err(term_error)?;
         out.flush().map_err(term_error)?;
         Ok(Self {
             out,
+            colour,
             drawn_lines: 0,
+            drawn_width: None,
             last_draw: None,
         })
     }
@@ -180,9 +222,16 @@ impl<W: Write> LiveView<W> {
             let text: String = span.text.chars().take(room).collect();
             room -= text.chars().count();
             match span.severity {
-                Some(s) => queue!(
+                Some(s) if self.colour => queue!(
                     self.out,
                     SetForegroundColor(colour(s)),
+                    SetAttribute(Attribute::Bold),
+                    Print(text),
+                    SetAttribute(Attribute::Reset),
+                    ResetColor
+                )?,
+                Some(_) => queue!(
+                    self.out,
                     SetAttribute(Attribute::Bold),
                     Print(text),
                     SetAttribute(Attribute::Reset),
@@ -195,9 +244,16 @@ impl<W: Write> LiveView<W> {
     }
 
     fn draw(&mut self, m: &Monitor) -> io::Result<()> {
+        let width = terminal_width();
+        if self.drawn_width.is_some_and(|w| w != width) {
+            // A resized terminal rewraps the old panel: counting its lines back up no
+            // longer finds its top, so the screen is cleared and the panel starts afresh.
+            queue!(self.out, Clear(ClearType::All), cursor::MoveTo(0, 0))?;
+            self.drawn_lines = 0;
+        }
+        self.drawn_width = Some(width);
         self.erase()?;
         let lines = panel_lines(m);
-        let width = terminal_width();
         for line in &lines {
             self.print_spans(line, width)?;
         }
@@ -375,8 +431,17 @@ mod tests {
         assert_eq!(find(&lines, "ALARM").severity, Some(Severity::Alarm));
         assert_eq!(find(&lines, "stuck").severity, Some(Severity::Fault));
         assert!(find(&lines, "z   +2.000 m/s^2").severity.is_none());
-        assert!(find(&lines, "vector 1.300").severity.is_none());
+        assert!(find(&lines, "vector rms 1.300 m/s^2").severity.is_none());
         assert!(find(&lines, "3.250 m/s^1.75").severity.is_none());
+        // The level and the vector rms open the panel: a narrow terminal keeps them.
+        let first: String = lines[0].iter().map(|s| s.text.as_str()).collect();
+        assert!(
+            first.starts_with("ALARM    vector rms 1.300 m/s^2"),
+            "{first}"
+        );
+        // Unknown thresholds and ride length (a device in service): none shown.
+        assert!(!first.contains("advisory"), "{first}");
+        assert!(find(&lines, "t 5.00 s").severity.is_none());
         assert_eq!(
             find(&lines, "frames 100 lost 2 bad 1").severity,
             Some(Severity::Warning)
@@ -388,11 +453,32 @@ mod tests {
     }
 
     #[test]
+    fn known_thresholds_and_ride_length_are_shown_beside_the_values() {
+        let mut m = monitor();
+        m.set_thresholds(Some(supine_core::alerts::AlertConfig::DEFAULT));
+        m.set_ride_length_s(Some(60.0));
+        let lines = panel_lines(&m);
+        let text: Vec<String> = lines
+            .iter()
+            .map(|l| l.iter().map(|s| s.text.as_str()).collect())
+            .collect();
+        assert_eq!(
+            text[0],
+            "ALARM    vector rms 1.300 m/s^2  (advisory 0.5 / warning 0.8 / alarm 1.25)"
+        );
+        assert_eq!(
+            text[1],
+            "         VDV        3.250 m/s^1.75  (advisory 8.5 / warning 17 / alarm 21)"
+        );
+        assert!(text[2].starts_with("t 5.00 of 60.00 s"), "{}", text[2]);
+    }
+
+    #[test]
     fn the_live_view_colours_and_restores_the_terminal() {
         let m = monitor();
         let mut out = Vec::new();
         {
-            let mut view = LiveView::new(&mut out).expect("view");
+            let mut view = LiveView::new(&mut out, true).expect("view");
             view.refresh(&m).expect("draw");
             view.notice(
                 &m,
@@ -407,9 +493,36 @@ mod tests {
         let text = String::from_utf8_lossy(&out);
         assert!(text.starts_with("\x1b[?25l"), "cursor hidden first");
         assert!(text.contains("[ALARM] alarm!"), "{text}");
-        // Red for the alarm, and the cursor shown again at the end.
-        assert!(text.contains("\x1b[38;5;9m"), "{text:?}");
+        // Red (196) for the alarm, and the cursor shown again at the end.
+        assert!(text.contains("\x1b[38;5;196m"), "{text:?}");
         assert!(text.ends_with("\x1b[?25h"), "{text:?}");
+        // Without colour (NO_COLOR, --color never): bold only, no colour at all.
+        let mut out = Vec::new();
+        {
+            let mut view = LiveView::new(&mut out, false).expect("view");
+            view.close(&m).expect("close");
+        }
+        let text = String::from_utf8_lossy(&out);
+        assert!(text.contains("\x1b[1mALARM"), "{text:?}");
+        assert!(!text.contains("\x1b[38;"), "{text:?}");
+    }
+
+    #[test]
+    fn every_severity_has_its_own_colour_and_warning_is_orange() {
+        let all = [
+            Severity::Info,
+            Severity::Advisory,
+            Severity::Warning,
+            Severity::Alarm,
+            Severity::Fault,
+        ];
+        for (i, a) in all.iter().enumerate() {
+            for b in &all[i + 1..] {
+                assert_ne!(colour(*a), colour(*b), "{a:?} and {b:?}");
+            }
+        }
+        // xterm-256 colour 208 is orange (#ff8700).
+        assert_eq!(colour(Severity::Warning), Color::AnsiValue(208));
     }
 
     #[test]

@@ -101,7 +101,7 @@ fn head(h: &mut String, data: &DemoData) {
         h,
         "<h1>supine demo: head vibration of a supine patient on a litter</h1>\n\
          <p class=\"sub\">A {:.0} s <b>{}</b> ride at {} Hz, streamed into the supine firmware running in QEMU \
-         with the paper's litter-board parameters ({}). The device predicted the patient's head acceleration \
+         with the parameters {}. The device predicted the patient's head acceleration \
          sample by sample, weighted it as ISO 2631-1 prescribes, and raised alerts; the host computed the same \
          things on its own as a check.</p>\n",
         duration_s,

@@ -1,0 +1,20 @@
+//! `--json`: every command's results as one JSON object on standard output, units in the
+//! key names, so that scripts read the same numbers the text shows.
+
+use anyhow::{Result, anyhow};
+use serde::Serialize;
+
+/// The `--json` flag, the same help on every command.
+#[derive(Clone, Copy, Debug, Default, clap::Args)]
+pub struct JsonFlag {
+    /// Print the results as one JSON object on standard output (units in the key names).
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Prints `value` as one line of JSON on standard output.
+pub fn print(value: &impl Serialize) -> Result<()> {
+    let text = serde_json::to_string(value).map_err(|e| anyhow!("rendering JSON: {e}"))?;
+    println!("{text}");
+    Ok(())
+}

@@ -1,0 +1,190 @@
+//! Output folders that never overwrite a user's files: a command that writes a folder
+//! (`demo --out`, `synth --out`, `fit --report`, `validate --report`) first claims it, and
+//! is refused a folder holding anything it did not write, unless `--force`.
+//!
+//! How it knows what it wrote: after writing, it leaves a manifest ([`MANIFEST`]) in the
+//! folder naming every file and folder it wrote there. A later run may replace exactly
+//! those; any other entry (a user's `ride.csv`, notes, another tool's output) is named
+//! in the refusal. An empty or missing folder needs no manifest.
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Result, anyhow, bail};
+
+use crate::io::output::write_atomically;
+
+/// The manifest's file name (hidden: it is bookkeeping, not output).
+pub const MANIFEST: &str = ".supine-files";
+
+/// A folder a command may write into.
+#[derive(Clone, Debug)]
+pub struct OutputFolder {
+    dir: PathBuf,
+    command: String,
+    /// What the manifest listed when the folder was claimed.
+    listed_before: BTreeSet<String>,
+    /// Every entry when the folder was claimed.
+    entries_before: BTreeSet<String>,
+}
+
+/// Creates `dir` if missing, and refuses it (naming the first foreign entry) when it
+/// holds an entry that no earlier `supine` run recorded in its manifest, unless `force`.
+/// `command` (`supine demo`) and `flag` (`--out`) name it in messages.
+pub fn claim(dir: &Path, command: &str, flag: &str, force: bool) -> Result<OutputFolder> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| anyhow!("{}: {flag}: cannot create: {e}", dir.display()))?;
+    let listed_before = listed(dir)?;
+    let entries_before = entries(dir)?;
+    if !force
+        && let Some(foreign) = entries_before
+            .iter()
+            .find(|name| *name != MANIFEST && !listed_before.contains(*name))
+    {
+        bail!(
+            "{flag} {}: the folder holds {}, which supine did not write there; choose an empty or new folder, or give --force to write beside it",
+            dir.display(),
+            foreign
+        );
+    }
+    Ok(OutputFolder {
+        dir: dir.to_path_buf(),
+        command: command.to_string(),
+        listed_before,
+        entries_before,
+    })
+}
+
+impl OutputFolder {
+    /// The folder.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Records what this run wrote (paths in the folder, files or folders), so that the
+    /// next run may replace them.
+    pub fn record(&self, written: &[PathBuf]) -> Result<()> {
+        let mut names = BTreeSet::new();
+        for path in written {
+            let relative = path.strip_prefix(&self.dir).unwrap_or(path);
+            if let Some(first) = relative.components().next() {
+                names.insert(first.as_os_str().to_string_lossy().into_owned());
+            }
+        }
+        self.write_manifest(&names)
+    }
+
+    /// Records, for a command that does not list its files, every entry that appeared
+    /// since the folder was claimed, with those an earlier run recorded (a user's file
+    /// kept beside them under `--force` stays unlisted).
+    pub fn record_new_entries(&self) -> Result<()> {
+        let mut names: BTreeSet<String> = entries(&self.dir)?
+            .into_iter()
+            .filter(|name| name != MANIFEST)
+            .filter(|name| !self.entries_before.contains(name) || self.listed_before.contains(name))
+            .collect();
+        names.extend(self.listed_before.iter().cloned());
+        self.write_manifest(&names)
+    }
+
+    fn write_manifest(&self, names: &BTreeSet<String>) -> Result<()> {
+        let mut text = format!(
+            "# Written by {}: the files it wrote in this folder. supine writes into a folder\n\
+             # only what this list names, unless given --force.\n",
+            self.command
+        );
+        for name in names {
+            text.push_str(name);
+            text.push('\n');
+        }
+        write_atomically(&self.dir.join(MANIFEST), |w| {
+            Ok(std::io::Write::write_all(w, text.as_bytes())?)
+        })
+    }
+}
+
+/// What the manifest of `dir` lists (nothing without one).
+fn listed(dir: &Path) -> Result<BTreeSet<String>> {
+    Ok(match std::fs::read_to_string(dir.join(MANIFEST)) {
+        Ok(text) => text
+            .lines()
+            .map(str::trim)
+            .filter(|l| !l.is_empty() && !l.starts_with('#'))
+            .map(str::to_string)
+            .collect(),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => BTreeSet::new(),
+        Err(e) => bail!("{}: cannot read: {e}", dir.join(MANIFEST).display()),
+    })
+}
+
+/// The names in `dir`, sorted.
+fn entries(dir: &Path) -> Result<BTreeSet<String>> {
+    Ok(std::fs::read_dir(dir)
+        .map_err(|e| anyhow!("{}: cannot list the folder: {e}", dir.display()))?
+        .filter_map(|entry| entry.ok())
+        .map(|entry| entry.file_name().to_string_lossy().into_owned())
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_folder_with_a_users_file_is_refused_by_name_unless_forced() {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path().join("out");
+        // Missing: created and claimed; then the run records what it wrote.
+        let folder = claim(&dir, "supine demo", "--out", false).unwrap();
+        std::fs::write(dir.join("report.html"), "r").unwrap();
+        std::fs::create_dir(dir.join("truth")).unwrap();
+        folder
+            .record(&[dir.join("report.html"), dir.join("truth").join("s1.toml")])
+            .unwrap();
+        // Its own files: claimed again.
+        claim(&dir, "supine demo", "--out", false).unwrap();
+        // A user's file: refused, and named.
+        std::fs::write(dir.join("ride.csv"), "mine").unwrap();
+        let err = claim(&dir, "supine demo", "--out", false)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("holds ride.csv, which supine did not write"),
+            "{err}"
+        );
+        assert!(
+            err.starts_with(&format!("--out {}", dir.display())),
+            "{err}"
+        );
+        claim(&dir, "supine demo", "--out", true).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(dir.join("ride.csv")).unwrap(),
+            "mine"
+        );
+    }
+
+    #[test]
+    fn new_entries_are_recorded_and_a_forced_users_file_is_not() {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path();
+        std::fs::write(dir.join("mine.txt"), "m").unwrap();
+        let folder = claim(dir, "supine synth", "--out", true).unwrap();
+        std::fs::write(dir.join("dataset.toml"), "d").unwrap();
+        folder.record_new_entries().unwrap();
+        std::fs::remove_file(dir.join("mine.txt")).unwrap();
+        // A second run in its own folder: nothing foreign, and its files stay listed.
+        let folder = claim(dir, "supine synth", "--out", false).unwrap();
+        folder.record_new_entries().unwrap();
+        claim(dir, "supine synth", "--out", false).unwrap();
+        std::fs::write(dir.join("mine.txt"), "m").unwrap();
+        assert!(claim(dir, "supine synth", "--out", false).is_err());
+    }
+
+    #[test]
+    fn a_folder_without_a_manifest_is_claimed_only_when_empty() {
+        let tmp = tempfile::tempdir().unwrap();
+        claim(tmp.path(), "supine synth", "--out", false).unwrap();
+        std::fs::write(tmp.path().join("notes.txt"), "n").unwrap();
+        assert!(claim(tmp.path(), "supine synth", "--out", false).is_err());
+    }
+}
