@@ -1,5 +1,5 @@
-//! `supine predict`: the sensor accelerations the model predicts for a recording's support
-//! acceleration (see `validate::predict` for how it stays faithful to the continuous model),
+//! `supine predict`: the sensor accelerations and the neck and lower-back motion the model
+//! predicts for a recording's support acceleration (see `validate::predict` for how it stays faithful to the continuous model),
 //! and with `--band N` the head exposure's prediction band from the fit's uncertainty (see
 //! `fit::band`).
 
@@ -9,7 +9,7 @@ use anyhow::{Result, anyhow};
 
 use crate::identify::fit::band::{BAND_QUANTILES, ExposureBand, head_exposure_band};
 use crate::identify::fit::uncertainty::StoredUncertainty;
-use crate::identify::validate::{predict, write_prediction};
+use crate::identify::validate::{predict, predict_joints, write_prediction};
 use crate::io::params_file;
 use crate::io::recording::Recording;
 
@@ -22,7 +22,7 @@ pub struct Args {
     /// The recording whose platform columns drive the model.
     #[arg(long, value_name = "REC.csv")]
     pub input: PathBuf,
-    /// Where to write the prediction (same columns as a recording).
+    /// Where to write the prediction (a recording's columns, then the joint motion).
     #[arg(long, value_name = "PRED.csv")]
     pub out: PathBuf,
     /// Override the subject's height, m.
@@ -87,7 +87,8 @@ pub fn run(args: &Args) -> Result<()> {
         None => None,
     };
     let predicted = predict(&params, &recording)?;
-    write_prediction(&recording, predicted, &args.out)?;
+    let joints = predict_joints(&params, &recording)?;
+    write_prediction(&recording, predicted, &joints, &args.out)?;
     eprintln!("wrote {} ({} samples)", args.out.display(), recording.len());
     if let Some(band) = &band {
         print!("{}", band_table(band));

@@ -417,6 +417,7 @@ impl ModelExposure {
             match self.layout {
                 Layout::Full => "recording",
                 Layout::PlatformOnly => "platform columns only",
+                Layout::Prediction => "prediction",
             },
             self.model,
             self.identity
@@ -627,7 +628,7 @@ pub fn evaluate_channel(
 /// lists the columns `layout` holds otherwise.
 pub fn channel_index(name: &str, layout: Layout, path: &Path) -> Result<usize> {
     let available: &[&str] = match layout {
-        Layout::Full => &COLUMNS[1..],
+        Layout::Full | Layout::Prediction => &COLUMNS[1..],
         Layout::PlatformOnly => &COLUMNS[1..4],
     };
     match available.iter().position(|c| *c == name) {

@@ -32,9 +32,9 @@ use nalgebra::Complex;
 use serde::{Deserialize, Serialize};
 
 use super::ModelError;
+use super::channel::ModalOutput;
 use super::geometry::Axis;
 use super::modal::{ModalAnalysis, ModalComponent, Subsystem, modulus};
-use super::response::Output;
 use crate::sample_rate::SampleRate;
 
 /// Blocks a realization can hold: 15 reachable modes in this model, plus slack.
@@ -402,10 +402,10 @@ impl<const NY: usize> DiscreteModal<f64, NY> {
     /// Discretizes the reachable modes that show in `outputs` at `sample_rate_hz` with a
     /// first-order hold. The rate is taken in f64 as given (a simulation may run at any
     /// rate the device supports, not only at f32 values).
-    pub fn from_modal(
+    pub fn from_modal<C: ModalOutput>(
         analysis: &ModalAnalysis,
         sample_rate_hz: f64,
-        outputs: &[Output; NY],
+        outputs: &[C; NY],
     ) -> Result<Self, ModelError> {
         if !SampleRate::supports_hz(sample_rate_hz) {
             return Err(ModelError::SampleRate);
@@ -419,23 +419,21 @@ impl<const NY: usize> DiscreteModal<f64, NY> {
         let relevant = |m: &&ModalComponent| {
             m.reachable
                 && m.subsystem.input_axis().is_some()
-                && outputs
-                    .iter()
-                    .any(|o| modulus(m.output_gain[o.index()]) > 0.0)
+                && outputs.iter().any(|o| modulus(o.modal_gain(m)) > 0.0)
         };
-        let scale = analysis
-            .components
-            .iter()
-            .filter(relevant)
-            .flat_map(|m| {
-                outputs
-                    .iter()
-                    .map(move |o| modulus(m.output_gain[o.index()] * m.input_gain))
-            })
-            .fold(0.0, f64::max);
+        // Each output's largest modal gain: outputs differ in units (m/s^2, m, rad), so
+        // whether a mode reaches one is judged against that output's own scale.
+        let scale: [f64; NY] = core::array::from_fn(|o| {
+            analysis
+                .components
+                .iter()
+                .filter(relevant)
+                .map(|m| modulus(outputs[o].modal_gain(m) * m.input_gain))
+                .fold(0.0, f64::max)
+        });
         // Whether mode m reaches output o (an index into `outputs`) at all.
         let reaches = |m: &ModalComponent, o: usize| {
-            modulus(m.output_gain[outputs[o].index()] * m.input_gain) > 1e-12 * scale
+            modulus(outputs[o].modal_gain(m) * m.input_gain) > 1e-12 * scale[o]
         };
         for subsystem in Subsystem::ALL {
             let Some(axis) = subsystem.input_axis() else {
@@ -515,12 +513,12 @@ struct DiscreteMode<const NY: usize> {
 }
 
 impl<const NY: usize> DiscreteMode<NY> {
-    fn new(m: &ModalComponent, period_s: f64, outputs: &[Output; NY]) -> Self {
+    fn new<C: ModalOutput>(m: &ModalComponent, period_s: f64, outputs: &[C; NY]) -> Self {
         let s = m.eigenvalue * period_s;
         let (phi, e1, e2) = hold_integrals(s);
         let gamma1 = e2 * period_s;
         let gamma0 = (e1 - e2) * period_s;
-        let c = outputs.map(|o| m.output_gain[o.index()]);
+        let c = outputs.map(|o| o.modal_gain(m));
         // A pair contributes twice the real part of one member.
         let weight = if m.is_pair { 2.0 } else { 1.0 };
         Self {
