@@ -203,3 +203,98 @@ fn the_realization_of_the_joint_outputs_is_within_1_percent_and_1_degree_at_500_
         }
     }
 }
+
+#[test]
+fn the_device_readout_of_the_joints_is_within_1_percent_and_1_degree_of_the_model_at_500_hz() {
+    for model in models() {
+        let head = model.device_realization(500.0).unwrap();
+        let readout = model
+            .device_joint_readout(500.0, &head, &JointOutput::ALL)
+            .unwrap();
+        let (mut worst_mag, mut worst_deg) = (0.0_f64, 0.0_f64);
+        for i in 0..=390 {
+            let f = 0.5 + 0.05 * i as f64;
+            let h = model.matrices.joint_response(f).unwrap();
+            let hd = readout.frequency_response(&head, 500.0, f);
+            for output in JointOutput::ALL {
+                let (o, k) = (output.index(), output.input_axis().index());
+                let (c, d) = (h[(o, k)], hd[o][k]);
+                worst_mag = worst_mag.max((modulus(d) / modulus(c) - 1.0).abs());
+                worst_deg = worst_deg.max(argument(d / c).to_degrees().abs());
+                for other in Axis::ALL.into_iter().filter(|a| a.index() != k) {
+                    assert_eq!(modulus(hd[o][other.index()]), 0.0, "{output} {other}");
+                }
+            }
+        }
+        assert!(worst_mag < 0.01, "magnitude error {worst_mag}");
+        assert!(worst_deg < 1.0, "phase error {worst_deg} deg");
+    }
+}
+
+#[test]
+fn the_readout_reads_in_time_what_the_f64_realization_of_the_joints_gives() {
+    // The f32 readout, read from the head realization's state before each step, against
+    // the f64 realization of the ten joint outputs alone.
+    use supine_core::test_vector::TestVector;
+    for model in models() {
+        let head = model.device_realization(500.0).unwrap();
+        let readout = model
+            .device_joint_readout(500.0, &head, &JointOutput::ALL)
+            .unwrap();
+        let reference = model.realization(500.0, &JointOutput::ALL).unwrap();
+        let (mut s32, mut s64) = (ModalState::<f32>::default(), ModalState::<f64>::default());
+        let mut peak = [0.0_f64; JOINT_OUTPUT_COUNT];
+        let mut worst = [0.0_f64; JOINT_OUTPUT_COUNT];
+        for u in TestVector::new(3).take(30_000) {
+            let joints = readout.read(&head, &s32, u);
+            head.step(&mut s32, u);
+            let expected = reference.step(&mut s64, u.map(f64::from));
+            for o in 0..JOINT_OUTPUT_COUNT {
+                peak[o] = peak[o].max(expected[o].abs());
+                worst[o] = worst[o].max((f64::from(joints[o]) - expected[o]).abs());
+            }
+        }
+        for o in 0..JOINT_OUTPUT_COUNT {
+            assert!(peak[o] > 0.0);
+            assert!(
+                worst[o] < 1e-4 * peak[o],
+                "{}: {} of a peak {}",
+                JointOutput::ALL[o],
+                worst[o],
+                peak[o]
+            );
+        }
+    }
+}
+
+#[test]
+fn a_readout_reads_only_the_joint_outputs_asked_for_and_a_bad_one_is_refused() {
+    let model = &models()[0];
+    let head = model.device_realization(500.0).unwrap();
+    let wanted = [JointOutput::ALL[2], JointOutput::ALL[8]];
+    let readout = model.device_joint_readout(500.0, &head, &wanted).unwrap();
+    for output in JointOutput::ALL {
+        assert_eq!(readout.reads(output), wanted.contains(&output), "{output}");
+    }
+    let y = readout.read(&head, &ModalState::default(), [0.0, 0.0, 1.0]);
+    for output in JointOutput::ALL {
+        assert_eq!(
+            y[output.index()] != 0.0,
+            wanted.contains(&output),
+            "{output}"
+        );
+    }
+    let all = model
+        .device_joint_readout(500.0, &head, &JointOutput::ALL)
+        .unwrap();
+    assert_eq!(all.check(&head), Ok(()));
+    let mut bad = all;
+    bad.rows[15][0][0] = 1.0; // past the 15 blocks in use
+    assert!(bad.check(&head).is_err());
+    let mut bad = all;
+    bad.groups[0].outputs[1] = bad.groups[1].outputs[0]; // a y output in the x group
+    assert!(bad.check(&head).is_err());
+    let mut bad = all;
+    bad.groups[2].feedthrough[0] = f32::NAN;
+    assert!(bad.check(&head).is_err());
+}

@@ -13,6 +13,7 @@ pub mod geometry;
 pub mod joints;
 pub mod modal;
 pub mod params;
+pub mod readout;
 pub mod response;
 pub mod state_space;
 
@@ -30,6 +31,7 @@ pub use geometry::{Axis, Segment, Subject};
 pub use joints::{JOINT_OUTPUT_COUNT, JointComponent, JointOutput, JointUnit};
 pub use modal::{ModalAnalysis, ModalComponent, Subsystem};
 pub use params::{ModelParams, ParamError, ParamId, Preset};
+pub use readout::{JointReadout, MAX_JOINT_ROWS};
 pub use response::{JointResponse, Output, Transmissibility};
 pub use state_space::StateSpace;
 
@@ -120,6 +122,29 @@ impl Model {
         device.check().map_err(ModelError::Realization)?;
         Ok(device)
     }
+
+    /// What the device reads of the joints: `wanted` over the head realization `head`
+    /// (from [`device_realization`](Self::device_realization) at the same rate).
+    pub fn device_joint_readout(
+        &self,
+        sample_rate_hz: f64,
+        head: &DeviceRealization,
+        wanted: &[JointOutput],
+    ) -> Result<JointReadout, ModelError> {
+        JointReadout::new(&self.modes, sample_rate_hz, head, wanted)
+    }
+}
+
+/// The device realization and its readout of every joint output, for a parameter set at a
+/// sample rate (host and build time).
+pub fn device_model(
+    params: &ModelParams,
+    sample_rate_hz: f64,
+) -> Result<(DeviceRealization, JointReadout), ModelError> {
+    let model = Model::new(params)?;
+    let head = model.device_realization(sample_rate_hz)?;
+    let joints = model.device_joint_readout(sample_rate_hz, &head, &JointOutput::ALL)?;
+    Ok((head, joints))
 }
 
 /// The device realization for a parameter set at a sample rate (host and build time).
