@@ -298,3 +298,27 @@ fn a_readout_reads_only_the_joint_outputs_asked_for_and_a_bad_one_is_refused() {
     bad.groups[2].feedthrough[0] = f32::NAN;
     assert!(bad.check(&head).is_err());
 }
+
+#[test]
+fn a_readout_encodes_as_its_fields_in_order_and_decodes_back() {
+    let model = &models()[1];
+    let head = model.device_realization(500.0).unwrap();
+    let readout = model
+        .device_joint_readout(500.0, &head, &JointOutput::ALL)
+        .unwrap();
+    let mut buf = [0u8; 4096];
+    let bytes = postcard::to_slice(&readout, &mut buf).unwrap().to_vec();
+    // The same bytes as the fields encoded one after the other with serde's own code.
+    let mut expected = Vec::new();
+    let mut field = [0u8; 4096];
+    expected.extend_from_slice(postcard::to_slice(&readout.groups, &mut field).unwrap());
+    expected.extend_from_slice(postcard::to_slice(&readout.rows, &mut field).unwrap());
+    assert_eq!(bytes, expected);
+    let back: supine_core::model::JointReadout = postcard::from_bytes(&bytes).unwrap();
+    assert_eq!(back, readout);
+    // One number short is refused, not read past.
+    assert!(
+        postcard::from_bytes::<supine_core::model::JointReadout>(&bytes[..bytes.len() - 4])
+            .is_err()
+    );
+}

@@ -55,7 +55,58 @@ pub struct JointReadout {
     /// One group per support axis, x, y, z, over the head realization's groups of blocks.
     pub groups: [ReadoutGroup; 3],
     /// Per block, its rows (m or rad per unit state); rows past the group's count are zero.
+    #[serde(with = "flat_rows")]
     pub rows: [[[f32; 2]; MAX_JOINT_ROWS]; MAX_BLOCKS],
+}
+
+/// The rows as one tuple of their 128 numbers, encoded and decoded in a loop. Serde's
+/// derived code for nested arrays is unrolled per element: for these rows about 3 KiB of
+/// the device's flash in the blob decoder (measured on the product image). The bytes are
+/// the derived encoding's (postcard writes a fixed-size array as its elements in order;
+/// `shared/tests/model_joints.rs` checks it).
+mod flat_rows {
+    use core::fmt;
+
+    use serde::de::{Error, SeqAccess, Visitor};
+    use serde::ser::SerializeTuple;
+    use serde::{Deserializer, Serializer};
+
+    use super::{MAX_BLOCKS, MAX_JOINT_ROWS};
+
+    type Rows = [[[f32; 2]; MAX_JOINT_ROWS]; MAX_BLOCKS];
+    const LEN: usize = MAX_BLOCKS * MAX_JOINT_ROWS * 2;
+
+    pub fn serialize<S: Serializer>(rows: &Rows, serializer: S) -> Result<S::Ok, S::Error> {
+        let mut tuple = serializer.serialize_tuple(LEN)?;
+        for v in rows.iter().flatten().flatten() {
+            tuple.serialize_element(v)?;
+        }
+        tuple.end()
+    }
+
+    struct RowsVisitor;
+
+    impl<'de> Visitor<'de> for RowsVisitor {
+        type Value = Rows;
+
+        fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            f.write_str("the joint readout's rows")
+        }
+
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Rows, A::Error> {
+            let mut rows = [[[0.0; 2]; MAX_JOINT_ROWS]; MAX_BLOCKS];
+            for (k, v) in rows.iter_mut().flatten().flatten().enumerate() {
+                *v = seq
+                    .next_element()?
+                    .ok_or_else(|| A::Error::invalid_length(k, &self))?;
+            }
+            Ok(rows)
+        }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(deserializer: D) -> Result<Rows, D::Error> {
+        deserializer.deserialize_tuple(LEN, RowsVisitor)
+    }
 }
 
 impl JointReadout {
