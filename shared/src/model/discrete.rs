@@ -136,12 +136,13 @@ impl<T: Scalar, const NY: usize> ModalGroup<T, NY> {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(bound(
     serialize = "T: Serialize, [[T; 2]; NY]: Serialize, [T; NY]: Serialize, [u8; NY]: Serialize",
-    deserialize = "T: Deserialize<'de>, [[T; 2]; NY]: Deserialize<'de>, [T; NY]: Deserialize<'de>, [u8; NY]: Deserialize<'de>"
+    deserialize = "T: Scalar + Deserialize<'de>, [T; NY]: Deserialize<'de>, [u8; NY]: Deserialize<'de>"
 ))]
 pub struct DiscreteModal<T, const NY: usize> {
     /// One group per support axis, in x, y, z order; their blocks follow each other.
     pub groups: [ModalGroup<T, NY>; 3],
     /// The modal blocks; only the first `block_count` are used.
+    #[serde(with = "flat_blocks")]
     pub blocks: [ModalBlock<T, NY>; MAX_BLOCKS],
     /// How many blocks are in use (the groups' counts add up to it).
     pub block_count: u8,
@@ -596,4 +597,77 @@ pub fn hold_integrals(s: Complex<f64>) -> (Complex<f64>, Complex<f64>, Complex<f
     let e1 = em1 / s;
     let e2 = (em1 - s) / (s * s);
     (phi, e1, e2)
+}
+
+/// The blocks as one tuple of their numbers (per block its transition, then its rows),
+/// encoded and decoded in a loop: serde's derived code for the nested arrays is unrolled
+/// per element, kilobytes of the device's flash in the blob decoder. The bytes are the
+/// derived encoding's (postcard writes a fixed-size array as its elements in order; the
+/// golden blob checks it).
+mod flat_blocks {
+    use core::fmt;
+    use core::marker::PhantomData;
+
+    use serde::de::{Error, SeqAccess, Visitor};
+    use serde::ser::SerializeTuple;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    use super::{MAX_BLOCKS, ModalBlock, Scalar};
+
+    fn numbers<T, const NY: usize>(block: &ModalBlock<T, NY>) -> impl Iterator<Item = &T> {
+        block
+            .transition_minus_identity
+            .iter()
+            .flatten()
+            .chain(block.output.iter().flatten())
+    }
+
+    pub fn serialize<S: Serializer, T: Serialize, const NY: usize>(
+        blocks: &[ModalBlock<T, NY>; MAX_BLOCKS],
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        let mut tuple = serializer.serialize_tuple(MAX_BLOCKS * (4 + 2 * NY))?;
+        for v in blocks.iter().flat_map(numbers) {
+            tuple.serialize_element(v)?;
+        }
+        tuple.end()
+    }
+
+    struct BlocksVisitor<T, const NY: usize>(PhantomData<T>);
+
+    impl<'de, T: Scalar + Deserialize<'de>, const NY: usize> Visitor<'de> for BlocksVisitor<T, NY> {
+        type Value = [ModalBlock<T, NY>; MAX_BLOCKS];
+
+        fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            f.write_str("the realization's blocks")
+        }
+
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+            let mut blocks = [ModalBlock::<T, NY>::EMPTY; MAX_BLOCKS];
+            let mut k = 0;
+            for block in &mut blocks {
+                let cells = block
+                    .transition_minus_identity
+                    .iter_mut()
+                    .flatten()
+                    .chain(block.output.iter_mut().flatten());
+                for v in cells {
+                    *v = seq
+                        .next_element()?
+                        .ok_or_else(|| A::Error::invalid_length(k, &self))?;
+                    k += 1;
+                }
+            }
+            Ok(blocks)
+        }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>, T: Scalar + Deserialize<'de>, const NY: usize>(
+        deserializer: D,
+    ) -> Result<[ModalBlock<T, NY>; MAX_BLOCKS], D::Error> {
+        deserializer.deserialize_tuple(
+            MAX_BLOCKS * (4 + 2 * NY),
+            BlocksVisitor::<T, NY>(PhantomData),
+        )
+    }
 }
