@@ -1,7 +1,7 @@
 //! `supine model`, `supine modes` and `supine params`, run in-process.
 
 use clap::Parser;
-use supine_core::model::{ModelParams, Preset, SystemMatrices};
+use supine_core::model::{Axis, JointOutput, Model, ModelParams, Preset, SystemMatrices};
 use supine_host::cli::{Cli, one_line, run};
 use supine_host::io::params_file::{self, ParamFile};
 
@@ -42,6 +42,58 @@ fn model_writes_all_27_components_with_the_exact_header() {
     assert!((row[4].parse::<f64>().unwrap() - h[(2, 2)].arg()).abs() < 1e-12);
     let outputs: std::collections::BTreeSet<&str> = rows.iter().map(|r| r[1]).collect();
     assert_eq!(outputs.len(), 9);
+}
+
+#[test]
+fn model_quantity_joints_writes_the_ten_joint_outputs_per_input_as_the_modal_sum_gives_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("J.csv");
+    let grid = ["--fmin", "0.5", "--fmax", "20", "--df", "0.5"];
+    let mut args = vec!["model", "--preset", "paper-litter", "--quantity", "joints"];
+    args.extend_from_slice(&grid);
+    args.extend_from_slice(&["--out", out.to_str().unwrap()]);
+    supine(&args).unwrap();
+    let text = std::fs::read_to_string(&out).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next(),
+        Some("freq_hz,output,input,magnitude,phase_rad")
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 40 * 30);
+    // The CLI solves the equations directly; the modal sum is another route to the same.
+    let model = Model::new(&ModelParams::preset(Preset::PaperLitter)).unwrap();
+    for row in &rows {
+        let f: f64 = row[0].parse().unwrap();
+        let output = JointOutput::from_name(row[1]).expect("a joint output name");
+        let input = Axis::ALL.into_iter().find(|a| a.name() == row[2]).unwrap();
+        let h = model.modes.joint_response(f)[(output.index(), input.index())];
+        let magnitude: f64 = row[3].parse().unwrap();
+        let scale = model.modes.joint_response(f)[(output.index(), output.input_axis().index())];
+        assert!(
+            (magnitude - h.norm()).abs() <= 1e-7 * scale.norm(),
+            "{output} from {input} at {f} Hz"
+        );
+        if input == output.input_axis() {
+            let phase: f64 = row[4].parse().unwrap();
+            assert!((phase - h.arg()).abs() < 1e-6, "{output} {f} Hz");
+        }
+    }
+    // The sensor default is unchanged by the option.
+    let sensors = dir.path().join("H.csv");
+    let mut args = vec!["model", "--preset", "paper-litter", "--quantity", "sensors"];
+    args.extend_from_slice(&grid);
+    args.extend_from_slice(&["--out", sensors.to_str().unwrap()]);
+    supine(&args).unwrap();
+    let default = dir.path().join("H_default.csv");
+    let mut args = vec!["model", "--preset", "paper-litter"];
+    args.extend_from_slice(&grid);
+    args.extend_from_slice(&["--out", default.to_str().unwrap()]);
+    supine(&args).unwrap();
+    assert_eq!(
+        std::fs::read_to_string(sensors).unwrap(),
+        std::fs::read_to_string(default).unwrap()
+    );
 }
 
 #[test]

@@ -32,7 +32,7 @@ fn write_ride(dir: &Path, seconds: f64) -> PathBuf {
 
 /// Runs `supine replay --qemu --icount ARGS --input RIDE --out OUT` (ARGS: `--preset N`
 /// or `--params F`, and options); returns its stderr and the instructions per sample it
-/// printed.
+/// printed (and checks that it printed the device's stack high-water mark beside it).
 fn replay_with_icount(args: &[&str], ride: &Path, out: &Path) -> (String, f64) {
     let output = Command::new(supine_binary())
         .args(["replay", "--qemu", "--icount"])
@@ -52,6 +52,13 @@ fn replay_with_icount(args: &[&str], ride: &Path, out: &Path) -> (String, f64) {
         .find_map(|l| l.strip_prefix("instructions_per_sample: "))
         .and_then(|n| n.parse().ok())
         .expect("an instructions_per_sample line");
+    let stack: u32 = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("stack_used_bytes: "))
+        .and_then(|n| n.parse().ok())
+        .expect("a stack_used_bytes line");
+    // Something was measured, and no more than the board's RAM.
+    assert!(stack > 0 && stack < 64 * 1024, "stack_used_bytes {stack}");
     (stderr, ips)
 }
 

@@ -1,14 +1,25 @@
-//! `supine model`: the model's transmissibility H(f), all 27 components, as CSV.
+//! `supine model`: the model's transmissibility H(f), all 27 components, or with
+//! `--quantity joints` its joint response (ten joint outputs by three inputs), as CSV.
 
 use std::path::PathBuf;
 
-use anyhow::Result;
+use anyhow::{Result, anyhow};
+use supine_core::model::SystemMatrices;
 
 use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
 use crate::identify::transmissibility::model_h;
 use crate::io::h_csv;
 use crate::io::params_file::{ModelSource, SubjectOverride};
+
+/// What `supine model` writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Quantity {
+    /// Sensor acceleration per support acceleration (m/s^2 per m/s^2), 9 x 3.
+    Sensors,
+    /// Joint motion per support acceleration (m or rad per m/s^2), 10 x 3.
+    Joints,
+}
 
 /// Arguments of `supine model`.
 #[derive(Debug, clap::Args)]
@@ -28,6 +39,9 @@ pub struct Args {
     /// Frequency step, Hz (at most 100,000 frequencies).
     #[arg(long = "df", value_name = "HZ", default_value_t = 0.05, value_parser = values::positive_hz)]
     pub df_hz: f64,
+    /// Sensor accelerations (the paper's H) or the neck and lower-back motion.
+    #[arg(long, value_enum, default_value_t = Quantity::Sensors)]
+    pub quantity: Quantity,
     /// Where to write the CSV.
     #[arg(long)]
     pub out: PathBuf,
@@ -40,8 +54,18 @@ pub struct Args {
 pub fn run(args: &Args) -> Result<()> {
     let params = args.source.load_for_subject(&args.subject)?;
     let freqs = h_csv::frequency_grid(args.fmin_hz, args.fmax_hz, args.df_hz)?;
-    let h = model_h(&params, &freqs)?;
-    let rows = h_csv::rows(&freqs, &h, None);
+    let rows = match args.quantity {
+        Quantity::Sensors => h_csv::rows(&freqs, &model_h(&params, &freqs)?, None),
+        Quantity::Joints => {
+            let matrices = SystemMatrices::assemble(&params);
+            let h = freqs
+                .iter()
+                .map(|&f| matrices.joint_response(f))
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(|e| anyhow!("{e}"))?;
+            h_csv::joint_rows(&freqs, &h)
+        }
+    };
     h_csv::write(&args.out, &rows)?;
     if args.json.json {
         return json_output::print(&serde_json::json!({
@@ -54,9 +78,10 @@ pub fn run(args: &Args) -> Result<()> {
         }));
     }
     eprintln!(
-        "wrote {} ({} frequencies x 27 components)",
+        "wrote {} ({} frequencies x {} components)",
         args.out.display(),
-        freqs.len()
+        freqs.len(),
+        rows.len() / freqs.len().max(1)
     );
     Ok(())
 }

@@ -1,5 +1,5 @@
-//! `supine predict`: the sensor accelerations the model predicts for a recording's support
-//! acceleration (see `validate::predict` for how it stays faithful to the continuous model),
+//! `supine predict`: the sensor accelerations and the neck and lower-back motion the model
+//! predicts for a recording's support acceleration (see `validate::predict` for how it stays faithful to the continuous model),
 //! and with `--band N` the head exposure's prediction band from the fit's uncertainty (see
 //! `fit::band`).
 
@@ -11,7 +11,7 @@ use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
 use crate::identify::fit::band::{BAND_QUANTILES, ExposureBand, head_exposure_band};
 use crate::identify::fit::uncertainty::StoredUncertainty;
-use crate::identify::validate::{predict, write_prediction};
+use crate::identify::validate::{predict, predict_joints, write_prediction};
 use crate::io::params_file::{ModelSource, SubjectOverride};
 use crate::io::recording::Recording;
 
@@ -24,7 +24,7 @@ pub struct Args {
     /// The recording whose platform columns drive the model.
     #[arg(long, value_name = "REC.csv")]
     pub input: PathBuf,
-    /// Where to write the prediction (same columns as a recording).
+    /// Where to write the prediction (a recording's columns, then the joint motion).
     #[arg(long, value_name = "PRED.csv")]
     pub out: PathBuf,
     /// The subject, if not the parameters' own.
@@ -92,7 +92,8 @@ pub fn run(args: &Args) -> Result<()> {
         None => None,
     };
     let predicted = predict(&params, &recording)?;
-    write_prediction(&recording, predicted, &args.out)?;
+    let joints = predict_joints(&params, &recording)?;
+    write_prediction(&recording, predicted, &joints, &args.out)?;
     if args.json.json {
         let axis =
             |v: &[f64; 4]| serde_json::json!({"x": v[0], "y": v[1], "z": v[2], "vector": v[3]});

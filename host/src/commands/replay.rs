@@ -30,7 +30,8 @@ pub struct Args {
     /// Where to write the device's telemetry (events go to `<stem>.events.csv`).
     #[arg(long, value_name = "DEVICE.csv")]
     pub out: PathBuf,
-    /// Count instructions (QEMU -icount) and print `instructions_per_sample: N`.
+    /// Count instructions (QEMU -icount) and print `instructions_per_sample: N` (the
+    /// device's stack high-water mark, `stack_used_bytes: N`, is printed either way).
     #[arg(long)]
     pub icount: bool,
     /// Telemetry every this many samples. Replay compares samples, so it overrides the
@@ -108,6 +109,7 @@ pub fn run(args: &Args) -> Result<()> {
             "frames_lost": s.link.lost_frames,
             "frames_bad": s.link.bad_frames,
             "alerts_raised": raised,
+            "stack_used_bytes": s.status().stack_used_bytes,
             "telemetry_csv": args.out,
             "events_csv": events,
         });
@@ -123,6 +125,8 @@ pub fn run(args: &Args) -> Result<()> {
             s.instructions_per_sample()
         );
     }
+    // The device's own stack high-water mark: with the statics, its whole RAM use.
+    println!("stack_used_bytes: {}", s.status().stack_used_bytes);
     eprintln!(
         "replayed {} samples in {elapsed_s:.1} s ({:.1}x real time): {} telemetry records, frames lost {}, bad {}, alerts raised {}; wrote {} and {}",
         result.samples,

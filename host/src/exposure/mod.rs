@@ -7,6 +7,7 @@
 //! - [`report`]: exposure reports of recordings (`supine exposure`).
 //! - [`reference`](mod@reference): what the device must produce for given inputs (f32 pipeline, f64 model).
 
+pub mod joints;
 pub mod reference;
 pub mod report;
 pub mod resample;

@@ -44,7 +44,7 @@ pub fn head_f64(
     input_m_s2: &[[f32; 3]],
 ) -> Result<Vec<[f64; 3]>> {
     let realization = Model::new(params)
-        .and_then(|model| model.realization::<3>(sample_rate_hz, &Output::HEAD))
+        .and_then(|model| model.realization(sample_rate_hz, &Output::HEAD))
         .map_err(|e| anyhow!("the model does not discretize at {sample_rate_hz} Hz: {e}"))?;
     let mut state = ModalState::<f64>::default();
     Ok(input_m_s2

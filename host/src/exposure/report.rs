@@ -16,6 +16,7 @@
 //! with only the platform columns (what `supine ride` writes), its sensor columns filled
 //! with zeros that no evaluation here reads.
 
+use crate::exposure::joints::{JointReport, joint_motion, joints_text};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -283,6 +284,9 @@ pub struct ModelExposure {
     pub max_level: &'static str,
     /// Exposure level after the last sample.
     pub final_level: &'static str,
+    /// The predicted neck and lower-back motion over the whole ride (from the start, warm-up
+    /// included: the joints need no settling filter); empty when the model is not known.
+    pub joints: Vec<JointReport>,
 }
 
 /// Runs the device pipeline over `platform_m_s2` (m/s^2, x, y, z at the params' rate,
@@ -394,6 +398,7 @@ pub fn model_exposure(
         alerts,
         max_level: max_level.name(),
         final_level: final_level.name(),
+        joints: Vec::new(),
     })
 }
 
@@ -417,6 +422,7 @@ impl ModelExposure {
             match self.layout {
                 Layout::Full => "recording",
                 Layout::PlatformOnly => "platform columns only",
+                Layout::Prediction => "prediction",
             },
             self.model,
             self.identity
@@ -469,6 +475,9 @@ impl ModelExposure {
             s,
             "note: ISO 2631-1 gives no health method for recumbent persons; these thresholds are extrapolations."
         );
+        if !self.joints.is_empty() {
+            s += &joints_text(&self.joints);
+        }
         s
     }
 }
@@ -605,7 +614,13 @@ pub fn evaluate_model(
     let params = device_params::build(file, prepared.sample_rate_hz)?;
     let identity = device_params::identity_hex(&params.identity);
     let input = recording.path.display().to_string();
-    model_exposure(&params, &prepared, &input, layout, model, identity)
+    let mut report = model_exposure(&params, &prepared, &input, layout, model, identity)?;
+    let platform: Vec<[f64; 3]> = match prepared.channels.as_slice() {
+        [x, y, z] => (0..x.len()).map(|k| [x[k], y[k], z[k]]).collect(),
+        _ => Vec::new(),
+    };
+    report.joints = joint_motion(&file.params, prepared.sample_rate_hz, &platform)?;
+    Ok(report)
 }
 
 /// `supine exposure`'s channel form on `recording` (with the columns of `layout`): the
@@ -627,7 +642,7 @@ pub fn evaluate_channel(
 /// lists the columns `layout` holds otherwise.
 pub fn channel_index(name: &str, layout: Layout, path: &Path) -> Result<usize> {
     let available: &[&str] = match layout {
-        Layout::Full => &COLUMNS[1..],
+        Layout::Full | Layout::Prediction => &COLUMNS[1..],
         Layout::PlatformOnly => &COLUMNS[1..4],
     };
     match available.iter().position(|c| *c == name) {

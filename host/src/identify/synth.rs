@@ -172,7 +172,7 @@ pub fn simulate_periodic(
 ) -> Result<[Vec<f64>; 9]> {
     let model = Model::new(params).map_err(|e| anyhow!("{e}"))?;
     let realization = model
-        .realization::<9>(rate_hz, &Output::ALL)
+        .realization(rate_hz, &Output::ALL)
         .map_err(|e| anyhow!("{e}"))?;
     let n = input_m_s2[0].len();
     let mut state = ModalState::<f64>::default();

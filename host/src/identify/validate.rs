@@ -16,12 +16,14 @@ use anyhow::{Result, anyhow, bail};
 use nalgebra::Complex;
 use realfft::RealFftPlanner;
 use serde::Serialize;
-use supine_core::model::{ModalState, Model, ModelParams, Output};
+use supine_core::model::{
+    JointOutput, JointUnit, ModalOutput, ModalState, Model, ModelParams, Output,
+};
 use supine_core::sample_rate::SampleRate;
 
 use crate::identify::spectral::{DEFAULT_RESOLUTION_HZ, WelchSettings, psd};
 use crate::io::output::write_atomically;
-use crate::io::recording::Recording;
+use crate::io::recording::{HEADER_LINE, PREDICTED_JOINT_COLUMNS, Recording};
 use crate::plot::{Panel, Series, figure_svg};
 
 /// The model runs at no less than this rate, Hz (upsampling slower recordings).
@@ -66,6 +68,22 @@ pub fn upsample(x: &[f64], factor: usize) -> Result<Vec<f64>> {
 /// The nine sensor accelerations (m/s^2, H's output order) the model predicts for the
 /// recording's support acceleration, one per input sample, starting from rest.
 pub fn predict(params: &ModelParams, recording: &Recording) -> Result<[Vec<f64>; 9]> {
+    simulate(params, recording, &Output::ALL)
+}
+
+/// The ten joint outputs (m or rad, `JointOutput::ALL` order) the model predicts for the
+/// recording's support acceleration, as [`predict`] does the sensors.
+pub fn predict_joints(params: &ModelParams, recording: &Recording) -> Result<[Vec<f64>; 10]> {
+    simulate(params, recording, &JointOutput::ALL)
+}
+
+/// `outputs` of the model driven by the recording's support acceleration (see the module's
+/// doc for the upsampling), one per input sample, from rest.
+fn simulate<C: ModalOutput, const N: usize>(
+    params: &ModelParams,
+    recording: &Recording,
+    outputs: &[C; N],
+) -> Result<[Vec<f64>; N]> {
     let fs = recording.sample_rate_hz();
     // Slower recordings than the device's are upsampled for the simulation, down to a tenth.
     let (lowest_hz, highest_hz) = (
@@ -82,7 +100,7 @@ pub fn predict(params: &ModelParams, recording: &Recording) -> Result<[Vec<f64>;
     let rate_hz = fs * factor as f64;
     let model = Model::new(params).map_err(|e| anyhow!("{e}"))?;
     let realization = model
-        .realization::<9>(rate_hz, &Output::ALL)
+        .realization(rate_hz, outputs)
         .map_err(|e| anyhow!("{e}"))?;
     let inputs: Vec<Vec<f64>> = recording
         .platform_m_s2
@@ -90,7 +108,7 @@ pub fn predict(params: &ModelParams, recording: &Recording) -> Result<[Vec<f64>;
         .map(|x| upsample(x, factor))
         .collect::<Result<_>>()?;
     let mut state = ModalState::<f64>::default();
-    let mut out: [Vec<f64>; 9] = Default::default();
+    let mut out: [Vec<f64>; N] = core::array::from_fn(|_| Vec::with_capacity(recording.len()));
     let samples = inputs[0].iter().zip(&inputs[1]).zip(&inputs[2]);
     for (k, ((&x, &y), &z)) in samples.enumerate() {
         let y = realization.step(&mut state, [x, y, z]);
@@ -258,13 +276,36 @@ pub fn write_report(
     })
 }
 
-/// Writes a recording with the input's time and platform columns and predicted sensors.
-pub fn write_prediction(recording: &Recording, predicted: [Vec<f64>; 9], out: &Path) -> Result<()> {
-    let prediction = Recording {
-        path: out.to_path_buf(),
-        time_s: recording.time_s.clone(),
-        platform_m_s2: recording.platform_m_s2.clone(),
-        sensors_m_s2: predicted,
-    };
-    prediction.write(out)
+/// Writes a recording with the input's time and platform columns and predicted sensors,
+/// followed by the predicted joint motion ([`PREDICTED_JOINT_COLUMNS`]: mm and degrees).
+pub fn write_prediction(
+    recording: &Recording,
+    predicted: [Vec<f64>; 9],
+    joints: &[Vec<f64>; 10],
+    out: &Path,
+) -> Result<()> {
+    let scale = JointOutput::ALL.map(|o| match o.unit() {
+        JointUnit::Metre => 1e3,
+        JointUnit::Radian => 180.0 / core::f64::consts::PI,
+    });
+    write_atomically(out, |w| {
+        write!(w, "{HEADER_LINE}")?;
+        for name in PREDICTED_JOINT_COLUMNS {
+            write!(w, ",{name}")?;
+        }
+        writeln!(w)?;
+        let mut line = String::with_capacity(512);
+        for k in 0..recording.len() {
+            line.clear();
+            line.push_str(&format!("{}", recording.time_s[k]));
+            for column in recording.platform_m_s2.iter().chain(predicted.iter()) {
+                line.push_str(&format!(",{}", column[k]));
+            }
+            for (column, scale) in joints.iter().zip(scale) {
+                line.push_str(&format!(",{}", column[k] * scale));
+            }
+            writeln!(w, "{line}")?;
+        }
+        Ok(())
+    })
 }

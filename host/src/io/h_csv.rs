@@ -1,12 +1,13 @@
 //! The transmissibility CSV: `freq_hz,output,input,magnitude,phase_rad[,coherence]`, one row
 //! per frequency, output and input, frequency-major. Shared by `supine model` and
-//! `supine transmissibility` so that measured and modelled files line up.
+//! `supine transmissibility` so that measured and modelled files line up; `supine model
+//! --quantity joints` writes the joint response in the same form.
 
 use std::path::Path;
 
 use anyhow::Result;
 use nalgebra::Complex;
-use supine_core::model::{Axis, Output, Transmissibility};
+use supine_core::model::{Axis, Channel, JointOutput, JointResponse, Output, Transmissibility};
 
 use crate::io::output::write_atomically;
 
@@ -15,11 +16,11 @@ use crate::io::output::write_atomically;
 pub struct HRow {
     /// Frequency, Hz.
     pub freq_hz: f64,
-    /// The sensor channel.
-    pub output: Output,
+    /// The sensor channel or joint output.
+    pub output: Channel,
     /// The support axis.
     pub input: Axis,
-    /// H (dimensionless: m/s^2 per m/s^2).
+    /// H (m/s^2 per m/s^2 for a sensor; m or rad per m/s^2 for a joint).
     pub value: Complex<f64>,
     /// Multiple coherence of the output, for a single subject's estimate.
     pub coherence: Option<f64>,
@@ -33,10 +34,29 @@ pub fn rows(freqs_hz: &[f64], h: &[Transmissibility], coherence: Option<&[[f64; 
             for input in Axis::ALL {
                 rows.push(HRow {
                     freq_hz,
-                    output,
+                    output: Channel::Sensor(output),
                     input,
                     value: h[f][(output.index(), input.index())],
                     coherence: coherence.map(|c| c[f][output.index()]),
+                });
+            }
+        }
+    }
+    rows
+}
+
+/// The ten joint outputs' response to the three inputs per frequency, frequency-major.
+pub fn joint_rows(freqs_hz: &[f64], h: &[JointResponse]) -> Vec<HRow> {
+    let mut rows = Vec::with_capacity(freqs_hz.len() * 30);
+    for (&freq_hz, h) in freqs_hz.iter().zip(h) {
+        for output in JointOutput::ALL {
+            for input in Axis::ALL {
+                rows.push(HRow {
+                    freq_hz,
+                    output: Channel::Joint(output),
+                    input,
+                    value: h[(output.index(), input.index())],
+                    coherence: None,
                 });
             }
         }

@@ -47,6 +47,30 @@ pub const COLUMNS: [&str; 13] = [
     "pelvis_z",
 ];
 
+/// The joint columns `supine predict` adds after the 13 recording columns: the predicted
+/// neck and lower-back motion (`docs/model.md`, "Joint motion"), translations in mm and
+/// rotations in degrees, in `JointOutput::ALL` order.
+pub const PREDICTED_JOINT_COLUMNS: [&str; 10] = [
+    "neck_x_mm",
+    "neck_y_mm",
+    "neck_z_mm",
+    "neck_ry_deg",
+    "neck_rz_deg",
+    "low_back_x_mm",
+    "low_back_y_mm",
+    "low_back_z_mm",
+    "low_back_ry_deg",
+    "low_back_rz_deg",
+];
+
+/// The name of column `c` (0-based) of a file in the prediction layout, the widest.
+fn column_name(c: usize) -> &'static str {
+    match c.checked_sub(COLUMNS.len()) {
+        None => COLUMNS[c],
+        Some(j) => PREDICTED_JOINT_COLUMNS.get(j).copied().unwrap_or("(none)"),
+    }
+}
+
 /// Largest allowed deviation of one time step from the mean step, as a fraction of it.
 pub const UNIFORM_TOLERANCE: f64 = 0.01;
 
@@ -230,10 +254,11 @@ impl Recording {
         device_samples(&self.platform_m_s2)
     }
 
-    /// Reads and checks a recording (all 13 columns), streaming: memory holds the samples,
-    /// never more than one line of text.
+    /// Reads and checks a recording (all 13 columns; a prediction's joint columns after
+    /// them are checked and left out), streaming: memory holds the samples, never more
+    /// than one line of text.
     pub fn read(path: &Path) -> Result<Self, RecordingError> {
-        read_layouts(path, &[Layout::Full]).map(|(recording, _)| recording)
+        read_layouts(path, &[Layout::Full, Layout::Prediction]).map(|(recording, _)| recording)
     }
 
     /// Reads and checks a recording from `source` in one of the `accepted` layouts (the
@@ -338,14 +363,18 @@ pub enum Layout {
     Full,
     /// Time and the three platform columns only ([`PLATFORM_HEADER_LINE`]).
     PlatformOnly,
+    /// What `supine predict` writes: the 13 columns, then [`PREDICTED_JOINT_COLUMNS`].
+    Prediction,
 }
 
 impl Layout {
-    /// How many columns a line holds: the first this many of [`COLUMNS`].
+    /// How many columns a line holds: the first this many of [`COLUMNS`] followed by
+    /// [`PREDICTED_JOINT_COLUMNS`].
     pub const fn columns(self) -> usize {
         match self {
             Layout::Full => COLUMNS.len(),
             Layout::PlatformOnly => 4,
+            Layout::Prediction => COLUMNS.len() + PREDICTED_JOINT_COLUMNS.len(),
         }
     }
 }
@@ -441,7 +470,10 @@ impl<R: Read> RowReader<R> {
         }
         let mut row = [0.0f64; 13];
         for (c, cell) in cells.cells().enumerate() {
-            row[c] = parse_cell(cell, COLUMNS[c]).map_err(|e| e.at(p(), line))?;
+            let value = parse_cell(cell, column_name(c)).map_err(|e| e.at(p(), line))?;
+            if let Some(slot) = row.get_mut(c) {
+                *slot = value;
+            }
         }
         if row[0] <= self.previous_s {
             return Err(RecordingError::TimeNotIncreasing {
@@ -590,8 +622,12 @@ fn check_header(
     accepted: &[Layout],
 ) -> Result<Layout, RecordingError> {
     for layout in accepted {
-        let names = &COLUMNS[..layout.columns()];
-        if header.len() == names.len() && header.cells().zip(names).all(|(c, n)| c == n.as_bytes())
+        let n = layout.columns();
+        if header.len() == n
+            && header
+                .cells()
+                .enumerate()
+                .all(|(c, cell)| cell == column_name(c).as_bytes())
         {
             return Ok(*layout);
         }

@@ -8,6 +8,7 @@
 use nalgebra::{SMatrix, SVector};
 
 use super::geometry::{Axis, Body, Segment};
+use super::joints::{JOINT_OUTPUT_COUNT, JointOutput};
 use super::params::{Element, JointMotion, ModelParams, ParamId, Quantity};
 
 /// Degrees of freedom: 6 per segment (x, y, z, th_x, th_y, th_z), head first.
@@ -17,6 +18,8 @@ pub const OUTPUT_COUNT: usize = 9;
 /// Support inputs: x, y, z acceleration.
 pub const INPUT_COUNT: usize = 3;
 
+/// J: 10 x 18, joint motion from the generalized coordinates.
+pub type JointOutputMatrix = SMatrix<f64, JOINT_OUTPUT_COUNT, DOF_COUNT>;
 /// An 18 x 18 real matrix over the generalized coordinates.
 pub type DofMatrix = SMatrix<f64, DOF_COUNT, DOF_COUNT>;
 /// G: 18 x 3, the identity in each segment's translational rows.
@@ -127,7 +130,7 @@ pub fn param_shape(id: ParamId, body: &Body) -> Shape {
     element_shape(id.element, id.axis, body)
 }
 
-/// M, C, K, G and R of one parameter set.
+/// M, C, K, G, R and J of one parameter set.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SystemMatrices {
     /// Segment masses and inertias (diagonal), kg and kg m^2.
@@ -140,6 +143,8 @@ pub struct SystemMatrices {
     pub input: InputMatrix,
     /// R: generalized accelerations to sensor-point accelerations, a_E = u'' + th'' x p.
     pub output: OutputMatrix,
+    /// J: generalized coordinates to joint motion (`super::joints`).
+    pub joint_output: JointOutputMatrix,
 }
 
 impl SystemMatrices {
@@ -173,6 +178,7 @@ impl SystemMatrices {
             stiffness,
             input: input_matrix(),
             output: output_matrix(params),
+            joint_output: joint_output_matrix(&body),
         }
     }
 }
@@ -206,4 +212,27 @@ pub fn output_matrix(params: &ModelParams) -> OutputMatrix {
         }
     }
     r
+}
+
+/// J (10 x 18) for this body: each row is minus the shape vector of the joint element
+/// that resists the motion, which measures the lower segment against the upper one
+/// (`super::joints` defines the outputs).
+pub fn joint_output_matrix(body: &Body) -> JointOutputMatrix {
+    let mut j = JointOutputMatrix::zeros();
+    for output in JointOutput::ALL {
+        let motion = if output.component.is_rotation() {
+            JointMotion::Rotational
+        } else {
+            JointMotion::Translational
+        };
+        let axis = output.component.axis();
+        let element = Element::Joint {
+            joint: output.joint,
+            motion,
+        };
+        for &(dof, weight) in element_shape(element, axis, body).entries() {
+            j[(output.index(), dof)] -= weight;
+        }
+    }
+    j
 }

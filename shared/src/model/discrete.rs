@@ -32,9 +32,9 @@ use nalgebra::Complex;
 use serde::{Deserialize, Serialize};
 
 use super::ModelError;
+use super::channel::ModalOutput;
 use super::geometry::Axis;
 use super::modal::{ModalAnalysis, ModalComponent, Subsystem, modulus};
-use super::response::Output;
 use crate::gain_bound::ModalBound;
 use crate::sample_rate::SampleRate;
 
@@ -137,12 +137,13 @@ impl<T: Scalar, const NY: usize> ModalGroup<T, NY> {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(bound(
     serialize = "T: Serialize, [[T; 2]; NY]: Serialize, [T; NY]: Serialize, [u8; NY]: Serialize",
-    deserialize = "T: Deserialize<'de>, [[T; 2]; NY]: Deserialize<'de>, [T; NY]: Deserialize<'de>, [u8; NY]: Deserialize<'de>"
+    deserialize = "T: Scalar + Deserialize<'de>, [T; NY]: Deserialize<'de>, [u8; NY]: Deserialize<'de>"
 ))]
 pub struct DiscreteModal<T, const NY: usize> {
     /// One group per support axis, in x, y, z order; their blocks follow each other.
     pub groups: [ModalGroup<T, NY>; 3],
     /// The modal blocks; only the first `block_count` are used.
+    #[serde(with = "flat_blocks")]
     pub blocks: [ModalBlock<T, NY>; MAX_BLOCKS],
     /// How many blocks are in use (the groups' counts add up to it).
     pub block_count: u8,
@@ -448,10 +449,10 @@ impl<const NY: usize> DiscreteModal<f64, NY> {
     /// Discretizes the reachable modes that show in `outputs` at `sample_rate_hz` with a
     /// first-order hold. The rate is taken in f64 as given (a simulation may run at any
     /// rate the device supports, not only at f32 values).
-    pub fn from_modal(
+    pub fn from_modal<C: ModalOutput>(
         analysis: &ModalAnalysis,
         sample_rate_hz: f64,
-        outputs: &[Output; NY],
+        outputs: &[C; NY],
     ) -> Result<Self, ModelError> {
         if !SampleRate::supports_hz(sample_rate_hz) {
             return Err(ModelError::SampleRate);
@@ -465,23 +466,21 @@ impl<const NY: usize> DiscreteModal<f64, NY> {
         let relevant = |m: &&ModalComponent| {
             m.reachable
                 && m.subsystem.input_axis().is_some()
-                && outputs
-                    .iter()
-                    .any(|o| modulus(m.output_gain[o.index()]) > 0.0)
+                && outputs.iter().any(|o| modulus(o.modal_gain(m)) > 0.0)
         };
-        let scale = analysis
-            .components
-            .iter()
-            .filter(relevant)
-            .flat_map(|m| {
-                outputs
-                    .iter()
-                    .map(move |o| modulus(m.output_gain[o.index()] * m.input_gain))
-            })
-            .fold(0.0, f64::max);
+        // Each output's largest modal gain: outputs differ in units (m/s^2, m, rad), so
+        // whether a mode reaches one is judged against that output's own scale.
+        let scale: [f64; NY] = core::array::from_fn(|o| {
+            analysis
+                .components
+                .iter()
+                .filter(relevant)
+                .map(|m| modulus(outputs[o].modal_gain(m) * m.input_gain))
+                .fold(0.0, f64::max)
+        });
         // Whether mode m reaches output o (an index into `outputs`) at all.
         let reaches = |m: &ModalComponent, o: usize| {
-            modulus(m.output_gain[outputs[o].index()] * m.input_gain) > 1e-12 * scale
+            modulus(outputs[o].modal_gain(m) * m.input_gain) > 1e-12 * scale[o]
         };
         for subsystem in Subsystem::ALL {
             let Some(axis) = subsystem.input_axis() else {
@@ -561,12 +560,12 @@ struct DiscreteMode<const NY: usize> {
 }
 
 impl<const NY: usize> DiscreteMode<NY> {
-    fn new(m: &ModalComponent, period_s: f64, outputs: &[Output; NY]) -> Self {
+    fn new<C: ModalOutput>(m: &ModalComponent, period_s: f64, outputs: &[C; NY]) -> Self {
         let s = m.eigenvalue * period_s;
         let (phi, e1, e2) = hold_integrals(s);
         let gamma1 = e2 * period_s;
         let gamma0 = (e1 - e2) * period_s;
-        let c = outputs.map(|o| m.output_gain[o.index()]);
+        let c = outputs.map(|o| o.modal_gain(m));
         // A pair contributes twice the real part of one member.
         let weight = if m.is_pair { 2.0 } else { 1.0 };
         Self {
@@ -644,4 +643,77 @@ pub fn hold_integrals(s: Complex<f64>) -> (Complex<f64>, Complex<f64>, Complex<f
     let e1 = em1 / s;
     let e2 = (em1 - s) / (s * s);
     (phi, e1, e2)
+}
+
+/// The blocks as one tuple of their numbers (per block its transition, then its rows),
+/// encoded and decoded in a loop: serde's derived code for the nested arrays is unrolled
+/// per element, kilobytes of the device's flash in the blob decoder. The bytes are the
+/// derived encoding's (postcard writes a fixed-size array as its elements in order; the
+/// golden blob checks it).
+mod flat_blocks {
+    use core::fmt;
+    use core::marker::PhantomData;
+
+    use serde::de::{Error, SeqAccess, Visitor};
+    use serde::ser::SerializeTuple;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    use super::{MAX_BLOCKS, ModalBlock, Scalar};
+
+    fn numbers<T, const NY: usize>(block: &ModalBlock<T, NY>) -> impl Iterator<Item = &T> {
+        block
+            .transition_minus_identity
+            .iter()
+            .flatten()
+            .chain(block.output.iter().flatten())
+    }
+
+    pub fn serialize<S: Serializer, T: Serialize, const NY: usize>(
+        blocks: &[ModalBlock<T, NY>; MAX_BLOCKS],
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        let mut tuple = serializer.serialize_tuple(MAX_BLOCKS * (4 + 2 * NY))?;
+        for v in blocks.iter().flat_map(numbers) {
+            tuple.serialize_element(v)?;
+        }
+        tuple.end()
+    }
+
+    struct BlocksVisitor<T, const NY: usize>(PhantomData<T>);
+
+    impl<'de, T: Scalar + Deserialize<'de>, const NY: usize> Visitor<'de> for BlocksVisitor<T, NY> {
+        type Value = [ModalBlock<T, NY>; MAX_BLOCKS];
+
+        fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            f.write_str("the realization's blocks")
+        }
+
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+            let mut blocks = [ModalBlock::<T, NY>::EMPTY; MAX_BLOCKS];
+            let mut k = 0;
+            for block in &mut blocks {
+                let cells = block
+                    .transition_minus_identity
+                    .iter_mut()
+                    .flatten()
+                    .chain(block.output.iter_mut().flatten());
+                for v in cells {
+                    *v = seq
+                        .next_element()?
+                        .ok_or_else(|| A::Error::invalid_length(k, &self))?;
+                    k += 1;
+                }
+            }
+            Ok(blocks)
+        }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>, T: Scalar + Deserialize<'de>, const NY: usize>(
+        deserializer: D,
+    ) -> Result<[ModalBlock<T, NY>; MAX_BLOCKS], D::Error> {
+        deserializer.deserialize_tuple(
+            MAX_BLOCKS * (4 + 2 * NY),
+            BlocksVisitor::<T, NY>(PhantomData),
+        )
+    }
 }

@@ -1,15 +1,19 @@
 //! The biodynamic model of a supine human (Wang & Rahmatalla 2013), as
 //! `docs/model.md` specifies it: 3 rigid segments, 18 DOFs, joints and contacts
-//! as spring-dampers, transmissibility, the relative-coordinate state space, modal analysis
-//! and the device's discretized realization.
+//! as spring-dampers, transmissibility, the motion inside the two joints, the
+//! relative-coordinate state space, modal analysis and the device's discretized
+//! realization.
 //!
 //! Analysis runs in f64 (host, build scripts); the device runs only [`DeviceRealization`].
 
 pub mod assembly;
+pub mod channel;
 pub mod discrete;
 pub mod geometry;
+pub mod joints;
 pub mod modal;
 pub mod params;
+pub mod readout;
 pub mod response;
 pub mod state_space;
 
@@ -18,14 +22,17 @@ use core::fmt;
 use crate::sample_rate::SampleRateError;
 
 pub use assembly::SystemMatrices;
+pub use channel::{Channel, DEVICE_CHANNELS, DEVICE_OUTPUT_COUNT, ModalOutput};
 pub use discrete::{
     DEFAULT_SAMPLE_RATE_HZ, DeviceRealization, DiscreteModal, ModalBlock, ModalGroup, ModalState,
     RealizationAmplification, RealizationError, Scalar,
 };
 pub use geometry::{Axis, Segment, Subject};
+pub use joints::{JOINT_OUTPUT_COUNT, JointComponent, JointOutput, JointUnit};
 pub use modal::{ModalAnalysis, ModalComponent, Subsystem};
 pub use params::{ModelParams, ParamError, ParamId, Preset};
-pub use response::{Output, Transmissibility};
+pub use readout::{JointReadout, MAX_JOINT_ROWS};
+pub use response::{JointResponse, Output, Transmissibility};
 pub use state_space::StateSpace;
 
 /// Why the model could not be built or analysed.
@@ -101,10 +108,10 @@ impl Model {
     }
 
     /// The realization of `outputs` at `sample_rate_hz` in f64 (the host's reference).
-    pub fn realization<const NY: usize>(
+    pub fn realization<C: ModalOutput, const NY: usize>(
         &self,
         sample_rate_hz: f64,
-        outputs: &[Output; NY],
+        outputs: &[C; NY],
     ) -> Result<DiscreteModal<f64, NY>, ModelError> {
         DiscreteModal::from_modal(&self.modes, sample_rate_hz, outputs)
     }
@@ -115,6 +122,29 @@ impl Model {
         device.check().map_err(ModelError::Realization)?;
         Ok(device)
     }
+
+    /// What the device reads of the joints: `wanted` over the head realization `head`
+    /// (from [`device_realization`](Self::device_realization) at the same rate).
+    pub fn device_joint_readout(
+        &self,
+        sample_rate_hz: f64,
+        head: &DeviceRealization,
+        wanted: &[JointOutput],
+    ) -> Result<JointReadout, ModelError> {
+        JointReadout::new(&self.modes, sample_rate_hz, head, wanted)
+    }
+}
+
+/// The device realization and its readout of every joint output, for a parameter set at a
+/// sample rate (host and build time).
+pub fn device_model(
+    params: &ModelParams,
+    sample_rate_hz: f64,
+) -> Result<(DeviceRealization, JointReadout), ModelError> {
+    let model = Model::new(params)?;
+    let head = model.device_realization(sample_rate_hz)?;
+    let joints = model.device_joint_readout(sample_rate_hz, &head, &JointOutput::ALL)?;
+    Ok((head, joints))
 }
 
 /// The device realization for a parameter set at a sample rate (host and build time).

@@ -17,6 +17,7 @@ use nalgebra::{Complex, Const, DefaultAllocator, DimDiff, DimMin, DimSub, SMatri
 use super::ModelError;
 use super::assembly::{DOF_COUNT, OUTPUT_COUNT};
 use super::geometry::Axis;
+use super::joints::JOINT_OUTPUT_COUNT;
 use super::response::Transmissibility;
 use super::state_space::StateSpace;
 
@@ -95,6 +96,8 @@ pub struct ModalComponent {
     pub input_gain: Complex<f64>,
     /// Modal output gains c for the nine outputs.
     pub output_gain: [Complex<f64>; OUTPUT_COUNT],
+    /// Modal output gains for the ten joint outputs (m or rad per unit modal state).
+    pub joint_gain: [Complex<f64>; JOINT_OUTPUT_COUNT],
     /// Whether the input can excite this mode at all.
     pub reachable: bool,
 }
@@ -205,6 +208,7 @@ where
                     is_pair: lambda.1,
                     input_gain: Cplx::new(0.0, 0.0),
                     output_gain: [Cplx::new(0.0, 0.0); OUTPUT_COUNT],
+                    joint_gain: [Cplx::new(0.0, 0.0); JOINT_OUTPUT_COUNT],
                     reachable: false,
                 },
             )?;
@@ -247,6 +251,9 @@ where
     let c_full =
         SMatrix::<Cplx, OUTPUT_COUNT, S>::from_fn(|o, j| Cplx::new(ss.c[(o, full(j))], 0.0));
     let c = c_full * v;
+    let c_joint = SMatrix::<Cplx, JOINT_OUTPUT_COUNT, S>::from_fn(|o, j| {
+        Cplx::new(ss.c_joint[(o, full(j))], 0.0)
+    }) * v;
     let g_max = g.iter().map(|z| modulus(*z)).fold(0.0, f64::max);
     let mut k = 0;
     while k < S {
@@ -259,6 +266,7 @@ where
                 is_pair: pair,
                 input_gain: g[k],
                 output_gain: core::array::from_fn(|o| c[(o, k)]),
+                joint_gain: core::array::from_fn(|o| c_joint[(o, k)]),
                 reachable: modulus(g[k]) > 1e-10 * g_max,
             },
         )?;

@@ -1,4 +1,5 @@
-//! Transmissibility H(f): sensor-point acceleration over support acceleration, 9 x 3.
+//! Transmissibility H(f): sensor-point acceleration over support acceleration, 9 x 3; and
+//! the joint response: joint motion over support acceleration, 10 x 3.
 
 use core::f64::consts::PI;
 use core::fmt;
@@ -6,11 +7,31 @@ use core::fmt;
 use nalgebra::{Complex, SMatrix};
 
 use super::ModelError;
-use super::assembly::{DOF_COUNT, INPUT_COUNT, OUTPUT_COUNT, SystemMatrices};
+use super::assembly::{DOF_COUNT, INPUT_COUNT, OUTPUT_COUNT, SystemMatrices, rotation_dof};
 use super::geometry::{Axis, Segment};
+use super::joints::JOINT_OUTPUT_COUNT;
 
 /// H at one frequency: rows head x,y,z, torso x,y,z, pelvis x,y,z; columns input x,y,z.
 pub type Transmissibility = SMatrix<Complex<f64>, OUTPUT_COUNT, INPUT_COUNT>;
+
+/// Joint motion per unit support acceleration at one frequency (m or rad per m/s^2):
+/// rows in [`JointOutput::ALL`](super::joints::JointOutput::ALL) order, columns input x,
+/// y, z.
+pub type JointResponse = SMatrix<Complex<f64>, JOINT_OUTPUT_COUNT, INPUT_COUNT>;
+
+/// The coordinates the support drives: all but the roll angles, which no joint output
+/// involves and whose free whole-body mode would make the static problem singular.
+const DRIVEN_DOF_COUNT: usize = 15;
+
+fn driven_dofs() -> [usize; DRIVEN_DOF_COUNT] {
+    let mut dofs = [0; DRIVEN_DOF_COUNT];
+    let roll = Segment::ALL.map(|s| rotation_dof(s, Axis::X));
+    let driven = (0..DOF_COUNT).filter(|d| !roll.contains(d));
+    for (slot, dof) in dofs.iter_mut().zip(driven) {
+        *slot = dof;
+    }
+    dofs
+}
 
 /// One sensor channel: a segment's sensor point along one axis.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -118,5 +139,28 @@ impl SystemMatrices {
         let x = a.lu().solve(&forcing).ok_or(ModelError::Singular)?;
         let r = self.output.map(|v| Complex::new(v, 0.0));
         Ok(r * x)
+    }
+}
+
+impl SystemMatrices {
+    /// The joint response J (K - w^2 M + j w C)^-1 (-M G) at `freq_hz` (>= 0): the
+    /// relative-coordinate equation solved directly, on the coordinates the support drives
+    /// (so that it holds at 0 Hz too, the static deflection).
+    pub fn joint_response(&self, freq_hz: f64) -> Result<JointResponse, ModelError> {
+        let omega = 2.0 * PI * freq_hz;
+        let dofs = driven_dofs();
+        let full = dynamic_stiffness(self, omega);
+        let a = SMatrix::<Complex<f64>, DRIVEN_DOF_COUNT, DRIVEN_DOF_COUNT>::from_fn(|i, j| {
+            full[(dofs[i], dofs[j])]
+        });
+        let forcing = SMatrix::<Complex<f64>, DRIVEN_DOF_COUNT, INPUT_COUNT>::from_fn(|i, k| {
+            let d = dofs[i];
+            Complex::new(-self.mass[(d, d)] * self.input[(d, k)], 0.0)
+        });
+        let y = a.lu().solve(&forcing).ok_or(ModelError::Singular)?;
+        let j = SMatrix::<Complex<f64>, JOINT_OUTPUT_COUNT, DRIVEN_DOF_COUNT>::from_fn(|o, i| {
+            Complex::new(self.joint_output[(o, dofs[i])], 0.0)
+        });
+        Ok(j * y)
     }
 }

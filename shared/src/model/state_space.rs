@@ -3,7 +3,9 @@
 //! With y = q - G u0 the support acceleration a0 drives the model directly:
 //! M y'' + C y' + K y = -M G a0, and the absolute sensor acceleration is
 //! a_E = R (y'' + G a0) = R M^-1 (-C y' - K y), with no feedthrough.
-//! State x = [y; y'], so x' = A x + B a0 and a_E = C x.
+//! State x = [y; y'], so x' = A x + B a0 and a_E = C x. The joint motion is J y (J q and
+//! J y agree: a rigid translation moves both joint points alike), so its output map is
+//! [J, 0].
 
 use core::f64::consts::PI;
 
@@ -11,6 +13,7 @@ use nalgebra::{Complex, SMatrix};
 
 use super::ModelError;
 use super::assembly::{DOF_COUNT, INPUT_COUNT, OUTPUT_COUNT, SystemMatrices};
+use super::joints::JOINT_OUTPUT_COUNT;
 use super::response::Transmissibility;
 
 /// Number of continuous states: displacement and velocity of each DOF.
@@ -25,6 +28,8 @@ pub struct StateSpace {
     pub b: SMatrix<f64, STATE_COUNT, INPUT_COUNT>,
     /// C = R M^-1 [-K, -C].
     pub c: SMatrix<f64, OUTPUT_COUNT, STATE_COUNT>,
+    /// [J, 0]: joint motion (m, rad) from the state.
+    pub c_joint: SMatrix<f64, JOINT_OUTPUT_COUNT, STATE_COUNT>,
 }
 
 impl StateSpace {
@@ -60,7 +65,10 @@ impl StateSpace {
                 c[(o, n + j)] = cc;
             }
         }
-        Self { a, b, c }
+        let c_joint = SMatrix::<f64, JOINT_OUTPUT_COUNT, STATE_COUNT>::from_fn(|o, j| {
+            if j < n { m.joint_output[(o, j)] } else { 0.0 }
+        });
+        Self { a, b, c, c_joint }
     }
 
     /// C (j w I - A)^-1 B at `freq_hz`: must equal the transmissibility.

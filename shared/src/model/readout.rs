@@ -1,0 +1,309 @@
+//! The joint outputs on the device: extra output rows read from the head realization's
+//! own states, so the joints cost no state and no update, only their multiply-adds, and
+//! only when they are read.
+//!
+//! Every mode that moves a joint also moves the head (both presets; checked when the
+//! readout is built), so the head realization's blocks already carry the states the joint
+//! outputs need. The readout is built from one realization of the head and joint outputs
+//! together ([`DEVICE_CHANNELS`]) and keeps the joint rows: per axis group, at most
+//! [`MAX_JOINT_ROWS`] rows (x drives the two x translations; y the two y translations and
+//! the two bendings about z; z the two z translations and the two flexions about y).
+//! Reading them costs per group one multiply-add per row for the direct term and two per
+//! block and row: 118 for all ten outputs of the presets' 15 blocks.
+
+use nalgebra::Complex;
+use serde::{Deserialize, Serialize};
+
+use super::ModelError;
+use super::channel::{DEVICE_CHANNELS, DEVICE_OUTPUT_COUNT, FIRST_DEVICE_JOINT};
+use super::discrete::{
+    DiscreteModal, MAX_BLOCKS, ModalBlock, ModalGroup, ModalState, RealizationError,
+};
+use super::joints::{JOINT_OUTPUT_COUNT, JointOutput};
+use super::modal::ModalAnalysis;
+
+/// Most joint rows one axis group reads.
+pub const MAX_JOINT_ROWS: usize = 4;
+
+/// The joint rows of one axis group.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ReadoutGroup {
+    /// Rows in use: the first `row_count` of `outputs`, `feedthrough` and each block's rows.
+    pub row_count: u8,
+    /// The joint output (index into [`JointOutput::ALL`]) of each row.
+    pub outputs: [u8; MAX_JOINT_ROWS],
+    /// Direct term per row, m or rad per m/s^2.
+    pub feedthrough: [f32; MAX_JOINT_ROWS],
+}
+
+impl ReadoutGroup {
+    const EMPTY: Self = Self {
+        row_count: 0,
+        outputs: [0; MAX_JOINT_ROWS],
+        feedthrough: [0.0; MAX_JOINT_ROWS],
+    };
+
+    /// The joint outputs of the rows in use.
+    pub fn outputs(&self) -> &[u8] {
+        &self.outputs[..usize::from(self.row_count).min(MAX_JOINT_ROWS)]
+    }
+}
+
+/// The joint outputs a blob asks for, as rows over the head realization's blocks.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct JointReadout {
+    /// One group per support axis, x, y, z, over the head realization's groups of blocks.
+    pub groups: [ReadoutGroup; 3],
+    /// Per block, its rows (m or rad per unit state); rows past the group's count are zero.
+    #[serde(with = "flat_rows")]
+    pub rows: [[[f32; 2]; MAX_JOINT_ROWS]; MAX_BLOCKS],
+}
+
+/// The rows as one tuple of their 128 numbers, encoded and decoded in a loop. Serde's
+/// derived code for nested arrays is unrolled per element: for these rows about 3 KiB of
+/// the device's flash in the blob decoder (measured on the product image). The bytes are
+/// the derived encoding's (postcard writes a fixed-size array as its elements in order;
+/// `shared/tests/model_joints.rs` checks it).
+mod flat_rows {
+    use core::fmt;
+
+    use serde::de::{Error, SeqAccess, Visitor};
+    use serde::ser::SerializeTuple;
+    use serde::{Deserializer, Serializer};
+
+    use super::{MAX_BLOCKS, MAX_JOINT_ROWS};
+
+    type Rows = [[[f32; 2]; MAX_JOINT_ROWS]; MAX_BLOCKS];
+    const LEN: usize = MAX_BLOCKS * MAX_JOINT_ROWS * 2;
+
+    pub fn serialize<S: Serializer>(rows: &Rows, serializer: S) -> Result<S::Ok, S::Error> {
+        let mut tuple = serializer.serialize_tuple(LEN)?;
+        for v in rows.iter().flatten().flatten() {
+            tuple.serialize_element(v)?;
+        }
+        tuple.end()
+    }
+
+    struct RowsVisitor;
+
+    impl<'de> Visitor<'de> for RowsVisitor {
+        type Value = Rows;
+
+        fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            f.write_str("the joint readout's rows")
+        }
+
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Rows, A::Error> {
+            let mut rows = [[[0.0; 2]; MAX_JOINT_ROWS]; MAX_BLOCKS];
+            for (k, v) in rows.iter_mut().flatten().flatten().enumerate() {
+                *v = seq
+                    .next_element()?
+                    .ok_or_else(|| A::Error::invalid_length(k, &self))?;
+            }
+            Ok(rows)
+        }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(deserializer: D) -> Result<Rows, D::Error> {
+        deserializer.deserialize_tuple(LEN, RowsVisitor)
+    }
+}
+
+impl JointReadout {
+    /// Reads no joint output.
+    pub const NONE: Self = Self {
+        groups: [ReadoutGroup::EMPTY; 3],
+        rows: [[[0.0; 2]; MAX_JOINT_ROWS]; MAX_BLOCKS],
+    };
+
+    /// Builds the readout of `wanted` for the head realization `head` (which must be the
+    /// one [`Model::device_realization`](super::Model::device_realization) gives at
+    /// `sample_rate_hz`): from one realization of the head and joint outputs together,
+    /// whose blocks must be the head's, bit for bit.
+    pub fn new(
+        analysis: &ModalAnalysis,
+        sample_rate_hz: f64,
+        head: &DiscreteModal<f32, 3>,
+        wanted: &[JointOutput],
+    ) -> Result<Self, ModelError> {
+        let both: DiscreteModal<f64, DEVICE_OUTPUT_COUNT> =
+            DiscreteModal::from_modal(analysis, sample_rate_hz, &DEVICE_CHANNELS)?;
+        let both: DiscreteModal<f32, DEVICE_OUTPUT_COUNT> = both.cast();
+        let same_blocks = both.block_count == head.block_count
+            && both
+                .groups
+                .iter()
+                .zip(&head.groups)
+                .all(|(a, b)| a.block_count == b.block_count)
+            && both
+                .active_blocks()
+                .iter()
+                .zip(head.active_blocks())
+                .all(|(a, b)| a.transition_minus_identity == b.transition_minus_identity);
+        if !same_blocks {
+            return Err(ModelError::Realization(RealizationError::Layout));
+        }
+        let mut readout = Self::NONE;
+        let wanted_index = |o: u8| {
+            usize::from(o)
+                .checked_sub(FIRST_DEVICE_JOINT)
+                .filter(|j| wanted.iter().any(|w| w.index() == *j))
+        };
+        let mut first = 0;
+        for (slot, group) in readout.groups.iter_mut().zip(&both.groups) {
+            let end = first + usize::from(group.block_count);
+            for (packed, &o) in group.outputs().iter().enumerate() {
+                let Some(joint) = wanted_index(o) else {
+                    continue;
+                };
+                let r = usize::from(slot.row_count);
+                if r >= MAX_JOINT_ROWS {
+                    return Err(ModelError::Realization(RealizationError::Layout));
+                }
+                slot.outputs[r] = joint as u8;
+                slot.feedthrough[r] = group.feedthrough[packed];
+                for (rows, block) in readout.rows[first..end]
+                    .iter_mut()
+                    .zip(&both.blocks[first..end])
+                {
+                    rows[r] = block.output[packed];
+                }
+                slot.row_count += 1;
+            }
+            first = end;
+        }
+        readout.check(head).map_err(ModelError::Realization)?;
+        Ok(readout)
+    }
+
+    /// Checks a loaded readout against the head realization it reads: rows within bounds,
+    /// each joint output at most once and in the group its input axis drives, unused rows
+    /// zero, every coefficient finite.
+    pub fn check(&self, head: &DiscreteModal<f32, 3>) -> Result<(), RealizationError> {
+        let finite = self
+            .groups
+            .iter()
+            .flat_map(|g| g.feedthrough.iter())
+            .chain(self.rows.iter().flatten().flatten())
+            .all(|v| v.is_finite());
+        if !finite {
+            return Err(RealizationError::NotFinite);
+        }
+        let mut seen = [false; JOINT_OUTPUT_COUNT];
+        let mut first = 0;
+        for ((axis, group), head_group) in self.groups.iter().enumerate().zip(&head.groups) {
+            let rows = usize::from(group.row_count);
+            if rows > MAX_JOINT_ROWS {
+                return Err(RealizationError::Layout);
+            }
+            for &o in group.outputs() {
+                let fits = JointOutput::ALL
+                    .get(usize::from(o))
+                    .is_some_and(|j| j.input_axis().index() == axis);
+                match seen.get_mut(usize::from(o)) {
+                    Some(s) if fits && !*s => *s = true,
+                    _ => return Err(RealizationError::Layout),
+                }
+            }
+            let end = (first + usize::from(head_group.block_count)).min(MAX_BLOCKS);
+            let unused_zero = group.feedthrough[rows..].iter().all(|&v| v == 0.0)
+                && self.rows[first..end]
+                    .iter()
+                    .all(|r| r[rows..].iter().flatten().all(|&v| v == 0.0));
+            if !unused_zero {
+                return Err(RealizationError::Layout);
+            }
+            first = end;
+        }
+        let outside = self.rows[first.min(MAX_BLOCKS)..]
+            .iter()
+            .flatten()
+            .flatten()
+            .any(|&v| v != 0.0);
+        if outside {
+            return Err(RealizationError::Layout);
+        }
+        Ok(())
+    }
+
+    /// Whether it reads joint output `output`.
+    pub fn reads(&self, output: JointOutput) -> bool {
+        self.groups
+            .iter()
+            .any(|g| g.outputs().contains(&(output.index() as u8)))
+    }
+
+    /// The joint outputs (m or rad, [`JointOutput::ALL`] order; zero where not read) at the
+    /// sample whose input is `input_m_s2`, from the state `head` holds *before* that
+    /// sample's step (the outputs `head.step` would return alongside, for the head).
+    #[inline]
+    pub fn read(
+        &self,
+        head: &DiscreteModal<f32, 3>,
+        state: &ModalState<f32>,
+        input_m_s2: [f32; 3],
+    ) -> [f32; JOINT_OUTPUT_COUNT] {
+        let mut y = [0.0; JOINT_OUTPUT_COUNT];
+        let mut first = 0;
+        for ((group, head_group), u) in self.groups.iter().zip(&head.groups).zip(input_m_s2) {
+            let end = (first + usize::from(head_group.block_count)).min(MAX_BLOCKS);
+            let mut acc = [0.0f32; MAX_JOINT_ROWS];
+            let rows = usize::from(group.row_count).min(MAX_JOINT_ROWS);
+            for (a, d) in acc[..rows].iter_mut().zip(&group.feedthrough) {
+                *a = d * u;
+            }
+            for (block_rows, x) in self.rows[first..end].iter().zip(&state.blocks[first..end]) {
+                for (a, c) in acc[..rows].iter_mut().zip(block_rows) {
+                    *a += c[0] * x[0] + c[1] * x[1];
+                }
+            }
+            for (&o, a) in group.outputs().iter().zip(acc) {
+                if let Some(out) = y.get_mut(usize::from(o)) {
+                    *out = a;
+                }
+            }
+            first = end;
+        }
+        y
+    }
+
+    /// The discrete frequency response of the joint outputs read (rows in
+    /// [`JointOutput::ALL`] order, zero where not read; columns input x, y, z), in f64.
+    pub fn frequency_response(
+        &self,
+        head: &DiscreteModal<f32, 3>,
+        sample_rate_hz: f64,
+        freq_hz: f64,
+    ) -> [[Complex<f64>; 3]; JOINT_OUTPUT_COUNT] {
+        // The head realization's blocks with these rows: its own response routine.
+        let mut joined: DiscreteModal<f32, MAX_JOINT_ROWS> = DiscreteModal {
+            groups: core::array::from_fn(|_| ModalGroup {
+                block_count: 0,
+                output_count: 0,
+                outputs: [0; MAX_JOINT_ROWS],
+                feedthrough: [0.0; MAX_JOINT_ROWS],
+            }),
+            blocks: core::array::from_fn(|b| ModalBlock {
+                transition_minus_identity: head.blocks[b].transition_minus_identity,
+                output: self.rows[b],
+            }),
+            block_count: head.block_count,
+        };
+        for ((g, own), head_group) in joined.groups.iter_mut().zip(&self.groups).zip(&head.groups) {
+            g.block_count = head_group.block_count;
+            g.output_count = own.row_count;
+            g.outputs = core::array::from_fn(|r| r as u8);
+            g.feedthrough = own.feedthrough;
+        }
+        let packed = joined.frequency_response(sample_rate_hz, freq_hz);
+        let mut h = [[Complex::new(0.0, 0.0); 3]; JOINT_OUTPUT_COUNT];
+        for (axis, group) in self.groups.iter().enumerate() {
+            for (r, &o) in group.outputs().iter().enumerate() {
+                if let Some(row) = h.get_mut(usize::from(o)) {
+                    row[axis] = packed[r][axis];
+                }
+            }
+        }
+        h
+    }
+}
