@@ -43,6 +43,8 @@ pub enum Command {
     Exposure(commands::exposure::Args),
     /// Write a realistic litter-frame ride (ambulance, rough road, helicopter, lab) as CSV.
     Ride(commands::ride::Args),
+    /// Mission report of rides (legs) for a patient: report.html and --json.
+    Report(commands::report::Args),
     /// Replay a recording through the firmware in QEMU; write its telemetry as CSV.
     Replay(commands::replay::Args),
     /// Follow a device live (serial port, or the firmware in QEMU fed a ride); log to CSV.
@@ -81,6 +83,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Validate(args) => commands::validate::run(&args),
         Command::Exposure(args) => commands::exposure::run(&args),
         Command::Ride(args) => commands::ride::run(&args),
+        Command::Report(args) => commands::report::run(&args),
         Command::Replay(args) => commands::replay::run(&args),
         Command::Monitor(args) => commands::monitor::run(&args),
         Command::Calibrate(args) => commands::calibrate::run(&args),
