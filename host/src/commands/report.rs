@@ -5,7 +5,8 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use anyhow::{Context as _, Result, anyhow};
+use anyhow::{Context as _, Result, anyhow, bail};
+use supine_core::model::params::{HEIGHT_RANGE_M, MASS_RANGE_KG};
 use clap::ValueEnum as _;
 
 use crate::io::output::write_atomically;
@@ -51,6 +52,14 @@ pub fn for_subject(
     mass_kg: Option<f64>,
 ) -> Result<ParamFile> {
     let mut file = source.load()?;
+    for (flag, value, (lo, hi), unit) in [
+        ("--height-m", height_m, HEIGHT_RANGE_M, "m"),
+        ("--mass-kg", mass_kg, MASS_RANGE_KG, "kg"),
+    ] {
+        if let Some(v) = value.filter(|v| !(lo..=hi).contains(v)) {
+            bail!("{flag} {v}: expected {lo} to {hi} {unit}, the model's range");
+        }
+    }
     if let Some(h) = height_m {
         file.params.subject.height_m = h;
     }
@@ -98,7 +107,11 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
         "wrote {}: {} {}, {:.1} s, mission VDV {:.3} m/s^1.75, highest level {}",
         path.display(),
         report.legs.len(),
-        if args.compare { "rides compared" } else { "legs" },
+        if args.compare {
+            "rides compared"
+        } else {
+            "legs"
+        },
         report.mission.duration_s,
         report.mission.vector.vdv_m_s175,
         report.mission.max_level

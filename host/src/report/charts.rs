@@ -76,13 +76,19 @@ fn per_leg(legs: &[Leg], y: impl Fn(&Leg) -> Vec<f64>, color: Rgb, label: &str) 
         .enumerate()
         .map(|(i, l)| {
             let t: Vec<f64> = l.series.t_s.iter().map(|t| l.start_s + t).collect();
-            let columns = ((PLOT_COLUMNS as f64) * l.duration_s / span).ceil().max(2.0) as usize;
+            let columns = ((PLOT_COLUMNS as f64) * l.duration_s / span)
+                .ceil()
+                .max(2.0) as usize;
             Line {
                 points: min_max(&t, &y(l), columns),
                 color,
                 width: 2,
                 dashed: false,
-                label: if i == 0 { label.to_string() } else { String::new() },
+                label: if i == 0 {
+                    label.to_string()
+                } else {
+                    String::new()
+                },
             }
         })
         .collect()
@@ -198,7 +204,10 @@ pub fn vdv(legs: &[Leg], config: &AlertConfig) -> Chart {
         })
         .collect();
     lines.extend(mission);
-    let all: Vec<f64> = lines.iter().flat_map(|l| l.points.iter().map(|p| p.1)).collect();
+    let all: Vec<f64> = lines
+        .iter()
+        .flat_map(|l| l.points.iter().map(|p| p.1))
+        .collect();
     let th = config.vdv_m_s175.map(f64::from);
     Chart {
         title: "Vibration dose value (vector sum of the predicted head)".into(),
@@ -241,7 +250,11 @@ pub fn levels(legs: &[Leg]) -> Chart {
                 color: VECTOR_COLOR,
                 width: 2,
                 dashed: false,
-                label: if i == 0 { "alert level".into() } else { String::new() },
+                label: if i == 0 {
+                    "alert level".into()
+                } else {
+                    String::new()
+                },
             }
         })
         .collect();
@@ -293,9 +306,5 @@ pub fn spectra_svg(index: usize, leg: &Leg) -> Result<String> {
             }
         })
         .collect();
-    figure_svg(
-        &format!("Spectra of {}", leg_label(index, leg)),
-        &panels,
-        3,
-    )
+    figure_svg(&format!("Spectra of {}", leg_label(index, leg)), &panels, 3)
 }

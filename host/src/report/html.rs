@@ -102,7 +102,13 @@ pub fn render(report: &MissionReport) -> Result<String> {
          Each ride went through the device's own pipeline (model, ISO 2631-1 weighting, exposure, alerts) \
          on this computer.</p>",
         legs.len(),
-        if report.comparison.is_some() { "rides" } else if legs.len() == 1 { "leg" } else { "legs" },
+        if report.comparison.is_some() {
+            "rides"
+        } else if legs.len() == 1 {
+            "leg"
+        } else {
+            "legs"
+        },
         duration(report.mission.duration_s),
         report.subject.height_m,
         report.subject.mass_kg,
@@ -141,11 +147,11 @@ pub fn render(report: &MissionReport) -> Result<String> {
 
 fn mission(h: &mut String, report: &MissionReport) {
     let m = &report.mission;
-    let _ = write!(
+    let _ = writeln!(
         h,
         "<div class=\"verdict lvl-{0}\"><div class=\"big\">Highest alert level: {1}</div>\
          <p>Mission VDV {2:.3} m/s<sup>1.75</sup> (the legs combined as (&Sigma; VDV<sub>i</sub><sup>4</sup>)<sup>1/4</sup>); \
-         rms {3:.3} m/s<sup>2</sup> (energy-equivalent over the evaluated time); largest MTVV {4:.3} m/s<sup>2</sup>.</p></div>\n",
+         rms {3:.3} m/s<sup>2</sup> (energy-equivalent over the evaluated time); largest MTVV {4:.3} m/s<sup>2</sup>.</p></div>",
         LEVEL_NAMES[level_index(m.max_level)],
         tag(m.max_level),
         m.vector.vdv_m_s175,
@@ -255,16 +261,20 @@ fn axis_row(h: &mut String, label: &str, a: &AxisReport) {
         a.vdv_m_s175,
         a.peak_m_s2,
         a.crest_factor,
-        if flags.is_empty() { "-".to_string() } else { flags.join(", ") }
+        if flags.is_empty() {
+            "-".to_string()
+        } else {
+            flags.join(", ")
+        }
     );
 }
 
 fn leg_section(h: &mut String, index: usize, leg: &Leg) -> Result<()> {
     let e = &leg.exposure;
-    let _ = write!(
+    let _ = writeln!(
         h,
         "<section class=\"leg\"><h2>{}</h2><p>{} from {} into the mission; {} samples at {} Hz; \
-         evaluated {:.1} s after the {} s warm-up{}. Litter input rms (unweighted) x {:.3}, y {:.3}, z {:.3} m/s<sup>2</sup>.</p>\n",
+         evaluated {:.1} s after the {} s warm-up{}. Litter input rms (unweighted) x {:.3}, y {:.3}, z {:.3} m/s<sup>2</sup>.</p>",
         escape(&charts::leg_label(index, leg)),
         duration(leg.duration_s),
         duration(leg.start_s),
@@ -272,7 +282,11 @@ fn leg_section(h: &mut String, index: usize, leg: &Leg) -> Result<()> {
         e.sample_rate_hz,
         e.evaluated_s,
         e.warmup_s,
-        if e.valid { "" } else { " (too short: NOT VALID)" },
+        if e.valid {
+            ""
+        } else {
+            " (too short: NOT VALID)"
+        },
         e.platform_rms_m_s2[0],
         e.platform_rms_m_s2[1],
         e.platform_rms_m_s2[2]

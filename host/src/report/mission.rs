@@ -15,8 +15,8 @@ use supine_core::pipeline::{PipelineOutput, PipelineState};
 
 use crate::device::device_params;
 use crate::exposure::report::{
-    AxisReport, ModelExposure, Prepared, combined_rms_m_s2, combined_vdv_m_s175,
-    model_exposure, prepare,
+    AxisReport, ModelExposure, Prepared, combined_rms_m_s2, combined_vdv_m_s175, model_exposure,
+    prepare,
 };
 use crate::io::params_file::ParamFile;
 use crate::io::recording::{Layout, Recording};
@@ -346,7 +346,8 @@ fn run_leg(params: &DeviceParams, prepared: &Prepared) -> Result<LegRun> {
         s.t_s.push(start as f64 / fs);
         s.vector_rms_m_s2.push(run.vector_rms[start]);
         s.vdv_m_s175.push(run.vdv[start]);
-        s.level.push(run.level[start..end].iter().copied().max().unwrap_or(0));
+        s.level
+            .push(run.level[start..end].iter().copied().max().unwrap_or(0));
         let (lo, hi) = z[start..end]
             .iter()
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
@@ -412,7 +413,10 @@ fn projection(last: Option<&Leg>, mission_vdv: f64, config: &AlertConfig) -> Pro
         let k = s.t_s.partition_point(|&t| t < from_s).min(s.t_s.len() - 1);
         let v_end = s.vdv_m_s175.last().copied().unwrap_or(0.0);
         let v_from = s.vdv_m_s175[k];
-        (window_s, (v_end.powi(4) - v_from.powi(4)).max(0.0) / window_s)
+        (
+            window_s,
+            (v_end.powi(4) - v_from.powi(4)).max(0.0) / window_s,
+        )
     });
     let dose = mission_vdv.powi(4);
     let thresholds = LEVEL_NAMES[1..]

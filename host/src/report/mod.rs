@@ -103,7 +103,13 @@ pub fn build(
     let mut start_s = 0.0;
     for (recording, layout) in rides {
         // Compared rides share one time axis from zero; legs follow each other.
-        let leg = evaluate_leg(recording, *layout, file, model, if compare { 0.0 } else { start_s })?;
+        let leg = evaluate_leg(
+            recording,
+            *layout,
+            file,
+            model,
+            if compare { 0.0 } else { start_s },
+        )?;
         start_s += leg.duration_s;
         legs.push(leg);
     }
@@ -146,7 +152,11 @@ fn compare_rides(a: &Leg, b: &Leg) -> Comparison {
     for ((name, va), vb) in names.iter().zip(axes_a).zip(axes_b) {
         push(format!("{name} rms, m/s^2"), va.rms_m_s2, vb.rms_m_s2);
         push(format!("{name} MTVV, m/s^2"), va.mtvv_m_s2, vb.mtvv_m_s2);
-        push(format!("{name} VDV, m/s^1.75"), va.vdv_m_s175, vb.vdv_m_s175);
+        push(
+            format!("{name} VDV, m/s^1.75"),
+            va.vdv_m_s175,
+            vb.vdv_m_s175,
+        );
         push(format!("{name} peak, m/s^2"), va.peak_m_s2, vb.peak_m_s2);
     }
     let at_a = a.time_at_level_s.as_array();
@@ -156,3 +166,6 @@ fn compare_rides(a: &Leg, b: &Leg) -> Comparison {
     }
     Comparison { rows }
 }
+
+#[cfg(test)]
+mod tests;
