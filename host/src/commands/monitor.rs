@@ -11,7 +11,7 @@ use clap::ArgGroup;
 use crate::commands::values;
 use crate::exposure::ride::{Profile, generate};
 use crate::io::params_file::{ModelSource, PresetArg};
-use crate::io::recording::PlatformStream;
+use crate::io::ride_input::{RideInputArgs, open_stream};
 use crate::monitor::log::MonitorLog;
 use crate::monitor::session::{Ending, QemuRun, run_qemu, run_serial};
 use crate::monitor::view::{LiveView, PlainView, View};
@@ -39,6 +39,9 @@ pub struct Args {
     /// With --qemu: a recording whose platform columns are streamed as samples.
     #[arg(long, value_name = "RIDE.csv", conflicts_with_all = ["profile", "serial"])]
     pub input: Option<PathBuf>,
+    /// With --input: how to read the ride (another logger's columns and units, gravity).
+    #[command(flatten)]
+    pub ride: RideInputArgs,
     /// With --qemu: generate the ride instead (see `supine ride`).
     #[arg(long, value_enum, conflicts_with = "serial")]
     pub profile: Option<Profile>,
@@ -144,7 +147,9 @@ fn prepare_qemu(args: &Args, greeting_timeout: Duration) -> Result<QemuRun> {
     let (samples, sample_rate_hz) = match (&args.input, args.profile) {
         (Some(path), _) => {
             // Only the platform samples are kept (12 bytes each), not the whole recording.
-            let ride = PlatformStream::open(path)?;
+            let scratch = tempfile::tempdir()?;
+            let mounting = file.device.unwrap_or_default().mounting;
+            let ride = open_stream(&args.ride, path, &mounting, scratch.path())?;
             let samples = ride.samples()?.collect::<Result<Vec<_>, _>>()?;
             (samples, ride.sample_rate_hz())
         }

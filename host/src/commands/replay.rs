@@ -7,7 +7,7 @@ use supine_core::blob::TelemetryConfig;
 
 use crate::device::replay::replay;
 use crate::io::params_file::ModelSource;
-use crate::io::recording::PlatformStream;
+use crate::io::ride_input::{RideInputArgs, open_stream};
 use crate::io::telemetry_csv::{events_path, write_events, write_telemetry_streamed};
 
 /// Arguments of `supine replay`.
@@ -22,6 +22,9 @@ pub struct Args {
     /// The recording whose platform columns are streamed as samples.
     #[arg(long, value_name = "RIDE.csv")]
     pub input: PathBuf,
+    /// How to read the ride (another logger's columns and units, gravity).
+    #[command(flatten)]
+    pub ride: RideInputArgs,
     /// Where to write the device's telemetry (events go to `<stem>.events.csv`).
     #[arg(long, value_name = "DEVICE.csv")]
     pub out: PathBuf,
@@ -43,7 +46,10 @@ pub fn run(args: &Args) -> Result<()> {
     let file = args.model.load()?;
     // A full recording or a `supine ride` file (platform columns only), checked whole
     // first, then streamed: a ride of any length fits in memory.
-    let ride = PlatformStream::open(&args.input)?;
+    // Another logger's file or --remove-gravity: converted into a scratch folder first.
+    let scratch = tempfile::tempdir()?;
+    let mounting = file.device.unwrap_or_default().mounting;
+    let ride = open_stream(&args.ride, &args.input, &mounting, scratch.path())?;
     // Ctrl-C, SIGTERM and SIGHUP: QEMU stopped and its folder removed on the way out.
     let stop = crate::device::signals::stop_flag();
     let telemetry = TelemetryConfig {

@@ -6,8 +6,8 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{Context as _, Result, anyhow, bail};
-use supine_core::model::params::{HEIGHT_RANGE_M, MASS_RANGE_KG};
 use clap::ValueEnum as _;
+use supine_core::model::params::{HEIGHT_RANGE_M, MASS_RANGE_KG};
 
 use crate::io::output::write_atomically;
 use crate::io::params_file::{ModelSource, ParamFile};

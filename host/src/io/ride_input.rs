@@ -16,7 +16,7 @@
 //! ([`Mounting::to_litter_m_s2`]: the parameters' `[device.mounting]` rotation, then
 //! gravity off the vertical), in the device's f32.
 
-use std::io::Read as _;
+use std::io::{Read as _, Write as _};
 use std::path::Path;
 
 use anyhow::{Result, anyhow, bail};
@@ -25,8 +25,10 @@ use supine_core::mounting::{Mounting, STANDARD_GRAVITY_M_S2};
 
 use crate::io::csv_lines::{CsvLines, MAX_LINE_BYTES};
 use crate::io::excerpt::{excerpt, number};
+use crate::io::output::write_atomically;
 use crate::io::recording::{
-    Layout, LineNumbers, MAX_ACCELERATION_M_S2, PLATFORM_HEADER_LINE, Recording, RecordingError,
+    Layout, LineNumbers, MAX_ACCELERATION_M_S2, PLATFORM_HEADER_LINE, PlatformStream, Recording,
+    RecordingError,
 };
 
 /// A vertical mean within this of +-g means gravity was left in, m/s^2: a kinematic
@@ -191,6 +193,36 @@ impl RideInputArgs {
     }
 }
 
+/// The ride at `path` as a [`PlatformStream`] for the commands that stream it
+/// (`replay`): the file itself when it is in the project's format and needs no
+/// conversion (gravity checked in one more pass), else the converted ride written to
+/// `scratch` first (another logger's file, or `--remove-gravity`), whose samples are the
+/// converted ones bit for bit.
+pub fn open_stream(
+    args: &RideInputArgs,
+    path: &Path,
+    mounting: &Mounting,
+    scratch: &Path,
+) -> Result<PlatformStream> {
+    if args.columns.is_none() && !args.remove_gravity {
+        let stream = PlatformStream::open(path)?;
+        check_gravity_streamed(&stream)?;
+        return Ok(stream);
+    }
+    let (recording, _) = args.read(path, mounting)?;
+    let converted = scratch.join("ride.csv");
+    write_atomically(&converted, |w| {
+        writeln!(w, "{PLATFORM_HEADER_LINE}")?;
+        let [x, y, z] = &recording.platform_m_s2;
+        for k in 0..recording.len() {
+            // Shortest round-trip form: the same numbers read back.
+            writeln!(w, "{},{},{},{}", recording.time_s[k], x[k], y[k], z[k])?;
+        }
+        Ok(())
+    })?;
+    Ok(PlatformStream::open(&converted)?)
+}
+
 /// A file in the project's formats, with the header error extended by what other files
 /// need.
 fn read_own(path: &Path) -> Result<(Recording, Layout)> {
@@ -353,15 +385,35 @@ pub fn remove_gravity(recording: &mut Recording, mounting: &Mounting) {
 }
 
 /// Refuses a ride whose vertical column (named `vertical` in the file) averages within
-/// [`GRAVITY_MARGIN_M_S2`] of +-g, or of +-1 (gravity in g read as m/s^2).
+/// [`GRAVITY_MARGIN_M_S2`] of +-g, or of +-1 (gravity in g read as m/s^2); after
+/// `--remove-gravity` (`removed`), one whose mean is not within the margin of zero.
 pub fn check_gravity(recording: &Recording, vertical: &str, removed: bool) -> Result<()> {
     let z = &recording.platform_m_s2[2];
     if z.is_empty() {
         return Ok(());
     }
     let mean = z.iter().sum::<f64>() / z.len() as f64;
+    gravity_verdict(&recording.path, vertical, mean, removed)
+}
+
+/// [`check_gravity`] on a ride streamed from its file (`replay`, `monitor --input`): one
+/// more pass over the file, memory for a line.
+pub fn check_gravity_streamed(ride: &PlatformStream) -> Result<()> {
+    let mut sum = 0.0f64;
+    let mut n = 0usize;
+    for sample in ride.samples()? {
+        sum += f64::from(sample?[2]);
+        n += 1;
+    }
+    if n == 0 {
+        return Ok(());
+    }
+    gravity_verdict(ride.path(), "platform_z", sum / n as f64, false)
+}
+
+fn gravity_verdict(path: &Path, vertical: &str, mean: f64, removed: bool) -> Result<()> {
     let g = STANDARD_GRAVITY_M_S2;
-    let shown = recording.path.display();
+    let shown = path.display();
     let sign = if mean < 0.0 { "-" } else { "+" };
     if removed {
         if mean.abs() > GRAVITY_MARGIN_M_S2 {
@@ -610,6 +662,44 @@ mod tests {
         std::fs::write(&path, "t,a x,a y,a z\n0,0,0,0\n2,0,0,0\n2,0,0,0\n").unwrap();
         let err = error(args.read(&path, &Mounting::LEVEL));
         assert!(err.ends_with("line 4, column t: expected a time after 0.002 s (strictly increasing), found 0.002 s"), "{err}");
+    }
+
+    #[test]
+    fn a_streamed_ride_gives_the_samples_of_the_read_one_and_the_same_gravity_check() {
+        let dir = tempfile::tempdir().unwrap();
+        let (own, foreign) = two_files(dir.path());
+        let scratch = tempfile::tempdir().unwrap();
+        let level = Mounting::LEVEL;
+        let stream = open_stream(&foreign_args(), &foreign, &level, scratch.path()).unwrap();
+        let (read, _) = foreign_args().read(&foreign, &level).unwrap();
+        let samples: Vec<[f32; 3]> = stream.samples().unwrap().map(Result::unwrap).collect();
+        assert_eq!(samples, read.platform_samples());
+        assert_eq!(stream.sample_rate_hz(), read.sample_rate_hz());
+        // The project's own file is streamed as it is, after the gravity check.
+        let plain = open_stream(&RideInputArgs::default(), &own, &level, scratch.path()).unwrap();
+        assert_eq!(plain.path(), own.as_path());
+        let raw = dir.path().join("raw.csv");
+        let text = std::fs::read_to_string(&own).unwrap();
+        let mut shifted = String::from(PLATFORM_HEADER_LINE);
+        for line in text.lines().skip(1) {
+            let cells: Vec<f64> = line.split(',').map(|c| c.parse().unwrap()).collect();
+            shifted.push_str(&format!(
+                "\n{},{},{},{}",
+                cells[0],
+                cells[1],
+                cells[2],
+                cells[3] + STANDARD_GRAVITY_M_S2
+            ));
+        }
+        std::fs::write(&raw, shifted).unwrap();
+        let streamed = error(open_stream(
+            &RideInputArgs::default(),
+            &raw,
+            &level,
+            scratch.path(),
+        ));
+        let read = error(RideInputArgs::default().read(&raw, &level));
+        assert_eq!(streamed, read);
     }
 
     #[test]
