@@ -20,6 +20,7 @@ use crate::commands::weighting::Kind;
 use crate::exposure::report::{evaluate_channel, evaluate_model};
 use crate::io::params_file::{ModelSource, PresetArg};
 use crate::io::ride_input::RideInputArgs;
+use crate::io::subject_args::SubjectArgs;
 
 /// Arguments of `supine exposure`.
 #[derive(Debug, clap::Args)]
@@ -41,6 +42,9 @@ pub struct Args {
     /// How to read the ride (another logger's columns and units, gravity).
     #[command(flatten)]
     pub ride: RideInputArgs,
+    /// Model form: the patient (else the parameters' subject).
+    #[command(flatten)]
+    pub subject: SubjectArgs,
     /// Channel form: the column to evaluate (e.g. head_z, platform_z).
     #[arg(long, value_name = "COLUMN", requires = "weighting")]
     pub channel: Option<String>,
@@ -85,7 +89,8 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
                     .map_or_else(|| format!("{p:?}"), |v| v.get_name().to_string()),
                 (None, None) => "?".to_string(),
             };
-            let file = source.load()?;
+            let mut file = source.load()?;
+            args.subject.apply(&mut file)?;
             let mounting = file.device.unwrap_or_default().mounting;
             let (recording, layout) = args.ride.read(&args.input, &mounting)?;
             let report = evaluate_model(&recording, layout, &file, model, args.fs_hz)?;

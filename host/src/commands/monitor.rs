@@ -12,6 +12,7 @@ use crate::commands::values;
 use crate::exposure::ride::{Profile, generate};
 use crate::io::params_file::{ModelSource, PresetArg};
 use crate::io::ride_input::{RideInputArgs, open_stream};
+use crate::io::subject_args::SubjectArgs;
 use crate::monitor::log::MonitorLog;
 use crate::monitor::session::{Ending, QemuRun, run_qemu, run_serial};
 use crate::monitor::view::{LiveView, PlainView, View};
@@ -42,6 +43,9 @@ pub struct Args {
     /// With --input: how to read the ride (another logger's columns and units, gravity).
     #[command(flatten)]
     pub ride: RideInputArgs,
+    /// With --qemu: the patient (else the parameters' subject).
+    #[command(flatten)]
+    pub subject: SubjectArgs,
     /// With --qemu: generate the ride instead (see `supine ride`).
     #[arg(long, value_enum, conflicts_with = "serial")]
     pub profile: Option<Profile>,
@@ -143,7 +147,8 @@ fn prepare_qemu(args: &Args, greeting_timeout: Duration) -> Result<QemuRun> {
         preset: args.preset,
         params: args.params.clone(),
     };
-    let file = model.load()?;
+    let mut file = model.load()?;
+    args.subject.apply(&mut file)?;
     let (samples, sample_rate_hz) = match (&args.input, args.profile) {
         (Some(path), _) => {
             // Only the platform samples are kept (12 bytes each), not the whole recording.

@@ -5,13 +5,13 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use anyhow::{Context as _, Result, anyhow, bail};
+use anyhow::{Context as _, Result, anyhow};
 use clap::ValueEnum as _;
-use supine_core::model::params::{HEIGHT_RANGE_M, MASS_RANGE_KG};
 
 use crate::io::output::write_atomically;
-use crate::io::params_file::{ModelSource, ParamFile};
+use crate::io::params_file::ModelSource;
 use crate::io::ride_input::RideInputArgs;
+use crate::io::subject_args::SubjectArgs;
 use crate::report::{self, html};
 
 /// Arguments of `supine report`.
@@ -26,12 +26,9 @@ pub struct Args {
     /// The model parameters (and optional `[device]` table).
     #[command(flatten)]
     pub model: ModelSource,
-    /// The patient's height, m (the model's anthropometric scaling).
-    #[arg(long, value_name = "M")]
-    pub height_m: Option<f64>,
-    /// The patient's mass, kg (the model's anthropometric scaling).
-    #[arg(long, value_name = "KG")]
-    pub mass_kg: Option<f64>,
+    /// The patient.
+    #[command(flatten)]
+    pub subject: SubjectArgs,
     /// Output folder for report.html (created if missing).
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
@@ -42,34 +39,6 @@ pub struct Args {
     /// instead of the legs of one mission.
     #[arg(long)]
     pub compare: bool,
-}
-
-/// The parameters of `source` for the patient: height and mass replaced where given, and
-/// refused with the model's range when outside it.
-pub fn for_subject(
-    source: &ModelSource,
-    height_m: Option<f64>,
-    mass_kg: Option<f64>,
-) -> Result<ParamFile> {
-    let mut file = source.load()?;
-    for (flag, value, (lo, hi), unit) in [
-        ("--height-m", height_m, HEIGHT_RANGE_M, "m"),
-        ("--mass-kg", mass_kg, MASS_RANGE_KG, "kg"),
-    ] {
-        if let Some(v) = value.filter(|v| !(lo..=hi).contains(v)) {
-            bail!("{flag} {v}: expected {lo} to {hi} {unit}, the model's range");
-        }
-    }
-    if let Some(h) = height_m {
-        file.params.subject.height_m = h;
-    }
-    if let Some(m) = mass_kg {
-        file.params.subject.mass_kg = m;
-    }
-    file.params
-        .validate()
-        .map_err(|e| anyhow!("--height-m/--mass-kg: {e}"))?;
-    Ok(file)
 }
 
 /// The name the model is reported by.
@@ -85,7 +54,8 @@ pub fn model_name(source: &ModelSource) -> String {
 
 /// Builds the report, writes `report.html`, and the JSON to `out` with `--json`.
 pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
-    let file = for_subject(&args.model, args.height_m, args.mass_kg)?;
+    let mut file = args.model.load()?;
+    args.subject.apply(&mut file)?;
     let mounting = file.device.unwrap_or_default().mounting;
     let rides = args
         .input

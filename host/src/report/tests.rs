@@ -12,6 +12,7 @@ use crate::exposure::ride::{Profile, generate, write_ride};
 use crate::identify::transmissibility::model_h;
 use crate::io::params_file::{ModelSource, PresetArg};
 use crate::io::ride_input::RideInputArgs;
+use crate::io::subject_args::SubjectArgs;
 
 fn ride(dir: &Path, profile: Profile, duration_s: f64, seed: u64) -> PathBuf {
     let path = dir.join(format!("{}-{seed}.csv", profile.name()));
@@ -31,8 +32,10 @@ fn report_json(inputs: &[PathBuf], out: &Path, height_mass: Option<(f64, f64)>) 
         input: inputs.to_vec(),
         ride: RideInputArgs::default(),
         model: preset(),
-        height_m: height_mass.map(|h| h.0),
-        mass_kg: height_mass.map(|h| h.1),
+        subject: SubjectArgs {
+            height_m: height_mass.map(|h| h.0),
+            mass_kg: height_mass.map(|h| h.1),
+        },
         out: out.to_path_buf(),
         json: true,
         compare: false,
@@ -48,6 +51,7 @@ fn exposure_json(input: &Path) -> Value {
         params: None,
         input: input.to_path_buf(),
         ride: RideInputArgs::default(),
+        subject: SubjectArgs::default(),
         channel: None,
         weighting: None,
         fs_hz: None,
