@@ -52,7 +52,10 @@ fn bands(legs: &[Leg]) -> Vec<Band> {
 }
 
 fn x_range(legs: &[Leg]) -> (f64, f64) {
-    let end = legs.last().map_or(1.0, |l| l.start_s + l.duration_s);
+    let end = legs
+        .iter()
+        .map(|l| l.start_s + l.duration_s)
+        .fold(0.0, f64::max);
     (0.0, end.max(1e-3))
 }
 
@@ -69,12 +72,53 @@ fn thresholds(values: [f32; 3], unit: &str) -> Vec<Threshold> {
         .collect()
 }
 
-/// Each leg's series `y` against mission time, one line per leg (no line across gaps).
-fn per_leg(legs: &[Leg], y: impl Fn(&Leg) -> Vec<f64>, color: Rgb, label: &str) -> Vec<Line> {
+/// Colours of the two compared rides, A and B.
+const COMPARE_COLORS: [Rgb; 2] = [Rgb(25, 25, 25), Rgb(255, 127, 14)];
+
+/// How the legs are drawn: one after the other, shaded and named (a mission), or both from
+/// time zero in two colours (a comparison).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Layout {
+    /// Legs in sequence.
+    Mission,
+    /// Two rides over each other.
+    Compare,
+}
+
+fn bands_for(legs: &[Leg], layout: Layout) -> Vec<Band> {
+    match layout {
+        Layout::Mission => bands(legs),
+        Layout::Compare => Vec::new(),
+    }
+}
+
+/// Each leg's series `y` against mission time, one line per leg (no line across gaps);
+/// compared rides each in their own colour and named.
+fn per_leg(
+    legs: &[Leg],
+    layout: Layout,
+    y: impl Fn(&Leg) -> Vec<f64>,
+    color: Rgb,
+    label: &str,
+) -> Vec<Line> {
     let span = x_range(legs).1;
     legs.iter()
         .enumerate()
         .map(|(i, l)| {
+            if layout == Layout::Compare {
+                let t: Vec<f64> = l.series.t_s.to_vec();
+                return Line {
+                    points: min_max(&t, &y(l), PLOT_COLUMNS),
+                    color: if label.starts_with("min") {
+                        Rgb(170, 170, 170)
+                    } else {
+                        COMPARE_COLORS[i % 2]
+                    },
+                    width: 1,
+                    dashed: i == 1,
+                    label: format!("{}: {label}", ["A", "B"][i % 2]),
+                };
+            }
             let t: Vec<f64> = l.series.t_s.iter().map(|t| l.start_s + t).collect();
             let columns = ((PLOT_COLUMNS as f64) * l.duration_s / span)
                 .ceil()
@@ -95,15 +139,17 @@ fn per_leg(legs: &[Leg], y: impl Fn(&Leg) -> Vec<f64>, color: Rgb, label: &str) 
 }
 
 /// The litter's vertical acceleration (the input), min and max per chart step.
-pub fn input(legs: &[Leg]) -> Chart {
+pub fn input(legs: &[Leg], layout: Layout) -> Chart {
     let mut lines = per_leg(
         legs,
+        layout,
         |l| l.series.platform_z_m_s2.iter().map(|p| p.1).collect(),
         Rgb(214, 39, 40),
         "litter z (vertical), max per 0.1 s",
     );
     lines.extend(per_leg(
         legs,
+        layout,
         |l| l.series.platform_z_m_s2.iter().map(|p| p.0).collect(),
         Rgb(240, 140, 140),
         "min per 0.1 s",
@@ -118,16 +164,17 @@ pub fn input(legs: &[Leg]) -> Chart {
         x_range_s: x_range(legs),
         y_range: y_range(&all, &[], false),
         height_px: 260,
-        bands: bands(legs),
+        bands: bands_for(legs, layout),
         lines,
         ..Chart::default()
     }
 }
 
 /// The vector running rms with its thresholds and the alert raises marked.
-pub fn running_rms(legs: &[Leg], config: &AlertConfig) -> Chart {
+pub fn running_rms(legs: &[Leg], config: &AlertConfig, layout: Layout) -> Chart {
     let lines = per_leg(
         legs,
+        layout,
         |l| l.series.vector_rms_m_s2.clone(),
         VECTOR_COLOR,
         "vector running rms (predicted head)",
@@ -157,7 +204,7 @@ pub fn running_rms(legs: &[Leg], config: &AlertConfig) -> Chart {
         x_range_s: x_range(legs),
         y_range: y_range(&all, &th[..1], true),
         height_px: 300,
-        bands: bands(legs),
+        bands: bands_for(legs, layout),
         thresholds: thresholds(config.running_rms_m_s2, "m/s^2"),
         lines,
         markers,
@@ -166,9 +213,10 @@ pub fn running_rms(legs: &[Leg], config: &AlertConfig) -> Chart {
 }
 
 /// Each leg's VDV, and the mission's: earlier legs' doses plus this one's so far.
-pub fn vdv(legs: &[Leg], config: &AlertConfig) -> Chart {
+pub fn vdv(legs: &[Leg], config: &AlertConfig, layout: Layout) -> Chart {
     let mut lines = per_leg(
         legs,
+        layout,
         |l| l.series.vdv_m_s175.clone(),
         VECTOR_COLOR,
         "the leg's VDV",
@@ -203,7 +251,9 @@ pub fn vdv(legs: &[Leg], config: &AlertConfig) -> Chart {
             }
         })
         .collect();
-    lines.extend(mission);
+    if layout == Layout::Mission {
+        lines.extend(mission);
+    }
     let all: Vec<f64> = lines
         .iter()
         .flat_map(|l| l.points.iter().map(|p| p.1))
@@ -215,7 +265,7 @@ pub fn vdv(legs: &[Leg], config: &AlertConfig) -> Chart {
         x_range_s: x_range(legs),
         y_range: y_range(&all, &th[..1], true),
         height_px: 300,
-        bands: bands(legs),
+        bands: bands_for(legs, layout),
         thresholds: thresholds(config.vdv_m_s175, "m/s^1.75"),
         lines,
         ..Chart::default()
@@ -223,7 +273,7 @@ pub fn vdv(legs: &[Leg], config: &AlertConfig) -> Chart {
 }
 
 /// The alert level over mission time.
-pub fn levels(legs: &[Leg]) -> Chart {
+pub fn levels(legs: &[Leg], layout: Layout) -> Chart {
     let lines = legs
         .iter()
         .enumerate()
@@ -245,15 +295,24 @@ pub fn levels(legs: &[Leg]) -> Chart {
             if let Some(level) = last {
                 points.push((l.start_s + l.duration_s, f64::from(level)));
             }
-            Line {
-                points,
-                color: VECTOR_COLOR,
-                width: 2,
-                dashed: false,
-                label: if i == 0 {
-                    "alert level".into()
-                } else {
-                    String::new()
+            match layout {
+                Layout::Mission => Line {
+                    points,
+                    color: VECTOR_COLOR,
+                    width: 2,
+                    dashed: false,
+                    label: if i == 0 {
+                        "alert level".into()
+                    } else {
+                        String::new()
+                    },
+                },
+                Layout::Compare => Line {
+                    points,
+                    color: COMPARE_COLORS[i % 2],
+                    width: 2,
+                    dashed: i == 1,
+                    label: format!("{}: alert level", ["A", "B"][i % 2]),
                 },
             }
         })
@@ -264,7 +323,7 @@ pub fn levels(legs: &[Leg]) -> Chart {
         x_range_s: x_range(legs),
         y_range: (-0.3, 3.4),
         height_px: 220,
-        bands: bands(legs),
+        bands: bands_for(legs, layout),
         lines,
         y_tick_names: Some(LEVEL_NAMES.iter().map(|s| s.to_string()).collect()),
         ..Chart::default()

@@ -121,11 +121,16 @@ pub fn render(report: &MissionReport) -> Result<String> {
     }
     h.push_str("<h2>Charts</h2>\n");
     let config = &report.thresholds;
+    let layout = if report.comparison.is_some() {
+        charts::Layout::Compare
+    } else {
+        charts::Layout::Mission
+    };
     for chart in [
-        charts::input(legs),
-        charts::running_rms(legs, config),
-        charts::vdv(legs, config),
-        charts::levels(legs),
+        charts::input(legs, layout),
+        charts::running_rms(legs, config, layout),
+        charts::vdv(legs, config, layout),
+        charts::levels(legs, layout),
     ] {
         let _ = writeln!(h, "<figure>{}</figure>", chart.to_svg()?);
     }
@@ -226,7 +231,11 @@ fn comparison(h: &mut String, legs: &[Leg], c: &Comparison) {
         escape(&b.input)
     );
     for row in &c.rows {
-        let class = if row.difference > 0.0 { "more" } else { "less" };
+        let class = match row.difference {
+            d if d > 0.0 => "more",
+            d if d < 0.0 => "less",
+            _ => "",
+        };
         let _ = writeln!(
             h,
             "<tr><td>{}</td><td>{:.3}</td><td>{:.3}</td><td class=\"{class}\">{:+.3}</td><td class=\"{class}\">{}</td></tr>",
