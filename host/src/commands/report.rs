@@ -57,12 +57,13 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
     let mut file = args.model.load()?;
     args.subject.apply(&mut file)?;
     let mounting = file.device.unwrap_or_default().mounting;
-    let rides = args
-        .input
-        .iter()
-        .map(|path| args.ride.read(path, &mounting))
-        .collect::<Result<Vec<_>>>()?;
-    let report = report::build(&rides, &file, &model_name(&args.model), args.compare)?;
+    let report = report::build(
+        &args.input,
+        |path| args.ride.read(path, &mounting),
+        &file,
+        &model_name(&args.model),
+        args.compare,
+    )?;
     let page = html::render(&report)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("{}: cannot create the folder", args.out.display()))?;

@@ -15,6 +15,8 @@ pub mod html;
 pub mod mission;
 pub mod spectrum;
 
+use std::path::{Path, PathBuf};
+
 use anyhow::{Result, bail};
 use serde::Serialize;
 use supine_core::alerts::AlertConfig;
@@ -86,26 +88,30 @@ pub struct MissionReport {
     pub thresholds: AlertConfig,
 }
 
-/// Evaluates `rides` (file, layout) as the legs of a mission, or as two rides compared.
+/// Evaluates the rides at `inputs` (each read by `read`) as the legs of a mission, or as
+/// two rides compared. One ride is in memory at a time: a leg keeps only its values, its
+/// chart series and its spectra.
 pub fn build(
-    rides: &[(Recording, Layout)],
+    inputs: &[PathBuf],
+    read: impl Fn(&Path) -> Result<(Recording, Layout)>,
     file: &ParamFile,
     model: &str,
     compare: bool,
 ) -> Result<MissionReport> {
-    if compare && rides.len() != 2 {
+    if compare && inputs.len() != 2 {
         bail!(
             "--compare: expected exactly two --input rides, found {}",
-            rides.len()
+            inputs.len()
         );
     }
-    let mut legs = Vec::with_capacity(rides.len());
+    let mut legs = Vec::with_capacity(inputs.len());
     let mut start_s = 0.0;
-    for (recording, layout) in rides {
+    for path in inputs {
+        let (recording, layout) = read(path)?;
         // Compared rides share one time axis from zero; legs follow each other.
         let leg = evaluate_leg(
-            recording,
-            *layout,
+            &recording,
+            layout,
             file,
             model,
             if compare { 0.0 } else { start_s },
