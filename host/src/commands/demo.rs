@@ -8,6 +8,7 @@ use anyhow::Result;
 
 use crate::demo::ride::DemoProfile;
 use crate::demo::{self, DEFAULT_OUT_DIR, DemoConfig};
+use crate::io::subject_args::SubjectArgs;
 use crate::monitor::view::{LiveView, PlainView, View};
 
 /// Arguments of `supine demo`.
@@ -28,6 +29,9 @@ pub struct Args {
     /// Stream the ride in real time (otherwise as fast as the device takes it).
     #[arg(long)]
     pub realtime: bool,
+    /// The patient (else the paper's mean subject, 1.82 m, 81 kg).
+    #[command(flatten)]
+    pub subject: SubjectArgs,
 }
 
 /// Runs the demo: step lines and the summary on standard output, the live view on
@@ -41,6 +45,7 @@ pub fn run(args: &Args) -> Result<()> {
         duration_s: args.duration_s,
         seed: args.seed,
         realtime: args.realtime,
+        subject: args.subject,
     };
     let stderr = std::io::stderr();
     let mut view: Box<dyn View> = if stderr.is_terminal() {

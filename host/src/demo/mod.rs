@@ -36,6 +36,7 @@ use crate::exposure::reference;
 use crate::exposure::report::{AxisReport, run_pipeline};
 use crate::io::params_file::{self, DeviceSection, ParamFile};
 use crate::io::recording::read_input;
+use crate::io::subject_args::SubjectArgs;
 use crate::io::telemetry_csv::{
     EventRow, read_events, read_telemetry, write_events, write_telemetry,
 };
@@ -74,6 +75,8 @@ pub struct DemoConfig {
     pub seed: u64,
     /// Stream the samples in real time (otherwise as fast as the device takes them).
     pub realtime: bool,
+    /// The patient the flashed model is scaled to (else the preset's mean subject).
+    pub subject: SubjectArgs,
 }
 
 /// What a finished demo produced.
@@ -182,7 +185,7 @@ pub fn run(
     let ride = make_ride(config, &files.ride)?;
     let samples = ride.samples();
 
-    let file = param_file();
+    let file = param_file(&config.subject)?;
     // One build: the identity announced and checked is the one of the blob flashed.
     let (params, blob) = flash::device_blob(&file, SAMPLE_RATE_HZ)?;
     steps.start(
@@ -303,13 +306,14 @@ fn make_ride(config: &DemoConfig, path: &Path) -> Result<DemoRide> {
 /// service sends 100 Hz). The report overlays the host's computation on each of the
 /// device's samples, and `supine replay` of ride.csv with these parameters reproduces
 /// device.csv.
-fn param_file() -> ParamFile {
+fn param_file(subject: &SubjectArgs) -> Result<ParamFile> {
     let mut file = ParamFile::preset(PRESET);
     file.device = Some(DeviceSection {
         telemetry_decimation: Some(1),
         ..DeviceSection::default()
     });
-    file
+    subject.apply(&mut file)?;
+    Ok(file)
 }
 
 /// What the device sent, read back from the files the monitor logged.
@@ -403,7 +407,18 @@ fn run_info(
         seed: config.seed,
         sample_rate_hz: SAMPLE_RATE_HZ,
         samples,
-        params_name: PRESET.name().to_string(),
+        params_name: match (config.subject.height_m, config.subject.mass_kg) {
+            (None, None) => PRESET.name().to_string(),
+            (h, m) => {
+                let mean = supine_core::model::Subject::PAPER_MEAN;
+                format!(
+                    "{} for a {} m, {} kg patient",
+                    PRESET.name(),
+                    h.unwrap_or(mean.height_m),
+                    m.unwrap_or(mean.mass_kg)
+                )
+            }
+        },
         identity: identity_hex(&params.identity),
         firmware_version: greeting.firmware_version.as_str().to_string(),
         device_line: device_line(greeting),
