@@ -213,3 +213,62 @@ fn a_small_patients_head_differs_from_the_mean_subjects_as_the_transmissibility_
         h_small / h_mean
     );
 }
+
+#[test]
+fn the_page_is_self_contained_prints_on_a4_and_names_every_leg() {
+    let dir = tempfile::tempdir().unwrap();
+    let legs = [
+        ride(dir.path(), Profile::Ambulance, 20.0, 4),
+        ride(dir.path(), Profile::Helicopter, 20.0, 5),
+        ride(dir.path(), Profile::Ambulance, 20.0, 6),
+    ];
+    let out = dir.path().join("out");
+    report_json(&legs, &out, None);
+    let page = std::fs::read_to_string(out.join("report.html")).unwrap();
+    for outside in ["<script", "src=", "href=", "@import", "url("] {
+        assert!(!page.contains(outside), "{outside}");
+    }
+    assert!(page.contains("@page { size: A4"));
+    assert!(page.contains("break-inside: avoid"));
+    for name in [
+        "leg 1: ambulance-4.csv",
+        "leg 2: helicopter-5.csv",
+        "leg 3: ambulance-6.csv",
+    ] {
+        assert!(page.contains(name), "{name}");
+    }
+    // Four time charts and one spectrum figure per leg.
+    assert_eq!(page.matches("<svg").count(), 4 + legs.len());
+}
+
+#[test]
+fn a_ride_with_gravity_is_refused_by_the_report_too() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw = dir.path().join("raw.csv");
+    let mut text = String::from("time_s,platform_x,platform_y,platform_z\n");
+    for k in 0..5000 {
+        text.push_str(&format!(
+            "{},0,0,{}\n",
+            k as f64 / 500.0,
+            9.81 + 0.01 * (k % 7) as f64
+        ));
+    }
+    std::fs::write(&raw, text).unwrap();
+    let args = report::Args {
+        input: vec![raw],
+        ride: RideInputArgs::default(),
+        model: preset(),
+        subject: SubjectArgs::default(),
+        out: dir.path().join("out"),
+        json: false,
+        compare: false,
+    };
+    let err = report::run_to(&args, &mut Vec::new())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("looks like a raw accelerometer with gravity"),
+        "{err}"
+    );
+    assert!(!dir.path().join("out/report.html").exists());
+}
