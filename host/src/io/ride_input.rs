@@ -24,7 +24,7 @@ use clap::ValueEnum;
 use supine_core::mounting::{Mounting, STANDARD_GRAVITY_M_S2};
 
 use crate::io::csv_lines::{CsvLines, MAX_LINE_BYTES};
-use crate::io::excerpt::{excerpt, number};
+use crate::io::excerpt::{excerpt, name, number};
 use crate::io::output::write_atomically;
 use crate::io::recording::{
     Layout, LineNumbers, MAX_ACCELERATION_M_S2, PLATFORM_HEADER_LINE, PlatformStream, Recording,
@@ -36,8 +36,9 @@ use crate::io::recording::{
 /// vertically), and 2 m/s^2 leaves room for a sensor's offset and scale error.
 pub const GRAVITY_MARGIN_M_S2: f64 = 2.0;
 
-/// Most header fields an error lists (a logger's header can be long).
-const MAX_LISTED_FIELDS: usize = 16;
+/// Most characters of header fields an error lists (a logger's header can be long, and an
+/// error stays within about 200 characters).
+const MAX_LISTED_CHARS: usize = 48;
 
 /// Unit of the time column.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
@@ -230,14 +231,44 @@ fn read_own(path: &Path) -> Result<(Recording, Layout)> {
         path: path.to_path_buf(),
         reason: e.to_string(),
     })?;
-    Recording::from_reader(file, path, &[Layout::Full, Layout::PlatformOnly]).map_err(|e| match e {
-        RecordingError::Header { .. } => anyhow!(
-            "{e} (a ride's header is {PLATFORM_HEADER_LINE}; another logger's file \
-                 needs --columns time=NAME,x=NAME,y=NAME,z=NAME, and --time-unit ms, \
-                 --units g if so)"
-        ),
-        other => other.into(),
+    Recording::from_reader(file, path, &[Layout::Full, Layout::PlatformOnly]).map_err(|e| {
+        match e {
+            // Within the 200 characters of an error: the field quoted shorter, the ride's
+            // header and the way to other loggers' files added.
+            RecordingError::Header {
+                path,
+                column,
+                expected,
+                ..
+            } => anyhow!(
+                "{}: line 1, column {column}: expected \"{expected}\" (a ride: \
+                 {PLATFORM_HEADER_LINE}; else --columns), found {}",
+                path.display(),
+                header_field(&path, column)
+            ),
+            other => other.into(),
+        }
     })
+}
+
+/// Header field `column` (1-based) of the file at `path`, as a name is quoted in errors.
+fn header_field(path: &Path, column: usize) -> String {
+    let Ok(file) = std::fs::File::open(path) else {
+        return "an unreadable header".to_string();
+    };
+    let mut lines = CsvLines::new(file);
+    match lines.next_row() {
+        Ok(Some(row)) if column <= row.len() => {
+            let text = String::from_utf8_lossy(row.cell(column - 1)).into_owned();
+            let shown = name(&text);
+            if shown == text {
+                format!("\"{text}\"")
+            } else {
+                shown.into_owned()
+            }
+        }
+        _ => "end of line".to_string(),
+    }
 }
 
 /// `b';'` when the first line holds a semicolon, else `b','`.
@@ -273,25 +304,27 @@ fn read_foreign(
         .ok_or_else(|| anyhow!("{shown}: line 1: expected a header line, found an empty file"))?;
     let width = header.len();
     let mut index = [0usize; 4];
-    for (k, name) in columns.names.iter().enumerate() {
+    for (k, wanted) in columns.names.iter().enumerate() {
         index[k] = header
             .cells()
-            .position(|c| c == name.as_bytes())
+            .position(|c| c == wanted.as_bytes())
             .ok_or_else(|| {
-                let mut fields: Vec<String> = header
-                    .cells()
-                    .take(MAX_LISTED_FIELDS)
-                    .map(excerpt)
-                    .collect();
-                if width > MAX_LISTED_FIELDS {
-                    fields.push(format!("... ({width} fields)"));
+                let mut fields: Vec<String> = Vec::new();
+                let mut chars = 0;
+                for cell in header.cells() {
+                    let quoted = excerpt(name(&String::from_utf8_lossy(cell)).as_bytes());
+                    chars += quoted.chars().count() + 2;
+                    if chars > MAX_LISTED_CHARS {
+                        fields.push(format!("... ({width} fields)"));
+                        break;
+                    }
+                    fields.push(quoted);
                 }
                 anyhow!(
-                    "{shown}: line 1: --columns {}={}: expected a header field named {}, \
-                     found {} (delimiter {:?}; a ride's header is {PLATFORM_HEADER_LINE})",
+                    "{shown}: line 1: --columns {}=: expected a field {}, found {} ({:?}-separated; \
+                     a ride: {PLATFORM_HEADER_LINE})",
                     COLUMN_KEYS[k],
-                    name,
-                    excerpt(name),
+                    excerpt(name(wanted).as_bytes()),
                     fields.join(", "),
                     delimiter as char
                 )
@@ -418,29 +451,25 @@ fn gravity_verdict(path: &Path, vertical: &str, mean: f64, removed: bool) -> Res
     if removed {
         if mean.abs() > GRAVITY_MARGIN_M_S2 {
             bail!(
-                "{shown}: column {vertical}: mean {mean:.3} m/s^2 after --remove-gravity, \
-                 expected within {GRAVITY_MARGIN_M_S2} m/s^2 of 0: the parameters' \
-                 [device.mounting] calibration does not match this sensor (supine calibrate \
-                 prints one from a reading at rest)"
+                "{shown}: column {vertical}: mean {mean:.2} m/s^2 after --remove-gravity, expected \
+                 within {GRAVITY_MARGIN_M_S2} of 0: [device.mounting] does not fit this sensor \
+                 (see supine calibrate)"
             );
         }
         return Ok(());
     }
     if (mean.abs() - g).abs() <= GRAVITY_MARGIN_M_S2 {
         bail!(
-            "{shown}: column {vertical}: mean {mean:.3} m/s^2 lies within {GRAVITY_MARGIN_M_S2} \
-             m/s^2 of {sign}9.81: this looks like a raw accelerometer with gravity in it; give \
-             --remove-gravity to remove it with the parameters' [device.mounting] calibration, \
-             as the device does"
+            "{shown}: column {vertical}: mean {mean:.2} m/s^2, within {GRAVITY_MARGIN_M_S2} of \
+             {sign}9.81: gravity left in a raw accelerometer? Give --remove-gravity \
+             ([device.mounting] removes it as on the device)"
         );
     }
     if (mean.abs() - 1.0).abs() <= GRAVITY_MARGIN_M_S2 / g {
         bail!(
-            "{shown}: column {vertical}: mean {mean:.3} m/s^2 lies within {:.2} of {}1: this \
-             looks like a raw accelerometer in g with gravity in it; give --units g \
-             --remove-gravity (with --columns)",
-            GRAVITY_MARGIN_M_S2 / g,
-            sign
+            "{shown}: column {vertical}: mean {mean:.2}, within {:.1} of {sign}1: gravity in g \
+             read as m/s^2? Give --units g --remove-gravity (with --columns)",
+            GRAVITY_MARGIN_M_S2 / g
         );
     }
     Ok(())
@@ -602,7 +631,7 @@ mod tests {
         };
         let err = error(args.read(&path, &Mounting::LEVEL));
         assert!(
-            err.contains("column az: mean 1.010") && err.contains("--units g"),
+            err.contains("column az: mean 1.01,") && err.contains("--units g"),
             "{err}"
         );
     }
@@ -620,8 +649,8 @@ mod tests {
         assert_eq!(
             err,
             format!(
-                "{}: line 1: --columns x=Acc X: expected a header field named \"Acc X\", found \
-                 \"Time (ms)\", \"AccX\", \"AccY\", \"AccZ\" (delimiter ';'; a ride's header is \
+                "{}: line 1: --columns x=: expected a field \"Acc X\", found \"Time (ms)\", \
+                 \"AccX\", \"AccY\", \"AccZ\" (';'-separated; a ride: \
                  time_s,platform_x,platform_y,platform_z)",
                 path.display()
             )
@@ -630,10 +659,20 @@ mod tests {
         std::fs::write(&path, "time,x,y,z\n0,0,0,0\n").unwrap();
         let err = error(RideInputArgs::default().read(&path, &Mounting::LEVEL));
         assert!(
-            err.contains("line 1, column 1: expected the header field \"time_s\""),
+            err.contains("line 1, column 1: expected \"time_s\"")
+                && err.ends_with("found \"time\""),
             "{err}"
         );
-        assert!(err.contains("--columns time=NAME"), "{err}");
+        assert!(
+            err.contains("(a ride: time_s,platform_x,platform_y,platform_z; else --columns)"),
+            "{err}"
+        );
+        // A header field of 3000 bytes: the error stays short, the field cut.
+        std::fs::write(&path, format!("{},b\n0,0\n", "A".repeat(3000))).unwrap();
+        let err = error(RideInputArgs::default().read(&path, &Mounting::LEVEL));
+        let own = err.strip_prefix(&format!("{}: ", path.display())).unwrap();
+        assert!(own.chars().count() <= 160, "{}: {own}", own.chars().count());
+        assert!(own.ends_with("(3000 bytes)"), "{own}");
     }
 
     #[test]

@@ -266,9 +266,6 @@ fn a_ride_with_gravity_is_refused_by_the_report_too() {
     let err = report::run_to(&args, &mut Vec::new())
         .unwrap_err()
         .to_string();
-    assert!(
-        err.contains("looks like a raw accelerometer with gravity"),
-        "{err}"
-    );
+    assert!(err.contains("gravity left in a raw accelerometer"), "{err}");
     assert!(!dir.path().join("out/report.html").exists());
 }
