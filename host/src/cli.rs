@@ -87,6 +87,8 @@ pub enum Command {
     /// Write a realistic litter-frame ride (ambulance, rough road, helicopter, lab) as CSV.
     #[command(after_help = "Example:\n  supine ride --profile road-trip --out ride.csv")]
     Ride(commands::ride::Args),
+    /// Mission report of rides (legs) for a patient: report.html and --json.
+    Report(commands::report::Args),
     /// Replay a recording through the firmware in QEMU; write its telemetry as CSV.
     #[command(
         after_help = "Example:\n  supine replay --qemu --preset paper-litter --input ride.csv --out device.csv"
@@ -191,6 +193,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Validate(args) => commands::validate::run(&args),
         Command::Exposure(args) => commands::exposure::run(&args),
         Command::Ride(args) => commands::ride::run(&args),
+        Command::Report(args) => commands::report::run(&args),
         Command::Replay(args) => commands::replay::run(&args),
         Command::Monitor(args) => commands::monitor::run(&args, color),
         Command::Calibrate(args) => commands::calibrate::run(&args),

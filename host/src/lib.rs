@@ -6,7 +6,8 @@
 //! The modules follow the architecture (`docs/architecture.md`): file formats ([`io`]),
 //! identification of the model from measurements ([`identify`]), exposure of rides
 //! ([`exposure`]), the device and the ways to reach it ([`device`]), the live monitor
-//! ([`monitor`]), the end-to-end demo ([`demo`]), the one plotting layer ([`plot`]), and
+//! ([`monitor`]), the end-to-end demo ([`demo`]), the mission report ([`report`]), the one plotting
+//! layer ([`plot`]), and
 //! the command line ([`cli`], [`commands`]) on top of them all.
 
 pub mod cli;
@@ -18,3 +19,4 @@ pub mod identify;
 pub mod io;
 pub mod monitor;
 pub mod plot;
+pub mod report;

@@ -392,7 +392,8 @@ fn bad_cells_are_reported_with_file_line_and_column() {
     std::fs::write(&wrong, "time_s,platform_x,platform_q,platform_z\n0,0,0,0\n").unwrap();
     let e = err(&["--preset", "paper-litter", "--input", s(&wrong)]);
     assert!(
-        e.contains("line 1, column 3: expected the header field \"platform_y\""),
+        e.contains("line 1, column 3: expected \"platform_y\" (a ride: ")
+            && e.ends_with("found \"platform_q\""),
         "{e}"
     );
     let e = err(&[

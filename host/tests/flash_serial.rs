@@ -99,10 +99,13 @@ fn supine_flash_serial_uploads_to_the_firmware_and_names_a_refusal_code() {
         "{stdout}"
     );
 
-    // The same counter again is a replay: refused with its code, on one line.
+    // The same counter again is a replay: refused with its code, on one line (after the
+    // notice that the public development key signs it).
     let (ok, _, stderr) = flash(&port, "paper-litter", 1_000);
     assert!(!ok);
-    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    let lines: Vec<&str> = stderr.trim().lines().collect();
+    assert_eq!(lines.len(), 2, "{stderr}");
+    assert!(lines[0].starts_with("signing with the public development key"), "{stderr}");
     assert!(stderr.contains("(code 5)"), "{stderr}");
 
     // A higher counter goes to the other slot.

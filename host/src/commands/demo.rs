@@ -15,6 +15,7 @@ use crate::demo::ride::DemoProfile;
 use crate::demo::summary::Summary;
 use crate::demo::{self, DEFAULT_OUT_DIR, DemoConfig};
 use crate::io::params_file::{self, ParamFile, PresetArg};
+use crate::io::subject_args::SubjectArgs;
 use crate::monitor::view::{LiveView, PlainView, View};
 
 /// Arguments of `supine demo`.
@@ -54,6 +55,9 @@ pub struct Args {
     /// view go to standard error).
     #[command(flatten)]
     pub json: JsonFlag,
+    /// The patient (else the paper's mean subject, 1.82 m, 81 kg).
+    #[command(flatten)]
+    pub subject: SubjectArgs,
 }
 
 /// Runs the demo: step lines and the summary on standard output, the live view on
@@ -78,6 +82,7 @@ pub fn run(args: &Args, color: ColorChoice) -> Result<()> {
         realtime: args.realtime,
         firmware: args.firmware.clone(),
         force: args.force,
+        subject: args.subject,
     };
     let stderr = std::io::stderr();
     let mut view: Box<dyn View> = if stderr.is_terminal() {

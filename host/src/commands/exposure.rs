@@ -13,12 +13,14 @@ use std::path::PathBuf;
 
 use anyhow::{Result, anyhow};
 use clap::{ArgGroup, ValueEnum};
+use supine_core::mounting::Mounting;
 
 use crate::commands::values;
 use crate::commands::weighting::Kind;
 use crate::exposure::report::{evaluate_channel, evaluate_model};
 use crate::io::params_file::{ModelSource, PresetArg};
-use crate::io::recording::read_input;
+use crate::io::ride_input::RideInputArgs;
+use crate::io::subject_args::SubjectArgs;
 
 /// Arguments of `supine exposure`.
 #[derive(Debug, clap::Args)]
@@ -33,9 +35,16 @@ pub struct Args {
     /// weighting per axis, the alert thresholds and the sensor checks).
     #[arg(long, value_name = "FILE", conflicts_with_all = ["channel", "weighting"])]
     pub params: Option<PathBuf>,
-    /// The recording (CSV in the recording format, or its platform columns only).
+    /// The recording (CSV in the recording format, its platform columns only, or another
+    /// logger's file with --columns).
     #[arg(long, value_name = "REC.csv")]
     pub input: PathBuf,
+    /// How to read the ride (another logger's columns and units, gravity).
+    #[command(flatten)]
+    pub ride: RideInputArgs,
+    /// Model form: the patient (else the parameters' subject).
+    #[command(flatten)]
+    pub subject: SubjectArgs,
     /// Channel form: the column to evaluate (e.g. head_z, platform_z).
     #[arg(long, value_name = "COLUMN", requires = "weighting")]
     pub channel: Option<String>,
@@ -57,9 +66,10 @@ pub struct Args {
 
 /// Evaluates and writes the report (table or JSON) to `out`.
 pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
-    let (recording, layout) = read_input(&args.input)?;
     let text = match (&args.channel, args.weighting) {
         (Some(channel), Some(kind)) => {
+            // No parameters: a raw reading is taken as level-mounted.
+            let (recording, layout) = args.ride.read(&args.input, &Mounting::LEVEL)?;
             let report = evaluate_channel(&recording, layout, channel, kind.into(), args.fs_hz)?;
             if args.json {
                 serde_json::to_string(&report)? + "\n"
@@ -79,7 +89,11 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
                     .map_or_else(|| format!("{p:?}"), |v| v.get_name().to_string()),
                 (None, None) => "?".to_string(),
             };
-            let report = evaluate_model(&recording, layout, &source.load()?, model, args.fs_hz)?;
+            let mut file = source.load()?;
+            args.subject.apply(&mut file)?;
+            let mounting = file.device.unwrap_or_default().mounting;
+            let (recording, layout) = args.ride.read(&args.input, &mounting)?;
+            let report = evaluate_model(&recording, layout, &file, model, args.fs_hz)?;
             if args.json {
                 serde_json::to_string(&report)? + "\n"
             } else {

@@ -11,6 +11,7 @@ use crate::device::device_params::identity_hex;
 use crate::device::flash::{self, UploadOutcome};
 use crate::device::image::{DEVELOPMENT_KEY_NOTICE, ProductImage};
 use crate::io::params_file::ModelSource;
+use crate::io::subject_args::SubjectArgs;
 
 /// Arguments of `supine flash`.
 #[derive(Debug, clap::Args)]
@@ -18,6 +19,9 @@ pub struct Args {
     /// The model parameters (and optional `[device]` table) to build the blob from.
     #[command(flatten)]
     pub model: ModelSource,
+    /// The patient (else the parameters' subject).
+    #[command(flatten)]
+    pub subject: SubjectArgs,
     /// Sample rate the device runs at, Hz (the blob holds the realization for it).
     #[arg(long = "fs", value_name = "HZ", default_value_t = 500.0)]
     pub fs_hz: f64,
@@ -77,7 +81,8 @@ fn parse_address(text: &str) -> Result<u32, String> {
 
 /// Builds the blob and delivers it.
 pub fn run(args: &Args) -> Result<()> {
-    let file = args.model.load()?;
+    let mut file = args.model.load()?;
+    args.subject.apply(&mut file)?;
     let timeout = values::timeout("--timeout-s", args.timeout_s)?;
     let (params, blob) = flash::device_blob(&file, args.fs_hz)?;
     let id = identity_hex(&params.identity);

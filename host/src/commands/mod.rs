@@ -13,6 +13,7 @@ pub mod monitor;
 pub mod params;
 pub mod predict;
 pub mod replay;
+pub mod report;
 pub mod ride;
 pub mod synth;
 pub mod transmissibility;

@@ -10,7 +10,8 @@ use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
 use crate::identify::transmissibility::model_h;
 use crate::io::h_csv;
-use crate::io::params_file::{ModelSource, SubjectOverride};
+use crate::io::params_file::ModelSource;
+use crate::io::subject_args::SubjectArgs;
 
 /// What `supine model` writes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -29,7 +30,7 @@ pub struct Args {
     pub source: ModelSource,
     /// The subject, if not the parameters' own.
     #[command(flatten)]
-    pub subject: SubjectOverride,
+    pub subject: SubjectArgs,
     /// Lowest frequency, Hz (above 0: H is the static response there, 1 on matching axes).
     #[arg(long = "fmin", value_name = "HZ", default_value_t = 0.5, value_parser = values::positive_hz)]
     pub fmin_hz: f64,
@@ -52,7 +53,7 @@ pub struct Args {
 
 /// Writes H at every grid frequency for the chosen parameters.
 pub fn run(args: &Args) -> Result<()> {
-    let params = args.source.load_for_subject(&args.subject)?;
+    let params = args.subject.load_from(&args.source)?;
     let freqs = h_csv::frequency_grid(args.fmin_hz, args.fmax_hz, args.df_hz)?;
     let rows = match args.quantity {
         Quantity::Sensors => h_csv::rows(&freqs, &model_h(&params, &freqs)?, None),

@@ -13,7 +13,8 @@ use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
 use crate::demo::ride::{DemoProfile, make};
 use crate::io::params_file::{ModelSource, PresetArg};
-use crate::io::recording::PlatformStream;
+use crate::io::ride_input::{RideInputArgs, open_stream};
+use crate::io::subject_args::SubjectArgs;
 use crate::monitor::json::{JsonlView, summary_json};
 use crate::monitor::log::MonitorLog;
 use crate::monitor::session::{Ending, QemuRun, run_qemu, run_serial};
@@ -42,6 +43,12 @@ pub struct Args {
     /// With --qemu: a recording whose platform columns are streamed as samples.
     #[arg(long, value_name = "RIDE.csv", conflicts_with_all = ["profile", "serial"])]
     pub input: Option<PathBuf>,
+    /// With --input: how to read the ride (another logger's columns and units, gravity).
+    #[command(flatten)]
+    pub ride: RideInputArgs,
+    /// With --qemu: the patient (else the parameters' subject).
+    #[command(flatten)]
+    pub subject: SubjectArgs,
     /// With --qemu: generate the ride instead (see `supine ride`).
     #[arg(long, value_enum, conflicts_with = "serial")]
     pub profile: Option<DemoProfile>,
@@ -170,11 +177,14 @@ fn prepare_qemu(args: &Args, greeting_timeout: Duration) -> Result<QemuRun> {
         preset: args.preset,
         params: args.params.clone(),
     };
-    let file = model.load()?;
+    let mut file = model.load()?;
+    args.subject.apply(&mut file)?;
     let (samples, sample_rate_hz) = match (&args.input, args.profile) {
         (Some(path), _) => {
             // Only the platform samples are kept (12 bytes each), not the whole recording.
-            let ride = PlatformStream::open(path)?;
+            let scratch = tempfile::tempdir()?;
+            let mounting = file.device.unwrap_or_default().mounting;
+            let ride = open_stream(&args.ride, path, &mounting, scratch.path())?;
             let samples = ride.samples()?.collect::<Result<Vec<_>, _>>()?;
             (samples, ride.sample_rate_hz())
         }

@@ -12,8 +12,9 @@ use crate::commands::values;
 use crate::identify::fit::band::{BAND_QUANTILES, ExposureBand, head_exposure_band};
 use crate::identify::fit::uncertainty::StoredUncertainty;
 use crate::identify::validate::{predict, predict_joints, write_prediction};
-use crate::io::params_file::{ModelSource, SubjectOverride};
+use crate::io::params_file::ModelSource;
 use crate::io::recording::Recording;
+use crate::io::subject_args::SubjectArgs;
 
 /// Arguments of `supine predict`.
 #[derive(Debug, clap::Args)]
@@ -29,7 +30,7 @@ pub struct Args {
     pub out: PathBuf,
     /// The subject, if not the parameters' own.
     #[command(flatten)]
-    pub subject: SubjectOverride,
+    pub subject: SubjectArgs,
     /// Also print the head exposure's 95 % prediction band from this many parameter sets
     /// drawn from the fit's uncertainty (the file's [fit.uncertainty]).
     #[arg(long, value_name = "DRAWS")]
@@ -63,8 +64,9 @@ fn band_table(band: &ExposureBand) -> String {
 
 /// Predicts and writes the CSV.
 pub fn run(args: &Args) -> Result<()> {
-    let file = args.source.load()?;
-    let params = args.subject.apply(file.params)?;
+    let mut file = args.source.load()?;
+    args.subject.apply(&mut file)?;
+    let params = file.params;
     let recording = Recording::read(&args.input)?;
     let band = match args.band {
         Some(draws) => {

@@ -12,7 +12,8 @@ use supine_core::blob::TelemetryConfig;
 use crate::device::image::ProductImage;
 use crate::device::replay::replay;
 use crate::io::params_file::ModelSource;
-use crate::io::recording::PlatformStream;
+use crate::io::ride_input::{RideInputArgs, open_stream};
+use crate::io::subject_args::SubjectArgs;
 use crate::io::telemetry_csv::{events_path, write_events, write_telemetry_streamed};
 
 /// Arguments of `supine replay`.
@@ -27,6 +28,12 @@ pub struct Args {
     /// The recording whose platform columns are streamed as samples.
     #[arg(long, value_name = "RIDE.csv")]
     pub input: PathBuf,
+    /// How to read the ride (another logger's columns and units, gravity).
+    #[command(flatten)]
+    pub ride: RideInputArgs,
+    /// The patient (else the parameters' subject).
+    #[command(flatten)]
+    pub subject: SubjectArgs,
     /// Where to write the device's telemetry (events go to `<stem>.events.csv`).
     #[arg(long, value_name = "DEVICE.csv")]
     pub out: PathBuf,
@@ -53,10 +60,14 @@ pub fn run(args: &Args) -> Result<()> {
     if !args.qemu {
         bail!("give --qemu: replay runs the firmware in QEMU (no hardware target yet)");
     }
-    let file = args.model.load()?;
+    let mut file = args.model.load()?;
+    args.subject.apply(&mut file)?;
     // A full recording or a `supine ride` file (platform columns only), checked whole
-    // first, then streamed: a ride of any length fits in memory.
-    let ride = PlatformStream::open(&args.input)?;
+    // first, then streamed: a ride of any length fits in memory. Another logger's file or
+    // --remove-gravity: converted into a scratch folder first.
+    let scratch = tempfile::tempdir()?;
+    let mounting = file.device.unwrap_or_default().mounting;
+    let ride = open_stream(&args.ride, &args.input, &mounting, scratch.path())?;
     let kernel = ProductImage::select(args.firmware.as_deref())?;
     // Ctrl-C, SIGTERM and SIGHUP: QEMU stopped and its folder removed on the way out.
     let stop = crate::device::signals::stop_flag();

@@ -8,8 +8,9 @@ use anyhow::Result;
 use crate::commands::json_output::JsonFlag;
 use crate::identify::validate::{predict, table, validate, write_report};
 use crate::io::output_folder;
-use crate::io::params_file::{ModelSource, SubjectOverride};
+use crate::io::params_file::ModelSource;
 use crate::io::recording::Recording;
+use crate::io::subject_args::SubjectArgs;
 
 /// Arguments of `supine validate`.
 #[derive(Debug, clap::Args)]
@@ -33,12 +34,12 @@ pub struct Args {
     pub force: bool,
     /// The subject, if not the parameters' own.
     #[command(flatten)]
-    pub subject: SubjectOverride,
+    pub subject: SubjectArgs,
 }
 
 /// Predicts, compares, prints.
 pub fn run(args: &Args) -> Result<()> {
-    let params = args.source.load_for_subject(&args.subject)?;
+    let params = args.subject.load_from(&args.source)?;
     let recording = Recording::read(&args.input)?;
     let predicted = predict(&params, &recording)?;
     let result = validate(&recording, &predicted);

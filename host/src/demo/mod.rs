@@ -38,6 +38,7 @@ use crate::exposure::report::{AxisReport, run_pipeline};
 use crate::io::output_folder::{self, OutputFolder};
 use crate::io::params_file::{self, DeviceSection, ParamFile};
 use crate::io::recording::read_input;
+use crate::io::subject_args::SubjectArgs;
 use crate::io::telemetry_csv::{
     EventRow, read_events, read_telemetry, write_events, write_telemetry,
 };
@@ -84,6 +85,8 @@ pub struct DemoConfig {
     pub model: ParamFile,
     /// What they are called in the steps and the report (a preset's name, a file's path).
     pub model_name: String,
+    /// The patient the flashed model is scaled to (else the preset's mean subject).
+    pub subject: SubjectArgs,
 }
 
 /// What a finished demo produced.
@@ -211,7 +214,7 @@ pub fn run(
     let ride = make_ride(config, &files.ride)?;
     let samples = ride.samples();
 
-    let file = param_file(&config.model);
+    let file = param_file(&config.model, &config.subject)?;
     // One build: the identity announced and checked is the one of the blob flashed.
     let (params, blob) = flash::device_blob(&file, SAMPLE_RATE_HZ)?;
     steps.start(
@@ -334,13 +337,14 @@ fn make_ride(config: &DemoConfig, path: &Path) -> Result<DemoRide> {
 /// service sends 100 Hz). The report overlays the host's computation on each of the
 /// device's samples, and `supine replay` of ride.csv with these parameters reproduces
 /// device.csv.
-fn param_file(model: &ParamFile) -> ParamFile {
+fn param_file(model: &ParamFile, subject: &SubjectArgs) -> Result<ParamFile> {
     let mut file = model.clone();
     file.device = Some(DeviceSection {
         telemetry_decimation: Some(1),
         ..model.device.unwrap_or_default()
     });
-    file
+    subject.apply(&mut file)?;
+    Ok(file)
 }
 
 /// What the device sent, read back from the files the monitor logged.
@@ -434,7 +438,18 @@ fn run_info(
         seed: config.seed,
         sample_rate_hz: SAMPLE_RATE_HZ,
         samples,
-        params_name: config.model_name.clone(),
+        params_name: match (config.subject.height_m, config.subject.mass_kg) {
+            (None, None) => config.model_name.clone(),
+            (h, m) => {
+                let mean = supine_core::model::Subject::PAPER_MEAN;
+                format!(
+                    "{} for a {} m, {} kg patient",
+                    config.model_name,
+                    h.unwrap_or(mean.height_m),
+                    m.unwrap_or(mean.mass_kg)
+                )
+            }
+        },
         identity: identity_hex(&params.identity),
         firmware_version: greeting.firmware_version.as_str().to_string(),
         device_line: device_line(greeting),

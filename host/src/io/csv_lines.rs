@@ -34,7 +34,7 @@ pub enum LineError {
     Read(String),
 }
 
-/// One non-blank line of the file, split at commas.
+/// One non-blank line of the file, split at its delimiter.
 #[derive(Debug)]
 pub struct Row<'a> {
     /// 1-based line number in the file.
@@ -95,8 +95,15 @@ impl<R: Read> CsvLines<R> {
 
     /// Lines of `source`, at most `max_line_bytes` each.
     pub fn with_max_line_bytes(source: R, max_line_bytes: usize) -> Self {
+        Self::with_delimiter(source, max_line_bytes, b',')
+    }
+
+    /// Lines of `source`, at most `max_line_bytes` each, split at `delimiter` (other
+    /// loggers write `;` where a decimal comma is the custom).
+    pub fn with_delimiter(source: R, max_line_bytes: usize, delimiter: u8) -> Self {
         let reader = csv::ReaderBuilder::new()
             .has_headers(false)
+            .delimiter(delimiter)
             .flexible(true)
             .quoting(false)
             // One record per line: `\r` stays in the last cell and `Row::cell` drops it.

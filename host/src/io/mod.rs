@@ -10,6 +10,8 @@
 //! - [`device_section`]: its `[device]` table, and which key the device would refuse.
 //! - [`dataset`]: a dataset folder (`dataset.toml` and its recordings).
 //! - [`recording`]: the recording CSV (13 columns, or the platform columns of a ride).
+//! - [`ride_input`]: a ride from any logger (`--columns`, units, gravity), for exposure and report.
+//! - [`subject_args`]: `--height-m`, `--mass-kg`, the patient the model is scaled to.
 //! - [`h_csv`]: the transmissibility CSV of `supine model` and `supine transmissibility`.
 //! - [`telemetry_csv`]: a device's telemetry and alert events as CSV (replay, monitor, demo).
 
@@ -22,6 +24,8 @@ pub mod output;
 pub mod output_folder;
 pub mod params_file;
 pub mod recording;
+pub mod ride_input;
 pub mod small_file;
+pub mod subject_args;
 pub mod telemetry_csv;
 pub mod text_position;

@@ -273,43 +273,7 @@ pub struct ModelSource {
     pub params: Option<PathBuf>,
 }
 
-/// `--height-m` and `--mass-kg`: the subject the model is scaled to, instead of the file's.
-#[derive(Clone, Copy, Debug, Default, Args)]
-pub struct SubjectOverride {
-    /// Override the subject's height, m.
-    #[arg(long)]
-    pub height_m: Option<f64>,
-    /// Override the subject's mass, kg.
-    #[arg(long)]
-    pub mass_kg: Option<f64>,
-}
-
-impl SubjectOverride {
-    /// `params` with the subject's height and mass replaced where given, validated; the
-    /// error names the flags.
-    pub fn apply(&self, mut params: ModelParams) -> Result<ModelParams> {
-        if let Some(h) = self.height_m {
-            params.subject.height_m = h;
-        }
-        if let Some(m) = self.mass_kg {
-            params.subject.mass_kg = m;
-        }
-        params
-            .validate()
-            .map_err(|e| match (self.height_m, self.mass_kg) {
-                (None, None) => anyhow!("{e}"),
-                _ => anyhow!("--height-m/--mass-kg: {e}"),
-            })?;
-        Ok(params)
-    }
-}
-
 impl ModelSource {
-    /// The model parameters named, scaled to the subject `subject` gives.
-    pub fn load_for_subject(&self, subject: &SubjectOverride) -> Result<ModelParams> {
-        subject.apply(self.load()?.params)
-    }
-
     /// Loads the parameters the user named.
     pub fn load(&self) -> Result<ParamFile> {
         match (&self.params, self.preset) {

@@ -296,7 +296,7 @@ impl Recording {
 
     /// Checks that every step is within [`UNIFORM_TOLERANCE`] of the mean step;
     /// `lines_of` gives each sample's line in the file.
-    fn check_uniform(&self, lines_of: &LineNumbers) -> Result<(), RecordingError> {
+    pub(crate) fn check_uniform(&self, lines_of: &LineNumbers) -> Result<(), RecordingError> {
         let n = self.time_s.len();
         let uniform = Uniform::new(&self.path, n, self.time_s.first(), self.time_s.last())?;
         for k in 1..n {
@@ -699,13 +699,14 @@ fn parse_cell(cell: &[u8], column: &'static str) -> Result<f64, CellError> {
 /// The line of each sample, held as the points where lines stop following samples one
 /// to one (after blank lines), so that it costs nothing for a file without blank lines.
 #[derive(Default)]
-struct LineNumbers {
+pub(crate) struct LineNumbers {
     /// (first sample, its line) of each run of consecutive lines.
     runs: Vec<(usize, u64)>,
 }
 
 impl LineNumbers {
-    fn push(&mut self, sample: usize, line: u64) {
+    /// Records that `sample` sits on `line`.
+    pub(crate) fn push(&mut self, sample: usize, line: u64) {
         if self
             .runs
             .last()

@@ -147,18 +147,19 @@ where
         .y_label_area_size(52)
         .build_cartesian_2d(x, y)
         .map_err(plot_error)?;
-    chart
-        .configure_mesh()
-        .x_desc(panel.x_label.as_str())
+    let mut mesh = chart.configure_mesh();
+    mesh.x_desc(panel.x_label.as_str())
         .y_desc(panel.y_label.as_str())
         .x_labels(6)
         .y_labels(6)
         .light_line_style(RGBColor(240, 240, 240))
         .bold_line_style(RGBColor(215, 215, 215))
         .label_style(("sans-serif", 10))
-        .axis_desc_style(("sans-serif", 11))
-        .draw()
-        .map_err(plot_error)?;
+        .axis_desc_style(("sans-serif", 11));
+    if panel.log_y {
+        mesh.y_label_formatter(&|v| log_tick(*v));
+    }
+    mesh.draw().map_err(plot_error)?;
     for s in &panel.series {
         let style = RGBColor::from(s.color).stroke_width(s.width.round().max(1.0) as u32);
         for run in panel.runs(s) {
@@ -174,6 +175,13 @@ where
         }
     }
     Ok(())
+}
+
+/// A tick of a log axis in short scientific form (`1e-5`, `2.5e-3`): the powers of ten
+/// a log axis ticks at come out of `log10` a rounding away, as `9.999999999e-6`.
+fn log_tick(v: f64) -> String {
+    let short = format!("{v:.1e}");
+    short.replace(".0e", "e")
 }
 
 /// A figure of `panels` in a grid of `columns`, with a title and a legend of the first
@@ -256,6 +264,14 @@ mod tests {
             "the series' colour"
         );
         assert!(!svg.contains("<script"));
+    }
+
+    #[test]
+    fn log_ticks_are_short() {
+        assert_eq!(log_tick(9.999_999_999_999_9e-6), "1e-5");
+        assert_eq!(log_tick(0.001_000_000_000_000_2), "1e-3");
+        assert_eq!(log_tick(2.5e-3), "2.5e-3");
+        assert_eq!(log_tick(1.0), "1e0");
     }
 
     #[test]

@@ -1,0 +1,96 @@
+//! `supine report`: the mission report of one or more rides (each `--input` one leg, in
+//! order) for a given patient: `DIR/report.html`, and with `--json` one JSON object on
+//! standard output (see [`crate::report`]). `--compare` puts two rides side by side.
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use anyhow::{Context as _, Result, anyhow};
+use clap::ValueEnum as _;
+
+use crate::io::output::write_atomically;
+use crate::io::params_file::ModelSource;
+use crate::io::ride_input::RideInputArgs;
+use crate::io::subject_args::SubjectArgs;
+use crate::report::{self, html};
+
+/// Arguments of `supine report`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// A ride (one leg of the mission); give one per leg, in order.
+    #[arg(long, value_name = "RIDE.csv", required = true)]
+    pub input: Vec<PathBuf>,
+    /// How to read the rides (another logger's columns and units, gravity).
+    #[command(flatten)]
+    pub ride: RideInputArgs,
+    /// The model parameters (and optional `[device]` table).
+    #[command(flatten)]
+    pub model: ModelSource,
+    /// The patient.
+    #[command(flatten)]
+    pub subject: SubjectArgs,
+    /// Output folder for report.html (created if missing).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Also print the report as one JSON object on standard output.
+    #[arg(long)]
+    pub json: bool,
+    /// Two rides side by side (routes, vehicles, litters), with their differences,
+    /// instead of the legs of one mission.
+    #[arg(long)]
+    pub compare: bool,
+}
+
+/// The name the model is reported by.
+pub fn model_name(source: &ModelSource) -> String {
+    match (&source.params, source.preset) {
+        (Some(p), _) => p.display().to_string(),
+        (None, Some(p)) => p
+            .to_possible_value()
+            .map_or_else(|| format!("{p:?}"), |v| v.get_name().to_string()),
+        (None, None) => "?".to_string(),
+    }
+}
+
+/// Builds the report, writes `report.html`, and the JSON to `out` with `--json`.
+pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
+    let mut file = args.model.load()?;
+    args.subject.apply(&mut file)?;
+    let mounting = file.device.unwrap_or_default().mounting;
+    let report = report::build(
+        &args.input,
+        |path| args.ride.read(path, &mounting),
+        &file,
+        &model_name(&args.model),
+        args.compare,
+    )?;
+    let page = html::render(&report)?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("{}: cannot create the folder", args.out.display()))?;
+    let path = args.out.join("report.html");
+    write_atomically(&path, |w| Ok(w.write_all(page.as_bytes())?))?;
+    if args.json {
+        let text = serde_json::to_string(&report)? + "\n";
+        out.write_all(text.as_bytes())
+            .map_err(|e| anyhow!("writing the JSON: {e}"))?;
+    }
+    eprintln!(
+        "wrote {}: {} {}, {:.1} s, mission VDV {:.3} m/s^1.75, highest level {}",
+        path.display(),
+        report.legs.len(),
+        if args.compare {
+            "rides compared"
+        } else {
+            "legs"
+        },
+        report.mission.duration_s,
+        report.mission.vector.vdv_m_s175,
+        report.mission.max_level
+    );
+    Ok(())
+}
+
+/// Builds and writes the report; the JSON goes to standard output.
+pub fn run(args: &Args) -> Result<()> {
+    run_to(args, &mut std::io::stdout().lock())
+}

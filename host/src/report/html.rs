@@ -1,0 +1,348 @@
+//! The mission report as one self-contained HTML page: inline CSS and SVG, no script, no
+//! external font, style or image, and print rules so that the browser's Print gives A4
+//! pages with no chart or table cut across a page. Every piece of text that did not come
+//! from this file is escaped.
+
+use std::fmt::Write as _;
+
+use anyhow::Result;
+
+use crate::exposure::report::AxisReport;
+use crate::report::charts;
+use crate::report::mission::{LEVEL_NAMES, Leg, level_index};
+use crate::report::{Comparison, MissionReport};
+
+/// Most alert events listed per leg (the JSON has them all).
+pub const MAX_EVENT_ROWS: usize = 60;
+
+/// Escapes text for HTML element content and attribute values.
+pub fn escape(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&#39;"),
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+const STYLE: &str = "
+body { font-family: system-ui, -apple-system, 'Segoe UI', Helvetica, Arial, sans-serif; color: #222; margin: 0; background: #f6f6f4; }
+main { max-width: 1120px; margin: 0 auto; padding: 20px 24px 48px; background: #fff; }
+h1 { font-size: 26px; margin: 4px 0 2px; }
+h2 { font-size: 19px; margin: 28px 0 6px; border-bottom: 1px solid #ddd; padding-bottom: 4px; }
+h3 { font-size: 16px; margin: 18px 0 4px; }
+p, li, td, th { font-size: 14px; line-height: 1.45; }
+.sub { color: #555; margin-top: 0; }
+.verdict { border-left: 8px solid #888; padding: 10px 16px; margin: 16px 0; background: #fafafa; }
+.verdict .big { font-size: 20px; font-weight: 600; }
+.lvl-normal { border-color: #2e8b57; } .lvl-advisory { border-color: #cc9900; }
+.lvl-warning { border-color: #e65a00; } .lvl-alarm { border-color: #c80000; }
+.tag { display: inline-block; padding: 1px 8px; border-radius: 10px; color: #fff; font-weight: 600; font-size: 13px; }
+.tag-normal { background: #2e8b57; } .tag-advisory { background: #cc9900; }
+.tag-warning { background: #e65a00; } .tag-alarm { background: #c80000; }
+table { border-collapse: collapse; margin: 8px 0; }
+th, td { border: 1px solid #ddd; padding: 3px 9px; text-align: right; }
+th { background: #f0f0ee; } td:first-child, th:first-child { text-align: left; }
+td.text, th.text { text-align: left; }
+figure { margin: 14px 0 4px; } figcaption { font-size: 13px; color: #444; margin-top: 2px; }
+svg { display: block; max-width: 100%; height: auto; }
+.caveat { background: #fff7e0; border: 1px solid #e8d28a; padding: 8px 14px; }
+.more { color: #c62828; } .less { color: #2e7d32; }
+@page { size: A4; margin: 12mm; }
+@media print {
+  body { background: #fff; }
+  main { max-width: none; padding: 0; }
+  figure, table, .verdict, .caveat { break-inside: avoid; page-break-inside: avoid; }
+  h2, h3 { break-after: avoid; page-break-after: avoid; }
+  .leg { break-before: page; page-break-before: always; }
+}
+";
+
+fn tag(level: &str) -> String {
+    let level = LEVEL_NAMES[level_index(level)];
+    format!("<span class=\"tag tag-{level}\">{level}</span>")
+}
+
+fn duration(s: f64) -> String {
+    let total = s.round() as u64;
+    let (h, m, sec) = (total / 3600, (total / 60) % 60, total % 60);
+    if h > 0 {
+        format!("{h} h {m:02} min")
+    } else if m > 0 {
+        format!("{m} min {sec:02} s")
+    } else {
+        format!("{s:.1} s")
+    }
+}
+
+/// The page for a mission report (or a comparison of two rides).
+pub fn render(report: &MissionReport) -> Result<String> {
+    let mut h = String::with_capacity(1 << 20);
+    let title = if report.comparison.is_some() {
+        "supine ride comparison"
+    } else {
+        "supine mission report"
+    };
+    let _ = write!(
+        h,
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
+         <title>{title}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n<main>\n\
+         <h1>{title}: predicted head vibration of a supine patient</h1>\n"
+    );
+    let legs = &report.legs;
+    let _ = writeln!(
+        h,
+        "<p class=\"sub\">{} {} ({}); patient {:.2} m, {:.0} kg; model {} (identity <code>{}</code>). \
+         Each ride went through the device's own pipeline (model, ISO 2631-1 weighting, exposure, alerts) \
+         on this computer.</p>",
+        legs.len(),
+        if report.comparison.is_some() {
+            "rides"
+        } else if legs.len() == 1 {
+            "leg"
+        } else {
+            "legs"
+        },
+        duration(report.mission.duration_s),
+        report.subject.height_m,
+        report.subject.mass_kg,
+        escape(&report.model.name),
+        escape(&report.model.identity)
+    );
+    match &report.comparison {
+        Some(c) => comparison(&mut h, legs, c),
+        None => mission(&mut h, report),
+    }
+    h.push_str("<h2>Charts</h2>\n");
+    let config = &report.thresholds;
+    let layout = if report.comparison.is_some() {
+        charts::Layout::Compare
+    } else {
+        charts::Layout::Mission
+    };
+    for chart in [
+        charts::input(legs, layout),
+        charts::running_rms(legs, config, layout),
+        charts::vdv(legs, config, layout),
+        charts::levels(legs, layout),
+    ] {
+        let _ = writeln!(h, "<figure>{}</figure>", chart.to_svg()?);
+    }
+    h.push_str(
+        "<p>The legs are shaded and named along one time axis. Each leg starts from a fresh \
+         device state, so every leg has its own 5 s warm-up of the weighting filters; the \
+         mission's VDV adds the legs' fourth powers.</p>\n",
+    );
+    for (i, leg) in legs.iter().enumerate() {
+        leg_section(&mut h, i, leg)?;
+    }
+    h.push_str(
+        "<p class=\"caveat\">ISO 2631-1 gives no health guidance for recumbent persons; the \
+         alert thresholds are the parameter file's extrapolations, and the head acceleration is \
+         a model's prediction from the litter's, not a measurement.</p>\n</main>\n</body>\n</html>\n",
+    );
+    Ok(h)
+}
+
+fn mission(h: &mut String, report: &MissionReport) {
+    let m = &report.mission;
+    let _ = writeln!(
+        h,
+        "<div class=\"verdict lvl-{0}\"><div class=\"big\">Highest alert level: {1}</div>\
+         <p>Mission VDV {2:.3} m/s<sup>1.75</sup> (the legs combined as (&Sigma; VDV<sub>i</sub><sup>4</sup>)<sup>1/4</sup>); \
+         rms {3:.3} m/s<sup>2</sup> (energy-equivalent over the evaluated time); largest MTVV {4:.3} m/s<sup>2</sup>.</p></div>",
+        LEVEL_NAMES[level_index(m.max_level)],
+        tag(m.max_level),
+        m.vector.vdv_m_s175,
+        m.vector.rms_m_s2,
+        m.vector.mtvv_m_s2
+    );
+    h.push_str("<h2>Mission</h2>\n<table><tr><th>leg</th><th>duration</th><th>rms, m/s<sup>2</sup></th><th>MTVV, m/s<sup>2</sup></th><th>VDV, m/s<sup>1.75</sup></th><th>peak, m/s<sup>2</sup></th><th>crest</th>");
+    for name in LEVEL_NAMES {
+        let _ = write!(h, "<th>at {name}</th>");
+    }
+    h.push_str("<th>highest</th></tr>\n");
+    for (i, leg) in report.legs.iter().enumerate() {
+        let v = &leg.vector;
+        let _ = write!(
+            h,
+            "<tr><td>{}</td><td>{}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td><td>{:.2}</td>",
+            escape(&charts::leg_label(i, leg)),
+            duration(leg.duration_s),
+            v.rms_m_s2,
+            v.mtvv_m_s2,
+            v.vdv_m_s175,
+            v.peak_m_s2,
+            v.crest_factor
+        );
+        for t in leg.time_at_level_s.as_array() {
+            let _ = write!(h, "<td>{}</td>", duration(t));
+        }
+        let _ = writeln!(h, "<td>{}</td></tr>", tag(leg.max_level));
+    }
+    let _ = write!(
+        h,
+        "<tr><th>mission</th><th>{}</th><th>{:.3}</th><th>{:.3}</th><th>{:.3}</th><th></th><th></th>",
+        duration(m.duration_s),
+        m.vector.rms_m_s2,
+        m.vector.mtvv_m_s2,
+        m.vector.vdv_m_s175
+    );
+    for t in m.time_at_level_s.as_array() {
+        let _ = write!(h, "<th>{}</th>", duration(t));
+    }
+    let _ = writeln!(h, "<th>{}</th></tr></table>", tag(m.max_level));
+    let p = &m.projection;
+    let _ = write!(
+        h,
+        "<h3>Projection</h3><p>At the dose rate of the last {} of the mission (VDV<sup>4</sup> growing by {:.4} m<sup>4</sup>s<sup>-7</sup> a second), the mission's VDV would reach:</p><table><tr><th>level</th><th>VDV threshold, m/s<sup>1.75</sup></th><th class=\"text\">reached</th></tr>",
+        duration(p.window_s),
+        p.vdv4_rate_per_s
+    );
+    for t in &p.thresholds {
+        let when = match t.reached_after_s {
+            Some(s) if s <= 0.0 => "already reached".to_string(),
+            Some(s) => format!("after {} more at this rate", duration(s)),
+            None => "never at this rate".to_string(),
+        };
+        let _ = write!(
+            h,
+            "<tr><td>{}</td><td>{:.2}</td><td class=\"text\">{when}</td></tr>",
+            tag(t.level),
+            t.vdv_m_s175
+        );
+    }
+    h.push_str("</table>\n");
+}
+
+fn comparison(h: &mut String, legs: &[Leg], c: &Comparison) {
+    let [a, b] = [&legs[0], &legs[1]];
+    let _ = write!(
+        h,
+        "<h2>Comparison</h2><p>Ride A is {}, ride B is {}. Differences are B &minus; A; a \
+         red value is more vibration in B, a green one less.</p>\n<table><tr><th>predicted head</th><th>A</th><th>B</th><th>B &minus; A</th><th>change</th></tr>\n",
+        escape(&a.input),
+        escape(&b.input)
+    );
+    for row in &c.rows {
+        let class = match row.difference {
+            d if d > 0.0 => "more",
+            d if d < 0.0 => "less",
+            _ => "",
+        };
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td>{:.3}</td><td>{:.3}</td><td class=\"{class}\">{:+.3}</td><td class=\"{class}\">{}</td></tr>",
+            escape(&row.quantity),
+            row.a,
+            row.b,
+            row.difference,
+            row.change_percent
+                .map_or_else(|| "-".to_string(), |p| format!("{p:+.1} %"))
+        );
+    }
+    h.push_str("</table>\n");
+}
+
+fn axis_row(h: &mut String, label: &str, a: &AxisReport) {
+    let m = a.additional_methods;
+    let flags: Vec<&str> = [
+        (m.crest_factor, "crest factor &gt; 9"),
+        (m.mtvv_ratio, "MTVV/rms &gt; 1.5"),
+        (m.vdv_ratio, "VDV ratio &gt; 1.75"),
+    ]
+    .iter()
+    .filter(|(on, _)| *on)
+    .map(|(_, n)| *n)
+    .collect();
+    let _ = writeln!(
+        h,
+        "<tr><td>{label}</td><td class=\"text\">{}</td><td>{:.4}</td><td>{:.4}</td><td>{:.4}</td><td>{:.4}</td><td>{:.2}</td><td class=\"text\">{}</td></tr>",
+        a.weighting,
+        a.rms_m_s2,
+        a.mtvv_m_s2,
+        a.vdv_m_s175,
+        a.peak_m_s2,
+        a.crest_factor,
+        if flags.is_empty() {
+            "-".to_string()
+        } else {
+            flags.join(", ")
+        }
+    );
+}
+
+fn leg_section(h: &mut String, index: usize, leg: &Leg) -> Result<()> {
+    let e = &leg.exposure;
+    let _ = writeln!(
+        h,
+        "<section class=\"leg\"><h2>{}</h2><p>{} from {} into the mission; {} samples at {} Hz; \
+         evaluated {:.1} s after the {} s warm-up{}. Litter input rms (unweighted) x {:.3}, y {:.3}, z {:.3} m/s<sup>2</sup>.</p>",
+        escape(&charts::leg_label(index, leg)),
+        duration(leg.duration_s),
+        duration(leg.start_s),
+        e.samples,
+        e.sample_rate_hz,
+        e.evaluated_s,
+        e.warmup_s,
+        if e.valid {
+            ""
+        } else {
+            " (too short: NOT VALID)"
+        },
+        e.platform_rms_m_s2[0],
+        e.platform_rms_m_s2[1],
+        e.platform_rms_m_s2[2]
+    );
+    h.push_str("<table><tr><th>predicted head</th><th class=\"text\">weighting</th><th>rms, m/s<sup>2</sup></th><th>MTVV, m/s<sup>2</sup></th><th>VDV, m/s<sup>1.75</sup></th><th>peak, m/s<sup>2</sup></th><th>crest</th><th class=\"text\">additional methods (ISO 2631-1 6.3)</th></tr>\n");
+    for (label, axis) in ["x", "y", "z"].iter().zip(&leg.axes) {
+        axis_row(h, label, axis);
+    }
+    axis_row(h, "vector", &leg.vector);
+    h.push_str("</table>\n");
+    if leg.alerts.is_empty() {
+        h.push_str("<p>No alert in this leg.</p>\n");
+    } else {
+        h.push_str("<table><tr><th>mission time</th><th>leg time</th><th class=\"text\">event</th><th class=\"text\">criterion</th><th>value</th><th>running rms, m/s<sup>2</sup></th><th>VDV, m/s<sup>1.75</sup></th></tr>\n");
+        for a in leg.alerts.iter().take(MAX_EVENT_ROWS) {
+            let _ = writeln!(
+                h,
+                "<tr><td>{:.1} s</td><td>{:.1} s</td><td class=\"text\">{} {}</td><td class=\"text\">{}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td></tr>",
+                a.mission_time_s,
+                a.leg_time_s,
+                a.kind,
+                escape(&a.event),
+                a.criterion,
+                a.value,
+                a.running_rms_m_s2,
+                a.vdv_m_s175
+            );
+        }
+        h.push_str("</table>\n");
+        if leg.alerts.len() > MAX_EVENT_ROWS {
+            let _ = writeln!(
+                h,
+                "<p>{} more events are in the JSON output (--json).</p>",
+                leg.alerts.len() - MAX_EVENT_ROWS
+            );
+        }
+    }
+    let _ = writeln!(
+        h,
+        "<figure>{}<figcaption>Power spectral density (Welch, Hann, 50 % overlap, {:.2} Hz bins) of the litter input, \
+         the predicted head, and the head weighted as the device weights it: the weighted curve is what the exposure values integrate.</figcaption></figure></section>",
+        charts::spectra_svg(index, leg)?,
+        leg.spectra
+            .first()
+            .and_then(|s| s.freqs_hz.get(1))
+            .copied()
+            .unwrap_or(0.0)
+    );
+    Ok(())
+}

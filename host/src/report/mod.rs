@@ -1,0 +1,177 @@
+//! The mission report (`supine report`): one or more legs of a ride, each evaluated by the
+//! device's own pipeline for a given patient, combined as ISO 2631-1 combines exposures in
+//! sequence, and written as one self-contained HTML page and one JSON object.
+//!
+//! - [`mission`]: the numbers (legs, alerts with their criteria, time at each level, the
+//!   mission's combination and the projection).
+//! - [`spectrum`]: the power spectral densities of input and predicted head.
+//! - [`charts`]: what each chart shows.
+//! - [`html`]: the page.
+//!
+//! The JSON's key names are the contract of `--json` (`docs/exposure.md#mission-report`).
+
+pub mod charts;
+pub mod html;
+pub mod mission;
+pub mod spectrum;
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Result, bail};
+use serde::Serialize;
+use supine_core::alerts::AlertConfig;
+
+use crate::device::device_params;
+use crate::exposure::report::ThresholdsReport;
+use crate::io::params_file::ParamFile;
+use crate::io::recording::{Layout, Recording};
+use mission::{Leg, MissionTotals, evaluate_leg, totals};
+
+/// The patient the model was scaled to.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct SubjectReport {
+    /// Standing height, m.
+    pub height_m: f64,
+    /// Body mass, kg.
+    pub mass_kg: f64,
+}
+
+/// The model the legs went through.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ModelReport {
+    /// A preset's name or the parameter file.
+    pub name: String,
+    /// The parameter set's identity (hex), with the patient's height and mass in it.
+    pub identity: String,
+    /// The alert thresholds of the vector sum.
+    pub thresholds: ThresholdsReport,
+}
+
+/// One compared quantity of two rides.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ComparedValue {
+    /// What (e.g. `vector VDV, m/s^1.75`).
+    pub quantity: String,
+    /// Ride A's value.
+    pub a: f64,
+    /// Ride B's value.
+    pub b: f64,
+    /// `b - a`.
+    pub difference: f64,
+    /// `100 (b - a) / a`, when `a` is not zero.
+    pub change_percent: Option<f64>,
+}
+
+/// Two rides side by side.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Comparison {
+    /// The quantities compared.
+    pub rows: Vec<ComparedValue>,
+}
+
+/// The report: the patient, the model, the legs and the mission.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MissionReport {
+    /// The patient.
+    pub subject: SubjectReport,
+    /// The model.
+    pub model: ModelReport,
+    /// The legs in order (or the two rides compared).
+    pub legs: Vec<Leg>,
+    /// The legs combined (for a comparison: both rides' totals, not a real mission).
+    pub mission: MissionTotals,
+    /// Present when two rides were compared rather than joined.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub comparison: Option<Comparison>,
+    /// The alert thresholds.
+    #[serde(skip)]
+    pub thresholds: AlertConfig,
+}
+
+/// Evaluates the rides at `inputs` (each read by `read`) as the legs of a mission, or as
+/// two rides compared. One ride is in memory at a time: a leg keeps only its values, its
+/// chart series and its spectra.
+pub fn build(
+    inputs: &[PathBuf],
+    read: impl Fn(&Path) -> Result<(Recording, Layout)>,
+    file: &ParamFile,
+    model: &str,
+    compare: bool,
+) -> Result<MissionReport> {
+    if compare && inputs.len() != 2 {
+        bail!(
+            "--compare: expected exactly two --input rides, found {}",
+            inputs.len()
+        );
+    }
+    let mut legs = Vec::with_capacity(inputs.len());
+    let mut start_s = 0.0;
+    for path in inputs {
+        let (recording, layout) = read(path)?;
+        // Compared rides share one time axis from zero; legs follow each other.
+        let leg = evaluate_leg(
+            &recording,
+            layout,
+            file,
+            model,
+            if compare { 0.0 } else { start_s },
+        )?;
+        start_s += leg.duration_s;
+        legs.push(leg);
+    }
+    let config = file.device.unwrap_or_default().alerts;
+    let mission = totals(&legs, &config);
+    let identity = device_params::identity_hex(&device_params::identity(file)?);
+    let comparison = compare.then(|| compare_rides(&legs[0], &legs[1]));
+    Ok(MissionReport {
+        subject: SubjectReport {
+            height_m: file.params.subject.height_m,
+            mass_kg: file.params.subject.mass_kg,
+        },
+        model: ModelReport {
+            name: model.to_string(),
+            identity,
+            thresholds: (&config).into(),
+        },
+        legs,
+        mission,
+        comparison,
+        thresholds: config,
+    })
+}
+
+fn compare_rides(a: &Leg, b: &Leg) -> Comparison {
+    let mut rows = Vec::new();
+    let mut push = |quantity: String, a: f64, b: f64| {
+        rows.push(ComparedValue {
+            quantity,
+            a,
+            b,
+            difference: b - a,
+            change_percent: (a != 0.0).then(|| 100.0 * (b - a) / a),
+        });
+    };
+    push("duration, s".into(), a.duration_s, b.duration_s);
+    let names = ["x", "y", "z", "vector"];
+    let axes_a = a.axes.iter().chain([&a.vector]);
+    let axes_b = b.axes.iter().chain([&b.vector]);
+    for ((name, va), vb) in names.iter().zip(axes_a).zip(axes_b) {
+        push(format!("{name} rms, m/s^2"), va.rms_m_s2, vb.rms_m_s2);
+        push(format!("{name} MTVV, m/s^2"), va.mtvv_m_s2, vb.mtvv_m_s2);
+        push(
+            format!("{name} VDV, m/s^1.75"),
+            va.vdv_m_s175,
+            vb.vdv_m_s175,
+        );
+        push(format!("{name} peak, m/s^2"), va.peak_m_s2, vb.peak_m_s2);
+    }
+    let at_a = a.time_at_level_s.as_array();
+    let at_b = b.time_at_level_s.as_array();
+    for (i, name) in mission::LEVEL_NAMES.iter().enumerate() {
+        push(format!("time at {name}, s"), at_a[i], at_b[i]);
+    }
+    Comparison { rows }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,271 @@
+//! The mission report's numbers against independent ones: `supine exposure` on each leg's
+//! file, the ISO combination by hand, and the model's transmissibility for the patient.
+
+use std::f64::consts::PI;
+use std::path::{Path, PathBuf};
+
+use serde_json::Value;
+use supine_core::model::{ModelParams, Preset};
+
+use crate::commands::{exposure, report};
+use crate::exposure::ride::{Profile, generate, write_ride};
+use crate::identify::transmissibility::model_h;
+use crate::io::params_file::{ModelSource, PresetArg};
+use crate::io::ride_input::RideInputArgs;
+use crate::io::subject_args::SubjectArgs;
+
+fn ride(dir: &Path, profile: Profile, duration_s: f64, seed: u64) -> PathBuf {
+    let path = dir.join(format!("{}-{seed}.csv", profile.name()));
+    write_ride(&path, &generate(profile, duration_s, 500.0, seed).unwrap()).unwrap();
+    path
+}
+
+fn preset() -> ModelSource {
+    ModelSource {
+        preset: Some(PresetArg::PaperLitter),
+        params: None,
+    }
+}
+
+fn report_json(inputs: &[PathBuf], out: &Path, height_mass: Option<(f64, f64)>) -> Value {
+    let args = report::Args {
+        input: inputs.to_vec(),
+        ride: RideInputArgs::default(),
+        model: preset(),
+        subject: SubjectArgs {
+            height_m: height_mass.map(|h| h.0),
+            mass_kg: height_mass.map(|h| h.1),
+        },
+        out: out.to_path_buf(),
+        json: true,
+        compare: false,
+    };
+    let mut text = Vec::new();
+    report::run_to(&args, &mut text).unwrap();
+    serde_json::from_slice(&text).unwrap()
+}
+
+fn exposure_json(input: &Path) -> Value {
+    let args = exposure::Args {
+        preset: Some(PresetArg::PaperLitter),
+        params: None,
+        input: input.to_path_buf(),
+        ride: RideInputArgs::default(),
+        subject: SubjectArgs::default(),
+        channel: None,
+        weighting: None,
+        fs_hz: None,
+        json: true,
+    };
+    let mut text = Vec::new();
+    exposure::run_to(&args, &mut text).unwrap();
+    serde_json::from_slice(&text).unwrap()
+}
+
+fn f(v: &Value) -> f64 {
+    v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
+}
+
+#[test]
+fn a_two_leg_missions_vdv_and_times_combine_the_legs_own_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let legs = [
+        ride(dir.path(), Profile::Ambulance, 40.0, 1),
+        ride(dir.path(), Profile::RoughRoad, 60.0, 2),
+    ];
+    let r = report_json(&legs, &dir.path().join("out"), None);
+    assert!(dir.path().join("out/report.html").is_file());
+    let mut fourth = 0.0;
+    let mut weighted_ms = 0.0;
+    let mut evaluated = 0.0;
+    let mut duration = 0.0;
+    for (i, path) in legs.iter().enumerate() {
+        let leg = &r["legs"][i];
+        let own = exposure_json(path);
+        // A leg's values are those `supine exposure` gives for the same file.
+        assert_eq!(leg["input"], own["input"]);
+        assert_eq!(leg["vector"], own["vector"]);
+        assert_eq!(leg["axes"], own["head"]);
+        assert_eq!(f(&leg["duration_s"]), f(&own["duration_s"]));
+        let at: f64 = ["normal", "advisory", "warning", "alarm"]
+            .iter()
+            .map(|l| f(&leg["time_at_level_s"][l]))
+            .sum();
+        assert!((at - f(&leg["duration_s"])).abs() < 1e-9, "{at}");
+        let v = f(&own["vector"]["vdv_m_s175"]);
+        fourth += v * v * v * v;
+        let a = f(&own["vector"]["rms_m_s2"]);
+        let t = f(&own["evaluated_s"]);
+        weighted_ms += a * a * t;
+        evaluated += t;
+        duration += f(&own["duration_s"]);
+    }
+    let m = &r["mission"];
+    assert!((f(&m["vector"]["vdv_m_s175"]) - fourth.powf(0.25)).abs() < 1e-12);
+    assert!((f(&m["vector"]["rms_m_s2"]) - (weighted_ms / evaluated).sqrt()).abs() < 1e-12);
+    assert_eq!(f(&m["duration_s"]), duration);
+    for level in ["normal", "advisory", "warning", "alarm"] {
+        let sum: f64 = (0..2)
+            .map(|i| f(&r["legs"][i]["time_at_level_s"][level]))
+            .sum();
+        assert!((f(&m["time_at_level_s"][level]) - sum).abs() < 1e-9);
+    }
+    // The rough road's shocks raise alerts, each with its criterion and value.
+    let alerts = r["legs"][1]["alerts"].as_array().unwrap();
+    let raise = alerts
+        .iter()
+        .find(|a| a["raise"] == true)
+        .expect("an alert");
+    let criterion = raise["criterion"].as_str().unwrap();
+    assert!(
+        criterion == "running rms" || criterion == "VDV",
+        "{criterion}"
+    );
+    let value = f(&raise["value"]);
+    let thresholds = &r["model"]["thresholds"];
+    let key = if criterion == "VDV" {
+        "vdv_m_s175"
+    } else {
+        "running_rms_m_s2"
+    };
+    assert!(value >= f(&thresholds[key][0]), "{raise}");
+}
+
+#[test]
+fn the_json_keys_are_the_contract() {
+    let dir = tempfile::tempdir().unwrap();
+    let legs = [ride(dir.path(), Profile::Helicopter, 20.0, 3)];
+    let r = report_json(&legs, &dir.path().join("out"), Some((1.6, 52.0)));
+    assert_eq!(f(&r["subject"]["height_m"]), 1.6);
+    assert_eq!(f(&r["subject"]["mass_kg"]), 52.0);
+    assert!(r["model"].is_object());
+    let leg = &r["legs"][0];
+    for key in ["input", "duration_s", "axes", "vector", "alerts"] {
+        assert!(!leg[key].is_null(), "legs[0].{key}");
+    }
+    for key in [
+        "rms_m_s2",
+        "mtvv_m_s2",
+        "vdv_m_s175",
+        "peak_m_s2",
+        "crest_factor",
+    ] {
+        assert!(leg["vector"][key].is_number(), "legs[0].vector.{key}");
+    }
+    let m = &r["mission"];
+    for key in ["rms_m_s2", "mtvv_m_s2", "vdv_m_s175"] {
+        assert!(m["vector"][key].is_number(), "mission.vector.{key}");
+    }
+    assert!(m["duration_s"].is_number() && m["projection"].is_object());
+    for key in ["normal", "advisory", "warning", "alarm"] {
+        assert!(m["time_at_level_s"][key].is_number(), "{key}");
+    }
+}
+
+/// A vertical sine at `freq_hz` on the litter, 60 s at 500 Hz.
+fn sine_ride(path: &Path, freq_hz: f64, amplitude_m_s2: f64) {
+    let mut text = String::from("time_s,platform_x,platform_y,platform_z\n");
+    for k in 0..30_000 {
+        let t = k as f64 / 500.0;
+        text.push_str(&format!(
+            "{t},0,0,{}\n",
+            amplitude_m_s2 * (2.0 * PI * freq_hz * t).sin()
+        ));
+    }
+    std::fs::write(path, text).unwrap();
+}
+
+#[test]
+fn a_small_patients_head_differs_from_the_mean_subjects_as_the_transmissibility_says() {
+    let dir = tempfile::tempdir().unwrap();
+    // A frequency on a Welch bin (500 Hz / 2048 * 20), in the body's 4-8 Hz band.
+    let freq_hz = 500.0 / 2048.0 * 20.0;
+    let input = dir.path().join("sine.csv");
+    sine_ride(&input, freq_hz, 0.5);
+    let head_psd_at = |height_mass| {
+        let r = report_json(
+            std::slice::from_ref(&input),
+            &dir.path().join("out"),
+            height_mass,
+        );
+        assert!(r["legs"][0]["vector"]["rms_m_s2"].as_f64().unwrap() > 0.0);
+        r
+    };
+    // The report's numbers for each patient, and the model's H for each.
+    let mean = head_psd_at(None);
+    let small = head_psd_at(Some((1.6, 52.0)));
+    let mut params = ModelParams::preset(Preset::PaperLitter);
+    let h_mean = model_h(&params, &[freq_hz]).unwrap()[0][(2, 2)].norm();
+    params.subject.height_m = 1.6;
+    params.subject.mass_kg = 52.0;
+    let h_small = model_h(&params, &[freq_hz]).unwrap()[0][(2, 2)].norm();
+    assert!(
+        (h_small / h_mean - 1.0).abs() > 0.01,
+        "the patients must differ"
+    );
+    // Head z's weighted rms over the evaluated time: a steady sine's, so in the ratio of
+    // the two patients the weighting (the same for both) cancels and |H| remains.
+    let rms = |r: &Value| f(&r["legs"][0]["axes"][2]["rms_m_s2"]);
+    let ratio = rms(&small) / rms(&mean);
+    assert!(
+        (ratio - h_small / h_mean).abs() < 2e-3 * (h_small / h_mean),
+        "report {ratio}, model {}",
+        h_small / h_mean
+    );
+}
+
+#[test]
+fn the_page_is_self_contained_prints_on_a4_and_names_every_leg() {
+    let dir = tempfile::tempdir().unwrap();
+    let legs = [
+        ride(dir.path(), Profile::Ambulance, 20.0, 4),
+        ride(dir.path(), Profile::Helicopter, 20.0, 5),
+        ride(dir.path(), Profile::Ambulance, 20.0, 6),
+    ];
+    let out = dir.path().join("out");
+    report_json(&legs, &out, None);
+    let page = std::fs::read_to_string(out.join("report.html")).unwrap();
+    for outside in ["<script", "src=", "href=", "@import", "url("] {
+        assert!(!page.contains(outside), "{outside}");
+    }
+    assert!(page.contains("@page { size: A4"));
+    assert!(page.contains("break-inside: avoid"));
+    for name in [
+        "leg 1: ambulance-4.csv",
+        "leg 2: helicopter-5.csv",
+        "leg 3: ambulance-6.csv",
+    ] {
+        assert!(page.contains(name), "{name}");
+    }
+    // Four time charts and one spectrum figure per leg.
+    assert_eq!(page.matches("<svg").count(), 4 + legs.len());
+}
+
+#[test]
+fn a_ride_with_gravity_is_refused_by_the_report_too() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw = dir.path().join("raw.csv");
+    let mut text = String::from("time_s,platform_x,platform_y,platform_z\n");
+    for k in 0..5000 {
+        text.push_str(&format!(
+            "{},0,0,{}\n",
+            k as f64 / 500.0,
+            9.81 + 0.01 * (k % 7) as f64
+        ));
+    }
+    std::fs::write(&raw, text).unwrap();
+    let args = report::Args {
+        input: vec![raw],
+        ride: RideInputArgs::default(),
+        model: preset(),
+        subject: SubjectArgs::default(),
+        out: dir.path().join("out"),
+        json: false,
+        compare: false,
+    };
+    let err = report::run_to(&args, &mut Vec::new())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("gravity left in a raw accelerometer"), "{err}");
+    assert!(!dir.path().join("out/report.html").exists());
+}
