@@ -105,7 +105,10 @@ fn supine_flash_serial_uploads_to_the_firmware_and_names_a_refusal_code() {
     assert!(!ok);
     let lines: Vec<&str> = stderr.trim().lines().collect();
     assert_eq!(lines.len(), 2, "{stderr}");
-    assert!(lines[0].starts_with("signing with the public development key"), "{stderr}");
+    assert!(
+        lines[0].starts_with("signing with the public development key"),
+        "{stderr}"
+    );
     assert!(stderr.contains("(code 5)"), "{stderr}");
 
     // A higher counter goes to the other slot.
