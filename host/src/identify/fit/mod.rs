@@ -27,6 +27,7 @@ pub mod band;
 pub mod determination;
 pub mod multistart;
 pub mod objective;
+pub mod part;
 pub mod report;
 pub mod solver;
 pub mod uncertainty;
@@ -44,7 +45,9 @@ use objective::{COMPONENTS, Objective, Target};
 use solver::{DampingScale, Problem, SolverSettings};
 
 pub use determination::{AtBound, Determination, Identifiability, ParamSummary, identifiability};
-pub use multistart::{FitResult, POLISH_TIGHTENING, Progress, StartOutcome, polish_settings, run};
+pub use multistart::{
+    FitResult, POLISH_TIGHTENING, PartOutcome, Progress, StartOutcome, polish_settings, run,
+};
 
 /// Rigid-case stiffness bounds, N/m or N m/rad.
 pub const STIFFNESS_BOUNDS: (f64, f64) = (1.0, 1e6);
@@ -97,7 +100,7 @@ pub struct FitSettings {
 impl Default for FitSettings {
     fn default() -> Self {
         Self {
-            starts: 6,
+            starts: 5,
             seed: 1,
             solver: SolverSettings::default(),
             threads: 0,
@@ -200,11 +203,6 @@ pub fn rigid_setup(target: Target, subject: Subject, settings: &FitSettings) -> 
     let upper: Vec<f64> = free.iter().map(|id| bounds(id).1.ln()).collect();
     let paper: Vec<f64> = free.iter().map(|&id| base.get(id).ln()).collect();
     let mut starts = vec![
-        Start::new(
-            "all ones (paper)",
-            vec![0.0; free.len()],
-            DampingScale::Levenberg,
-        ),
         Start::new("paper Tables 3-4", paper.clone(), DampingScale::Levenberg).anchor(),
         Start::new(
             "paper Tables 3-4, Marquardt",
