@@ -341,17 +341,27 @@ fn the_parts_partition_the_problem_and_agree_with_the_whole() {
     let mut param_part = vec![None; n];
     for (k, part) in parts.iter().enumerate() {
         for &i in &part.rows {
-            assert!(row_part[i].replace(k).is_none(), "residual {i} in two parts");
+            assert!(
+                row_part[i].replace(k).is_none(),
+                "residual {i} in two parts"
+            );
         }
         for &p in &part.params {
-            assert!(param_part[p].replace(k).is_none(), "parameter {p} in two parts");
+            assert!(
+                param_part[p].replace(k).is_none(),
+                "parameter {p} in two parts"
+            );
         }
     }
     assert!(row_part.iter().all(Option::is_some));
     for p in 0..n {
         for i in 0..m {
             if param_part[p] != row_part[i] {
-                assert_eq!(jac[(i, p)], 0.0, "parameter {p} moves residual {i} of another part");
+                assert_eq!(
+                    jac[(i, p)],
+                    0.0,
+                    "parameter {p} moves residual {i} of another part"
+                );
             }
         }
     }

@@ -221,7 +221,11 @@ fn another_seed_changes_only_the_random_starts() {
                 .iter()
                 .map(|s| s.final_cost)
                 .fold(f64::INFINITY, f64::min);
-            assert_eq!(part.starts[part.best].final_cost, part_lowest, "{}", part.name);
+            assert_eq!(
+                part.starts[part.best].final_cost, part_lowest,
+                "{}",
+                part.name
+            );
             kept += part_lowest;
         }
         assert!(kept <= lowest * (1.0 + 1e-12));

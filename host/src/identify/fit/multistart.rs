@@ -377,7 +377,10 @@ pub fn run(setup: &Setup, settings: &FitSettings, progress: Progress) -> Result<
         .unwrap_or(0);
     let polish = settings.polish.then(|| {
         let initial = offset + kept.iter().map(|(_, s)| s.cost).sum::<f64>();
-        let runs: Vec<&StartOutcome> = part_outcomes.iter().filter_map(|p| p.polish.as_ref()).collect();
+        let runs: Vec<&StartOutcome> = part_outcomes
+            .iter()
+            .filter_map(|p| p.polish.as_ref())
+            .collect();
         combined("polish of each part's best", initial, offset, &runs)
     });
     Ok(FitResult {

@@ -96,6 +96,18 @@ enum Scope<'a> {
     Part(&'a FitSubsystem),
 }
 
+/// What one evaluation's scope covers.
+struct Layout {
+    /// Its blocks of A.
+    blocks: Vec<usize>,
+    /// (component, the offset of its magnitude residual within a frequency's rows).
+    comps: Vec<(usize, usize)>,
+    /// (free parameter, its Jacobian column).
+    cols: Vec<(usize, usize)>,
+    /// Residuals per frequency.
+    per_freq: usize,
+}
+
 /// The largest uncoupled block of A this solver handles (the geometry gives 3, 6, 6, 3).
 const MAX_BLOCK: usize = 6;
 
@@ -361,6 +373,37 @@ impl Objective {
         self.evaluate_scope(theta, Scope::Part(part), residuals, jacobian)
     }
 
+    /// What `scope` covers.
+    fn layout(&self, scope: Scope) -> Layout {
+        match scope {
+            Scope::All => Layout {
+                blocks: (0..self.blocks.len()).collect(),
+                comps: (0..COMPONENTS).map(|c| (c, 2 * c)).collect(),
+                cols: (0..self.free.len()).map(|p| (p, p)).collect(),
+                per_freq: 2 * COMPONENTS,
+            },
+            Scope::Part(part) => {
+                let block = &self.blocks[part.block];
+                Layout {
+                    blocks: vec![part.block],
+                    comps: block
+                        .components
+                        .iter()
+                        .enumerate()
+                        .map(|(i, &c)| (c, 2 * i))
+                        .collect(),
+                    cols: part
+                        .params
+                        .iter()
+                        .enumerate()
+                        .map(|(a, &p)| (p, a))
+                        .collect(),
+                    per_freq: 2 * block.components.len(),
+                }
+            }
+        }
+    }
+
     fn evaluate_scope(
         &self,
         theta: &[f64],
@@ -374,28 +417,12 @@ impl Objective {
         let g_real = matrices.input;
         let (kg, cg) = (matrices.stiffness * g_real, matrices.damping * g_real);
         let r_out = &matrices.output;
-        // What this scope covers: blocks, (component, its slot in a frequency's rows), and
-        // (free parameter, its Jacobian column).
-        let all_blocks: Vec<usize> = (0..self.blocks.len()).collect();
-        let all_params: Vec<(usize, usize)> = (0..self.free.len()).map(|p| (p, p)).collect();
-        let (blocks, comps, cols, per_freq): (&[usize], Vec<(usize, usize)>, Vec<(usize, usize)>, usize) =
-            match scope {
-                Scope::All => (
-                    &all_blocks,
-                    (0..COMPONENTS).map(|c| (c, 2 * c)).collect(),
-                    all_params,
-                    2 * COMPONENTS,
-                ),
-                Scope::Part(part) => {
-                    let block = &self.blocks[part.block];
-                    (
-                        std::slice::from_ref(&part.block),
-                        block.components.iter().enumerate().map(|(i, &c)| (c, 2 * i)).collect(),
-                        part.params.iter().enumerate().map(|(a, &p)| (p, a)).collect(),
-                        2 * block.components.len(),
-                    )
-                }
-            };
+        let Layout {
+            blocks,
+            comps,
+            cols,
+            per_freq,
+        } = self.layout(scope);
         // The distinct shapes of the scope's blocks, and their u and v (below), set per
         // frequency.
         let shape_ids: Vec<usize> = (0..self.shapes.len())
