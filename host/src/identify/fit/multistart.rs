@@ -1,6 +1,6 @@
-//! Running the solver from every start of a [`Setup`]: two rounds spread over threads
-//! (the anchors, then the others against the anchors' best cost), the best minimum kept
-//! and polished. See the `fit` module for why.
+//! Running the solver on every part of a [`Setup`] from every start: two rounds spread
+//! over threads (the anchors, then the others against each part's best anchor cost), each
+//! part's lowest minimum kept and polished, the parts joined. See the `fit` module for why.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
