@@ -161,6 +161,11 @@ def summary(rows):
            [r["speedup"] for r in rows], lambda v: f"{v:.1f}x")
     spread("speed-up in CPU time (SciPy fit / supine command, all its threads)",
            [r["cpu_speedup"] for r in rows], lambda v: f"{v:.1f}x")
+    spread("load average (1 min) at each dataset", [r["load"] for r in rows],
+           lambda v: f"{v:.2f}")
+    spread("supine rigid command CPU s (all threads)", [r["rust_rigid_cpu_s"] for r in rows],
+           lambda v: f"{v:.3f}")
+    spread("SciPy fit CPU s", [r["scipy_rigid_cpu_s"] for r in rows], lambda v: f"{v:.2f}")
     spread("supine reading + spectra s", [r["rust_spectra_s"] for r in rows],
            lambda v: f"{v:.3f}")
     spread("supine solver s", [r["rust_solver_s"] for r in rows], lambda v: f"{v:.3f}")

@@ -313,3 +313,75 @@ fn solver_abandons_a_run_that_stagnates_far_above_another_starts_cost() {
     .unwrap();
     assert!(s.cost < 1e-12, "{s:?}");
 }
+
+/// The fit solves the parts (subsystems) apart: that is exact only if every residual is
+/// moved by the parameters of one part alone and the parts' own evaluations agree with
+/// the whole problem's. Checked against the whole problem's Jacobian (itself checked
+/// against finite differences above) at a point away from the paper's values.
+#[test]
+fn the_parts_partition_the_problem_and_agree_with_the_whole() {
+    let base = ModelParams::preset(Preset::PaperRigid);
+    let objective = Objective::new(base, ParamId::ALL.to_vec(), target());
+    let theta: Vec<f64> = objective
+        .theta(&base)
+        .iter()
+        .enumerate()
+        .map(|(i, t)| t + 0.4 * ((i * 5 % 7) as f64 / 6.0 - 0.5))
+        .collect();
+    let (m, n) = (objective.residual_count(), objective.param_count());
+    let mut r = vec![0.0; m];
+    let mut jac = DMatrix::zeros(m, n);
+    objective.evaluate(&theta, &mut r, Some(&mut jac)).unwrap();
+    let parts = objective.subsystems();
+    let names: Vec<&str> = parts.iter().map(|p| p.name.as_str()).collect();
+    assert_eq!(names, ["longitudinal", "lateral", "vertical"]);
+    // Every residual in exactly one part; every parameter in at most one, and the ones in
+    // none (roll) have no effect at all.
+    let mut row_part = vec![None; m];
+    let mut param_part = vec![None; n];
+    for (k, part) in parts.iter().enumerate() {
+        for &i in &part.rows {
+            assert!(
+                row_part[i].replace(k).is_none(),
+                "residual {i} in two parts"
+            );
+        }
+        for &p in &part.params {
+            assert!(
+                param_part[p].replace(k).is_none(),
+                "parameter {p} in two parts"
+            );
+        }
+    }
+    assert!(row_part.iter().all(Option::is_some));
+    for p in 0..n {
+        for i in 0..m {
+            if param_part[p] != row_part[i] {
+                assert_eq!(
+                    jac[(i, p)],
+                    0.0,
+                    "parameter {p} moves residual {i} of another part"
+                );
+            }
+        }
+    }
+    assert_eq!(param_part.iter().filter(|p| p.is_none()).count(), 4);
+    let mut total = 0.0;
+    for part in &parts {
+        let mut rp = vec![0.0; part.rows.len()];
+        let mut jp = DMatrix::zeros(part.rows.len(), part.params.len());
+        objective
+            .evaluate_subsystem(part, &theta, &mut rp, Some(&mut jp))
+            .unwrap();
+        for (a, &i) in part.rows.iter().enumerate() {
+            assert!((rp[a] - r[i]).abs() <= 1e-12 * r[i].abs().max(1.0));
+            for (b, &p) in part.params.iter().enumerate() {
+                let scale = jac.column(p).amax().max(1e-12);
+                assert!((jp[(a, b)] - jac[(i, p)]).abs() <= 1e-12 * scale);
+            }
+        }
+        total += 0.5 * rp.iter().map(|v| v * v).sum::<f64>();
+    }
+    let whole = 0.5 * r.iter().map(|v| v * v).sum::<f64>();
+    assert!((total - whole).abs() <= 1e-12 * whole);
+}

@@ -32,8 +32,8 @@ pub struct Args {
     /// Seed of the random starts.
     #[arg(long, default_value_t = values::DEFAULT_SEED)]
     pub seed: u64,
-    /// Number of starts (the paper's start, the paper's values with either damping, then
-    /// random ones).
+    /// Number of starts (rigid: the paper's values with either damping, then random ones;
+    /// litter board: the rigid fit's contacts, the paper's values, then random ones).
     #[arg(long, default_value_t = FitSettings::default().starts)]
     pub starts: usize,
     /// Threads the starts run on (0: one per core). The result does not depend on it.

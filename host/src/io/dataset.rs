@@ -285,18 +285,52 @@ impl Dataset {
     }
 
     /// Reads the `case` recordings of the selected subjects and checks that they share one
-    /// sample rate (within [`SAMPLE_RATE_TOLERANCE`]).
+    /// sample rate (within [`SAMPLE_RATE_TOLERANCE`]). The files are parsed in parallel
+    /// (one thread per core); the first error in the subjects' order is reported.
     pub fn read_case(&self, case: Case, selected: &[&SubjectEntry]) -> Result<Vec<CaseRecording>> {
+        let files = selected
+            .iter()
+            .map(|entry| {
+                entry.recording(case).ok_or_else(|| {
+                    anyhow!(
+                        "subject {}: no `{}` recording",
+                        name(&entry.id),
+                        case.name()
+                    )
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let threads = std::thread::available_parallelism()
+            .map_or(1, |n| n.get())
+            .min(files.len());
+        let next = std::sync::atomic::AtomicUsize::new(0);
+        let mut read: Vec<Option<Result<Recording>>> = (0..files.len()).map(|_| None).collect();
+        std::thread::scope(|scope| {
+            let worker = || {
+                let mut done = Vec::new();
+                loop {
+                    let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    let Some(file) = files.get(i) else {
+                        return done;
+                    };
+                    done.push((i, Recording::read(file).map_err(anyhow::Error::from)));
+                }
+            };
+            let handles: Vec<_> = (1..threads).map(|_| scope.spawn(worker)).collect();
+            let mut finished = worker();
+            for handle in handles {
+                match handle.join() {
+                    Ok(done) => finished.extend(done),
+                    Err(panic) => std::panic::resume_unwind(panic),
+                }
+            }
+            for (i, recording) in finished {
+                read[i] = Some(recording);
+            }
+        });
         let mut out: Vec<CaseRecording> = Vec::with_capacity(selected.len());
-        for entry in selected {
-            let file = entry.recording(case).ok_or_else(|| {
-                anyhow!(
-                    "subject {}: no `{}` recording",
-                    name(&entry.id),
-                    case.name()
-                )
-            })?;
-            let recording = Recording::read(file)?;
+        for ((entry, file), recording) in selected.iter().zip(&files).zip(read) {
+            let recording = recording.ok_or_else(|| anyhow!("{}: not read", file.display()))??;
             if let Some(first) = out.first() {
                 let (f0, f1) = (first.recording.sample_rate_hz(), recording.sample_rate_hz());
                 if ((f1 - f0) / f0).abs() > SAMPLE_RATE_TOLERANCE {

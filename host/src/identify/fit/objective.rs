@@ -22,6 +22,7 @@ use std::f64::consts::PI;
 use nalgebra::{Complex, DMatrix, SMatrix};
 use supine_core::model::assembly::{DOF_COUNT, Shape, param_shape};
 use supine_core::model::geometry::Body;
+use supine_core::model::modal::Subsystem;
 use supine_core::model::response::COUPLED_COMPONENTS;
 use supine_core::model::{ModelParams, ParamId, SystemMatrices, Transmissibility};
 
@@ -71,6 +72,40 @@ struct Block {
     outputs: Vec<usize>,
     /// The fitted components (indices into `COUPLED_COMPONENTS`) it contributes to.
     components: Vec<usize>,
+}
+
+/// One independent part of the fit ([`Objective::subsystems`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FitSubsystem {
+    /// The model's name for it (e.g. `lateral`).
+    pub name: String,
+    /// Its block of A.
+    block: usize,
+    /// Its free parameters: indices into theta, in theta's order.
+    pub params: Vec<usize>,
+    /// Its residuals: indices into the full residual vector, in the part's own order.
+    pub rows: Vec<usize>,
+}
+
+/// What one evaluation covers.
+#[derive(Clone, Copy)]
+enum Scope<'a> {
+    /// Every block: the full residual vector, a Jacobian column per free parameter.
+    All,
+    /// One part: its rows and its parameters' columns, in its order.
+    Part(&'a FitSubsystem),
+}
+
+/// What one evaluation's scope covers.
+struct Layout {
+    /// Its blocks of A.
+    blocks: Vec<usize>,
+    /// (component, the offset of its magnitude residual within a frequency's rows).
+    comps: Vec<(usize, usize)>,
+    /// (free parameter, its Jacobian column).
+    cols: Vec<(usize, usize)>,
+    /// Residuals per frequency.
+    per_freq: usize,
 }
 
 /// The largest uncoupled block of A this solver handles (the geometry gives 3, 6, 6, 3).
@@ -280,6 +315,100 @@ impl Objective {
         &self,
         theta: &[f64],
         residuals: &mut [f64],
+        jacobian: Option<&mut DMatrix<f64>>,
+    ) -> Result<(), String> {
+        self.evaluate_scope(theta, Scope::All, residuals, jacobian)
+    }
+
+    /// The independent parts of the problem: per block of A that a fitted component
+    /// sees, its free parameters and its residuals. Every component is driven by one
+    /// input axis, so it sees one block only: the cost is the sum of the parts' costs, and
+    /// each part's cost depends on its own parameters only. The free parameters of blocks
+    /// no component sees (roll) have no effect and belong to no part.
+    pub fn subsystems(&self) -> Vec<FitSubsystem> {
+        let nf = self.target.freqs_hz.len();
+        self.blocks
+            .iter()
+            .enumerate()
+            .filter(|(_, block)| !block.components.is_empty())
+            .filter_map(|(b, block)| {
+                let params: Vec<usize> = (0..self.free.len())
+                    .filter(|&p| self.param_block[p] == b)
+                    .collect();
+                if params.is_empty() {
+                    return None;
+                }
+                let rows = (0..nf)
+                    .flat_map(|f| {
+                        block.components.iter().flat_map(move |&c| {
+                            let r = Self::residual_index(f, c);
+                            [r, r + 1]
+                        })
+                    })
+                    .collect();
+                let name = Subsystem::ALL
+                    .into_iter()
+                    .find(|s| s.dofs() == block.dofs.as_slice())
+                    .map_or_else(|| format!("block {b}"), |s| s.to_string());
+                Some(FitSubsystem {
+                    name,
+                    block: b,
+                    params,
+                    rows,
+                })
+            })
+            .collect()
+    }
+
+    /// Like [`Objective::evaluate`], for one part: `theta` is the full vector (the other
+    /// parts' entries are not read), `residuals` holds the part's rows in the order of
+    /// `part.rows`, and the Jacobian (rows x the part's parameters) is dense.
+    pub fn evaluate_subsystem(
+        &self,
+        part: &FitSubsystem,
+        theta: &[f64],
+        residuals: &mut [f64],
+        jacobian: Option<&mut DMatrix<f64>>,
+    ) -> Result<(), String> {
+        self.evaluate_scope(theta, Scope::Part(part), residuals, jacobian)
+    }
+
+    /// What `scope` covers.
+    fn layout(&self, scope: Scope) -> Layout {
+        match scope {
+            Scope::All => Layout {
+                blocks: (0..self.blocks.len()).collect(),
+                comps: (0..COMPONENTS).map(|c| (c, 2 * c)).collect(),
+                cols: (0..self.free.len()).map(|p| (p, p)).collect(),
+                per_freq: 2 * COMPONENTS,
+            },
+            Scope::Part(part) => {
+                let block = &self.blocks[part.block];
+                Layout {
+                    blocks: vec![part.block],
+                    comps: block
+                        .components
+                        .iter()
+                        .enumerate()
+                        .map(|(i, &c)| (c, 2 * i))
+                        .collect(),
+                    cols: part
+                        .params
+                        .iter()
+                        .enumerate()
+                        .map(|(a, &p)| (p, a))
+                        .collect(),
+                    per_freq: 2 * block.components.len(),
+                }
+            }
+        }
+    }
+
+    fn evaluate_scope(
+        &self,
+        theta: &[f64],
+        scope: Scope,
+        residuals: &mut [f64],
         mut jacobian: Option<&mut DMatrix<f64>>,
     ) -> Result<(), String> {
         let params = self.params(theta);
@@ -288,14 +417,28 @@ impl Objective {
         let g_real = matrices.input;
         let (kg, cg) = (matrices.stiffness * g_real, matrices.damping * g_real);
         let r_out = &matrices.output;
+        let Layout {
+            blocks,
+            comps,
+            cols,
+            per_freq,
+        } = self.layout(scope);
+        // The distinct shapes of the scope's blocks, and their u and v (below), set per
+        // frequency.
+        let shape_ids: Vec<usize> = (0..self.shapes.len())
+            .filter(|&i| blocks.contains(&self.shapes[i].1))
+            .collect();
+        let mut uv = vec![([Cplx::new(0.0, 0.0); 9], [Cplx::new(0.0, 0.0); 3]); self.shapes.len()];
+        let zero = Cplx::new(0.0, 0.0);
+        let mut projected = vec![[(zero, zero); COMPONENTS]; self.shapes.len()];
         let mut x = SMatrix::<Cplx, DOF_COUNT, 3>::zeros();
         let mut w = SMatrix::<Cplx, DOF_COUNT, 9>::zeros();
+        let want_w = jacobian.is_some();
         for (f, &freq_hz) in self.target.freqs_hz.iter().enumerate() {
             let omega = 2.0 * PI * freq_hz;
-            let want_w = jacobian.is_some();
             // A is block diagonal over the uncoupled subsystems: solve each block alone
             // for X = A^-1 F (F = (K + j w C) G) and W = A^-1 R^T.
-            for block in &self.blocks {
+            for block in blocks.iter().map(|&b| &self.blocks[b]) {
                 let n = block.dofs.len();
                 let mut a = [[Cplx::new(0.0, 0.0); MAX_BLOCK]; MAX_BLOCK];
                 let mut rhs = [[Cplx::new(0.0, 0.0); 12]; MAX_BLOCK];
@@ -332,19 +475,18 @@ impl Objective {
                 }
             }
             // Only the fitted components of H = R X.
+            let measured = &self.target.h[f];
+            let base = f * per_freq;
             let mut h = [Cplx::new(0.0, 0.0); COMPONENTS];
-            for (c, (output, input)) in COUPLED_COMPONENTS.iter().enumerate() {
+            for &(c, slot) in &comps {
+                let (output, input) = COUPLED_COMPONENTS[c];
                 let (j, k) = (output.index(), input.index());
                 h[c] = self.output_rows[j]
                     .iter()
                     .map(|&(d, weight)| x[(d, k)] * weight)
                     .sum();
-            }
-            let measured = &self.target.h[f];
-            for (c, (output, input)) in COUPLED_COMPONENTS.iter().enumerate() {
-                let (j, k) = (output.index(), input.index());
                 let (hv, gv) = (h[c], measured[(j, k)]);
-                let r = Self::residual_index(f, c);
+                let r = base + slot;
                 let g_abs = gv.norm_sqr().sqrt();
                 residuals[r] = (hv.norm_sqr().sqrt() - g_abs) / g_abs;
                 // wrap(arg h - arg g) = arg(h conj(g)), in (-pi, pi].
@@ -357,16 +499,22 @@ impl Objective {
             // once per component, so the inner loop only multiplies.
             let mut mag_factor = [Cplx::new(0.0, 0.0); COMPONENTS];
             let mut phase_factor = [Cplx::new(0.0, 0.0); COMPONENTS];
-            for (c, (output, input)) in COUPLED_COMPONENTS.iter().enumerate() {
+            let mut slot_of = [0; COMPONENTS];
+            for &(c, slot) in &comps {
+                let (output, input) = COUPLED_COMPONENTS[c];
                 let (hv, gv) = (h[c], measured[(output.index(), input.index())]);
                 mag_factor[c] = hv.conj() / (hv.norm_sqr() * gv.norm_sqr()).sqrt();
                 phase_factor[c] = Cplx::new(1.0, 0.0) / (hv * PI);
+                slot_of[c] = slot;
             }
             // W = A^-1 R^T, so (R A^-1)_(j, d) = W_(d, j) by symmetry of A. Per distinct
             // shape b: u = R A^-1 b (9) and v = b^T (G - X) (3), shared by the stiffness
             // and the damping of its element and axis.
-            let mut uv = [([Cplx::new(0.0, 0.0); 9], [Cplx::new(0.0, 0.0); 3]); ParamId::COUNT];
-            for ((shape, b), (u, v)) in self.shapes.iter().zip(uv.iter_mut()) {
+            for &i in &shape_ids {
+                let (shape, b) = &self.shapes[i];
+                let (u, v) = &mut uv[i];
+                *u = [Cplx::new(0.0, 0.0); 9];
+                *v = [Cplx::new(0.0, 0.0); 3];
                 let block = &self.blocks[*b];
                 for &(d, wt) in shape.entries() {
                     for &j in &block.outputs {
@@ -377,21 +525,39 @@ impl Objective {
                     }
                 }
             }
-            for (p, &id) in self.free.iter().enumerate() {
-                let block = &self.blocks[self.param_block[p]];
-                let (u, v) = &uv[self.param_shape[p]];
-                let s = if id.is_stiffness() {
-                    Cplx::new(values[p], 0.0)
-                } else {
-                    Cplx::new(0.0, omega * values[p])
-                };
-                let column = &mut jac.column_mut(p);
+            // Per shape and component, dh/dp / s projected on both residuals:
+            // t = u_o v_i, (t m_c, t p_c) with the factors above. A stiffness (s = p)
+            // then gives (p Re(t m), p Im(t p)); a damping (s = j w p) gives
+            // (-w p Im(t m), w p Re(t p)): one complex product per shape, not per parameter.
+            for &i in &shape_ids {
+                let (u, v) = &uv[i];
+                let block = &self.blocks[self.shapes[i].1];
                 for &c in &block.components {
                     let (output, input) = COUPLED_COMPONENTS[c];
-                    let dh = s * u[output.index()] * v[input.index()];
-                    let r = Self::residual_index(f, c);
-                    column[r] = (dh * mag_factor[c]).re;
-                    column[r + 1] = (dh * phase_factor[c]).im;
+                    let t = u[output.index()] * v[input.index()];
+                    projected[i][c] = (t * mag_factor[c], t * phase_factor[c]);
+                }
+            }
+            for &(p, col) in &cols {
+                let block = &self.blocks[self.param_block[p]];
+                let projected = &projected[self.param_shape[p]];
+                let column = &mut jac.column_mut(col);
+                if self.free[p].is_stiffness() {
+                    let value = values[p];
+                    for &c in &block.components {
+                        let (tm, tp) = projected[c];
+                        let r = base + slot_of[c];
+                        column[r] = value * tm.re;
+                        column[r + 1] = value * tp.im;
+                    }
+                } else {
+                    let value = omega * values[p];
+                    for &c in &block.components {
+                        let (tm, tp) = projected[c];
+                        let r = base + slot_of[c];
+                        column[r] = -value * tm.im;
+                        column[r + 1] = value * tp.re;
+                    }
                 }
             }
         }

@@ -82,6 +82,36 @@ pub fn summary(
     }
     let _ = writeln!(
         s,
+        "\nEach part (a subsystem: its parameters move only its own components) is solved on its own from every start, and each part keeps its lowest minimum (*). Final cost of each part (iterations):\n"
+    );
+    let mut header = String::from("| start |");
+    for part in &result.parts {
+        let _ = write!(header, " {} ({} parameters) |", part.name, part.params);
+    }
+    let _ = writeln!(s, "{header}\n|---|{}", "---|".repeat(result.parts.len()));
+    for (i, start) in result.starts.iter().enumerate() {
+        let mut row = format!("| {} |", start.label);
+        for part in &result.parts {
+            let o = &part.starts[i];
+            let mark = if part.best == i { "*" } else { "" };
+            let _ = write!(row, " {:.6}{mark} ({}) |", o.final_cost, o.iterations);
+        }
+        let _ = writeln!(s, "{row}");
+    }
+    if result.parts.iter().any(|p| p.polish.is_some()) {
+        let mut row = String::from("| polish |");
+        for part in &result.parts {
+            match &part.polish {
+                Some(o) => {
+                    let _ = write!(row, " {:.6} ({}) |", o.final_cost, o.iterations);
+                }
+                None => row.push_str(" - |"),
+            }
+        }
+        let _ = writeln!(s, "{row}");
+    }
+    let _ = writeln!(
+        s,
         "\n| component | rms magnitude error (relative) | rms phase error (deg) |"
     );
     let _ = writeln!(s, "|---|---|---|");

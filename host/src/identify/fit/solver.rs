@@ -188,6 +188,8 @@ impl Termination {
 /// The solver's result.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Solution {
+    /// The cost at the start (projected into the box).
+    pub initial_cost: f64,
     /// The best point found.
     pub x: Vec<f64>,
     /// 0.5 |r(x)|^2.
@@ -334,6 +336,8 @@ struct Run<'a> {
     trial_jac: DMatrix<f64>,
     // Residuals at x + h v for the second directional derivative.
     r_h: Vec<f64>,
+    // The cost at the start.
+    initial_cost: f64,
     // Accepted costs, for the stagnation test.
     history: Vec<f64>,
     // Gain ratio of the last accepted step (none yet: the acceleration is computed).
@@ -375,6 +379,7 @@ impl<'a> Run<'a> {
             trial_r: vec![0.0; m],
             trial_jac: DMatrix::zeros(m, n),
             r_h: vec![0.0; m],
+            initial_cost: cost,
             history: Vec::new(),
             last_rho: f64::NEG_INFINITY,
             damping: Damping {
@@ -576,6 +581,7 @@ impl<'a> Run<'a> {
 
     fn finish(self, termination: Termination) -> Solution {
         Solution {
+            initial_cost: self.initial_cost,
             x: self.x,
             cost: self.cost,
             residuals: self.r,

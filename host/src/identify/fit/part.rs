@@ -1,0 +1,100 @@
+//! One independent part of the fit ([`FitSubsystem`]) as a least-squares problem of its
+//! own: its parameters, its residuals, and a dense Jacobian. The fit solves the parts
+//! apart because the cost is their sum and no parameter moves two of them: each part gets
+//! its own damping and stops when it has converged, and a cheaper evaluation (one block
+//! of A instead of all) per iteration.
+
+use nalgebra::DMatrix;
+
+use super::objective::{FitSubsystem, Objective};
+use super::solver::Problem;
+
+/// A part of `objective`, the other parts' parameters held at `theta`'s values (they do
+/// not change its residuals; they only fill the full vector the model is assembled from).
+pub struct PartProblem<'a> {
+    objective: &'a Objective,
+    part: &'a FitSubsystem,
+    theta: Vec<f64>,
+}
+
+impl<'a> PartProblem<'a> {
+    /// The part `part` of `objective` around the full log-parameter vector `theta`.
+    pub fn new(objective: &'a Objective, part: &'a FitSubsystem, theta: &[f64]) -> Self {
+        Self {
+            objective,
+            part,
+            theta: theta.to_vec(),
+        }
+    }
+
+    /// The part's entries of a full vector.
+    pub fn restrict(&self, full: &[f64]) -> Vec<f64> {
+        self.part.params.iter().map(|&p| full[p]).collect()
+    }
+
+    /// Writes the part's entries `x` into the full vector `full`.
+    pub fn scatter(&self, x: &[f64], full: &mut [f64]) {
+        for (&p, &v) in self.part.params.iter().zip(x) {
+            full[p] = v;
+        }
+    }
+}
+
+impl Problem for PartProblem<'_> {
+    fn residual_count(&self) -> usize {
+        self.part.rows.len()
+    }
+    fn param_count(&self) -> usize {
+        self.part.params.len()
+    }
+    fn evaluate(
+        &self,
+        x: &[f64],
+        residuals: &mut [f64],
+        jacobian: Option<&mut DMatrix<f64>>,
+    ) -> Result<(), String> {
+        let mut theta = self.theta.clone();
+        self.scatter(x, &mut theta);
+        self.objective
+            .evaluate_subsystem(self.part, &theta, residuals, jacobian)
+    }
+    fn gram(&self, jacobian: &DMatrix<f64>) -> DMatrix<f64> {
+        gram_dense(jacobian)
+    }
+}
+
+/// J^T J of a dense Jacobian: one dot product of two contiguous columns per entry of the
+/// lower triangle (J is column-major), mirrored.
+pub fn gram_dense(jacobian: &DMatrix<f64>) -> DMatrix<f64> {
+    let (m, n) = jacobian.shape();
+    let data = jacobian.as_slice();
+    let column = |a: usize| &data[a * m..(a + 1) * m];
+    let mut out = DMatrix::zeros(n, n);
+    for a in 0..n {
+        for b in 0..=a {
+            let v = dot(column(a), column(b));
+            out[(a, b)] = v;
+            out[(b, a)] = v;
+        }
+    }
+    out
+}
+
+/// A dot product with four running sums (the compiler vectorizes it; one sum could not
+/// be reordered).
+fn dot(x: &[f64], y: &[f64]) -> f64 {
+    let mut sums = [0.0; 4];
+    let (xc, yc) = (x.chunks_exact(4), y.chunks_exact(4));
+    let tail: f64 = xc
+        .remainder()
+        .iter()
+        .zip(yc.remainder())
+        .map(|(a, b)| a * b)
+        .sum();
+    for (a, b) in xc.zip(yc) {
+        for k in 0..4 {
+            sums[k] += a[k] * b[k];
+        }
+    }
+    (sums[0] + sums[1]) + (sums[2] + sums[3]) + tail
+}
