@@ -88,6 +88,9 @@ pub enum Command {
     #[command(after_help = "Example:\n  supine ride --profile road-trip --out ride.csv")]
     Ride(commands::ride::Args),
     /// Mission report of rides (legs) for a patient: report.html and --json.
+    #[command(
+        after_help = "Example:\n  supine report --preset paper-litter --input ambulance.csv --input helicopter.csv --out mission"
+    )]
     Report(commands::report::Args),
     /// Replay a recording through the firmware in QEMU; write its telemetry as CSV.
     #[command(
