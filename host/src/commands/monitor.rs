@@ -12,6 +12,7 @@ use crate::cli::ColorChoice;
 use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
 use crate::demo::ride::{DemoProfile, make};
+use crate::device::scratch::ScratchDir;
 use crate::io::params_file::{ModelSource, PresetArg};
 use crate::io::ride_input::{RideInputArgs, open_stream};
 use crate::io::subject_args::SubjectArgs;
@@ -182,7 +183,7 @@ fn prepare_qemu(args: &Args, greeting_timeout: Duration) -> Result<QemuRun> {
     let (samples, sample_rate_hz) = match (&args.input, args.profile) {
         (Some(path), _) => {
             // Only the platform samples are kept (12 bytes each), not the whole recording.
-            let scratch = tempfile::tempdir()?;
+            let scratch = ScratchDir::new("ride")?;
             let mounting = file.device.unwrap_or_default().mounting;
             let ride = open_stream(&args.ride, path, &mounting, scratch.path())?;
             let samples = ride.samples()?.collect::<Result<Vec<_>, _>>()?;

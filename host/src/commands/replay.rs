@@ -11,6 +11,7 @@ use supine_core::blob::TelemetryConfig;
 
 use crate::device::image::ProductImage;
 use crate::device::replay::replay;
+use crate::device::scratch::ScratchDir;
 use crate::io::params_file::ModelSource;
 use crate::io::ride_input::{RideInputArgs, open_stream};
 use crate::io::subject_args::SubjectArgs;
@@ -65,7 +66,7 @@ pub fn run(args: &Args) -> Result<()> {
     // A full recording or a `supine ride` file (platform columns only), checked whole
     // first, then streamed: a ride of any length fits in memory. Another logger's file or
     // --remove-gravity: converted into a scratch folder first.
-    let scratch = tempfile::tempdir()?;
+    let scratch = ScratchDir::new("ride")?;
     let mounting = file.device.unwrap_or_default().mounting;
     let ride = open_stream(&args.ride, &args.input, &mounting, scratch.path())?;
     let kernel = ProductImage::select(args.firmware.as_deref())?;
