@@ -6,9 +6,10 @@
 use std::ffi::OsString;
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, Parser, Subcommand};
 
 use crate::commands;
+use crate::monitor::color::ColorChoice;
 
 /// What `supine --help` says first: what the tool is, and where to start.
 const ABOUT: &str = "supine: predicts the vibration reaching a supine patient's head from an \
@@ -120,35 +121,6 @@ pub enum Command {
     Completions(commands::completions::Args),
 }
 
-/// When the live panel uses colour.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
-pub enum ColorChoice {
-    /// On a terminal, unless the NO_COLOR environment variable is set (https://no-color.org).
-    #[default]
-    Auto,
-    /// Always, even into a file or a pipe.
-    Always,
-    /// Never.
-    Never,
-}
-
-impl ColorChoice {
-    /// Whether to colour output going to a terminal (`is_terminal`), given NO_COLOR's
-    /// value (`no_color`: set and not empty turns colour off under `auto`).
-    pub fn enabled(self, is_terminal: bool, no_color: Option<&std::ffi::OsStr>) -> bool {
-        match self {
-            ColorChoice::Always => true,
-            ColorChoice::Never => false,
-            ColorChoice::Auto => is_terminal && no_color.is_none_or(|v| v.is_empty()),
-        }
-    }
-
-    /// [`Self::enabled`] with this process's NO_COLOR.
-    pub fn enabled_here(self, is_terminal: bool) -> bool {
-        self.enabled(is_terminal, std::env::var_os("NO_COLOR").as_deref())
-    }
-}
-
 /// The arguments with a list split by the shell after its commas joined back into one
 /// word: `--exclude s1, s2` and `--at-rest-m-s2 0.1, -0.2, 9.8` are read as if typed
 /// without the spaces (a word ending in a comma, or one starting with a comma, continues
@@ -202,7 +174,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Calibrate(args) => commands::calibrate::run(&args),
         Command::Flash(args) => commands::flash::run(&args),
         Command::Demo(args) => commands::demo::run(&args, color),
-        Command::Completions(args) => commands::completions::run(&args),
+        Command::Completions(args) => commands::completions::run(&args, Cli::command()),
     }
 }
 
@@ -247,17 +219,5 @@ mod tests {
             ["calibrate", "--at-rest-m-s2", "0.1,-0.2, 9.8", "--json"]
         );
         assert_eq!(joined(&["a", "b"]), ["a", "b"]);
-    }
-
-    #[test]
-    fn colour_follows_the_flag_then_no_color_then_the_terminal() {
-        let set = Some(std::ffi::OsStr::new("1"));
-        let empty = Some(std::ffi::OsStr::new(""));
-        assert!(ColorChoice::Auto.enabled(true, None));
-        assert!(ColorChoice::Auto.enabled(true, empty));
-        assert!(!ColorChoice::Auto.enabled(true, set));
-        assert!(!ColorChoice::Auto.enabled(false, None));
-        assert!(ColorChoice::Always.enabled(false, set));
-        assert!(!ColorChoice::Never.enabled(true, None));
     }
 }

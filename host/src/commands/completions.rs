@@ -2,10 +2,7 @@
 //! clap definition that parses the arguments, so it can never list a flag that is gone.
 
 use anyhow::Result;
-use clap::CommandFactory;
 use clap_complete::Shell;
-
-use crate::cli::Cli;
 
 /// Arguments of `supine completions`.
 #[derive(Debug, clap::Args)]
@@ -15,9 +12,9 @@ pub struct Args {
     pub shell: Shell,
 }
 
-/// Prints the script on standard output.
-pub fn run(args: &Args) -> Result<()> {
-    let mut command = Cli::command();
+/// Prints the script for `command` (the whole `supine` definition, which `cli` passes in)
+/// on standard output.
+pub fn run(args: &Args, mut command: clap::Command) -> Result<()> {
     clap_complete::generate(args.shell, &mut command, "supine", &mut std::io::stdout());
     Ok(())
 }

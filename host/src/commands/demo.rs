@@ -8,7 +8,6 @@ use anyhow::Result;
 use serde_json::json;
 use supine_core::model::Preset;
 
-use crate::cli::ColorChoice;
 use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
 use crate::demo::ride::DemoProfile;
@@ -16,6 +15,7 @@ use crate::demo::summary::Summary;
 use crate::demo::{self, DEFAULT_OUT_DIR, DemoConfig};
 use crate::io::params_file::{self, ParamFile, PresetArg};
 use crate::io::subject_args::SubjectArgs;
+use crate::monitor::color::ColorChoice;
 use crate::monitor::view::{LiveView, PlainView, View};
 
 /// Arguments of `supine demo`.

@@ -8,7 +8,6 @@ use std::time::Duration;
 use anyhow::{Result, anyhow, bail};
 use clap::ArgGroup;
 
-use crate::cli::ColorChoice;
 use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
 use crate::demo::ride::{DemoProfile, make};
@@ -16,6 +15,7 @@ use crate::device::scratch::ScratchDir;
 use crate::io::params_file::{ModelSource, PresetArg};
 use crate::io::ride_input::{RideInputArgs, open_stream};
 use crate::io::subject_args::SubjectArgs;
+use crate::monitor::color::ColorChoice;
 use crate::monitor::json::{JsonlView, summary_json};
 use crate::monitor::log::MonitorLog;
 use crate::monitor::session::{Ending, QemuRun, run_qemu, run_serial};

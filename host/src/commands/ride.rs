@@ -71,7 +71,7 @@ pub fn run(args: &Args) -> Result<()> {
         rms[1],
         rms[2],
         ride.vertical_crest_factor(),
-        values::count(made.shocks.len(), "shock")
+        crate::io::wording::count(made.shocks.len(), "shock")
     );
     Ok(())
 }

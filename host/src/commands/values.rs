@@ -18,7 +18,7 @@ pub const DEFAULT_SAMPLE_RATE_HZ: f64 = 500.0;
 
 /// The items of a comma-separated list flag (given once or repeated), so that
 /// `--exclude s1,s2` and `--exclude "s1 , s2"` mean the same (`--exclude s1, s2`, two
-/// shell words, is joined into one by [`crate::cli::join_list_words`]); each item is
+/// shell words, is joined into one by `cli::join_list_words`); each item is
 /// trimmed and none may be empty. `flag` names the list in the error.
 pub fn comma_list(flag: &str, words: &[String]) -> anyhow::Result<Vec<String>> {
     if words.is_empty() {
@@ -38,15 +38,6 @@ pub fn comma_list(flag: &str, words: &[String]) -> anyhow::Result<Vec<String>> {
             }
         })
         .collect()
-}
-
-/// `n` and the noun, plural unless `n` is 1: `1 shock`, `3 shocks`, `0 shocks`.
-pub fn count(n: usize, noun: &str) -> String {
-    if n == 1 {
-        format!("1 {noun}")
-    } else {
-        format!("{n} {noun}s")
-    }
 }
 
 /// Longest timeout any flag accepts, s: one day. Longer waits are mistakes, and
@@ -134,13 +125,6 @@ mod tests {
             err.to_string(),
             "--exclude s1,,s2: expected comma-separated items, found an empty one"
         );
-    }
-
-    #[test]
-    fn counts_are_singular_for_one_only() {
-        assert_eq!(count(0, "shock"), "0 shocks");
-        assert_eq!(count(1, "shock"), "1 shock");
-        assert_eq!(count(2, "level change"), "2 level changes");
     }
 
     #[test]

@@ -197,7 +197,7 @@ impl Summary {
         let _ = writeln!(
             s,
             "  alert events: {}; sensor faults: {faults}",
-            crate::commands::values::count(self.level_events, "level change")
+            crate::io::wording::count(self.level_events, "level change")
         );
         let st = i.status.unwrap_or_default();
         let _ = writeln!(

@@ -14,6 +14,7 @@
 //! - [`subject_args`]: `--height-m`, `--mass-kg`, the patient the model is scaled to.
 //! - [`h_csv`]: the transmissibility CSV of `supine model` and `supine transmissibility`.
 //! - [`telemetry_csv`]: a device's telemetry and alert events as CSV (replay, monitor, demo).
+//! - [`wording`]: counts with their noun in printed summaries.
 
 pub mod csv_lines;
 pub mod dataset;
@@ -29,3 +30,4 @@ pub mod small_file;
 pub mod subject_args;
 pub mod telemetry_csv;
 pub mod text_position;
+pub mod wording;

@@ -3,11 +3,13 @@
 //! - [`state`]: what the monitor knows ([`Monitor`]), fed one message at a time; pure, so
 //!   it is tested without a terminal and reused by `supine demo`.
 //! - [`view`]: the terminal rendering (a redrawn panel on a terminal, plain lines otherwise).
+//! - [`color`]: whether the panel uses colour (`--color`, NO_COLOR).
 //! - [`json`]: `--jsonl` (a JSON object per record and event) and the `--json` summary.
 //! - [`log`]: the CSV log of every telemetry record and event.
 //! - [`session`]: the loop that reads the link and drives the three, and the sources that
 //!   feed it (QEMU with a streamed ride, or a serial port).
 
+pub mod color;
 pub mod json;
 pub mod log;
 pub mod session;

@@ -172,6 +172,3 @@ fn compare_rides(a: &Leg, b: &Leg) -> Comparison {
     }
     Comparison { rows }
 }
-
-#[cfg(test)]
-mod tests;

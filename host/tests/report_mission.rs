@@ -1,4 +1,4 @@
-//! The mission report's numbers against independent ones: `supine exposure` on each leg's
+//! `supine report`: the mission report's numbers against independent ones: `supine exposure` on each leg's
 //! file, the ISO combination by hand, and the model's transmissibility for the patient.
 
 use std::f64::consts::PI;
@@ -7,12 +7,12 @@ use std::path::{Path, PathBuf};
 use serde_json::Value;
 use supine_core::model::{ModelParams, Preset};
 
-use crate::commands::{exposure, report};
-use crate::exposure::ride::{Profile, generate, write_ride};
-use crate::identify::transmissibility::model_h;
-use crate::io::params_file::{ModelSource, PresetArg};
-use crate::io::ride_input::RideInputArgs;
-use crate::io::subject_args::SubjectArgs;
+use supine_host::commands::{exposure, report};
+use supine_host::exposure::ride::{Profile, generate, write_ride};
+use supine_host::identify::transmissibility::model_h;
+use supine_host::io::params_file::{ModelSource, PresetArg};
+use supine_host::io::ride_input::RideInputArgs;
+use supine_host::io::subject_args::SubjectArgs;
 
 fn ride(dir: &Path, profile: Profile, duration_s: f64, seed: u64) -> PathBuf {
     let path = dir.join(format!("{}-{seed}.csv", profile.name()));
