@@ -6,6 +6,7 @@
 
 use anyhow::Result;
 use plotters::prelude::*;
+use supine_core::alerts::Level;
 
 use super::{Rgb, plot_error};
 
@@ -38,6 +39,28 @@ pub struct Threshold {
     pub color: Rgb,
     /// Text drawn at its right end.
     pub label: String,
+}
+
+/// Alert level colours: normal, advisory, warning, alarm (the live panel's, in the reports).
+pub const LEVEL_COLORS: [Rgb; 4] = [
+    Rgb(46, 139, 87),
+    Rgb(204, 153, 0),
+    Rgb(230, 90, 0),
+    Rgb(200, 0, 0),
+];
+
+/// Threshold lines for the advisory, warning and alarm `values`, each labelled with its
+/// level's name, value and `unit`.
+pub fn alert_thresholds(values: [f32; 3], unit: &str) -> Vec<Threshold> {
+    Level::RAISED
+        .iter()
+        .zip(values)
+        .map(|(level, v)| Threshold {
+            y: f64::from(v),
+            color: LEVEL_COLORS[*level as usize],
+            label: format!("{} {v} {unit}", level.name()),
+        })
+        .collect()
 }
 
 /// A shaded stretch of time (a road surface), labelled at its top.
@@ -397,5 +420,13 @@ mod tests {
         assert_eq!(y_range(&[], &[], false), (0.0, 1.0));
         assert_eq!(format_tick(0.5), "0.5");
         assert_eq!(format_tick(2.0), "2");
+    }
+
+    #[test]
+    fn thresholds_carry_their_values_and_level_colours() {
+        let t = alert_thresholds([0.5, 0.8, 1.25], "m/s^2");
+        assert_eq!(t[2].label, "alarm 1.25 m/s^2");
+        assert_eq!(t[2].y, 1.25);
+        assert_eq!(t[0].color, LEVEL_COLORS[1]);
     }
 }

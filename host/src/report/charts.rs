@@ -7,17 +7,12 @@ use supine_core::alerts::AlertConfig;
 
 use crate::exposure::report::combined_vdv_m_s175;
 use crate::plot::downsample::min_max;
-use crate::plot::time_chart::{Band, Chart, Line, Marker, PLOT_COLUMNS, Threshold, y_range};
+use crate::plot::time_chart::{
+    Band, Chart, LEVEL_COLORS, Line, Marker, PLOT_COLUMNS, alert_thresholds, y_range,
+};
 use crate::plot::{Panel, Rgb, Series, figure_svg};
 use crate::report::mission::{LEVEL_NAMES, Leg};
 
-/// Level colours: normal, advisory, warning, alarm.
-pub const LEVEL_COLORS: [Rgb; 4] = [
-    Rgb(46, 139, 87),
-    Rgb(204, 153, 0),
-    Rgb(230, 90, 0),
-    Rgb(200, 0, 0),
-];
 /// Alternating shades of the legs.
 const LEG_COLORS: [Rgb; 2] = [Rgb(120, 160, 220), Rgb(180, 180, 180)];
 /// The vector sum's colour.
@@ -57,19 +52,6 @@ fn x_range(legs: &[Leg]) -> (f64, f64) {
         .map(|l| l.start_s + l.duration_s)
         .fold(0.0, f64::max);
     (0.0, end.max(1e-3))
-}
-
-fn thresholds(values: [f32; 3], unit: &str) -> Vec<Threshold> {
-    LEVEL_NAMES[1..]
-        .iter()
-        .zip(values)
-        .enumerate()
-        .map(|(i, (name, v))| Threshold {
-            y: f64::from(v),
-            color: LEVEL_COLORS[i + 1],
-            label: format!("{name} {v} {unit}"),
-        })
-        .collect()
 }
 
 /// Colours of the two compared rides, A and B.
@@ -205,7 +187,7 @@ pub fn running_rms(legs: &[Leg], config: &AlertConfig, layout: Layout) -> Chart 
         y_range: y_range(&all, &th[..1], true),
         height_px: 300,
         bands: bands_for(legs, layout),
-        thresholds: thresholds(config.running_rms_m_s2, "m/s^2"),
+        thresholds: alert_thresholds(config.running_rms_m_s2, "m/s^2"),
         lines,
         markers,
         ..Chart::default()
@@ -266,7 +248,7 @@ pub fn vdv(legs: &[Leg], config: &AlertConfig, layout: Layout) -> Chart {
         y_range: y_range(&all, &th[..1], true),
         height_px: 300,
         bands: bands_for(legs, layout),
-        thresholds: thresholds(config.vdv_m_s175, "m/s^1.75"),
+        thresholds: alert_thresholds(config.vdv_m_s175, "m/s^1.75"),
         lines,
         ..Chart::default()
     }

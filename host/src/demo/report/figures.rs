@@ -10,7 +10,7 @@ use crate::io::telemetry_csv::level_from_name;
 use crate::plot::Rgb;
 use crate::plot::downsample::min_max;
 use crate::plot::time_chart::{
-    Band, Chart, Line, Marker, Moment, PLOT_COLUMNS, Threshold, y_range,
+    Band, Chart, LEVEL_COLORS, Line, Marker, Moment, PLOT_COLUMNS, alert_thresholds, y_range,
 };
 
 /// Axis colours: x, y, z.
@@ -23,13 +23,6 @@ pub const HOST_COLOR: Rgb = Rgb(255, 127, 14);
 pub const ROUGH_COLOR: Rgb = Rgb(255, 170, 60);
 /// Shading of the exposure's warm-up.
 pub const WARMUP_COLOR: Rgb = Rgb(120, 120, 120);
-/// Level colours: normal, advisory, warning, alarm.
-pub const LEVEL_COLORS: [Rgb; 4] = [
-    Rgb(46, 139, 87),
-    Rgb(204, 153, 0),
-    Rgb(230, 90, 0),
-    Rgb(200, 0, 0),
-];
 
 const AXES: [&str; 3] = ["x (along the body)", "y (lateral)", "z (vertical)"];
 
@@ -79,20 +72,6 @@ fn bands_with_warmup(data: &DemoData) -> Vec<Band> {
 
 fn x_range(data: &DemoData) -> (f64, f64) {
     (0.0, data.ride.duration_s())
-}
-
-/// Threshold lines for `values` (advisory, warning, alarm); the names carry the value.
-fn thresholds(values: [f32; 3], unit: &str) -> Vec<Threshold> {
-    ["advisory", "warning", "alarm"]
-        .iter()
-        .zip(values)
-        .enumerate()
-        .map(|(i, (name, v))| Threshold {
-            y: f64::from(v),
-            color: LEVEL_COLORS[i + 1],
-            label: format!("{name} {v} {unit}"),
-        })
-        .collect()
 }
 
 /// The litter frame's acceleration: the ride the device was given.
@@ -212,7 +191,7 @@ pub fn vector_rms(data: &DemoData) -> Chart {
         y_range: y,
         height_px: 340,
         bands: bands_with_warmup(data),
-        thresholds: thresholds(th, "m/s^2"),
+        thresholds: alert_thresholds(th, "m/s^2"),
         lines: vec![
             line(
                 series(&d.time_s, &d.vector_rms_m_s2),
@@ -285,7 +264,7 @@ pub fn vdv(data: &DemoData) -> Chart {
         y_range: y,
         height_px: 280,
         bands: bands_with_warmup(data),
-        thresholds: thresholds(th, "m/s^1.75"),
+        thresholds: alert_thresholds(th, "m/s^1.75"),
         lines: vec![
             line(
                 series(&d.time_s, &d.vdv_m_s175),
@@ -382,13 +361,5 @@ mod tests {
                 (4.0, 0.0)
             ]
         );
-    }
-
-    #[test]
-    fn thresholds_carry_their_values_and_level_colours() {
-        let t = thresholds([0.5, 0.8, 1.25], "m/s^2");
-        assert_eq!(t[2].label, "alarm 1.25 m/s^2");
-        assert_eq!(t[2].y, 1.25);
-        assert_eq!(t[0].color, LEVEL_COLORS[1]);
     }
 }
