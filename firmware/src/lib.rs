@@ -17,8 +17,9 @@
 //! [`console`] writes lines to the debugger's stdout (semihosting), [`exit`] ends a run
 //! with a status, [`cycles`] counts instructions (the monitor's clock), [`stack`] measures
 //! the stack's high-water mark, [`params`] loads the model parameters, [`param_flash`]
-//! owns and reads their A/B slots, and [`panic_record`] keeps the last panic across a
-//! reset.
+//! owns and reads their A/B slots, [`panic_record`] keeps the last panic across a reset,
+//! [`host_file`] reads the host's files and command line (semihosting), and
+//! [`replay_link`] puts a replay's frames from such a file ahead of the UART.
 #![no_std]
 
 pub mod boards;
@@ -27,9 +28,11 @@ pub mod console;
 pub mod cycles;
 pub mod exit;
 mod fault;
+pub mod host_file;
 pub mod panic_record;
 pub mod param_flash;
 pub mod params;
+pub mod replay_link;
 pub mod stack;
 
 pub use fault::reset_on_panic;

@@ -3,7 +3,9 @@
 //! At boot it reads the last panic's record, loads the parameter blob from the PARAMS
 //! region's A/B slots (or the built-in default, with the reason), greets the host on UART0
 //! and then serves it (see [`supine_app::App`]): replayed samples in, telemetry and
-//! alerts out, authenticated parameter updates into the slot not running.
+//! alerts out, authenticated parameter updates into the slot not running. Given
+//! `--replay-input FILE` on the semihosting command line (`supine replay`), it reads the
+//! frames in FILE before the UART's ([`supine_firmware::replay_link`]).
 #![no_std]
 #![no_main]
 
@@ -12,7 +14,9 @@ use supine_app::{App, Boot};
 use supine_core::protocol::ResetCause;
 use supine_firmware::boards::mps2_an386::{Board, SsramFlash};
 use supine_firmware::cycles::InstructionCounter;
+use supine_firmware::host_file::{self, HostFile};
 use supine_firmware::param_flash::{self, ParamRegion};
+use supine_firmware::replay_link::ReplayLink;
 use supine_firmware::stack::PaintedStack;
 use supine_firmware::{exit, panic_record, params};
 
@@ -45,8 +49,9 @@ fn main() -> ! {
         last_panic: last_panic.unwrap_or_default(),
     };
     let counter = InstructionCounter::new(board.syst);
+    let link = ReplayLink::new(board.uart0, replay_input());
     App::with_updates(
-        board.uart0,
+        link,
         counter,
         PaintedStack,
         boot,
@@ -54,4 +59,23 @@ fn main() -> ! {
         param_flash::device_key(),
     )
     .run()
+}
+
+/// The host file named by `--replay-input FILE` on the semihosting command line, open; a
+/// file named but not opened ends the run, so the host hears of it rather than waiting.
+fn replay_input() -> Option<HostFile> {
+    let mut line = [0u8; host_file::COMMAND_LINE_LEN];
+    let len = host_file::command_line(&mut line)?.len();
+    let start = host_file::value_start(line.get(..len)?, b"--replay-input")?;
+    // The path runs to the line's end; the host wants it NUL-terminated.
+    *line.get_mut(len)? = 0;
+    let path = line.get(start..=len)?;
+    let file = HostFile::open(path);
+    if file.is_none() {
+        supine_firmware::boards::mps2_an386::report_fault(&format_args!(
+            "cannot open the file given by --replay-input"
+        ));
+        exit::exit(exit::FAILURE)
+    }
+    file
 }

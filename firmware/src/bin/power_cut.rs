@@ -17,7 +17,7 @@ use supine_firmware::boards::mps2_an386::{Board, SsramFlash};
 use supine_firmware::cycles::InstructionCounter;
 use supine_firmware::param_flash::{self, ParamRegion};
 use supine_firmware::stack::PaintedStack;
-use supine_firmware::{console, exit, params};
+use supine_firmware::{console, exit, host_file, params};
 
 /// The PARAMS slots with a budget of bytes erased or programmed before the power fails.
 struct PowerCut {
@@ -79,23 +79,13 @@ fn say(line: &str) {
 
 /// The budget from the semihosting command line (`power_cut N`).
 fn budget_bytes() -> Option<usize> {
-    let mut buf = [0u8; 64];
-    // SYS_GET_CMDLINE's parameter block: buffer address and length (updated by the host).
-    let mut block = [buf.as_mut_ptr() as usize, buf.len()];
-    // SAFETY: the block and the buffer outlive the call, which writes at most `buf.len()`
-    // bytes into `buf` and the used length into `block[1]`.
-    let status = unsafe {
-        cortex_m_semihosting::syscall1(
-            cortex_m_semihosting::nr::GET_CMDLINE,
-            block.as_mut_ptr() as usize,
-        )
-    };
-    let used = block[1];
-    if status != 0 {
-        return None;
-    }
-    let line = core::str::from_utf8(buf.get(..used)?).ok()?;
-    line.split_whitespace().nth(1)?.parse().ok()
+    let mut line = [0u8; host_file::COMMAND_LINE_LEN];
+    core::str::from_utf8(host_file::command_line(&mut line)?)
+        .ok()?
+        .split_whitespace()
+        .nth(1)?
+        .parse()
+        .ok()
 }
 
 #[entry]

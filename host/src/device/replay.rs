@@ -2,13 +2,19 @@
 //!
 //! The parameter blob is built for the recording's sample rate and loaded into the PARAMS
 //! region; QEMU (mps2-an386) runs the product image with UART0 on a private Unix socket.
-//! A writer thread streams the recording's platform columns as [`HostToDevice::Samples`]
-//! frames (8 samples each, with their indices), read from the file as they are sent,
-//! while this thread reads the device's numbered frames and hands each telemetry record
-//! on as it arrives: memory does not grow with the ride. QEMU serves the socket with
-//! `wait=on` and the device's one-byte RX flow-controls it, so samples go as fast as the
-//! device takes them (faster than real time). A final `GetStatus` makes the device process what it has buffered and report
-//! its counters; its `Status` ends the session.
+//! The recording's platform columns become [`HostToDevice::Samples`] frames (8 samples
+//! each, with their indices), read from the file as they are framed; this thread reads the
+//! device's numbered frames and hands each telemetry record on as it arrives: memory does
+//! not grow with the ride. A final `GetStatus` makes the device process what it has
+//! buffered and report its counters; its `Status` ends the session.
+//!
+//! The frames take one of two routes ([`ScriptRoute`]). Sessions (the tests' scripts) send
+//! them over UART0 from a writer thread: QEMU serves the socket with `wait=on` and the
+//! device's one-byte RX flow-controls it. A replay writes them to a file in its scratch
+//! folder first, which the image reads by semihosting ahead of the UART
+//! (`--replay-input`): QEMU's UART takes about 40 us a byte, which held replay near 4
+//! times real time; the file route reads a block per call (BENCHMARKS.md, "Replay
+//! throughput"). Either way the device decodes the same frames and runs the same pipeline.
 //!
 //! The [`Qemu`] guard kills QEMU and removes its folder on every exit path; a stop flag
 //! (set by Ctrl-C in the CLI) ends the loops early with an error.
@@ -139,6 +145,16 @@ pub fn sample_frames<E>(
     })
 }
 
+/// How a session's script reaches the device.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum ScriptRoute {
+    /// Over UART0, as a host on the device's serial port would send it.
+    Uart,
+    /// Through a file the image reads ahead of UART0 (`--replay-input`, semihosting),
+    /// written whole before QEMU starts: for replay's bulk samples.
+    HostFile,
+}
+
 /// Starts the image, sends `script` (then `GetStatus`), and collects what the device says
 /// until the status that answers the final `GetStatus`. QEMU is stopped and its folder
 /// removed before this returns, whatever happened. `stop` aborts the session.
@@ -157,6 +173,7 @@ pub fn session(
         config,
         script.into_iter().map(Ok),
         expected_statuses,
+        ScriptRoute::Uart,
         stop,
         &mut |t| {
             telemetry.push(*t);
@@ -173,11 +190,13 @@ pub type TelemetrySink<'a> = dyn FnMut(&Telemetry) -> Result<()> + 'a;
 /// As [`session`], with the script taken as it is sent (an error in it ends the session
 /// with that error), `expected_statuses` the number of `GetStatus` it holds plus one, and
 /// each telemetry record handed to `on_telemetry` instead of kept: the session's
-/// `telemetry` stays empty, so its memory does not grow with the ride.
+/// `telemetry` stays empty, so its memory does not grow with the ride. `route` says how
+/// the script travels.
 fn streamed_session(
     config: &SessionConfig,
     script: impl Iterator<Item = Result<Outgoing>> + Send + 'static,
     expected_statuses: usize,
+    route: ScriptRoute,
     stop: &Arc<AtomicBool>,
     on_telemetry: &mut TelemetrySink<'_>,
 ) -> Result<Session> {
@@ -185,6 +204,25 @@ fn streamed_session(
     let mut qemu_config = QemuConfig::new(&config.kernel)
         .uart()
         .timeout(config.timeout);
+    let script = script.chain([Ok(Outgoing::Message(HostToDevice::GetStatus))]);
+    let uart_script: Box<dyn Iterator<Item = Result<Outgoing>> + Send> = match route {
+        ScriptRoute::Uart => Box::new(script),
+        ScriptRoute::HostFile => {
+            let path = blob_dir.path().join("input.bin");
+            write_script_file(&path, script, stop)?;
+            let path = path.to_str().ok_or_else(|| {
+                anyhow!(
+                    "the scratch folder {} is not UTF-8: QEMU cannot pass it to the device",
+                    blob_dir.path().display()
+                )
+            })?;
+            qemu_config = qemu_config
+                .semihosting_arg("supine-firmware")
+                .semihosting_arg("--replay-input")
+                .semihosting_arg(path);
+            Box::new(std::iter::empty())
+        }
+    };
     if config.icount {
         qemu_config = qemu_config.icount();
     }
@@ -197,7 +235,7 @@ fn streamed_session(
     let mut qemu = Qemu::start(&qemu_config)?;
     let result = talk(
         &mut qemu,
-        script,
+        uart_script,
         expected_statuses,
         stop,
         started,
@@ -216,6 +254,30 @@ fn streamed_session(
         session.diagnostics = output.stdout + &output.stderr;
     }
     Ok(session)
+}
+
+/// Writes `script`'s frames to `path` as they are made (the ride is read once, memory
+/// stays flat); the script's first error, or `stop`, ends it with an error.
+fn write_script_file(
+    path: &std::path::Path,
+    script: impl Iterator<Item = Result<Outgoing>>,
+    stop: &Arc<AtomicBool>,
+) -> Result<()> {
+    let file = std::fs::File::create(path)
+        .with_context(|| format!("creating the replay input {}", path.display()))?;
+    let mut writer = FrameWriter::new(std::io::BufWriter::with_capacity(1 << 16, file));
+    for item in script {
+        if stop.load(Ordering::Relaxed) {
+            bail!("interrupted");
+        }
+        match item? {
+            Outgoing::Message(m) => writer.send(&m)?,
+            Outgoing::Raw(bytes) => writer.send_raw(&bytes)?,
+        }
+    }
+    writer
+        .flush()
+        .with_context(|| format!("writing the replay input {}", path.display()))
 }
 
 fn talk(
@@ -240,7 +302,7 @@ fn talk(
     let failed = Arc::clone(&script_failed);
     let writer = thread::spawn(move || -> Result<()> {
         let mut writer = FrameWriter::new(std::io::BufWriter::with_capacity(4096, tx));
-        for item in script.chain([Ok(Outgoing::Message(HostToDevice::GetStatus))]) {
+        for item in script {
             if writer_stop.load(Ordering::Relaxed) || done.load(Ordering::Relaxed) {
                 return Ok(());
             }
@@ -345,7 +407,7 @@ pub struct ReplayResult {
 }
 
 /// Builds the blob of `file` for the ride's rate, streams the ride's platform columns
-/// through the product image in QEMU as they are read, and hands each telemetry record to
+/// through the product image in QEMU (by the host-file route), and hands each telemetry record to
 /// `on_telemetry` as it arrives: memory does not grow with the ride's length.
 pub fn replay(
     kernel: &ProductImage,
@@ -374,7 +436,14 @@ pub fn replay(
         timeout,
     };
     let frames = sample_frames(0, ride.samples()?).map(|f| f.map_err(anyhow::Error::from));
-    let session = streamed_session(&config, frames, 1, stop, on_telemetry)?;
+    let session = streamed_session(
+        &config,
+        frames,
+        1,
+        ScriptRoute::HostFile,
+        stop,
+        on_telemetry,
+    )?;
     if let Some(g) = session.greetings.first()
         && g.params_identity != params.identity
     {
