@@ -19,7 +19,9 @@ use supine_core::protocol::{
 use supine_core::sample_rate::SampleRate;
 use supine_host::device::device_params;
 use supine_host::device::firmware::PRODUCT_BINARY;
-use supine_host::device::replay::{Outgoing, Session, SessionConfig, sample_messages, session};
+use supine_host::device::replay::{
+    Outgoing, Session, SessionConfig, file_session, sample_messages, session,
+};
 use supine_host::exposure::reference;
 use supine_host::io::params_file::{DeviceSection, ParamFile};
 use supine_qemu_tests::firmware;
@@ -78,21 +80,48 @@ fn ride(sample_rate_hz: f64, samples: usize) -> Vec<[f32; 3]> {
         .collect()
 }
 
+/// How a test's script reaches the device: over UART0, or from a file read ahead of it
+/// (`supine replay`'s route).
+#[derive(Clone, Copy, PartialEq)]
+enum Route {
+    Uart,
+    File,
+}
+
 fn run(blob: Option<Vec<u8>>, icount: bool, script: Vec<Outgoing>, timeout_s: u64) -> Session {
+    run_via(Route::Uart, blob, icount, script, timeout_s)
+}
+
+fn run_via(
+    route: Route,
+    blob: Option<Vec<u8>>,
+    icount: bool,
+    script: Vec<Outgoing>,
+    timeout_s: u64,
+) -> Session {
     let config = SessionConfig {
         kernel: firmware(PRODUCT_BINARY),
         blob,
         icount,
         timeout: Duration::from_secs(timeout_s),
     };
-    session(&config, script, &Arc::new(AtomicBool::new(false))).unwrap_or_else(|e| panic!("{e:#}"))
+    let stop = Arc::new(AtomicBool::new(false));
+    match route {
+        Route::Uart => session(&config, script, &stop),
+        Route::File => file_session(&config, script, &stop),
+    }
+    .unwrap_or_else(|e| panic!("{e:#}"))
 }
 
+/// Largest difference of the device's head acceleration from `reference`'s at the same
+/// sample, m/s^2.
 fn max_abs_diff(device: &[Telemetry], reference: &[[f64; 3]]) -> f64 {
     device
         .iter()
-        .zip(reference)
-        .flat_map(|(t, r)| (0..3).map(move |i| (f64::from(t.head_acc_m_s2[i]) - r[i]).abs()))
+        .flat_map(|t| {
+            let r = reference[t.sample_index as usize];
+            (0..3).map(move |i| (f64::from(t.head_acc_m_s2[i]) - r[i]).abs())
+        })
         .fold(0.0, f64::max)
 }
 
@@ -101,11 +130,25 @@ fn relative(a: f32, b: f32) -> f64 {
     (a - b).abs() / b.abs().max(1e-9)
 }
 
-/// Replays `seconds` of the test ride at `sample_rate_hz` and checks the device against
-/// the host: head within 1e-4 m/s^2 of f64, exposure within 1e-3, identical events, no
-/// frame lost or reordered. Returns the session.
+/// Replays `seconds` of the test ride at `sample_rate_hz` over UART0 with a record per
+/// sample and checks the device against the host: head within 1e-4 m/s^2 of f64, exposure
+/// within 1e-3, identical events, no frame lost or reordered. Returns the session.
 fn device_matches_host(sample_rate_hz: f64, seconds: f64, icount: bool) -> Session {
-    let file = test_params_file();
+    device_matches_host_via(Route::Uart, 1, sample_rate_hz, seconds, icount)
+}
+
+/// As [`device_matches_host`], by `route`, with telemetry every `decimation`-th sample.
+fn device_matches_host_via(
+    route: Route,
+    decimation: u16,
+    sample_rate_hz: f64,
+    seconds: f64,
+    icount: bool,
+) -> Session {
+    let mut file = test_params_file();
+    if let Some(device) = &mut file.device {
+        device.telemetry_decimation = Some(decimation);
+    }
     let params = device_params::build(&file, sample_rate_hz).expect("params build");
     let blob = device_params::encode(&params).expect("blob encodes");
     let n = (seconds * sample_rate_hz).round() as usize;
@@ -114,7 +157,8 @@ fn device_matches_host(sample_rate_hz: f64, seconds: f64, icount: bool) -> Sessi
     let host = reference::pipeline(&params, &indices, &input);
     let head = reference::head_f64(&file.params, sample_rate_hz, &input).expect("f64 model");
 
-    let s = run(
+    let s = run_via(
+        route,
         Some(blob),
         icount,
         sample_messages(0, &input),
@@ -140,13 +184,15 @@ fn device_matches_host(sample_rate_hz: f64, seconds: f64, icount: bool) -> Sessi
     assert_eq!(status.samples_processed, n as u32);
     assert_eq!(status.samples_dropped, 0);
     assert_eq!(status.bad_frames, 0);
-    assert_eq!(status.telemetry_sent, n as u32);
-    assert_eq!(s.telemetry.len(), n);
+    let records = n.div_ceil(usize::from(decimation));
+    assert_eq!(status.telemetry_sent, records as u32);
+    assert_eq!(s.telemetry.len(), records);
+    assert_eq!(host.telemetry.len(), records);
     let in_order = s
         .telemetry
         .iter()
-        .zip(0u32..)
-        .all(|(t, k)| t.sample_index == k);
+        .zip(&host.telemetry)
+        .all(|(d, h)| d.sample_index == h.sample_index);
     assert!(in_order, "telemetry out of sample order");
 
     let worst = max_abs_diff(&s.telemetry, &head);
@@ -210,18 +256,18 @@ fn no_frame_is_lost_or_reordered_at_2_khz() {
     );
 }
 
-/// One hour at 500 Hz (1.8 million samples): no drift, counters consistent, stack constant.
-/// About 24 minutes (1,310 samples/s measured; slower on a loaded machine):
-/// `cargo test -p supine-qemu-tests --test monitor -- --ignored --nocapture`.
+/// One hour at 500 Hz (1.8 million samples) as `supine replay` sends it, with the shipping
+/// telemetry rate (100 Hz): no drift from the host's reference, counters consistent, stack
+/// constant. About 3 minutes (BENCHMARKS.md, replay throughput).
 #[test]
-#[ignore = "long: one simulated hour in QEMU (about 24 minutes)"]
 fn one_hour_at_500_hz_does_not_drift() {
+    let decimation = TelemetryConfig::default_for(500.0).decimation;
     // Memory constant: after the hour, the stack's high-water mark is the one a minute
     // leaves (the device has no heap; its statics are fixed at link time).
-    let minute = device_matches_host(500.0, 60.0, false)
+    let minute = device_matches_host_via(Route::File, decimation, 500.0, 60.0, false)
         .status()
         .stack_used_bytes;
-    let s = device_matches_host(500.0, 3600.0, true);
+    let s = device_matches_host_via(Route::File, decimation, 500.0, 3600.0, false);
     let hour = s.status().stack_used_bytes;
     println!("stack_used_bytes after a minute {minute}, after the hour {hour}");
     assert_eq!(hour, minute, "the stack grew over the hour");

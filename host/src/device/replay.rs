@@ -155,12 +155,31 @@ enum ScriptRoute {
     HostFile,
 }
 
-/// Starts the image, sends `script` (then `GetStatus`), and collects what the device says
-/// until the status that answers the final `GetStatus`. QEMU is stopped and its folder
-/// removed before this returns, whatever happened. `stop` aborts the session.
+/// Starts the image, sends `script` (then `GetStatus`) over UART0, and collects what the
+/// device says until the status that answers the final `GetStatus`. QEMU is stopped and
+/// its folder removed before this returns, whatever happened. `stop` aborts the session.
 pub fn session(
     config: &SessionConfig,
     script: Vec<Outgoing>,
+    stop: &Arc<AtomicBool>,
+) -> Result<Session> {
+    collected_session(config, script, ScriptRoute::Uart, stop)
+}
+
+/// As [`session`], with the script read by the image from a file ahead of UART0, as
+/// `supine replay` sends its samples: for long rides.
+pub fn file_session(
+    config: &SessionConfig,
+    script: Vec<Outgoing>,
+    stop: &Arc<AtomicBool>,
+) -> Result<Session> {
+    collected_session(config, script, ScriptRoute::HostFile, stop)
+}
+
+fn collected_session(
+    config: &SessionConfig,
+    script: Vec<Outgoing>,
+    route: ScriptRoute,
     stop: &Arc<AtomicBool>,
 ) -> Result<Session> {
     let expected_statuses = script
@@ -173,7 +192,7 @@ pub fn session(
         config,
         script.into_iter().map(Ok),
         expected_statuses,
-        ScriptRoute::Uart,
+        route,
         stop,
         &mut |t| {
             telemetry.push(*t);
