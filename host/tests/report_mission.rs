@@ -347,7 +347,7 @@ fn a_device_log_adds_the_devices_check_and_charts_to_the_one_leg_report() {
     let file = ParamFile::preset(Preset::PaperLitter);
     let report = build(
         std::slice::from_ref(&leg),
-        |p| Ok(read_input(p)?),
+        read_input,
         &file,
         "paper-litter",
         false,

@@ -272,7 +272,7 @@ pub fn run(
     steps.start("report", &format!("report: {}", files.report.display()));
     let report = report::build(
         std::slice::from_ref(&files.ride),
-        |path| Ok(read_input(path)?),
+        read_input,
         &file,
         &config.model_name,
         false,
