@@ -202,7 +202,7 @@ fn how_made(h: &mut String, log: &DeviceLog) {
         "<h3>How this run was made</h3>\n<dl>\n\
          <dt>device</dt><dd>{}</dd>\n\
          <dt>firmware</dt><dd>{} (from the device's greeting)</dd>\n\
-         <dt>ride</dt><dd>{:.1} s, {} samples at {} Hz</dd>\n\
+         <dt>samples streamed</dt><dd>{:.1} s, {} samples at {} Hz</dd>\n\
          <dt>device counters</dt><dd>{} samples processed, {} dropped, {} frames received, {} bad frames, {} telemetry frames sent, \
          deepest stack {} bytes</dd>\n\
          <dt>host link</dt><dd>{} frames decoded, {} lost, {} bad, {} reordered</dd>\n",

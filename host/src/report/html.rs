@@ -88,16 +88,24 @@ pub fn figure(h: &mut String, chart: &Chart, caption: &str) -> Result<()> {
     Ok(())
 }
 
+/// A duration in words, with no-break spaces so that a table cell never splits it.
 fn duration(s: f64) -> String {
     let total = s.round() as u64;
     let (h, m, sec) = (total / 3600, (total / 60) % 60, total % 60);
     if h > 0 {
-        format!("{h} h {m:02} min")
+        format!("{h}\u{a0}h\u{a0}{m:02}\u{a0}min")
     } else if m > 0 {
-        format!("{m} min {sec:02} s")
+        format!("{m}\u{a0}min\u{a0}{sec:02}\u{a0}s")
     } else {
-        format!("{s:.1} s")
+        format!("{s:.1}\u{a0}s")
     }
+}
+
+/// A sample rate as a person writes it: a rate estimated from time stamps (499.99999999999994)
+/// shown to the millihertz, and whole rates without decimals.
+fn rate_hz(hz: f64) -> String {
+    let rounded = (hz * 1000.0).round() / 1000.0;
+    format!("{rounded}")
 }
 
 /// The page for a mission report (or a comparison of two rides); with `device`, the
@@ -350,7 +358,7 @@ fn leg_section(h: &mut String, index: usize, leg: &Leg) -> Result<()> {
         duration(leg.duration_s),
         duration(leg.start_s),
         e.samples,
-        e.sample_rate_hz,
+        rate_hz(e.sample_rate_hz),
         e.evaluated_s,
         e.warmup_s,
         if e.valid {
