@@ -5,14 +5,22 @@ use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
 use serde_json::Value;
+use supine_core::alerts::{AlertEvent, FaultFlags, Level};
 use supine_core::model::{ModelParams, Preset};
+use supine_core::protocol::Telemetry;
 
 use supine_host::commands::{exposure, report};
 use supine_host::exposure::ride::{Profile, generate, write_ride};
 use supine_host::identify::transmissibility::model_h;
-use supine_host::io::params_file::{ModelSource, PresetArg};
+use supine_host::io::params_file::{ModelSource, ParamFile, PresetArg};
+use supine_host::io::recording::read_input;
 use supine_host::io::ride_input::RideInputArgs;
 use supine_host::io::subject_args::SubjectArgs;
+use supine_host::io::telemetry_csv::EventRow;
+use supine_host::report::build;
+use supine_host::report::device_check::{DeviceLog, DeviceRun};
+use supine_host::report::html::render;
+use supine_host::report::trace::Trace;
 
 fn ride(dir: &Path, profile: Profile, duration_s: f64, seed: u64) -> PathBuf {
     let path = dir.join(format!("{}-{seed}.csv", profile.name()));
@@ -268,4 +276,120 @@ fn a_ride_with_gravity_is_refused_by_the_report_too() {
         .to_string();
     assert!(err.contains("gravity left in a raw accelerometer"), "{err}");
     assert!(!dir.path().join("out/report.html").exists());
+}
+
+/// A device log of `n` records at `fs` Hz: the vector running rms ramps through every
+/// running-rms threshold and back, one warning raised at 3 s and cleared at 9 s; the
+/// firmware's version carries markup (it comes from the device, so it must be escaped).
+fn device_log(n: u32, fs: f64) -> DeviceLog {
+    let telemetry: Vec<Telemetry> = (0..n)
+        .map(|k| {
+            let t = f64::from(k) / fs;
+            let v = (1.5 * (PI * t / 12.0).sin()) as f32;
+            Telemetry {
+                sample_index: k,
+                head_acc_m_s2: [0.1, -0.2, v],
+                running_rms_m_s2: [0.0, 0.0, v],
+                vector_running_rms_m_s2: v,
+                vdv_m_s175: (t / 4.0) as f32,
+                alert_level: if (300..900).contains(&k) {
+                    Level::Warning
+                } else {
+                    Level::Normal
+                },
+                fault_flags: FaultFlags::empty(),
+                valid: k >= 500,
+            }
+        })
+        .collect();
+    let events: Vec<EventRow> = [
+        (Level::Normal, Level::Warning, 300),
+        (Level::Warning, Level::Normal, 900),
+    ]
+    .iter()
+    .map(|&(from, to, at_sample)| {
+        EventRow::from_event(
+            &AlertEvent::Level {
+                from,
+                to,
+                at_sample,
+            },
+            fs,
+        )
+    })
+    .collect();
+    let trace = Trace::from_telemetry(&telemetry, fs);
+    DeviceLog {
+        run: DeviceRun {
+            account: "A lab ride <i>streamed</i>.".into(),
+            device_line: "firmware 0.1.0<b>+test".into(),
+            firmware_version: "0.1.0<b>+test".into(),
+            files: vec![("device.csv".into(), "the device's telemetry".into())],
+            ..DeviceRun::default()
+        },
+        sample_rate_hz: fs,
+        samples: n as usize,
+        input_m_s2: Default::default(),
+        bands: Vec::new(),
+        moments: Vec::new(),
+        host_head_f64_m_s2: trace.head_m_s2.clone(),
+        host: trace.clone(),
+        device: trace,
+        host_events: events.clone(),
+        device_events: events,
+    }
+}
+
+#[test]
+fn a_device_log_adds_the_devices_check_and_charts_to_the_one_leg_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let leg = ride(dir.path(), Profile::Lab, 12.0, 1);
+    let file = ParamFile::preset(Preset::PaperLitter);
+    let report = build(
+        std::slice::from_ref(&leg),
+        read_input,
+        &file,
+        "paper-litter",
+        false,
+    )
+    .unwrap();
+    let mut log = device_log(6000, 500.0);
+    let page = render(&report, Some(&log)).unwrap();
+    assert!(!page.to_lowercase().contains("<script"));
+    for (at, _) in page.match_indices("href=\"") {
+        assert!(!page[at + 6..].starts_with("http"), "external link");
+    }
+    // The device's text is escaped, not interpreted.
+    assert!(page.contains("0.1.0&lt;b&gt;+test") && !page.contains("0.1.0<b>"));
+    assert!(page.contains("&lt;i&gt;streamed"));
+    // The device's levels and the check, as the device's telemetry and events say.
+    assert!(page.contains("first reached at 0.6 s"), "300 / 500 Hz");
+    assert!(page.contains("cleared at 1.8 s"));
+    assert!(page.contains("the device and the host agree"));
+    assert!(page.contains("largest |device &minus; host| 0 (bit for bit)"));
+    assert!(page.contains("<a href=\"device.csv\">device.csv</a>"));
+    // Every running-rms threshold is drawn on the device's chart (the data reach 1.5 >
+    // 1.25), and the caption names the VDV's.
+    for label in [
+        "advisory 0.5 m/s^2",
+        "warning 0.8 m/s^2",
+        "alarm 1.25 m/s^2",
+    ] {
+        assert!(page.contains(label), "{label} not drawn");
+    }
+    assert!(page.contains("advisory 8.5 / warning 17 / alarm 21"));
+    // The mission's four time charts and one spectrum figure, and the device's eight.
+    assert_eq!(page.matches("<svg").count(), 4 + 1 + 8);
+    assert!(page.contains("recumbent"), "the standard's caveat");
+    // Without the log: no device section.
+    let plain = render(&report, None).unwrap();
+    assert_eq!(plain.matches("<svg").count(), 4 + 1);
+    assert!(!plain.contains("The device versus the host"));
+
+    // One f32 step of difference in one record is reported, with its size.
+    let z = &mut log.device.head_m_s2[2][700];
+    *z = f64::from(f32::from_bits((*z as f32).to_bits() + 1));
+    let page = render(&report, Some(&log)).unwrap();
+    assert!(page.contains("the device and the host DIFFER"));
+    assert!(!page.contains("largest |device &minus; host| 0 (bit for bit)"));
 }

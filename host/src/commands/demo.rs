@@ -110,8 +110,9 @@ pub fn run(args: &Args, color: ColorChoice) -> Result<()> {
 }
 
 /// The summary as the `--json` object.
-fn summary_json(s: &Summary, args: &Args, report: &std::path::Path) -> serde_json::Value {
-    let exposure: serde_json::Map<String, serde_json::Value> = s
+fn summary_json(summary: &Summary, args: &Args, report: &std::path::Path) -> serde_json::Value {
+    let s = &summary.check;
+    let exposure: serde_json::Map<String, serde_json::Value> = summary
         .exposure
         .iter()
         .map(|(axis, r)| (axis.clone(), json!(r)))

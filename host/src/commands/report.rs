@@ -64,7 +64,7 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
         &model_name(&args.model),
         args.compare,
     )?;
-    let page = html::render(&report)?;
+    let page = html::render(&report, None)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("{}: cannot create the folder", args.out.display()))?;
     let path = args.out.join("report.html");

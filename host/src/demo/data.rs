@@ -1,18 +1,11 @@
-//! What the demo's report and summary are made from: how the run was made, what the
-//! device sent and what the host computed on the same samples.
+//! What the demo's summary and report are made from: how the run was made, the mission
+//! report of the ride it streamed, and the device's log of that ride beside the host's.
 
-use std::time::Duration;
+use super::ride::DemoProfile;
+use crate::report::MissionReport;
+use crate::report::device_check::DeviceLog;
 
-use supine_core::alerts::AlertConfig;
-use supine_core::protocol::Status;
-
-use super::ride::{DemoProfile, DemoRide};
-use super::trace::Trace;
-use crate::device::link::LinkStats;
-use crate::exposure::report::AxisReport;
-use crate::io::telemetry_csv::EventRow;
-
-/// How the run was made (for the report's last section and the summary's first line).
+/// The demo's own facts of the run (the device's are in [`DeviceLog::run`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RunInfo {
     /// The ride.
@@ -23,54 +16,17 @@ pub struct RunInfo {
     pub sample_rate_hz: f64,
     /// Samples streamed.
     pub samples: usize,
-    /// The parameters' name (the preset).
+    /// The parameters' name (the preset or file, and the patient when one was given).
     pub params_name: String,
-    /// Their identity, hex.
-    pub identity: String,
-    /// The firmware's version from its greeting.
-    pub firmware_version: String,
-    /// The device in one line (firmware, protocol, parameters and their source, rate).
-    pub device_line: String,
-    /// Exposure warm-up, s.
-    pub warmup_s: f64,
-    /// The alert configuration flashed.
-    pub alerts: AlertConfig,
-    /// The device's last status.
-    pub status: Option<Status>,
-    /// Frames the host decoded, lost and bad.
-    pub link: LinkStats,
-    /// Wall time of each step.
-    pub step_times: Vec<(String, Duration)>,
-    /// Samples streamed in real time.
-    pub realtime: bool,
 }
 
-/// The host's exposure evaluation of the predicted head (supine-core on the same samples).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct HostExposure {
-    /// Head x, y, z.
-    pub head: [AxisReport; 3],
-    /// Vector sum.
-    pub vector: AxisReport,
-}
-
-/// Everything the report and the summary are made from.
+/// Everything the summary and the report are made from.
 #[derive(Clone, Debug)]
 pub struct DemoData {
     /// How the run was made.
     pub info: RunInfo,
-    /// The ride.
-    pub ride: DemoRide,
-    /// What the device sent (read back from `device.csv`).
-    pub device: Trace,
-    /// The device's alert events (read back from `device.events.csv`).
-    pub device_events: Vec<EventRow>,
-    /// The host's run of the device pipeline (f32, the same code) on the same samples.
-    pub host: Trace,
-    /// The host pipeline's alert events.
-    pub host_events: Vec<EventRow>,
-    /// The f64 model's head acceleration for the same samples, m/s^2.
-    pub host_head_f64_m_s2: [Vec<f64>; 3],
-    /// The exposure of the host's run.
-    pub exposure: HostExposure,
+    /// The mission report of the ride (one leg: `ride.csv`), as `supine report` makes it.
+    pub report: MissionReport,
+    /// What the device sent for the ride, and the host's run of the same samples.
+    pub log: DeviceLog,
 }

@@ -7,8 +7,10 @@
 //! its UART, followed live by the monitor ([`crate::monitor`]) which logs the device's
 //! telemetry and events to CSV; run the host's own computation on the same samples
 //! ([`crate::exposure::reference`]: the device's f32 pipeline and the f64 model); write
-//! the report ([`report`]) from the CSV files ([`data`]); summarize ([`summary`]). Each
-//! step is a function of its own below [`run`].
+//! the report: the mission report of `ride.csv` as `supine report` makes it
+//! ([`crate::report`]), with the device's log (read back from the CSV files) beside the
+//! host's as its device section ([`data`]); summarize ([`summary`]). Each step is a
+//! function of its own below [`run`].
 //!
 //! The output folder gets `ride.csv`, `device.csv` and `device.events.csv` (what the
 //! device sent), `host.csv` and `host.events.csv` (the host's reference), `params.toml`
@@ -16,10 +18,8 @@
 //! so a failed run never leaves an older report that looks like this run's.
 
 pub mod data;
-pub mod report;
 pub mod ride;
 pub mod summary;
-pub mod trace;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -34,7 +34,7 @@ use crate::device::device_params::identity_hex;
 use crate::device::flash;
 use crate::device::image::ProductImage;
 use crate::exposure::reference;
-use crate::exposure::report::{AxisReport, run_pipeline};
+use crate::exposure::ride::ShockKind;
 use crate::io::output_folder::{self, OutputFolder};
 use crate::io::params_file::{self, DeviceSection, ParamFile};
 use crate::io::recording::read_input;
@@ -46,10 +46,14 @@ use crate::monitor::log::MonitorLog;
 use crate::monitor::session::{Ending, QemuRun, run_qemu};
 use crate::monitor::view::View;
 use crate::monitor::{Monitor, device_line};
-use data::{DemoData, HostExposure, RunInfo};
+use crate::plot::Rgb;
+use crate::plot::time_chart::{Band, Moment};
+use crate::report::device_check::{DeviceLog, DeviceRun};
+use crate::report::trace::Trace;
+use crate::report::{self, MissionReport, html};
+use data::{DemoData, RunInfo};
 use ride::{DemoProfile, DemoRide};
 use summary::Summary;
-use trace::Trace;
 
 /// The output folder when none is given.
 pub const DEFAULT_OUT_DIR: &str = "supine-demo";
@@ -63,6 +67,8 @@ pub const MIN_DURATION_S: f64 = 10.0;
 pub const MAX_DURATION_S: f64 = 3600.0;
 /// Number of steps announced.
 pub const STEPS: usize = 7;
+/// Shading of a rough stretch of road on the device section's charts.
+const ROUGH_COLOR: Rgb = Rgb(255, 170, 60);
 
 /// How to run the demo.
 #[derive(Clone, Debug)]
@@ -264,26 +270,38 @@ pub fn run(
     let host = host_reference(&params, &file, &qemu_run.samples, &files)?;
 
     steps.start("report", &format!("report: {}", files.report.display()));
+    let report = report::build(
+        std::slice::from_ref(&files.ride),
+        read_input,
+        &file,
+        &config.model_name,
+        false,
+    )?;
     steps.finish();
-    let info = run_info(
-        config,
-        &params,
-        &monitor,
-        qemu_run.samples.len(),
-        &steps.times,
-    );
-    let data = DemoData {
-        info,
-        ride,
+    let info = RunInfo {
+        profile: config.profile,
+        seed: config.seed,
+        sample_rate_hz: SAMPLE_RATE_HZ,
+        samples: qemu_run.samples.len(),
+        params_name: params_name(config),
+    };
+    let run = device_run(config, &info, &params, &monitor, &steps.times);
+    let log = DeviceLog {
+        run,
+        sample_rate_hz: SAMPLE_RATE_HZ,
+        samples: qemu_run.samples.len(),
+        bands: road_bands(&ride),
+        moments: shocks(&ride),
+        input_m_s2: ride.ride.platform_m_s2,
         device: device.trace,
         device_events: device.events,
         host: host.trace,
         host_events: host.events,
         host_head_f64_m_s2: host.head_f64_m_s2,
-        exposure: host.exposure,
     };
+    write_report(&files.report, &report, &log)?;
+    let data = DemoData { info, report, log };
     let summary = Summary::new(&data);
-    write_report(&files.report, &data, &summary)?;
     folder.record(&files.all())?;
     (steps.announce)(&format!("[{STEPS}/{STEPS}] summary"));
     Ok(DemoOutcome {
@@ -390,11 +408,10 @@ struct HostReference {
     trace: Trace,
     events: Vec<EventRow>,
     head_f64_m_s2: [Vec<f64>; 3],
-    exposure: HostExposure,
 }
 
 /// Runs the device's own pipeline (f32) on the host, writes host.csv and
-/// host.events.csv, and adds the f64 model's head acceleration and the exposure.
+/// host.events.csv, and adds the f64 model's head acceleration.
 fn host_reference(
     params: &DeviceParams,
     file: &ParamFile,
@@ -406,8 +423,6 @@ fn host_reference(
     write_telemetry(&files.host, &run.telemetry, SAMPLE_RATE_HZ)?;
     write_events(&files.host_events, &run.events, SAMPLE_RATE_HZ)?;
     let head_f64 = reference::head_f64(&file.params, SAMPLE_RATE_HZ, samples)?;
-    let (values, _, _) = run_pipeline(params, samples, 0.0)?;
-    let kinds = params.exposure.config.axes.axes().map(|a| a.kind.name());
     Ok(HostReference {
         trace: Trace::from_telemetry(&run.telemetry, SAMPLE_RATE_HZ),
         events: run
@@ -416,58 +431,139 @@ fn host_reference(
             .map(|e| EventRow::from_event(e, SAMPLE_RATE_HZ))
             .collect(),
         head_f64_m_s2: [0, 1, 2].map(|a| head_f64.iter().map(|h| h[a]).collect()),
-        exposure: HostExposure {
-            head: [0, 1, 2].map(|i| AxisReport::new(kinds[i], &values.axes[i])),
-            vector: AxisReport::new("vector", &values.vector),
-        },
     })
+}
+
+/// The parameters' name, with the patient when one was given.
+fn params_name(config: &DemoConfig) -> String {
+    match (config.subject.height_m, config.subject.mass_kg) {
+        (None, None) => config.model_name.clone(),
+        (h, m) => {
+            let mean = supine_core::model::Subject::PAPER_MEAN;
+            format!(
+                "{} for a {} m, {} kg patient",
+                config.model_name,
+                h.unwrap_or(mean.height_m),
+                m.unwrap_or(mean.mass_kg)
+            )
+        }
+    }
 }
 
 /// How the run was made, from the configuration, the parameters and the device's own
 /// account (its greeting, status and link counters).
-fn run_info(
+fn device_run(
     config: &DemoConfig,
+    info: &RunInfo,
     params: &DeviceParams,
     monitor: &Monitor,
-    samples: usize,
     step_times: &[(String, Duration)],
-) -> RunInfo {
+) -> DeviceRun {
     let greeting = monitor.greeting();
-    RunInfo {
-        profile: config.profile,
-        seed: config.seed,
-        sample_rate_hz: SAMPLE_RATE_HZ,
-        samples,
-        params_name: match (config.subject.height_m, config.subject.mass_kg) {
-            (None, None) => config.model_name.clone(),
-            (h, m) => {
-                let mean = supine_core::model::Subject::PAPER_MEAN;
-                format!(
-                    "{} for a {} m, {} kg patient",
-                    config.model_name,
-                    h.unwrap_or(mean.height_m),
-                    m.unwrap_or(mean.mass_kg)
-                )
-            }
-        },
-        identity: identity_hex(&params.identity),
-        firmware_version: greeting.firmware_version.as_str().to_string(),
+    let duration_s = info.samples as f64 / info.sample_rate_hz;
+    let streamed = if config.realtime {
+        "in real time"
+    } else {
+        "as fast as the device took them"
+    };
+    DeviceRun {
+        account: format!(
+            "A {duration_s:.0} s {} ride at {} Hz, streamed into the supine firmware running in QEMU \
+             (mps2-an386, Cortex-M4F) with the parameters {}. The device predicted the patient's head \
+             acceleration sample by sample, weighted it as ISO 2631-1 prescribes, and raised alerts; the \
+             report above is the host's evaluation of the same ride, and this section compares the two.",
+            info.profile.name(),
+            info.sample_rate_hz,
+            info.params_name
+        ),
         device_line: device_line(greeting),
-        warmup_s: f64::from(params.exposure.config.warmup_s),
-        alerts: params.alerts.config,
+        firmware_version: greeting.firmware_version.as_str().to_string(),
         status: monitor.status().copied(),
         link: monitor.counters().link,
         step_times: step_times.to_vec(),
-        realtime: config.realtime,
+        notes: vec![
+            (
+                "parameters".into(),
+                format!(
+                    "{}, identity {}, placed in the PARAMS region's slot A as supine flash would (file: params.toml)",
+                    info.params_name,
+                    identity_hex(&params.identity)
+                ),
+            ),
+            (
+                "ride".into(),
+                format!(
+                    "{}, seed {}; streamed {streamed}",
+                    info.profile.name(),
+                    info.seed
+                ),
+            ),
+            (
+                "instructions per sample".into(),
+                "not measured in this run (QEMU ran without -icount); supine replay --qemu --icount \
+                 measures it, see BENCHMARKS.md"
+                    .into(),
+            ),
+            (
+                "again".into(),
+                format!(
+                    "supine demo --profile {} --duration-s {} --seed {} gives the same ride and the same numbers",
+                    info.profile.name(),
+                    duration_s,
+                    info.seed
+                ),
+            ),
+        ],
+        files: [
+            ("ride.csv", "the input"),
+            ("device.csv", "the device's telemetry"),
+            ("device.events.csv", "the device's alert events"),
+            ("host.csv", "the host's reference telemetry"),
+            ("host.events.csv", "the host's reference events"),
+            ("params.toml", "the parameters flashed"),
+        ]
+        .map(|(f, what)| (f.to_string(), what.to_string()))
+        .to_vec(),
     }
 }
 
+/// The rough stretches of a ride of several surfaces (not the base road), to shade.
+fn road_bands(ride: &DemoRide) -> Vec<Band> {
+    if ride.segments.len() < 2 {
+        return Vec::new();
+    }
+    ride.segments
+        .iter()
+        .filter(|s| s.label != "paved road")
+        .map(|s| Band {
+            start_s: s.start_s,
+            end_s: s.end_s,
+            label: s.label.clone(),
+            color: ROUGH_COLOR,
+        })
+        .collect()
+}
+
+/// The ride's shocks, to mark.
+fn shocks(ride: &DemoRide) -> Vec<Moment> {
+    ride.shocks
+        .iter()
+        .map(|s| Moment {
+            t_s: s.time_s,
+            label: match s.kind {
+                ShockKind::Pothole => "pothole".into(),
+                ShockKind::SpeedBump => "speed bump".into(),
+            },
+        })
+        .collect()
+}
+
 /// Renders the report and writes it, whole or not at all.
-fn write_report(path: &Path, data: &DemoData, summary: &Summary) -> Result<()> {
-    let html = report::render(data, summary)?;
+fn write_report(path: &Path, report: &MissionReport, log: &DeviceLog) -> Result<()> {
+    let page = html::render(report, Some(log))?;
     crate::io::output::write_atomically(path, |w| {
         use std::io::Write as _;
-        w.write_all(html.as_bytes())
+        w.write_all(page.as_bytes())
             .with_context(|| format!("writing {}", path.display()))
     })
 }

@@ -6,11 +6,14 @@
 use std::fmt::Write as _;
 
 use anyhow::Result;
+use supine_core::alerts::AlertConfig;
 
 use crate::exposure::report::AxisReport;
-use crate::report::charts;
+use crate::plot::time_chart::Chart;
+use crate::report::device_check::{Check, DeviceLog};
 use crate::report::mission::{LEVEL_NAMES, Leg, level_index};
 use crate::report::{Comparison, MissionReport};
+use crate::report::{charts, device_section};
 
 /// Most alert events listed per leg (the JSON has them all).
 pub const MAX_EVENT_ROWS: usize = 60;
@@ -54,6 +57,10 @@ figure { margin: 14px 0 4px; } figcaption { font-size: 13px; color: #444; margin
 svg { display: block; max-width: 100%; height: auto; }
 .caveat { background: #fff7e0; border: 1px solid #e8d28a; padding: 8px 14px; }
 .more { color: #c62828; } .less { color: #2e7d32; }
+.ok { color: #2e7d32; font-weight: 600; } .bad { color: #c62828; font-weight: 600; }
+dl { display: grid; grid-template-columns: max-content auto; gap: 3px 16px; } dt { font-weight: 600; } dd { margin: 0; }
+dt, dd { font-size: 14px; line-height: 1.45; }
+code { background: #f2f2f2; padding: 0 4px; border-radius: 3px; font-size: 13px; }
 @page { size: A4; margin: 12mm; }
 @media print {
   body { background: #fff; }
@@ -64,25 +71,47 @@ svg { display: block; max-width: 100%; height: auto; }
 }
 ";
 
-fn tag(level: &str) -> String {
+/// A level's name as a coloured tag.
+pub fn level_tag(level: &str) -> String {
     let level = LEVEL_NAMES[level_index(level)];
     format!("<span class=\"tag tag-{level}\">{level}</span>")
 }
 
+/// A chart as a figure, with its caption when there is one.
+pub fn figure(h: &mut String, chart: &Chart, caption: &str) -> Result<()> {
+    let svg = chart.to_svg()?;
+    let _ = write!(h, "<figure>\n{svg}\n");
+    if !caption.is_empty() {
+        let _ = writeln!(h, "<figcaption>{caption}</figcaption>");
+    }
+    h.push_str("</figure>\n");
+    Ok(())
+}
+
+/// A duration in words, with no-break spaces so that a table cell never splits it.
 fn duration(s: f64) -> String {
     let total = s.round() as u64;
     let (h, m, sec) = (total / 3600, (total / 60) % 60, total % 60);
     if h > 0 {
-        format!("{h} h {m:02} min")
+        format!("{h}\u{a0}h\u{a0}{m:02}\u{a0}min")
     } else if m > 0 {
-        format!("{m} min {sec:02} s")
+        format!("{m}\u{a0}min\u{a0}{sec:02}\u{a0}s")
     } else {
-        format!("{s:.1} s")
+        format!("{s:.1}\u{a0}s")
     }
 }
 
-/// The page for a mission report (or a comparison of two rides).
-pub fn render(report: &MissionReport) -> Result<String> {
+/// A sample rate as a person writes it: a rate estimated from time stamps (499.99999999999994)
+/// shown to the millihertz, and whole rates without decimals.
+fn rate_hz(hz: f64) -> String {
+    let rounded = (hz * 1000.0).round() / 1000.0;
+    format!("{rounded}")
+}
+
+/// The page for a mission report (or a comparison of two rides); with `device`, the
+/// device's own account of the ride beside the host's (a one-leg report of the ride the
+/// device was given).
+pub fn render(report: &MissionReport, device: Option<&DeviceLog>) -> Result<String> {
     let mut h = String::with_capacity(1 << 20);
     let title = if report.comparison.is_some() {
         "supine ride comparison"
@@ -119,6 +148,9 @@ pub fn render(report: &MissionReport) -> Result<String> {
         Some(c) => comparison(&mut h, legs, c),
         None => mission(&mut h, report),
     }
+    if let Some(log) = device {
+        device_section::check(&mut h, log, &Check::new(log));
+    }
     h.push_str("<h2>Charts</h2>\n");
     let config = &report.thresholds;
     let layout = if report.comparison.is_some() {
@@ -142,12 +174,50 @@ pub fn render(report: &MissionReport) -> Result<String> {
     for (i, leg) in legs.iter().enumerate() {
         leg_section(&mut h, i, leg)?;
     }
-    h.push_str(
-        "<p class=\"caveat\">ISO 2631-1 gives no health guidance for recumbent persons; the \
-         alert thresholds are the parameter file's extrapolations, and the head acceleration is \
-         a model's prediction from the litter's, not a measurement.</p>\n</main>\n</body>\n</html>\n",
-    );
+    if let (Some(log), Some(leg)) = (device, legs.first()) {
+        device_section::charts(&mut h, log, config, leg.exposure.warmup_s)?;
+    }
+    level_meanings(&mut h, config);
+    h.push_str("</main>\n</body>\n</html>\n");
     Ok(h)
+}
+
+/// What the alert levels mean, where their thresholds come from, and the caveat.
+fn level_meanings(h: &mut String, config: &AlertConfig) {
+    let rms = config.running_rms_m_s2;
+    let vdv = config.vdv_m_s175;
+    let _ = write!(
+        h,
+        "<section><h2>What the alert levels mean</h2>\n<table>\n\
+         <tr><th>level</th><th>running rms<br>(1 s, vector sum)</th><th>VDV<br>(vector sum)</th><th class=\"text\">borrowed from</th></tr>\n\
+         <tr><td>{}</td><td>below {} m/s&sup2;</td><td>below {} m/s<sup>1.75</sup></td><td class=\"text\">nothing to do</td></tr>\n\
+         <tr><td>{}</td><td>from {} m/s&sup2;</td><td>from {} m/s<sup>1.75</sup></td><td class=\"text\">&ldquo;fairly uncomfortable&rdquo; (ISO 2631-1 Annex C); VDV entering the health guidance caution zone (Annex B)</td></tr>\n\
+         <tr><td>{}</td><td>from {} m/s&sup2;</td><td>from {} m/s<sup>1.75</sup></td><td class=\"text\">&ldquo;uncomfortable&rdquo;; VDV leaving the caution zone: health risks likely</td></tr>\n\
+         <tr><td>{}</td><td>from {} m/s&sup2;</td><td>from {} m/s<sup>1.75</sup></td><td class=\"text\">&ldquo;very uncomfortable&rdquo;; VDV at the EU daily exposure limit for the crew (2002/44/EC)</td></tr>\n\
+         </table>\n\
+         <p>The level is the higher of the two criteria. A running-rms level clears once the running rms has stayed below \
+         {}&nbsp;% of its threshold for {} s; the VDV only grows, so a VDV level lasts to the end of the evaluation. \
+         Sensor faults (non-finite samples, saturation, a stuck axis, gaps in the sample indices) are reported separately.</p>\n\
+         <p class=\"caveat\"><b>Caveat.</b> ISO 2631-1 gives no comfort or health method for recumbent persons. These thresholds \
+         are the seated scales applied to the predicted head acceleration of a supine patient: an extrapolation and a starting \
+         point to be set per mission in the parameter file, not limits established for patients; and the head acceleration is \
+         a model's prediction from the litter's, not a measurement. Use the alerts to compare rides and to slow down, not as \
+         a diagnosis.</p></section>\n",
+        level_tag("normal"),
+        rms[0],
+        vdv[0],
+        level_tag("advisory"),
+        rms[0],
+        vdv[0],
+        level_tag("warning"),
+        rms[1],
+        vdv[1],
+        level_tag("alarm"),
+        rms[2],
+        vdv[2],
+        (100.0 * (1.0 - config.hysteresis)).round(),
+        config.clear_dwell_s
+    );
 }
 
 fn mission(h: &mut String, report: &MissionReport) {
@@ -158,7 +228,7 @@ fn mission(h: &mut String, report: &MissionReport) {
          <p>Mission VDV {2:.3} m/s<sup>1.75</sup> (the legs combined as (&Sigma; VDV<sub>i</sub><sup>4</sup>)<sup>1/4</sup>); \
          rms {3:.3} m/s<sup>2</sup> (energy-equivalent over the evaluated time); largest MTVV {4:.3} m/s<sup>2</sup>.</p></div>",
         LEVEL_NAMES[level_index(m.max_level)],
-        tag(m.max_level),
+        level_tag(m.max_level),
         m.vector.vdv_m_s175,
         m.vector.rms_m_s2,
         m.vector.mtvv_m_s2
@@ -184,7 +254,7 @@ fn mission(h: &mut String, report: &MissionReport) {
         for t in leg.time_at_level_s.as_array() {
             let _ = write!(h, "<td>{}</td>", duration(t));
         }
-        let _ = writeln!(h, "<td>{}</td></tr>", tag(leg.max_level));
+        let _ = writeln!(h, "<td>{}</td></tr>", level_tag(leg.max_level));
     }
     let _ = write!(
         h,
@@ -197,7 +267,7 @@ fn mission(h: &mut String, report: &MissionReport) {
     for t in m.time_at_level_s.as_array() {
         let _ = write!(h, "<th>{}</th>", duration(t));
     }
-    let _ = writeln!(h, "<th>{}</th></tr></table>", tag(m.max_level));
+    let _ = writeln!(h, "<th>{}</th></tr></table>", level_tag(m.max_level));
     let p = &m.projection;
     let _ = write!(
         h,
@@ -214,7 +284,7 @@ fn mission(h: &mut String, report: &MissionReport) {
         let _ = write!(
             h,
             "<tr><td>{}</td><td>{:.2}</td><td class=\"text\">{when}</td></tr>",
-            tag(t.level),
+            level_tag(t.level),
             t.vdv_m_s175
         );
     }
@@ -288,7 +358,7 @@ fn leg_section(h: &mut String, index: usize, leg: &Leg) -> Result<()> {
         duration(leg.duration_s),
         duration(leg.start_s),
         e.samples,
-        e.sample_rate_hz,
+        rate_hz(e.sample_rate_hz),
         e.evaluated_s,
         e.warmup_s,
         if e.valid {

@@ -7,13 +7,20 @@
 //! - [`spectrum`]: the power spectral densities of input and predicted head.
 //! - [`charts`]: what each chart shows.
 //! - [`html`]: the page.
+//! - [`device_check`], [`device_charts`], [`device_section`], [`trace`]: with a device
+//!   log (what a device sent for the ride, as `supine demo` has it), the device's own
+//!   account beside the host's: the largest difference of each output, identical events.
 //!
 //! The JSON's key names are the contract of `--json` (`docs/exposure.md#mission-report`).
 
 pub mod charts;
+pub mod device_charts;
+pub mod device_check;
+pub mod device_section;
 pub mod html;
 pub mod mission;
 pub mod spectrum;
+pub mod trace;
 
 use std::path::{Path, PathBuf};
 

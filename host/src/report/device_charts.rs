@@ -1,17 +1,16 @@
-//! The report's charts, built from a demo's data: what each shows is decided here, how it
-//! is drawn in [`crate::plot::time_chart`].
+//! The device section's charts: the device's telemetry over the host's on the same
+//! samples. What each shows is decided here, how it is drawn in [`crate::plot::time_chart`].
 
-use supine_core::alerts::Level;
+use supine_core::alerts::{AlertConfig, Level};
 
-use crate::demo::data::DemoData;
-use crate::demo::trace::Trace;
-use crate::exposure::ride::ShockKind;
 use crate::io::telemetry_csv::level_from_name;
 use crate::plot::Rgb;
 use crate::plot::downsample::min_max;
 use crate::plot::time_chart::{
-    Band, Chart, LEVEL_COLORS, Line, Marker, Moment, PLOT_COLUMNS, alert_thresholds, y_range,
+    Band, Chart, LEVEL_COLORS, Line, Marker, PLOT_COLUMNS, alert_thresholds, y_range,
 };
+use crate::report::device_check::DeviceLog;
+use crate::report::trace::Trace;
 
 /// Axis colours: x, y, z.
 pub const AXIS_COLORS: [Rgb; 3] = [Rgb(31, 119, 180), Rgb(44, 160, 44), Rgb(214, 39, 40)];
@@ -19,8 +18,6 @@ pub const AXIS_COLORS: [Rgb; 3] = [Rgb(31, 119, 180), Rgb(44, 160, 44), Rgb(214,
 pub const VECTOR_COLOR: Rgb = Rgb(25, 25, 25);
 /// The host's overlays.
 pub const HOST_COLOR: Rgb = Rgb(255, 127, 14);
-/// Shading of a rough stretch of road.
-pub const ROUGH_COLOR: Rgb = Rgb(255, 170, 60);
 /// Shading of the exposure's warm-up.
 pub const WARMUP_COLOR: Rgb = Rgb(120, 120, 120);
 
@@ -40,50 +37,33 @@ fn line(points: Vec<(f64, f64)>, color: Rgb, width: u32, dashed: bool, label: &s
     }
 }
 
-fn bands(data: &DemoData) -> Vec<Band> {
-    // Shade only a ride of several surfaces, and only the ones that are not the base road.
-    if data.ride.segments.len() < 2 {
-        return Vec::new();
-    }
-    data.ride
-        .segments
-        .iter()
-        .filter(|s| s.label != "paved road")
-        .map(|s| Band {
-            start_s: s.start_s,
-            end_s: s.end_s,
-            label: s.label.clone(),
-            color: ROUGH_COLOR,
-        })
-        .collect()
-}
-
-/// The road's bands and the warm-up, for charts of exposure values.
-fn bands_with_warmup(data: &DemoData) -> Vec<Band> {
+/// The ride's marked stretches and the warm-up, for charts of exposure values.
+fn bands_with_warmup(log: &DeviceLog, warmup_s: f64) -> Vec<Band> {
     let mut b = vec![Band {
         start_s: 0.0,
-        end_s: data.info.warmup_s,
+        end_s: warmup_s,
         label: "warm-up".into(),
         color: WARMUP_COLOR,
     }];
-    b.extend(bands(data));
+    b.extend(log.bands.iter().cloned());
     b
 }
 
-fn x_range(data: &DemoData) -> (f64, f64) {
-    (0.0, data.ride.duration_s())
+fn x_range(log: &DeviceLog) -> (f64, f64) {
+    (0.0, log.duration_s())
 }
 
-/// The litter frame's acceleration: the ride the device was given.
-pub fn input(data: &DemoData) -> Chart {
-    let ride = &data.ride.ride;
-    let fs = ride.sample_rate_hz;
-    let t: Vec<f64> = (0..ride.len()).map(|k| k as f64 / fs).collect();
+/// The litter frame's acceleration on every axis: the ride the device was given.
+pub fn input(log: &DeviceLog) -> Chart {
+    let fs = log.sample_rate_hz;
+    let t: Vec<f64> = (0..log.input_m_s2[0].len())
+        .map(|k| k as f64 / fs)
+        .collect();
     let lines: Vec<Line> = [2, 0, 1]
         .into_iter()
         .map(|a| {
             line(
-                series(&t, &ride.platform_m_s2[a]),
+                series(&t, &log.input_m_s2[a]),
                 AXIS_COLORS[a],
                 1,
                 false,
@@ -91,51 +71,40 @@ pub fn input(data: &DemoData) -> Chart {
             )
         })
         .collect();
-    let y = y_range(ride.platform_m_s2.iter().flatten(), &[], false);
+    let y = y_range(log.input_m_s2.iter().flatten(), &[], false);
     Chart {
         title: "Litter-frame acceleration (the device's input)".into(),
         y_label: "acceleration, m/s^2".into(),
-        x_range_s: x_range(data),
+        x_range_s: x_range(log),
         y_range: y,
         height_px: 320,
-        bands: bands(data),
+        bands: log.bands.clone(),
         lines,
-        instants: data
-            .ride
-            .shocks
-            .iter()
-            .map(|s| Moment {
-                t_s: s.time_s,
-                label: match s.kind {
-                    ShockKind::Pothole => "pothole".into(),
-                    ShockKind::SpeedBump => "speed bump".into(),
-                },
-            })
-            .collect(),
+        instants: log.moments.clone(),
         ..Chart::default()
     }
 }
 
 /// Predicted head acceleration on one axis: the device, and the f64 model over it.
-pub fn head(data: &DemoData, axis: usize) -> Chart {
-    let d = &data.device;
-    let host_t: Vec<f64> = (0..data.host_head_f64_m_s2[axis].len())
-        .map(|k| k as f64 / data.info.sample_rate_hz)
+pub fn head(log: &DeviceLog, axis: usize) -> Chart {
+    let d = &log.device;
+    let host_t: Vec<f64> = (0..log.host_head_f64_m_s2[axis].len())
+        .map(|k| k as f64 / log.sample_rate_hz)
         .collect();
     let y = y_range(
         d.head_m_s2[axis]
             .iter()
-            .chain(&data.host_head_f64_m_s2[axis]),
+            .chain(&log.host_head_f64_m_s2[axis]),
         &[],
         false,
     );
     Chart {
         title: format!("Predicted head acceleration, {} (unweighted)", AXES[axis]),
         y_label: "m/s^2".into(),
-        x_range_s: x_range(data),
+        x_range_s: x_range(log),
         y_range: y,
         height_px: 230,
-        bands: bands(data),
+        bands: log.bands.clone(),
         lines: vec![
             line(
                 series(&d.time_s, &d.head_m_s2[axis]),
@@ -145,7 +114,7 @@ pub fn head(data: &DemoData, axis: usize) -> Chart {
                 "device",
             ),
             line(
-                series(&host_t, &data.host_head_f64_m_s2[axis]),
+                series(&host_t, &log.host_head_f64_m_s2[axis]),
                 HOST_COLOR,
                 1,
                 true,
@@ -157,8 +126,8 @@ pub fn head(data: &DemoData, axis: usize) -> Chart {
 }
 
 /// Where the vector running rms was when each level event happened, for markers.
-fn level_markers(data: &DemoData, trace: &Trace, y_of: impl Fn(usize) -> f64) -> Vec<Marker> {
-    data.device_events
+fn level_markers(log: &DeviceLog, trace: &Trace, y_of: impl Fn(usize) -> f64) -> Vec<Marker> {
+    log.device_events
         .iter()
         .filter(|e| e.kind == "level")
         .filter_map(|e| {
@@ -175,10 +144,10 @@ fn level_markers(data: &DemoData, trace: &Trace, y_of: impl Fn(usize) -> f64) ->
 }
 
 /// The vector sum's running rms against the running-rms thresholds, with level events.
-pub fn vector_rms(data: &DemoData) -> Chart {
-    let d = &data.device;
-    let h = &data.host;
-    let th = data.info.alerts.running_rms_m_s2;
+pub fn vector_rms(log: &DeviceLog, alerts: &AlertConfig, warmup_s: f64) -> Chart {
+    let d = &log.device;
+    let h = &log.host;
+    let th = alerts.running_rms_m_s2;
     let y = y_range(
         d.vector_rms_m_s2.iter(),
         &th.map(|v| f64::from(v) * 1.05),
@@ -187,10 +156,10 @@ pub fn vector_rms(data: &DemoData) -> Chart {
     Chart {
         title: "Weighted running rms (1 s), vector sum, against the alert thresholds".into(),
         y_label: "m/s^2".into(),
-        x_range_s: x_range(data),
+        x_range_s: x_range(log),
         y_range: y,
         height_px: 340,
-        bands: bands_with_warmup(data),
+        bands: bands_with_warmup(log, warmup_s),
         thresholds: alert_thresholds(th, "m/s^2"),
         lines: vec![
             line(
@@ -208,15 +177,15 @@ pub fn vector_rms(data: &DemoData) -> Chart {
                 "host, vector sum",
             ),
         ],
-        markers: level_markers(data, d, |k| d.vector_rms_m_s2[k]),
+        markers: level_markers(log, d, |k| d.vector_rms_m_s2[k]),
         ..Chart::default()
     }
 }
 
 /// The running rms of each weighted head axis, device and host.
-pub fn axis_rms(data: &DemoData) -> Chart {
-    let d = &data.device;
-    let h = &data.host;
+pub fn axis_rms(log: &DeviceLog, warmup_s: f64) -> Chart {
+    let d = &log.device;
+    let h = &log.host;
     let mut lines = Vec::new();
     for a in 0..3 {
         lines.push(line(
@@ -240,30 +209,30 @@ pub fn axis_rms(data: &DemoData) -> Chart {
     Chart {
         title: "Weighted running rms (1 s) per head axis".into(),
         y_label: "m/s^2".into(),
-        x_range_s: x_range(data),
+        x_range_s: x_range(log),
         y_range: y,
         height_px: 280,
-        bands: bands_with_warmup(data),
+        bands: bands_with_warmup(log, warmup_s),
         lines,
         ..Chart::default()
     }
 }
 
 /// The vibration dose value against its thresholds (those in view).
-pub fn vdv(data: &DemoData) -> Chart {
-    let d = &data.device;
-    let h = &data.host;
-    let th = data.info.alerts.vdv_m_s175;
+pub fn vdv(log: &DeviceLog, alerts: &AlertConfig, warmup_s: f64) -> Chart {
+    let d = &log.device;
+    let h = &log.host;
+    let th = alerts.vdv_m_s175;
     // Keep the first threshold in view; higher ones far above the data would flatten the
     // curve, and the caption lists them.
     let y = y_range(d.vdv_m_s175.iter(), &[f64::from(th[0]) * 1.05], true);
     Chart {
         title: "Vibration dose value (VDV) of the vector sum, since the start".into(),
         y_label: "m/s^1.75".into(),
-        x_range_s: x_range(data),
+        x_range_s: x_range(log),
         y_range: y,
         height_px: 280,
-        bands: bands_with_warmup(data),
+        bands: bands_with_warmup(log, warmup_s),
         thresholds: alert_thresholds(th, "m/s^1.75"),
         lines: vec![
             line(
@@ -308,26 +277,26 @@ fn level_steps(trace: &Trace, end_s: f64) -> Vec<(f64, f64)> {
 }
 
 /// The alert level over time, with a marker at each raise and clear.
-pub fn levels(data: &DemoData) -> Chart {
-    let end = data.ride.duration_s();
+pub fn levels(log: &DeviceLog, warmup_s: f64) -> Chart {
+    let end = log.duration_s();
     Chart {
         title: "Alert level (raised: up triangle, lowered: down triangle)".into(),
         y_label: "level".into(),
-        x_range_s: x_range(data),
+        x_range_s: x_range(log),
         y_range: (-0.3, 3.4),
         height_px: 240,
-        bands: bands_with_warmup(data),
+        bands: bands_with_warmup(log, warmup_s),
         lines: vec![
             line(
-                level_steps(&data.device, end),
+                level_steps(&log.device, end),
                 VECTOR_COLOR,
                 2,
                 false,
                 "device",
             ),
-            line(level_steps(&data.host, end), HOST_COLOR, 1, true, "host"),
+            line(level_steps(&log.host, end), HOST_COLOR, 1, true, "host"),
         ],
-        markers: level_markers(data, &data.device, |k| data.device.level[k] as u8 as f64),
+        markers: level_markers(log, &log.device, |k| log.device.level[k] as u8 as f64),
         y_tick_names: Some(
             ["normal", "advisory", "warning", "alarm"]
                 .iter()

@@ -1,5 +1,6 @@
-//! Telemetry as columns: what the device sent (read back from the CSV files the demo
-//! wrote with [`crate::io::telemetry_csv`], so the report shows exactly what a user can open) and what the host computed.
+//! Telemetry as columns: what a device sent (read back from the CSV files its monitor
+//! wrote with [`crate::io::telemetry_csv`], so the report shows exactly what a user can
+//! open) and what the host computed on the same samples.
 //!
 //! Reading the files back rather than keeping the messages makes the CSVs the report's
 //! single source: a number in the report can always be found in a file beside it.
