@@ -94,6 +94,8 @@ fn a_two_leg_missions_vdv_and_times_combine_the_legs_own_values() {
         assert_eq!(leg["input"], own["input"]);
         assert_eq!(leg["vector"], own["vector"]);
         assert_eq!(leg["axes"], own["head"]);
+        assert_eq!(leg["joints"], own["joints"]);
+        assert_eq!(leg["joints"].as_array().map(Vec::len), Some(10));
         assert_eq!(f(&leg["duration_s"]), f(&own["duration_s"]));
         let at: f64 = ["normal", "advisory", "warning", "alarm"]
             .iter()
@@ -109,6 +111,42 @@ fn a_two_leg_missions_vdv_and_times_combine_the_legs_own_values() {
         duration += f(&own["duration_s"]);
     }
     let m = &r["mission"];
+    // The neck and lower back over the mission: the legs' largest values, and their mean
+    // squares weighted by duration.
+    for (o, joint) in m["joints"].as_array().unwrap().iter().enumerate() {
+        let leg_joint = |i: usize| &r["legs"][i]["joints"][o];
+        let (a, b) = (leg_joint(0), leg_joint(1));
+        assert_eq!(joint["output"], a["output"]);
+        let peak = f(&a["largest_excursion"]).max(f(&b["largest_excursion"]));
+        assert_eq!(f(&joint["largest_excursion"]), peak);
+        let leg = if f(&b["largest_excursion"]) > f(&a["largest_excursion"]) {
+            1
+        } else {
+            0
+        };
+        let at = f(&r["legs"][leg]["start_s"]) + f(&leg_joint(leg)["largest_excursion_at_s"]);
+        assert!((f(&joint["largest_excursion_at_mission_s"]) - at).abs() < 1e-9);
+        assert_eq!(
+            joint["largest_excursion_leg"].as_u64(),
+            Some(leg as u64 + 1)
+        );
+        let max_rr = f(&a["max_running_rms"]).max(f(&b["max_running_rms"]));
+        assert_eq!(f(&joint["max_running_rms"]), max_rr);
+        let (ta, tb) = (
+            f(&r["legs"][0]["duration_s"]),
+            f(&r["legs"][1]["duration_s"]),
+        );
+        let (ra, rb) = (f(&a["rms"]), f(&b["rms"]));
+        let rms = ((ra * ra * ta + rb * rb * tb) / (ta + tb)).sqrt();
+        assert!(
+            (f(&joint["rms"]) - rms).abs() <= 1e-12 * rms.max(1e-12),
+            "{joint}"
+        );
+        assert!(f(&joint["largest_excursion"]) > 0.0, "{joint}");
+    }
+    let html = std::fs::read_to_string(dir.path().join("out/report.html")).unwrap();
+    assert!(html.contains("<h2>Neck and lower back</h2>"));
+    assert!(html.contains("No standard sets limits"));
     assert!((f(&m["vector"]["vdv_m_s175"]) - fourth.powf(0.25)).abs() < 1e-12);
     assert!((f(&m["vector"]["rms_m_s2"]) - (weighted_ms / evaluated).sqrt()).abs() < 1e-12);
     assert_eq!(f(&m["duration_s"]), duration);
@@ -245,8 +283,8 @@ fn the_page_is_self_contained_prints_on_a4_and_names_every_leg() {
     ] {
         assert!(page.contains(name), "{name}");
     }
-    // Four time charts and one spectrum figure per leg.
-    assert_eq!(page.matches("<svg").count(), 4 + legs.len());
+    // Four time charts, the neck's and the lower back's, and one spectrum figure per leg.
+    assert_eq!(page.matches("<svg").count(), 4 + 2 + legs.len());
 }
 
 #[test]
@@ -378,12 +416,13 @@ fn a_device_log_adds_the_devices_check_and_charts_to_the_one_leg_report() {
         assert!(page.contains(label), "{label} not drawn");
     }
     assert!(page.contains("advisory 8.5 / warning 17 / alarm 21"));
-    // The mission's four time charts and one spectrum figure, and the device's eight.
-    assert_eq!(page.matches("<svg").count(), 4 + 1 + 8);
+    // The mission's four time charts, the two joints', one spectrum figure, and the
+    // device's eight.
+    assert_eq!(page.matches("<svg").count(), 4 + 2 + 1 + 8);
     assert!(page.contains("recumbent"), "the standard's caveat");
     // Without the log: no device section.
     let plain = render(&report, None).unwrap();
-    assert_eq!(plain.matches("<svg").count(), 4 + 1);
+    assert_eq!(plain.matches("<svg").count(), 4 + 2 + 1);
     assert!(!plain.contains("The device versus the host"));
 
     // One f32 step of difference in one record is reported, with its size.

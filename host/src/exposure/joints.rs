@@ -8,7 +8,7 @@
 use anyhow::{Result, anyhow};
 use serde::Serialize;
 use supine_core::model::{
-    JOINT_OUTPUT_COUNT, JointOutput, JointUnit, ModalState, Model, ModelParams,
+    DiscreteModal, JOINT_OUTPUT_COUNT, JointOutput, JointUnit, ModalState, Model, ModelParams,
 };
 
 /// Time constant of the running rms, s: the one ISO 2631-1 uses for the head's (MTVV).
@@ -32,10 +32,91 @@ pub struct JointReport {
 }
 
 /// Display unit and the factor from the model's SI value to it.
-fn display_unit(output: JointOutput) -> (&'static str, f64) {
+pub fn display_unit(output: JointOutput) -> (&'static str, f64) {
     match output.unit() {
         JointUnit::Metre => ("mm", 1e3),
         JointUnit::Radian => ("deg", 180.0 / core::f64::consts::PI),
+    }
+}
+
+/// The ten joint outputs followed sample by sample: the model in f64 from rest, each
+/// output's running rms, its overall rms and its largest excursion. One pass, so a report
+/// can take its chart series from the same run that gives its table.
+pub struct JointTracker {
+    realization: DiscreteModal<f64, JOINT_OUTPUT_COUNT>,
+    state: ModalState<f64>,
+    sample_rate_hz: f64,
+    alpha: f64,
+    samples: usize,
+    sum2: [f64; JOINT_OUTPUT_COUNT],
+    ms: [f64; JOINT_OUTPUT_COUNT],
+    max_ms: [f64; JOINT_OUTPUT_COUNT],
+    peak: [(f64, usize); JOINT_OUTPUT_COUNT],
+}
+
+impl JointTracker {
+    /// A tracker of `params`'s joints at `sample_rate_hz`, from rest.
+    pub fn new(params: &ModelParams, sample_rate_hz: f64) -> Result<Self> {
+        let realization = Model::new(params)
+            .and_then(|m| m.realization(sample_rate_hz, &JointOutput::ALL))
+            .map_err(|e| anyhow!("the model does not discretize at {sample_rate_hz} Hz: {e}"))?;
+        Ok(Self {
+            realization,
+            state: ModalState::default(),
+            sample_rate_hz,
+            alpha: -(-1.0 / (RUNNING_RMS_TAU_S * sample_rate_hz)).exp_m1(),
+            samples: 0,
+            sum2: [0.0; JOINT_OUTPUT_COUNT],
+            ms: [0.0; JOINT_OUTPUT_COUNT],
+            max_ms: [0.0; JOINT_OUTPUT_COUNT],
+            peak: [(0.0, 0); JOINT_OUTPUT_COUNT],
+        })
+    }
+
+    /// Takes the next support acceleration (x, y, z, m/s^2).
+    pub fn step(&mut self, platform_m_s2: [f64; 3]) {
+        let y = self.realization.step(&mut self.state, platform_m_s2);
+        let k = self.samples;
+        for o in 0..JOINT_OUTPUT_COUNT {
+            let v2 = y[o] * y[o];
+            self.sum2[o] += v2;
+            self.ms[o] += self.alpha * (v2 - self.ms[o]);
+            self.max_ms[o] = self.max_ms[o].max(self.ms[o]);
+            if y[o].abs() > self.peak[o].0 {
+                self.peak[o] = (y[o].abs(), k);
+            }
+        }
+        self.samples += 1;
+    }
+
+    /// Each output's running rms now, in its display unit (mm or degrees), in
+    /// [`JointOutput::ALL`]'s order.
+    pub fn running_rms_display(&self) -> [f64; JOINT_OUTPUT_COUNT] {
+        let mut out = [0.0; JOINT_OUTPUT_COUNT];
+        for (v, output) in out.iter_mut().zip(JointOutput::ALL) {
+            *v = display_unit(output).1 * self.ms[output.index()].sqrt();
+        }
+        out
+    }
+
+    /// The statistics over every sample taken.
+    pub fn report(&self) -> Vec<JointReport> {
+        let n = self.samples.max(1) as f64;
+        JointOutput::ALL
+            .iter()
+            .map(|&output| {
+                let o = output.index();
+                let (unit, scale) = display_unit(output);
+                JointReport {
+                    output: output.name(),
+                    unit,
+                    rms: scale * (self.sum2[o] / n).sqrt(),
+                    max_running_rms: scale * self.max_ms[o].sqrt(),
+                    largest_excursion: scale * self.peak[o].0,
+                    largest_excursion_at_s: self.peak[o].1 as f64 / self.sample_rate_hz,
+                }
+            })
+            .collect()
     }
 }
 
@@ -46,43 +127,11 @@ pub fn joint_motion(
     sample_rate_hz: f64,
     platform_m_s2: &[[f64; 3]],
 ) -> Result<Vec<JointReport>> {
-    let realization = Model::new(params)
-        .and_then(|m| m.realization(sample_rate_hz, &JointOutput::ALL))
-        .map_err(|e| anyhow!("the model does not discretize at {sample_rate_hz} Hz: {e}"))?;
-    let alpha = -(-1.0 / (RUNNING_RMS_TAU_S * sample_rate_hz)).exp_m1();
-    let mut state = ModalState::<f64>::default();
-    let mut sum2 = [0.0; JOINT_OUTPUT_COUNT];
-    let mut ms = [0.0; JOINT_OUTPUT_COUNT];
-    let mut max_ms = [0.0_f64; JOINT_OUTPUT_COUNT];
-    let mut peak = [(0.0_f64, 0usize); JOINT_OUTPUT_COUNT];
-    for (k, u) in platform_m_s2.iter().enumerate() {
-        let y = realization.step(&mut state, *u);
-        for o in 0..JOINT_OUTPUT_COUNT {
-            let v2 = y[o] * y[o];
-            sum2[o] += v2;
-            ms[o] += alpha * (v2 - ms[o]);
-            max_ms[o] = max_ms[o].max(ms[o]);
-            if y[o].abs() > peak[o].0 {
-                peak[o] = (y[o].abs(), k);
-            }
-        }
+    let mut tracker = JointTracker::new(params, sample_rate_hz)?;
+    for u in platform_m_s2 {
+        tracker.step(*u);
     }
-    let n = platform_m_s2.len().max(1) as f64;
-    Ok(JointOutput::ALL
-        .iter()
-        .map(|&output| {
-            let o = output.index();
-            let (unit, scale) = display_unit(output);
-            JointReport {
-                output: output.name(),
-                unit,
-                rms: scale * (sum2[o] / n).sqrt(),
-                max_running_rms: scale * max_ms[o].sqrt(),
-                largest_excursion: scale * peak[o].0,
-                largest_excursion_at_s: peak[o].1 as f64 / sample_rate_hz,
-            }
-        })
-        .collect())
+    Ok(tracker.report())
 }
 
 /// The section of `supine exposure`'s table.

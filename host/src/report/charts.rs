@@ -349,3 +349,44 @@ pub fn spectra_svg(index: usize, leg: &Leg) -> Result<String> {
         .collect();
     figure_svg(&format!("Spectra of {}", leg_label(index, leg)), &panels, 3)
 }
+
+/// Colours of a joint's x (along the spine), y (lateral) and z (anteroposterior) motion.
+const JOINT_COLORS: [Rgb; 3] = [Rgb(214, 39, 40), Rgb(44, 160, 44), Rgb(31, 119, 180)];
+
+/// The 1 s running rms of the three translations of the joint whose x output is
+/// `first_output` (an index in `JointOutput::ALL`: 0 the neck, 5 the lower back), in mm.
+pub fn joint_translations(legs: &[Leg], layout: Layout, first_output: usize, title: &str) -> Chart {
+    let mut lines = Vec::new();
+    for (axis, color) in JOINT_COLORS.iter().enumerate() {
+        let o = first_output + axis;
+        let name = supine_core::model::JointOutput::ALL
+            .get(o)
+            .map_or("", |output| output.name());
+        lines.extend(per_leg(
+            legs,
+            layout,
+            |l| l.series.joint_running_rms.iter().map(|r| r[o]).collect(),
+            *color,
+            &format!("{name}, running rms (1 s)"),
+        ));
+    }
+    let all: Vec<f64> = legs
+        .iter()
+        .flat_map(|l| {
+            l.series
+                .joint_running_rms
+                .iter()
+                .flat_map(move |r| r[first_output..first_output + 3].to_vec())
+        })
+        .collect();
+    Chart {
+        title: title.into(),
+        y_label: "running rms, mm".into(),
+        x_range_s: x_range(legs),
+        y_range: y_range(&all, &[], true),
+        height_px: 260,
+        bands: bands_for(legs, layout),
+        lines,
+        ..Chart::default()
+    }
+}

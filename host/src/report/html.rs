@@ -13,7 +13,7 @@ use crate::plot::time_chart::Chart;
 use crate::report::device_check::{Check, DeviceLog};
 use crate::report::mission::{LEVEL_NAMES, Leg, level_index};
 use crate::report::{Comparison, MissionReport};
-use crate::report::{charts, device_section};
+use crate::report::{charts, device_section, joints};
 
 /// Most alert events listed per leg (the JSON has them all).
 pub const MAX_EVENT_ROWS: usize = 60;
@@ -171,6 +171,7 @@ pub fn render(report: &MissionReport, device: Option<&DeviceLog>) -> Result<Stri
          device state, so every leg has its own 5 s warm-up of the weighting filters; the \
          mission's VDV adds the legs' fourth powers.</p>\n",
     );
+    joints::section(&mut h, legs, &report.mission.joints, layout)?;
     for (i, leg) in legs.iter().enumerate() {
         leg_section(&mut h, i, leg)?;
     }

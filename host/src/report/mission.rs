@@ -11,15 +11,18 @@ use anyhow::{Result, bail};
 use serde::Serialize;
 use supine_core::alerts::{AlertConfig, Level};
 use supine_core::blob::DeviceParams;
+use supine_core::model::JOINT_OUTPUT_COUNT;
 use supine_core::pipeline::{PipelineOutput, PipelineState};
 
 use crate::device::device_params;
+use crate::exposure::joints::{JointReport, JointTracker};
 use crate::exposure::report::{
     AxisReport, ModelExposure, Prepared, combined_rms_m_s2, combined_vdv_m_s175, model_exposure,
     prepare,
 };
 use crate::io::params_file::ParamFile;
 use crate::io::recording::{Layout, Recording};
+use crate::report::joints::{MissionJoint, mission_joints};
 use crate::report::spectrum::{AxisSpectrum, spectra};
 
 /// Samples handed to the pipeline per call.
@@ -100,6 +103,9 @@ pub struct LegSeries {
     pub level: Vec<u8>,
     /// Litter-frame vertical acceleration (min and max over each chart step), m/s^2.
     pub platform_z_m_s2: Vec<(f64, f64)>,
+    /// The joint outputs' running rms (1 s), in mm or degrees, in `JointOutput::ALL`'s
+    /// order, at the same times.
+    pub joint_running_rms: Vec<[f64; JOINT_OUTPUT_COUNT]>,
 }
 
 /// One leg: its exposure (as `supine exposure` reports it) and what the report adds.
@@ -121,6 +127,8 @@ pub struct Leg {
     pub time_at_level_s: TimeAtLevel,
     /// Highest level reached.
     pub max_level: &'static str,
+    /// The predicted neck and lower-back motion (as `supine exposure --json` gives it).
+    pub joints: Vec<JointReport>,
     /// Everything `supine exposure --json` gives for this file.
     #[serde(skip)]
     pub exposure: ModelExposure,
@@ -179,6 +187,8 @@ pub struct MissionTotals {
     pub max_level: &'static str,
     /// The projection at the recent rate.
     pub projection: Projection,
+    /// The neck and lower-back motion over the legs.
+    pub joints: Vec<MissionJoint>,
 }
 
 /// Evaluates one leg (`recording`, starting at `start_s` in the mission) with `file`.
@@ -194,7 +204,7 @@ pub fn evaluate_leg(
     let mut params = device_params::build(file, prepared.sample_rate_hz)?;
     let identity = device_params::identity_hex(&params.identity);
     let input = recording.path.display().to_string();
-    let exposure = model_exposure(
+    let mut exposure = model_exposure(
         &params,
         &prepared,
         &input,
@@ -204,7 +214,10 @@ pub fn evaluate_leg(
     )?;
     // Every sample's telemetry: the head for the spectra, the values at each event.
     params.telemetry.decimation = 1;
-    let run = run_leg(&params, &prepared)?;
+    let mut run = run_leg(&params, &prepared)?;
+    let (joints, joint_series) = joint_run(file, &prepared)?;
+    exposure.joints = joints.clone();
+    run.series.joint_running_rms = joint_series;
     let fs = prepared.sample_rate_hz;
     let n = prepared.channels[0].len();
     let alerts = exposure
@@ -238,6 +251,7 @@ pub fn evaluate_leg(
         alerts,
         time_at_level_s: TimeAtLevel::from_array(time_at_level(&run.level, fs)),
         max_level: exposure.max_level,
+        joints,
         series: run.series,
         spectra,
         exposure,
@@ -280,6 +294,39 @@ fn criterion(
     }
 }
 
+/// The leg's neck and lower-back motion (the values `supine exposure` gives) and the
+/// joints' running rms at the chart series' times (every chart step, and the last sample).
+fn joint_run(
+    file: &ParamFile,
+    prepared: &Prepared,
+) -> Result<(Vec<JointReport>, Vec<[f64; JOINT_OUTPUT_COUNT]>)> {
+    let [x, y, z] = match prepared.channels.as_slice() {
+        [x, y, z] => [x, y, z],
+        _ => bail!("a leg needs the three platform columns"),
+    };
+    let fs = prepared.sample_rate_hz;
+    let step = chart_step(fs);
+    let n = x.len();
+    let mut tracker = JointTracker::new(&file.params, fs)?;
+    let mut series = Vec::with_capacity(n / step + 2);
+    for k in 0..n {
+        tracker.step([x[k], y[k], z[k]]);
+        // As the head's series: the value after each step's first sample, and the last.
+        if k % step == 0 {
+            series.push(tracker.running_rms_display());
+        }
+        if k + 1 == n {
+            series.push(tracker.running_rms_display());
+        }
+    }
+    Ok((tracker.report(), series))
+}
+
+/// Samples per chart step at `fs_hz`.
+fn chart_step(fs_hz: f64) -> usize {
+    ((fs_hz / CHART_RATE_HZ).round() as usize).max(1)
+}
+
 /// Seconds at each level from a per-sample level trace.
 fn time_at_level(level: &[u8], fs_hz: f64) -> [f64; 4] {
     let mut counts = [0usize; 4];
@@ -313,7 +360,7 @@ fn run_leg(params: &DeviceParams, prepared: &Prepared) -> Result<LegRun> {
         level: Vec::with_capacity(n),
         series: LegSeries::default(),
     };
-    let step = ((fs / CHART_RATE_HZ).round() as usize).max(1);
+    let step = chart_step(fs);
     let mut state = PipelineState::new();
     let mut indices = Vec::with_capacity(CHUNK_SAMPLES);
     let mut samples = Vec::with_capacity(CHUNK_SAMPLES);
@@ -396,6 +443,7 @@ pub fn totals(legs: &[Leg], config: &AlertConfig) -> MissionTotals {
         time_at_level_s: TimeAtLevel::from_array(at_level),
         max_level: LEVEL_NAMES[max_level],
         projection: projection(legs.last(), mission_vdv, config),
+        joints: mission_joints(legs),
     }
 }
 

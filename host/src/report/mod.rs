@@ -6,6 +6,7 @@
 //!   mission's combination and the projection).
 //! - [`spectrum`]: the power spectral densities of input and predicted head.
 //! - [`charts`]: what each chart shows.
+//! - [`joints`]: the neck and lower-back section (per leg and for the mission).
 //! - [`html`]: the page.
 //! - [`device_check`], [`device_charts`], [`device_section`], [`trace`]: with a device
 //!   log (what a device sent for the ride, as `supine demo` has it), the device's own
@@ -18,6 +19,7 @@ pub mod device_charts;
 pub mod device_check;
 pub mod device_section;
 pub mod html;
+pub mod joints;
 pub mod mission;
 pub mod spectrum;
 pub mod trace;
