@@ -77,13 +77,13 @@ impl JointTracker {
     pub fn step(&mut self, platform_m_s2: [f64; 3]) {
         let y = self.realization.step(&mut self.state, platform_m_s2);
         let k = self.samples;
-        for o in 0..JOINT_OUTPUT_COUNT {
-            let v2 = y[o] * y[o];
+        for (o, v) in y.iter().enumerate() {
+            let v2 = v * v;
             self.sum2[o] += v2;
             self.ms[o] += self.alpha * (v2 - self.ms[o]);
             self.max_ms[o] = self.max_ms[o].max(self.ms[o]);
-            if y[o].abs() > self.peak[o].0 {
-                self.peak[o] = (y[o].abs(), k);
+            if v.abs() > self.peak[o].0 {
+                self.peak[o] = (v.abs(), k);
             }
         }
         self.samples += 1;
