@@ -416,3 +416,26 @@ fn leg_section(h: &mut String, index: usize, leg: &Leg) -> Result<()> {
     );
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn escaping_covers_markup_and_quotes() {
+        assert_eq!(
+            escape("<script>alert(\"x\") & 'y'</script>"),
+            "&lt;script&gt;alert(&quot;x&quot;) &amp; &#39;y&#39;&lt;/script&gt;"
+        );
+        assert_eq!(escape("0.1.0+qemu"), "0.1.0+qemu");
+    }
+
+    #[test]
+    fn durations_hold_together_and_rates_read_as_written() {
+        assert_eq!(duration(4.04), "4.0\u{a0}s");
+        assert_eq!(duration(600.0), "10\u{a0}min\u{a0}00\u{a0}s");
+        assert_eq!(duration(5400.0), "1\u{a0}h\u{a0}30\u{a0}min");
+        assert_eq!(rate_hz(499.999_999_999_999_94), "500");
+        assert_eq!(rate_hz(1000.0 / 3.0), "333.333");
+    }
+}
