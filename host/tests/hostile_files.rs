@@ -150,6 +150,12 @@ fn judge(case: &Case, outcome: &Outcome) -> Result<(), String> {
                 first_chars(err, 200)
             ));
         }
+        if let Some(c) = line.chars().find(|c| c.is_control()) {
+            return Err(format!(
+                "an unescaped control character {c:?}: {}",
+                first_chars(line, 200).escape_debug()
+            ));
+        }
         if line.chars().count() > MAX_ERROR_CHARS {
             return Err(format!(
                 "a line of {} characters: {}",
@@ -450,6 +456,156 @@ fn rides_given_to_supine_exposure() {
         });
     }
     run_suite("ride (supine exposure --input)", &cases);
+}
+
+/// Another logger's ride as `--columns` reads it: semicolons, its own header names (with
+/// spaces), time in ms, acceleration in g; `lines` data lines of 2 ms.
+fn other_logger_ride(lines: usize) -> String {
+    let mut text = String::from("Time (ms);acc X;acc Y;acc Z\n");
+    for k in 0..lines {
+        let t = k as f64;
+        text.push_str(&format!(
+            "{};{:.5};{:.5};{:.5}\n",
+            2 * k,
+            0.01 * (0.1 * t).sin(),
+            0.02 * (0.13 * t).cos(),
+            0.05 * (0.07 * t).sin()
+        ));
+    }
+    text
+}
+
+#[test]
+fn rides_from_another_logger_given_to_supine_report() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let valid = other_logger_ride(4000);
+    let header = valid.lines().next().expect("header");
+    let body: String = valid.lines().skip(2).map(|l| format!("{l}\n")).collect();
+    let with_line_2 = |line2: &[u8]| {
+        let mut bytes = format!("{header}\n").into_bytes();
+        bytes.extend_from_slice(line2);
+        bytes.push(b'\n');
+        bytes.extend_from_slice(body.as_bytes());
+        bytes
+    };
+    let with_header = |header: &[u8]| {
+        let mut bytes = header.to_vec();
+        bytes.push(b'\n');
+        bytes.extend(
+            valid
+                .lines()
+                .skip(1)
+                .flat_map(|l| format!("{l}\n").into_bytes()),
+        );
+        bytes
+    };
+    let huge_field = format!("0;{};0;0", "1".repeat(HUGE_FIELD_BYTES));
+    let huge_name = format!("Time (ms);{};acc Y;acc Z", "A".repeat(HUGE_FIELD_BYTES));
+    let files = vec![
+        (
+            "semicolons, ms, g, BOM and CRLF (valid)",
+            Content::Bytes(with_bom(&crlf(&valid))),
+            Expectation::Accepted,
+        ),
+        (
+            "a 1 MB field",
+            Content::Bytes(with_line_2(huge_field.as_bytes())),
+            refused(&["line 2", "at most 4096 bytes"]),
+        ),
+        (
+            "a 1 MB header name",
+            Content::Bytes(with_header(huge_name.as_bytes())),
+            refused(&["line 1", "at most 4096 bytes"]),
+        ),
+        (
+            "terminal escapes and a bell in a field",
+            Content::Bytes(with_line_2(b"0;0.1\x1b[31mred\x07;0;0")),
+            refused(&[
+                "line 2",
+                "column acc X",
+                "in g",
+                "\"0.1\\u{1b}[31mred\\u{7}\"",
+            ]),
+        ),
+        (
+            "bytes that are not UTF-8 in a field",
+            Content::Bytes(with_line_2(b"0;\xff\xfe;0;0")),
+            refused(&["line 2", "column acc X", "\"\\xff\\xfe\""]),
+        ),
+        (
+            "a terminal escape in a header name",
+            Content::Bytes(with_header(b"acc\x1b[2J X;Time (ms);acc Y;acc Z")),
+            refused(&["line 1", "--columns x=", "\"acc X\"", "\"acc\\u{1b}[2J X\""]),
+        ),
+        (
+            "header, then 2 GiB of NUL bytes (sparse)",
+            Content::Sparse(format!("{header}\n").into_bytes(), HUGE_BYTES),
+            refused(&["line 2", "at most 4096 bytes"]),
+        ),
+    ];
+    let mut cases = Vec::new();
+    for (k, (name, content, expectation)) in files.into_iter().enumerate() {
+        let file = dir.path().join(format!("other_logger_{k}.csv"));
+        write_content(&file, &content);
+        cases.push(Case {
+            cwd: dir.path().to_path_buf(),
+            name: name.to_string(),
+            args: os(&[
+                &"report",
+                &"--preset",
+                &"paper-litter",
+                &"--columns",
+                &"time=Time (ms),x=acc X,y=acc Y,z=acc Z",
+                &"--time-unit",
+                &"ms",
+                &"--units",
+                &"g",
+                &"--out",
+                &format!("report_{k}"),
+                &"--input",
+                &rel(&file),
+            ]),
+            file,
+            env: Vec::new(),
+            expect: expectation.into_expect(),
+        });
+    }
+    run_suite("another logger's ride (supine report --columns)", &cases);
+}
+
+/// The manifest an output folder keeps of the files supine wrote there: read before
+/// anything runs, so a hostile one is refused at once.
+#[test]
+fn output_folder_manifests_read_by_supine_demo() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let files = [
+        (
+            "2 GiB of NUL bytes (sparse)",
+            Content::Sparse(Vec::new(), HUGE_BYTES),
+            vec!["at most 65536 bytes"],
+        ),
+        (
+            "bytes that are not UTF-8",
+            Content::Bytes(b"report.html\n\xff\x1b\n".to_vec()),
+            vec!["line 2, column 1", "expected UTF-8", "\"\\xff\""],
+        ),
+    ];
+    let mut cases = Vec::new();
+    for (k, (name, content, needles)) in files.into_iter().enumerate() {
+        let out = dir.path().join(format!("demo_{k}"));
+        std::fs::create_dir_all(&out).expect("folder");
+        let file = out.join(".supine-files");
+        write_content(&file, &content);
+        cases.push(Case {
+            cwd: dir.path().to_path_buf(),
+            name: name.to_string(),
+            args: os(&[&"demo", &"--out", &rel(&out)]),
+            file,
+            env: Vec::new(),
+            expect: Expect::Refused(needles.iter().map(|n| n.to_string()).collect()),
+        });
+    }
+    run_suite("output folder manifest (supine demo --out)", &cases);
 }
 
 #[test]

@@ -52,6 +52,13 @@ fn excerpt_within(bytes: &[u8], max_chars: usize) -> String {
     out
 }
 
+/// A name taken from the input (a header field, a column asked for) in double quotes, as
+/// [`excerpt`] quotes input but within [`MAX_NAME_CHARS`], so that several fit on one line:
+/// `"acc X"`, `"acc\u{1b}[2J"`, `"AAAA..." (1000000 bytes)`.
+pub fn quoted_name(bytes: impl AsRef<[u8]>) -> String {
+    excerpt_within(bytes.as_ref(), MAX_NAME_CHARS)
+}
+
 /// A name taken from the input (a key, a subject id) as a message shows it: as it is when
 /// it is printable and at most [`MAX_NAME_CHARS`] long, else quoted like [`excerpt`] within
 /// that many characters.
@@ -198,6 +205,16 @@ mod tests {
             "[[1, 0, 0], [0, 1, 0], [0, 0, 2]]"
         );
         assert_eq!(value("[1,\n2]"), "\"[1,\\n2]\"");
+    }
+
+    #[test]
+    fn quoted_names_are_quoted_once_escaped_and_cut() {
+        assert_eq!(quoted_name("acc X"), "\"acc X\"");
+        assert_eq!(quoted_name(b"acc\x1b[2J\xff"), "\"acc\\u{1b}[2J\\xff\"");
+        assert_eq!(
+            quoted_name("A".repeat(1_000_000)),
+            format!("\"{}\"... (1000000 bytes)", "A".repeat(MAX_NAME_CHARS))
+        );
     }
 
     #[test]

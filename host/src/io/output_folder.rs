@@ -13,9 +13,13 @@ use std::path::{Path, PathBuf};
 use anyhow::{Result, anyhow, bail};
 
 use crate::io::output::write_atomically;
+use crate::io::small_file::read_text;
 
 /// The manifest's file name (hidden: it is bookkeeping, not output).
 pub const MANIFEST: &str = ".supine-files";
+/// Largest manifest read, bytes: a run lists a few dozen names, so a larger file is not
+/// one `supine` wrote (and reading it whole could cost the machine's memory).
+pub const MAX_MANIFEST_BYTES: u64 = 64 * 1024;
 
 /// A folder a command may write into.
 #[derive(Clone, Debug)]
@@ -103,18 +107,22 @@ impl OutputFolder {
     }
 }
 
-/// What the manifest of `dir` lists (nothing without one).
+/// What the manifest of `dir` lists (nothing without one), read with a size limit.
 fn listed(dir: &Path) -> Result<BTreeSet<String>> {
-    Ok(match std::fs::read_to_string(dir.join(MANIFEST)) {
-        Ok(text) => text
+    let path = dir.join(MANIFEST);
+    match std::fs::symlink_metadata(&path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(BTreeSet::new()),
+        Err(e) => bail!("{}: cannot read: {e}", path.display()),
+        Ok(_) => {}
+    }
+    Ok(
+        read_text(&path, "list of the files supine wrote", MAX_MANIFEST_BYTES)?
             .lines()
             .map(str::trim)
             .filter(|l| !l.is_empty() && !l.starts_with('#'))
             .map(str::to_string)
             .collect(),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => BTreeSet::new(),
-        Err(e) => bail!("{}: cannot read: {e}", dir.join(MANIFEST).display()),
-    })
+    )
 }
 
 /// The names in `dir`, sorted.

@@ -24,7 +24,7 @@ use clap::ValueEnum;
 use supine_core::mounting::{Mounting, STANDARD_GRAVITY_M_S2};
 
 use crate::io::csv_lines::{CsvLines, MAX_LINE_BYTES};
-use crate::io::excerpt::{excerpt, name, number};
+use crate::io::excerpt::{excerpt, number, quoted_name};
 use crate::io::output::write_atomically;
 use crate::io::recording::{
     Layout, LineNumbers, MAX_ACCELERATION_M_S2, PLATFORM_HEADER_LINE, PlatformStream, Recording,
@@ -38,7 +38,7 @@ pub const GRAVITY_MARGIN_M_S2: f64 = 2.0;
 
 /// Most characters of header fields an error lists (a logger's header can be long, and an
 /// error stays within about 200 characters).
-const MAX_LISTED_CHARS: usize = 48;
+const MAX_LISTED_CHARS: usize = 40;
 
 /// Unit of the time column.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
@@ -251,6 +251,25 @@ fn read_own(path: &Path) -> Result<(Recording, Layout)> {
     })
 }
 
+/// The header's fields as an error lists them: quoted, within [`MAX_LISTED_CHARS`]
+/// including the `... (N fields)` that ends a list cut short.
+fn listed_fields<'a>(cells: impl Iterator<Item = &'a [u8]>, width: usize) -> Vec<String> {
+    let length = |fields: &[String]| fields.iter().map(|f| f.chars().count() + 2).sum::<usize>();
+    let mut fields: Vec<String> = Vec::new();
+    for cell in cells {
+        fields.push(quoted_name(cell));
+        if length(&fields) > MAX_LISTED_CHARS {
+            let more = format!("... ({width} fields)");
+            while !fields.is_empty() && length(&fields) + more.chars().count() > MAX_LISTED_CHARS {
+                fields.pop();
+            }
+            fields.push(more);
+            break;
+        }
+    }
+    fields
+}
+
 /// Header field `column` (1-based) of the file at `path`, as a name is quoted in errors.
 fn header_field(path: &Path, column: usize) -> String {
     let Ok(file) = std::fs::File::open(path) else {
@@ -258,15 +277,7 @@ fn header_field(path: &Path, column: usize) -> String {
     };
     let mut lines = CsvLines::new(file);
     match lines.next_row() {
-        Ok(Some(row)) if column <= row.len() => {
-            let text = String::from_utf8_lossy(row.cell(column - 1)).into_owned();
-            let shown = name(&text);
-            if shown == text {
-                format!("\"{text}\"")
-            } else {
-                shown.into_owned()
-            }
-        }
+        Ok(Some(row)) if column <= row.len() => quoted_name(row.cell(column - 1)),
         _ => "end of line".to_string(),
     }
 }
@@ -309,22 +320,12 @@ fn read_foreign(
             .cells()
             .position(|c| c == wanted.as_bytes())
             .ok_or_else(|| {
-                let mut fields: Vec<String> = Vec::new();
-                let mut chars = 0;
-                for cell in header.cells() {
-                    let quoted = excerpt(name(&String::from_utf8_lossy(cell)).as_bytes());
-                    chars += quoted.chars().count() + 2;
-                    if chars > MAX_LISTED_CHARS {
-                        fields.push(format!("... ({width} fields)"));
-                        break;
-                    }
-                    fields.push(quoted);
-                }
+                let fields = listed_fields(header.cells(), width);
                 anyhow!(
                     "{shown}: line 1: --columns {}=: expected a field {}, found {} ({:?}-separated; \
                      a ride: {PLATFORM_HEADER_LINE})",
                     COLUMN_KEYS[k],
-                    excerpt(name(wanted).as_bytes()),
+                    quoted_name(wanted),
                     fields.join(", "),
                     delimiter as char
                 )

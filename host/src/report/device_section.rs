@@ -11,7 +11,7 @@ use supine_core::alerts::{AlertConfig, Level};
 use crate::io::telemetry_csv::level_from_name;
 use crate::report::device_charts;
 use crate::report::device_check::{Check, DeviceLog, difference};
-use crate::report::html::{escape, figure, level_tag};
+use crate::report::html::{escape, figure, tag};
 
 /// Most device alert events listed (all are in the events CSV).
 pub const MAX_DEVICE_EVENT_ROWS: usize = 40;
@@ -26,7 +26,7 @@ pub fn check(h: &mut String, log: &DeviceLog, check: &Check) {
          <div class=\"verdict lvl-{}\"><div class=\"big\">The device's highest alert level: {}",
         escape(&log.run.account),
         lvl.name(),
-        level_tag(lvl.name())
+        tag(lvl.name())
     );
     if let Some(t) = check.highest_at_s {
         let _ = write!(h, " first reached at {t:.1} s");
@@ -34,7 +34,7 @@ pub fn check(h: &mut String, log: &DeviceLog, check: &Check) {
     let _ = write!(
         h,
         "; at the end of the ride: {}",
-        level_tag(check.final_level.name())
+        tag(check.final_level.name())
     );
     if check.final_level == Level::Normal
         && lvl > Level::Normal
@@ -100,7 +100,7 @@ fn events_table(h: &mut String, log: &DeviceLog) {
             ("level", Some(l)) => format!(
                 "{} {}",
                 if e.raised { "raised to" } else { "lowered to" },
-                level_tag(l.name())
+                tag(l.name())
             ),
             _ => escape(&e.text()),
         };

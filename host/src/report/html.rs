@@ -72,7 +72,7 @@ code { background: #f2f2f2; padding: 0 4px; border-radius: 3px; font-size: 13px;
 ";
 
 /// A level's name as a coloured tag.
-pub fn level_tag(level: &str) -> String {
+pub fn tag(level: &str) -> String {
     let level = LEVEL_NAMES[level_index(level)];
     format!("<span class=\"tag tag-{level}\">{level}</span>")
 }
@@ -204,16 +204,16 @@ fn level_meanings(h: &mut String, config: &AlertConfig) {
          point to be set per mission in the parameter file, not limits established for patients; and the head acceleration is \
          a model's prediction from the litter's, not a measurement. Use the alerts to compare rides and to slow down, not as \
          a diagnosis.</p></section>\n",
-        level_tag("normal"),
+        tag("normal"),
         rms[0],
         vdv[0],
-        level_tag("advisory"),
+        tag("advisory"),
         rms[0],
         vdv[0],
-        level_tag("warning"),
+        tag("warning"),
         rms[1],
         vdv[1],
-        level_tag("alarm"),
+        tag("alarm"),
         rms[2],
         vdv[2],
         (100.0 * (1.0 - config.hysteresis)).round(),
@@ -229,7 +229,7 @@ fn mission(h: &mut String, report: &MissionReport) {
          <p>Mission VDV {2:.3} m/s<sup>1.75</sup> (the legs combined as (&Sigma; VDV<sub>i</sub><sup>4</sup>)<sup>1/4</sup>); \
          rms {3:.3} m/s<sup>2</sup> (energy-equivalent over the evaluated time); largest MTVV {4:.3} m/s<sup>2</sup>.</p></div>",
         LEVEL_NAMES[level_index(m.max_level)],
-        level_tag(m.max_level),
+        tag(m.max_level),
         m.vector.vdv_m_s175,
         m.vector.rms_m_s2,
         m.vector.mtvv_m_s2
@@ -255,7 +255,7 @@ fn mission(h: &mut String, report: &MissionReport) {
         for t in leg.time_at_level_s.as_array() {
             let _ = write!(h, "<td>{}</td>", duration(t));
         }
-        let _ = writeln!(h, "<td>{}</td></tr>", level_tag(leg.max_level));
+        let _ = writeln!(h, "<td>{}</td></tr>", tag(leg.max_level));
     }
     let _ = write!(
         h,
@@ -268,7 +268,7 @@ fn mission(h: &mut String, report: &MissionReport) {
     for t in m.time_at_level_s.as_array() {
         let _ = write!(h, "<th>{}</th>", duration(t));
     }
-    let _ = writeln!(h, "<th>{}</th></tr></table>", level_tag(m.max_level));
+    let _ = writeln!(h, "<th>{}</th></tr></table>", tag(m.max_level));
     let p = &m.projection;
     let _ = write!(
         h,
@@ -285,7 +285,7 @@ fn mission(h: &mut String, report: &MissionReport) {
         let _ = write!(
             h,
             "<tr><td>{}</td><td>{:.2}</td><td class=\"text\">{when}</td></tr>",
-            level_tag(t.level),
+            tag(t.level),
             t.vdv_m_s175
         );
     }
@@ -416,4 +416,27 @@ fn leg_section(h: &mut String, index: usize, leg: &Leg) -> Result<()> {
             .unwrap_or(0.0)
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn escaping_covers_markup_and_quotes() {
+        assert_eq!(
+            escape("<script>alert(\"x\") & 'y'</script>"),
+            "&lt;script&gt;alert(&quot;x&quot;) &amp; &#39;y&#39;&lt;/script&gt;"
+        );
+        assert_eq!(escape("0.1.0+qemu"), "0.1.0+qemu");
+    }
+
+    #[test]
+    fn durations_hold_together_and_rates_read_as_written() {
+        assert_eq!(duration(4.04), "4.0\u{a0}s");
+        assert_eq!(duration(600.0), "10\u{a0}min\u{a0}00\u{a0}s");
+        assert_eq!(duration(5400.0), "1\u{a0}h\u{a0}30\u{a0}min");
+        assert_eq!(rate_hz(499.999_999_999_999_94), "500");
+        assert_eq!(rate_hz(1000.0 / 3.0), "333.333");
+    }
 }
