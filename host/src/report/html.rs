@@ -8,9 +8,9 @@ use std::fmt::Write as _;
 use anyhow::Result;
 
 use crate::exposure::report::AxisReport;
-use crate::report::charts;
 use crate::report::mission::{LEVEL_NAMES, Leg, level_index};
 use crate::report::{Comparison, MissionReport};
+use crate::report::{band, charts};
 
 /// Most alert events listed per leg (the JSON has them all).
 pub const MAX_EVENT_ROWS: usize = 60;
@@ -118,6 +118,9 @@ pub fn render(report: &MissionReport) -> Result<String> {
     match &report.comparison {
         Some(c) => comparison(&mut h, legs, c),
         None => mission(&mut h, report),
+    }
+    if let Some(b) = &report.band {
+        h.push_str(&band::html(b, legs));
     }
     h.push_str("<h2>Charts</h2>\n");
     let config = &report.thresholds;

@@ -7,9 +7,11 @@
 //! - [`spectrum`]: the power spectral densities of input and predicted head.
 //! - [`charts`]: what each chart shows.
 //! - [`html`]: the page.
+//! - [`band`]: with `--band N`, the prediction band of the head's vector values.
 //!
 //! The JSON's key names are the contract of `--json` (`docs/exposure.md#mission-report`).
 
+pub mod band;
 pub mod charts;
 pub mod html;
 pub mod mission;
@@ -83,6 +85,9 @@ pub struct MissionReport {
     /// Present when two rides were compared rather than joined.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub comparison: Option<Comparison>,
+    /// The prediction band (`--band N`), when asked for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub band: Option<band::ReportBand>,
     /// The alert thresholds.
     #[serde(skip)]
     pub thresholds: AlertConfig,
@@ -136,6 +141,7 @@ pub fn build(
         legs,
         mission,
         comparison,
+        band: None,
         thresholds: config,
     })
 }
