@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use serde_json::Value;
 use supine_core::model::{ModelParams, Preset};
 
+use supine_host::commands::band_args::BandArgs;
 use supine_host::commands::{exposure, report};
 use supine_host::exposure::ride::{Profile, generate, write_ride};
 use supine_host::identify::transmissibility::model_h;
@@ -39,6 +40,7 @@ fn report_json(inputs: &[PathBuf], out: &Path, height_mass: Option<(f64, f64)>) 
         out: out.to_path_buf(),
         json: true,
         compare: false,
+        band: BandArgs::default(),
     };
     let mut text = Vec::new();
     report::run_to(&args, &mut text).unwrap();
@@ -262,6 +264,7 @@ fn a_ride_with_gravity_is_refused_by_the_report_too() {
         out: dir.path().join("out"),
         json: false,
         compare: false,
+        band: BandArgs::default(),
     };
     let err = report::run_to(&args, &mut Vec::new())
         .unwrap_err()

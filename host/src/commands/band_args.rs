@@ -9,7 +9,7 @@ use crate::identify::fit::band::{BandRequest, check_draws};
 use crate::identify::fit::uncertainty::StoredUncertainty;
 use crate::io::params_file::{ModelSource, ParamFile};
 
-/// The band's flags.
+/// The band's flags (the default: no band).
 #[derive(Clone, Debug, clap::Args)]
 pub struct BandArgs {
     /// Also give the head exposure's 95 % prediction band from this many parameter sets
@@ -19,6 +19,15 @@ pub struct BandArgs {
     /// Seed of the band's draws (`--band-seed` is another spelling).
     #[arg(long, default_value_t = values::DEFAULT_SEED, alias = "band-seed")]
     pub seed: u64,
+}
+
+impl Default for BandArgs {
+    fn default() -> Self {
+        Self {
+            band: None,
+            seed: values::DEFAULT_SEED,
+        }
+    }
 }
 
 impl BandArgs {
