@@ -226,3 +226,25 @@ fn a_band_needs_a_fitted_file_and_two_draws() {
     let report: Value = serde_json::from_slice(&text).unwrap();
     assert!(report.get("band").is_none());
 }
+
+#[test]
+fn a_comparisons_band_names_its_last_row_both_rides() {
+    let dir = tempfile::tempdir().unwrap();
+    let inputs = [
+        ride(dir.path(), Profile::Ambulance, 10.0, 5),
+        ride(dir.path(), Profile::RoughRoad, 10.0, 6),
+    ];
+    let out = dir.path().join("compare");
+    let fitted = params_with_covariance(dir.path(), 0.1);
+    let mut compare = args(&inputs, params_source(&fitted), &out, Some(5));
+    compare.compare = true;
+    let mut text = Vec::new();
+    report::run_to(&compare, &mut text).unwrap();
+    let report: Value = serde_json::from_slice(&text).unwrap();
+    assert_eq!(report["band"]["legs"].as_array().unwrap().len(), 2);
+    let page = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(
+        page.contains("<tr><td>both rides</td>"),
+        "no 'both rides' row"
+    );
+}

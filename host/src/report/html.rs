@@ -120,7 +120,12 @@ pub fn render(report: &MissionReport) -> Result<String> {
         None => mission(&mut h, report),
     }
     if let Some(b) = &report.band {
-        h.push_str(&band::html(b, legs));
+        let total = if report.comparison.is_some() {
+            "both rides"
+        } else {
+            "mission"
+        };
+        h.push_str(&band::html(b, legs, total));
     }
     h.push_str("<h2>Charts</h2>\n");
     let config = &report.thresholds;
