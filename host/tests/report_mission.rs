@@ -9,6 +9,7 @@ use supine_core::alerts::{AlertEvent, FaultFlags, Level};
 use supine_core::model::{ModelParams, Preset};
 use supine_core::protocol::Telemetry;
 
+use supine_host::commands::band_args::BandArgs;
 use supine_host::commands::{exposure, report};
 use supine_host::exposure::ride::{Profile, generate, write_ride};
 use supine_host::identify::transmissibility::model_h;
@@ -47,6 +48,7 @@ fn report_json(inputs: &[PathBuf], out: &Path, height_mass: Option<(f64, f64)>) 
         out: out.to_path_buf(),
         json: true,
         compare: false,
+        band: BandArgs::default(),
     };
     let mut text = Vec::new();
     report::run_to(&args, &mut text).unwrap();
@@ -308,6 +310,7 @@ fn a_ride_with_gravity_is_refused_by_the_report_too() {
         out: dir.path().join("out"),
         json: false,
         compare: false,
+        band: BandArgs::default(),
     };
     let err = report::run_to(&args, &mut Vec::new())
         .unwrap_err()

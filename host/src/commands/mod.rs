@@ -1,5 +1,6 @@
 //! One module per `supine` subcommand.
 
+pub mod band_args;
 pub mod calibrate;
 pub mod completions;
 pub mod demo;

@@ -5,12 +5,11 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Result, anyhow};
+use anyhow::Result;
 
+use crate::commands::band_args::{BandArgs, band_threads};
 use crate::commands::json_output::{self, JsonFlag};
-use crate::commands::values;
 use crate::identify::fit::band::{BAND_QUANTILES, ExposureBand, head_exposure_band};
-use crate::identify::fit::uncertainty::StoredUncertainty;
 use crate::identify::validate::{predict, predict_joints, write_prediction};
 use crate::io::params_file::ModelSource;
 use crate::io::recording::Recording;
@@ -31,13 +30,9 @@ pub struct Args {
     /// The subject, if not the parameters' own.
     #[command(flatten)]
     pub subject: SubjectArgs,
-    /// Also print the head exposure's 95 % prediction band from this many parameter sets
-    /// drawn from the fit's uncertainty (the file's [fit.uncertainty]).
-    #[arg(long, value_name = "DRAWS")]
-    pub band: Option<usize>,
-    /// Seed of the band's draws (`--band-seed` is an older spelling).
-    #[arg(long, default_value_t = values::DEFAULT_SEED, alias = "band-seed")]
-    pub seed: u64,
+    /// The head exposure's prediction band (printed with the table, or in the JSON).
+    #[command(flatten)]
+    pub band: BandArgs,
     /// Print what was written, and the band, as JSON.
     #[command(flatten)]
     pub json: JsonFlag,
@@ -68,29 +63,15 @@ pub fn run(args: &Args) -> Result<()> {
     args.subject.apply(&mut file)?;
     let params = file.params;
     let recording = Recording::read(&args.input)?;
-    let band = match args.band {
-        Some(draws) => {
-            let path = args.source.params.as_ref().ok_or_else(|| {
-                anyhow!("--band: expected --params FILE written by supine fit (a preset has no uncertainty)")
-            })?;
-            let uncertainty = StoredUncertainty::from_fit_table(file.fit.as_ref())
-                .map_err(|e| anyhow!("{}: {e}", path.display()))?
-                .ok_or_else(|| {
-                    anyhow!(
-                        "{}: --band: expected a [fit.uncertainty] table (written by supine fit)",
-                        path.display()
-                    )
-                })?;
-            let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-            Some(head_exposure_band(
-                &params,
-                &uncertainty,
-                &recording,
-                draws,
-                args.seed,
-                threads,
-            )?)
-        }
+    let band = match args.band.request(&args.source, &file)? {
+        Some(request) => Some(head_exposure_band(
+            &params,
+            &request.uncertainty,
+            &recording,
+            request.draws,
+            request.seed,
+            band_threads(),
+        )?),
         None => None,
     };
     let predicted = predict(&params, &recording)?;

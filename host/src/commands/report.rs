@@ -8,6 +8,7 @@ use std::path::PathBuf;
 use anyhow::{Context as _, Result, anyhow};
 use clap::ValueEnum as _;
 
+use crate::commands::band_args::{BandArgs, band_threads};
 use crate::io::output::write_atomically;
 use crate::io::params_file::ModelSource;
 use crate::io::ride_input::RideInputArgs;
@@ -35,6 +36,9 @@ pub struct Args {
     /// Also print the report as one JSON object on standard output.
     #[arg(long)]
     pub json: bool,
+    /// The head's prediction band (needs --params written by supine fit).
+    #[command(flatten)]
+    pub band: BandArgs,
     /// Two rides side by side (routes, vehicles, litters), with their differences,
     /// instead of the legs of one mission.
     #[arg(long)]
@@ -56,14 +60,27 @@ pub fn model_name(source: &ModelSource) -> String {
 pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
     let mut file = args.model.load()?;
     args.subject.apply(&mut file)?;
+    let band = args.band.request(&args.model, &file)?;
     let mounting = file.device.unwrap_or_default().mounting;
-    let report = report::build(
+    let read = |path: &std::path::Path| args.ride.read(path, &mounting);
+    let mut report = report::build(
         &args.input,
-        |path| args.ride.read(path, &mounting),
+        read,
         &file,
         &model_name(&args.model),
         args.compare,
     )?;
+    if let Some(request) = &band {
+        report.band = Some(report::band::build(
+            &args.input,
+            read,
+            &file,
+            &report.legs,
+            &report.mission,
+            request,
+            band_threads(),
+        )?);
+    }
     let page = html::render(&report, None)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("{}: cannot create the folder", args.out.display()))?;

@@ -13,7 +13,7 @@ use crate::plot::time_chart::Chart;
 use crate::report::device_check::{Check, DeviceLog};
 use crate::report::mission::{LEVEL_NAMES, Leg, level_index};
 use crate::report::{Comparison, MissionReport};
-use crate::report::{charts, device_section, joints};
+use crate::report::{band, charts, device_section, joints};
 
 /// Most alert events listed per leg (the JSON has them all).
 pub const MAX_EVENT_ROWS: usize = 60;
@@ -147,6 +147,14 @@ pub fn render(report: &MissionReport, device: Option<&DeviceLog>) -> Result<Stri
     match &report.comparison {
         Some(c) => comparison(&mut h, legs, c),
         None => mission(&mut h, report),
+    }
+    if let Some(b) = &report.band {
+        let total = if report.comparison.is_some() {
+            "both rides"
+        } else {
+            "mission"
+        };
+        h.push_str(&band::html(b, legs, total));
     }
     if let Some(log) = device {
         device_section::check(&mut h, log, &Check::new(log));

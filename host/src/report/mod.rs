@@ -8,12 +8,14 @@
 //! - [`charts`]: what each chart shows.
 //! - [`joints`]: the neck and lower-back section (per leg and for the mission).
 //! - [`html`]: the page.
+//! - [`band`]: with `--band N`, the prediction band of the head's vector values.
 //! - [`device_check`], [`device_charts`], [`device_section`], [`trace`]: with a device
 //!   log (what a device sent for the ride, as `supine demo` has it), the device's own
 //!   account beside the host's: the largest difference of each output, identical events.
 //!
 //! The JSON's key names are the contract of `--json` (`docs/exposure.md#mission-report`).
 
+pub mod band;
 pub mod charts;
 pub mod device_charts;
 pub mod device_check;
@@ -92,6 +94,9 @@ pub struct MissionReport {
     /// Present when two rides were compared rather than joined.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub comparison: Option<Comparison>,
+    /// The prediction band (`--band N`), when asked for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub band: Option<band::ReportBand>,
     /// The alert thresholds.
     #[serde(skip)]
     pub thresholds: AlertConfig,
@@ -145,6 +150,7 @@ pub fn build(
         legs,
         mission,
         comparison,
+        band: None,
         thresholds: config,
     })
 }

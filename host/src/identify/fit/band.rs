@@ -3,7 +3,9 @@
 //! linearized covariance, every other parameter at its fitted value), each one's predicted
 //! head acceleration evaluated like the device does (docs/exposure.md: the recumbent
 //! axes' frequency weightings, overall weighted rms after the warm-up), and the band is the
-//! 2.5 to 97.5 percentile of each value over the draws.
+//! 2.5 to 97.5 percentile of each value over the draws. The drawing, the parallel
+//! evaluation and the quantiles are shared with `supine report`'s band (`report::band`),
+//! which evaluates each draw through the device's pipeline instead.
 //!
 //! What it covers and what it does not: docs/model.md#uncertainty-of-a-fit.
 
@@ -20,6 +22,42 @@ use crate::io::recording::Recording;
 
 /// The band's lower and upper quantiles (a central 95 % band).
 pub const BAND_QUANTILES: (f64, f64) = (0.025, 0.975);
+
+/// The band's middle: the median over the draws.
+pub const BAND_MEDIAN: f64 = 0.5;
+
+/// What a band asks for: how many draws, their seed, and the covariance they come from.
+#[derive(Clone, Debug)]
+pub struct BandRequest {
+    /// Parameter sets drawn.
+    pub draws: usize,
+    /// Seed of the draws.
+    pub seed: u64,
+    /// The fit's uncertainty.
+    pub uncertainty: StoredUncertainty,
+}
+
+/// One value's band over the draws: its [`BAND_QUANTILES`] and its [`BAND_MEDIAN`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spread {
+    /// The lower quantile.
+    pub low: f64,
+    /// The median.
+    pub median: f64,
+    /// The upper quantile.
+    pub high: f64,
+}
+
+impl Spread {
+    /// The band of `values` (one per draw).
+    pub fn of(values: &[f64]) -> Self {
+        Self {
+            low: quantile(values, BAND_QUANTILES.0),
+            median: quantile(values, BAND_MEDIAN),
+            high: quantile(values, BAND_QUANTILES.1),
+        }
+    }
+}
 
 /// The head exposure of one prediction: overall frequency-weighted rms per head axis and
 /// of the vector sum, m/s^2.
@@ -131,6 +169,26 @@ pub fn draw_params(
         .collect())
 }
 
+/// `evaluate` of every parameter set in `sets`, spread over `threads` threads; the
+/// results in the sets' order (they do not depend on `threads`).
+pub fn evaluate_draws<T: Send>(
+    sets: &[ModelParams],
+    threads: usize,
+    evaluate: impl Fn(&ModelParams) -> Result<T> + Sync,
+) -> Result<Vec<T>> {
+    super::multistart::in_parallel(sets.len(), threads, |k| evaluate(&sets[k]))
+        .into_iter()
+        .collect()
+}
+
+/// Refuses a band of fewer than 2 draws (no spread to take quantiles of).
+pub fn check_draws(draws: usize) -> Result<()> {
+    if draws < 2 {
+        bail!("--band: expected at least 2 draws, found {draws}");
+    }
+    Ok(())
+}
+
 /// The head exposure band of `params` for `recording` from `draws` parameter sets, spread
 /// over `threads` threads (the result does not depend on it).
 pub fn head_exposure_band(
@@ -141,15 +199,10 @@ pub fn head_exposure_band(
     seed: u64,
     threads: usize,
 ) -> Result<ExposureBand> {
-    if draws < 2 {
-        bail!("--band: expected at least 2 draws, found {draws}");
-    }
+    check_draws(draws)?;
     let fitted = head_exposure(params, recording)?;
     let sets = draw_params(params, uncertainty, draws, seed)?;
-    let exposures =
-        super::multistart::in_parallel(sets.len(), threads, |k| head_exposure(&sets[k], recording))
-            .into_iter()
-            .collect::<Result<Vec<_>>>()?;
+    let exposures = evaluate_draws(&sets, threads, |p| head_exposure(p, recording))?;
     let bound = |q: f64| {
         HeadExposure::from_values(core::array::from_fn(|i| {
             let column: Vec<f64> = exposures.iter().map(|e| e.values()[i]).collect();

@@ -1,0 +1,190 @@
+//! `supine report --band N`: the head exposure's prediction band. N parameter sets are
+//! drawn from the fit's uncertainty (`identify::fit::band`: the same draws, parallel
+//! evaluation and quantiles as `supine predict --band`), every leg goes through the
+//! device's pipeline once per set (the evaluation the report's own values come from), and
+//! each draw's legs are combined into a mission as the report combines them. The band of
+//! each value is its 2.5 %, 50 % and 97.5 % quantile over the draws.
+//!
+//! What it covers and what it does not: docs/model.md#uncertainty-of-a-fit.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Result, anyhow};
+use serde::Serialize;
+use supine_core::model::ModelParams;
+
+use super::charts::leg_label;
+use super::html::escape;
+use super::mission::{Leg, MissionTotals};
+use crate::device::device_params;
+use crate::exposure::report::{
+    Prepared, combined_rms_m_s2, combined_vdv_m_s175, model_exposure, prepare,
+};
+use crate::identify::fit::band::{
+    BAND_MEDIAN, BAND_QUANTILES, BandRequest, Spread, draw_params, evaluate_draws,
+};
+use crate::io::params_file::ParamFile;
+use crate::io::recording::{Layout, Recording};
+
+/// One value: the report's own (the fitted parameters') and its band over the draws.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct ValueBand {
+    /// The value the report shows (the fitted parameters).
+    pub nominal: f64,
+    /// The 2.5 % quantile over the draws.
+    pub low: f64,
+    /// The median over the draws.
+    pub median: f64,
+    /// The 97.5 % quantile over the draws.
+    pub high: f64,
+}
+
+impl ValueBand {
+    fn new(nominal: f64, draws: &[f64]) -> Self {
+        let Spread { low, median, high } = Spread::of(draws);
+        Self {
+            nominal,
+            low,
+            median,
+            high,
+        }
+    }
+}
+
+/// The band of one leg's (or the mission's) head vector values.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct VectorBand {
+    /// The vector sum's overall rms, m/s^2.
+    pub vector_rms_m_s2: ValueBand,
+    /// The vector sum's VDV, m/s^1.75.
+    pub vector_vdv_m_s175: ValueBand,
+}
+
+/// The report's band: per leg and for the mission.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ReportBand {
+    /// Parameter sets drawn.
+    pub draws: usize,
+    /// Seed of the draws.
+    pub seed: u64,
+    /// The quantiles given: low, median, high.
+    pub quantiles: [f64; 3],
+    /// Per leg, in the report's order.
+    pub legs: Vec<VectorBand>,
+    /// The legs combined as the report combines them.
+    pub mission: VectorBand,
+}
+
+/// The head vector values of one leg for one parameter set: (rms m/s^2, VDV m/s^1.75,
+/// evaluated s), from the same pipeline run as the report's leg values.
+fn leg_vector(
+    params: &ModelParams,
+    file: &ParamFile,
+    prepared: &Prepared,
+    layout: Layout,
+) -> Result<(f64, f64, f64)> {
+    let drawn = ParamFile {
+        params: *params,
+        ..file.clone()
+    };
+    let device = device_params::build(&drawn, prepared.sample_rate_hz)?;
+    let e = model_exposure(&device, prepared, "", layout, String::new(), String::new())?;
+    Ok((e.vector.rms_m_s2, e.vector.vdv_m_s175, e.evaluated_s))
+}
+
+/// The band of the report whose `legs` and `mission` came from the rides at `inputs`
+/// (read again one at a time by `read`, as the report reads them) and `file`.
+pub fn build(
+    inputs: &[PathBuf],
+    read: impl Fn(&Path) -> Result<(Recording, Layout)>,
+    file: &ParamFile,
+    legs: &[Leg],
+    mission: &MissionTotals,
+    request: &BandRequest,
+    threads: usize,
+) -> Result<ReportBand> {
+    let sets = draw_params(
+        &file.params,
+        &request.uncertainty,
+        request.draws,
+        request.seed,
+    )?;
+    // Per leg, per draw: (rms, VDV, evaluated s).
+    let mut per_leg = Vec::with_capacity(inputs.len());
+    for path in inputs {
+        let (recording, layout) = read(path)?;
+        let [x, y, z] = &recording.platform_m_s2;
+        let prepared = prepare(&recording, &[x, y, z], None)?;
+        let values = evaluate_draws(&sets, threads, |p| leg_vector(p, file, &prepared, layout))
+            .map_err(|e| anyhow!("{}: --band: {e}", path.display()))?;
+        per_leg.push(values);
+    }
+    let band_of = |nominal_rms: f64, nominal_vdv: f64, draws: &[(f64, f64, f64)]| {
+        let rms: Vec<f64> = draws.iter().map(|d| d.0).collect();
+        let vdv: Vec<f64> = draws.iter().map(|d| d.1).collect();
+        VectorBand {
+            vector_rms_m_s2: ValueBand::new(nominal_rms, &rms),
+            vector_vdv_m_s175: ValueBand::new(nominal_vdv, &vdv),
+        }
+    };
+    let leg_bands = legs
+        .iter()
+        .zip(&per_leg)
+        .map(|(leg, draws)| band_of(leg.vector.rms_m_s2, leg.vector.vdv_m_s175, draws))
+        .collect();
+    // Each draw's mission: its legs combined.
+    let missions: Vec<(f64, f64, f64)> = (0..sets.len())
+        .map(|k| {
+            let rms: Vec<(f64, f64)> = per_leg.iter().map(|l| (l[k].0, l[k].2)).collect();
+            let vdv: Vec<f64> = per_leg.iter().map(|l| l[k].1).collect();
+            (combined_rms_m_s2(&rms), combined_vdv_m_s175(&vdv), 0.0)
+        })
+        .collect();
+    Ok(ReportBand {
+        draws: sets.len(),
+        seed: request.seed,
+        quantiles: [BAND_QUANTILES.0, BAND_MEDIAN, BAND_QUANTILES.1],
+        legs: leg_bands,
+        mission: band_of(
+            mission.vector.rms_m_s2,
+            mission.vector.vdv_m_s175,
+            &missions,
+        ),
+    })
+}
+
+/// The band as a small table of the page's exposure section; `total` names the last row
+/// (the mission, or both rides of a comparison).
+pub fn html(band: &ReportBand, legs: &[Leg], total: &str) -> String {
+    let [low, median, high] = band.quantiles.map(|q| 100.0 * q);
+    let mut h = format!(
+        "<h3>Prediction band</h3><p>The head's vector values from {} parameter sets drawn \
+         from the fit's uncertainty (seed {}): the {low:.1} %, {median:.0} % and {high:.1} % \
+         quantiles over the draws. The band is the fitted mean model's parameter \
+         uncertainty only: not the spread between patients, and not the error of the \
+         model's structure.</p>\n<table><tr><th></th><th>rms at the fit, m/s<sup>2</sup></th>\
+         <th>{low:.1} %</th><th>{median:.0} %</th><th>{high:.1} %</th>\
+         <th>VDV at the fit, m/s<sup>1.75</sup></th><th>{low:.1} %</th><th>{median:.0} %</th>\
+         <th>{high:.1} %</th></tr>\n",
+        band.draws, band.seed
+    );
+    let labels = legs
+        .iter()
+        .enumerate()
+        .map(|(i, leg)| leg_label(i, leg))
+        .chain([total.to_string()]);
+    for (label, row) in labels.zip(band.legs.iter().chain([&band.mission])) {
+        let _ = write!(h, "<tr><td>{}</td>", escape(&label));
+        for v in [&row.vector_rms_m_s2, &row.vector_vdv_m_s175] {
+            let _ = write!(
+                h,
+                "<td>{:.3}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td>",
+                v.nominal, v.low, v.median, v.high
+            );
+        }
+        h.push_str("</tr>\n");
+    }
+    h.push_str("</table>\n");
+    h
+}
