@@ -140,7 +140,16 @@ pub fn run(args: &Args) -> Result<()> {
         bar.tick();
     });
     bar.finish_and_clear();
-    let fitted = fitted?;
+    let fitted = match fitted {
+        Ok(fitted) => fitted,
+        Err(e) => {
+            // The report folder was claimed before the wait: a failed fit leaves no trace.
+            if let Some(folder) = report_folder {
+                folder.abandon();
+            }
+            return Err(e);
+        }
+    };
     workflow::write_outputs(&fitted, &request, &args.out, args.report.as_deref())?;
     if let Some(folder) = &report_folder {
         folder.record_new_entries()?;

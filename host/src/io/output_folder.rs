@@ -30,12 +30,15 @@ pub struct OutputFolder {
     listed_before: BTreeSet<String>,
     /// Every entry when the folder was claimed.
     entries_before: BTreeSet<String>,
+    /// Whether the claim created the folder.
+    created: bool,
 }
 
 /// Creates `dir` if missing, and refuses it (naming the first foreign entry) when it
 /// holds an entry that no earlier `supine` run recorded in its manifest, unless `force`.
 /// `command` (`supine demo`) and `flag` (`--out`) name it in messages.
 pub fn claim(dir: &Path, command: &str, flag: &str, force: bool) -> Result<OutputFolder> {
+    let created = !dir.exists();
     std::fs::create_dir_all(dir)
         .map_err(|e| anyhow!("{}: {flag}: cannot create: {e}", dir.display()))?;
     let listed_before = listed(dir)?;
@@ -56,6 +59,7 @@ pub fn claim(dir: &Path, command: &str, flag: &str, force: bool) -> Result<Outpu
         command: command.to_string(),
         listed_before,
         entries_before,
+        created,
     })
 }
 
@@ -63,6 +67,15 @@ impl OutputFolder {
     /// The folder.
     pub fn dir(&self) -> &Path {
         &self.dir
+    }
+
+    /// For a run that failed: removes the folder if this claim created it and nothing was
+    /// written into it since, so a failure leaves no empty folder behind.
+    pub fn abandon(self) {
+        if self.created {
+            // Fails, and keeps the folder, when something is in it.
+            let _ = std::fs::remove_dir(&self.dir);
+        }
     }
 
     /// Records what this run wrote (paths in the folder, files or folders), so that the
@@ -137,6 +150,26 @@ fn entries(dir: &Path) -> Result<BTreeSet<String>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_abandoned_claim_removes_only_the_empty_folder_it_created() {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path().join("report");
+        claim(&dir, "supine fit", "--report", false)
+            .unwrap()
+            .abandon();
+        assert!(!dir.exists(), "the empty folder it created stays");
+        std::fs::create_dir(&dir).unwrap();
+        claim(&dir, "supine fit", "--report", false)
+            .unwrap()
+            .abandon();
+        assert!(dir.is_dir(), "a folder that was there is removed");
+        std::fs::remove_dir(&dir).unwrap();
+        let folder = claim(&dir, "supine fit", "--report", false).unwrap();
+        std::fs::write(dir.join("fit.html"), "written").unwrap();
+        folder.abandon();
+        assert!(dir.join("fit.html").is_file(), "a written file is removed");
+    }
 
     #[test]
     fn a_folder_with_a_users_file_is_refused_by_name_unless_forced() {
