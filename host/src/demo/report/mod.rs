@@ -409,7 +409,7 @@ mod tests {
     use crate::demo::trace::Trace;
     use crate::exposure::report::AxisReport;
     use crate::io::telemetry_csv::EventRow;
-    use supine_core::alerts::{AlertConfig, AlertEvent, FaultFlags};
+    use supine_core::alerts::{AlertConfig, AlertEvent, Criterion, FaultFlags};
     use supine_core::exposure::AxisValues;
     use supine_core::protocol::Telemetry;
 
@@ -444,11 +444,13 @@ mod tests {
             AlertEvent::Level {
                 from: Level::Normal,
                 to: Level::Warning,
+                criterion: Criterion::RunningRms { value_m_s2: 0.6 },
                 at_sample: 300,
             },
             AlertEvent::Level {
                 from: Level::Warning,
                 to: Level::Normal,
+                criterion: Criterion::RunningRms { value_m_s2: 0.6 },
                 at_sample: 900,
             },
         ]
