@@ -61,6 +61,12 @@ fn shortest(v: f32) -> f64 {
     v.to_string().parse().unwrap_or(f64::NAN)
 }
 
+/// The patient a device's parameters were scaled to, under the keys of the mission
+/// report's `subject`: `{"height_m", "mass_kg"}`.
+pub fn subject_json(height_m: f32, mass_kg: f32) -> Value {
+    json!({ "height_m": shortest(height_m), "mass_kg": shortest(mass_kg) })
+}
+
 /// The criterion's value under a key that carries its unit: `value_m_s2` (running rms) or
 /// `value_m_s175` (VDV).
 pub fn criterion_value_json(c: &Criterion) -> (&'static str, f32) {
@@ -75,10 +81,7 @@ pub fn summary_json(m: &Monitor) -> Value {
     let c = m.counters();
     json!({
         "monitored_s": m.time_s(),
-        "subject": {
-            "height_m": shortest(m.greeting().height_m),
-            "mass_kg": shortest(m.greeting().mass_kg),
-        },
+        "subject": subject_json(m.greeting().height_m, m.greeting().mass_kg),
         "ride_s": m.ride_length_s(),
         "telemetry_records": c.telemetry,
         "alert_events": c.events,
