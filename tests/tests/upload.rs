@@ -198,7 +198,11 @@ fn a_signed_upload_switches_the_parameters_and_a_replay_of_it_is_refused() {
         ]
     );
     // Each greeting names the patient of the parameters it runs, and so does the status.
-    let patients: Vec<_> = s.greetings.iter().map(|g| (g.height_m, g.mass_kg)).collect();
+    let patients: Vec<_> = s
+        .greetings
+        .iter()
+        .map(|g| (g.height_m, g.mass_kg))
+        .collect();
     assert_eq!(patients, vec![(1.82, 81.0), (1.6, 52.0), (1.6, 52.0)]);
     assert_eq!((s.status().height_m, s.status().mass_kg), (1.6, 52.0));
 
