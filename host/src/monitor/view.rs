@@ -431,6 +431,12 @@ mod tests {
                 .severity
                 .is_none()
         );
+        // The patient the device's parameters were scaled to, from its greeting.
+        assert!(
+            find(&lines, "500 Hz  patient 1.82 m, 81 kg")
+                .severity
+                .is_none()
+        );
         assert_eq!(find(&lines, "ALARM").severity, Some(Severity::Alarm));
         assert_eq!(find(&lines, "stuck").severity, Some(Severity::Fault));
         assert!(find(&lines, "z   +2.000 m/s^2").severity.is_none());
