@@ -15,7 +15,7 @@ use std::env;
 use std::fs;
 use std::path::PathBuf;
 
-use supine_core::blob::{DeviceParams, MAX_BLOB_LEN};
+use supine_core::blob::{DeviceParams, MAX_BLOB_LEN, Patient};
 use supine_core::model::{DEFAULT_SAMPLE_RATE_HZ, ModelParams, Preset, device_realization};
 use supine_core::sample_rate::SampleRate;
 
@@ -102,14 +102,13 @@ fn write_builtin_realization(out_dir: &std::path::Path) {
 /// settings, level mounting, telemetry at 100 Hz). The firmware decodes and validates it
 /// at boot exactly like a blob in flash.
 fn write_default_blob(out_dir: &std::path::Path) {
-    let realization = device_realization(
-        &ModelParams::preset(Preset::PaperLitter),
-        DEFAULT_SAMPLE_RATE_HZ,
-    )
-    .unwrap_or_else(|err| panic!("the paper-litter preset does not discretize: {err}"));
+    let model = ModelParams::preset(Preset::PaperLitter);
+    let realization = device_realization(&model, DEFAULT_SAMPLE_RATE_HZ)
+        .unwrap_or_else(|err| panic!("the paper-litter preset does not discretize: {err}"));
     let sample_rate = SampleRate::from_hz_f64(DEFAULT_SAMPLE_RATE_HZ)
         .unwrap_or_else(|err| panic!("the default sample rate: {err}"));
-    let params = DeviceParams::with_defaults(BUILTIN_IDENTITY, sample_rate, realization)
+    let patient = Patient::of(&model.subject);
+    let params = DeviceParams::with_defaults(BUILTIN_IDENTITY, patient, sample_rate, realization)
         .unwrap_or_else(|err| panic!("the default device parameters are refused: {err}"));
     let mut buf = vec![0u8; MAX_BLOB_LEN];
     let len = params

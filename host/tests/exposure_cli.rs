@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use clap::Parser;
 use serde_json::Value;
-use supine_core::alerts::AlertEvent;
+use supine_core::alerts::{AlertEvent, Criterion};
 use supine_core::exposure::ExposureState;
 use supine_core::model::ModalState;
 use supine_core::weighting::{WeightingKind, analog_response};
@@ -223,10 +223,23 @@ fn the_model_form_equals_the_device_stages_stepped_by_hand() {
     assert!(!events.is_empty(), "a rough road raises alerts");
     assert_eq!(timeline.len(), events.len(), "{timeline:?}");
     for (j, e) in timeline.iter().zip(&events) {
-        let AlertEvent::Level { to, at_sample, .. } = *e else {
+        let AlertEvent::Level {
+            to,
+            criterion,
+            at_sample,
+            ..
+        } = *e
+        else {
             panic!("only level events expected")
         };
         assert_eq!(j["kind"], "level");
+        // What changed the level, with its value in a key that names the unit.
+        assert_eq!(j["criterion"], criterion.name());
+        let key = match criterion {
+            Criterion::RunningRms { .. } => "value_m_s2",
+            Criterion::Vdv { .. } => "value_m_s175",
+        };
+        assert_eq!(num(j, key), f64::from(criterion.value()));
         assert_eq!(j["sample"].as_u64(), Some(at_sample as u64));
         assert_eq!(j["level"], to.name());
         assert!((num(j, "time_s") - at_sample as f64 / fs).abs() < 1e-9);

@@ -12,7 +12,7 @@ use std::thread;
 use std::time::Duration;
 
 use nix::pty::openpty;
-use supine_core::alerts::{AlertEvent, FaultFlags, Level, SensorFault};
+use supine_core::alerts::{AlertEvent, Criterion, FaultFlags, Level, SensorFault};
 use supine_core::protocol::{
     DeviceFrame, DeviceToHost, Greeting, HostToDevice, MAX_FRAME_LEN, PROTOCOL_VERSION,
     ParamsSource, ResetCause, Telemetry, encode_frame,
@@ -85,6 +85,8 @@ fn greeting(protocol_version: u16) -> DeviceToHost {
         params_identity: [0x5a; 16],
         params_source: ParamsSource::Flash { slot: 1 },
         sample_rate_hz: 200.0,
+        height_m: 1.5,
+        mass_kg: 47.5,
         reset_cause: ResetCause::PowerOn,
         last_panic: heapless::String::new(),
     })
@@ -217,6 +219,7 @@ fn a_session_counts_lost_and_bad_frames_logs_everything_and_ends_on_ctrl_c() {
         DeviceToHost::Alert(AlertEvent::Level {
             from: Level::Normal,
             to: Level::Warning,
+            criterion: Criterion::RunningRms { value_m_s2: 0.6 },
             at_sample: 5,
         }),
     );
@@ -278,7 +281,9 @@ fn a_session_counts_lost_and_bad_frames_logs_everything_and_ends_on_ctrl_c() {
     let events = std::fs::read_to_string(dir.path().join("board.events.csv")).expect("events");
     assert_eq!(
         events,
-        format!("{EVENTS_HEADER}\n5,0.025,level,warning,1\n6,0.03,fault,stuck,1\n")
+        format!(
+            "{EVENTS_HEADER}\n5,0.025,level,warning,1,running-rms,0.6,m/s^2\n6,0.03,fault,stuck,1,,,\n"
+        )
     );
 }
 
@@ -295,6 +300,7 @@ fn jsonl_streams_each_record_and_event_and_json_summarises() {
             DeviceToHost::Alert(AlertEvent::Level {
                 from: Level::Normal,
                 to: Level::Advisory,
+                criterion: Criterion::RunningRms { value_m_s2: 0.6 },
                 at_sample: 1,
             }),
         );
@@ -307,6 +313,7 @@ fn jsonl_streams_each_record_and_event_and_json_summarises() {
         assert!(status.success());
         let (output, stdout, stderr) = finish(child);
         assert!(output.status.success(), "{stderr}");
+        assert!(stderr.contains("patient 1.5 m, 47.5 kg"), "{stderr}");
         let objects: Vec<serde_json::Value> = stdout
             .lines()
             .map(|l| serde_json::from_str(l).expect("a JSON object per line"))
@@ -319,6 +326,9 @@ fn jsonl_streams_each_record_and_event_and_json_summarises() {
             assert_eq!(s["highest_level"], "advisory");
             assert_eq!(s["peak_vector_running_rms_m_s2"], 1.0625);
             assert_eq!(s["ride_s"], serde_json::Value::Null);
+            // The patient the device said it predicts for.
+            assert_eq!(s["subject"]["height_m"], 1.5);
+            assert_eq!(s["subject"]["mass_kg"], 47.5);
             continue;
         }
         let kinds: Vec<&str> = objects
@@ -343,5 +353,8 @@ fn jsonl_streams_each_record_and_event_and_json_summarises() {
             .expect("event");
         assert_eq!(event["to"], "advisory");
         assert_eq!(event["time_s"], 0.005);
+        assert_eq!(event["criterion"], "running-rms");
+        // f32 in its shortest form, as the CSV writes it.
+        assert_eq!(event["value_m_s2"], 0.6);
     }
 }

@@ -5,7 +5,7 @@ use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
 use serde_json::Value;
-use supine_core::alerts::{AlertEvent, FaultFlags, Level};
+use supine_core::alerts::{AlertEvent, Criterion, FaultFlags, Level};
 use supine_core::model::{ModelParams, Preset};
 use supine_core::protocol::Telemetry;
 
@@ -353,6 +353,7 @@ fn device_log(n: u32, fs: f64) -> DeviceLog {
             &AlertEvent::Level {
                 from,
                 to,
+                criterion: Criterion::RunningRms { value_m_s2: 0.6 },
                 at_sample,
             },
             fs,

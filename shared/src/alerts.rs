@@ -30,6 +30,7 @@ use enumset::{EnumSet, EnumSetType};
 use serde::{Deserialize, Serialize};
 
 use crate::exposure::ExposureSample;
+use crate::fpu::sqrt_f32;
 use crate::sample_rate::SampleRate;
 
 /// Standard gravity, m/s^2 (for full scales quoted in g).
@@ -133,8 +134,62 @@ impl fmt::Display for SensorFault {
 /// not decode.
 pub type FaultFlags = EnumSet<SensorFault>;
 
+/// The exposure value that changed a level, at the sample of the change: so that an alert
+/// says why it was raised, not only that it was.
+///
+/// A raise names the running rms when it alone reaches the new level's threshold, else the
+/// VDV. A drop always names the running rms: the VDV never decreases, so only a falling
+/// running rms lowers a level. The value is computed exactly as the telemetry's
+/// `vector_running_rms_m_s2` or `vdv_m_s175` of the same sample.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Criterion {
+    /// The 1 s running rms of the head's vector sum.
+    RunningRms {
+        /// Its value at the change, m/s^2.
+        value_m_s2: f32,
+    },
+    /// The VDV of the head's vector sum since the evaluation started.
+    Vdv {
+        /// Its value at the change, m/s^1.75.
+        value_m_s175: f32,
+    },
+}
+
+impl Criterion {
+    /// Lower-case name (`running-rms`, `vdv`).
+    pub const fn name(&self) -> &'static str {
+        match self {
+            Criterion::RunningRms { .. } => "running-rms",
+            Criterion::Vdv { .. } => "vdv",
+        }
+    }
+
+    /// The value at the change, in [`unit`](Self::unit).
+    pub const fn value(&self) -> f32 {
+        match *self {
+            Criterion::RunningRms { value_m_s2 } => value_m_s2,
+            Criterion::Vdv { value_m_s175 } => value_m_s175,
+        }
+    }
+
+    /// Unit of [`value`](Self::value): `m/s^2` or `m/s^1.75`.
+    pub const fn unit(&self) -> &'static str {
+        match self {
+            Criterion::RunningRms { .. } => "m/s^2",
+            Criterion::Vdv { .. } => "m/s^1.75",
+        }
+    }
+}
+
+impl fmt::Display for Criterion {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} {} {}", self.name(), self.value(), self.unit())
+    }
+}
+
 /// A time-stamped alert edge.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum AlertEvent {
     /// The exposure level changed (raised when `to > from`, cleared otherwise).
@@ -143,6 +198,8 @@ pub enum AlertEvent {
         from: Level,
         /// Level after.
         to: Level,
+        /// What caused the change, and its value then.
+        criterion: Criterion,
         /// Sample index at which the change took effect (after the dwell).
         at_sample: u32,
     },
@@ -162,6 +219,14 @@ impl AlertEvent {
     pub const fn at_sample(&self) -> u32 {
         match *self {
             AlertEvent::Level { at_sample, .. } | AlertEvent::Fault { at_sample, .. } => at_sample,
+        }
+    }
+
+    /// What changed the level (`None` for a sensor fault, which is its own cause).
+    pub const fn criterion(&self) -> Option<Criterion> {
+        match *self {
+            AlertEvent::Level { criterion, .. } => Some(criterion),
+            AlertEvent::Fault { .. } => None,
         }
     }
 
@@ -410,9 +475,21 @@ impl AlertSettings {
         state.level = target;
         state.pending_dir = 0;
         state.pending_samples = 0;
+        // Only when an event is sent: one or two square roots, as the telemetry takes them.
+        // A raise has `target >= 1`; `||` keeps a drop from indexing.
+        let criterion = if dir < 0 || ms >= self.raise_ms_m2_s4[target as usize - 1] {
+            Criterion::RunningRms {
+                value_m_s2: sqrt_f32(ms),
+            }
+        } else {
+            Criterion::Vdv {
+                value_m_s175: sqrt_f32(sqrt_f32(vdv4)),
+            }
+        };
         Some(AlertEvent::Level {
             from,
             to: target,
+            criterion,
             at_sample: sample_index,
         })
     }

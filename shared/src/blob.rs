@@ -17,16 +17,16 @@ use serde::{Deserialize, Serialize};
 
 use crate::alerts::{AlertConfig, AlertSettings, SensorCheckConfig, SensorCheckSettings};
 use crate::exposure::{ExposureConfig, ExposureError, ExposureSettings};
-use crate::model::{DeviceRealization, RealizationError};
+use crate::model::params::{HEIGHT_RANGE_M, MASS_RANGE_KG};
+use crate::model::{DeviceRealization, RealizationError, Subject};
 use crate::mounting::Mounting;
 use crate::sample_rate::SampleRate;
 use crate::weighting::WeightingError;
 
 /// First four bytes of every blob.
 pub const BLOB_MAGIC: [u8; 4] = *b"SUPB";
-/// Version of the header and payload encoding (3: the sample rate stored once, not per
-/// stage).
-pub const BLOB_FORMAT_VERSION: u16 = 3;
+/// Version of the header and payload encoding (4: the patient's height and mass).
+pub const BLOB_FORMAT_VERSION: u16 = 4;
 /// Header length, bytes.
 pub const BLOB_HEADER_LEN: usize = 16;
 /// Largest blob the device accepts (header and payload), bytes.
@@ -92,11 +92,47 @@ impl TelemetryConfig {
     }
 }
 
+/// The patient the realization was scaled to: carried so that the device can say whom it
+/// predicts for (greeting, status), since the realization's numbers cannot.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Patient {
+    /// Standing height, m.
+    pub height_m: f32,
+    /// Body mass, kg.
+    pub mass_kg: f32,
+}
+
+impl Patient {
+    /// The model's subject, rounded to f32.
+    pub fn of(subject: &Subject) -> Self {
+        Self {
+            height_m: subject.height_m as f32,
+            mass_kg: subject.mass_kg as f32,
+        }
+    }
+
+    /// Within the model's range ([`HEIGHT_RANGE_M`], [`MASS_RANGE_KG`]), the range the
+    /// host's parameter checks use too: `NonFinite` for NaN or infinity, else `BadConfig`.
+    pub fn validate(&self) -> Result<(), BlobError> {
+        let within = |v: f32, (lo, hi): (f64, f64)| (lo..=hi).contains(&f64::from(v));
+        if !(self.height_m.is_finite() && self.mass_kg.is_finite()) {
+            Err(BlobError::NonFinite)
+        } else if within(self.height_m, HEIGHT_RANGE_M) && within(self.mass_kg, MASS_RANGE_KG) {
+            Ok(())
+        } else {
+            Err(BlobError::BadConfig)
+        }
+    }
+}
+
 /// Everything the device runs, for one sample rate.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DeviceParams {
     /// Identity of the parameter file these came from (start of its SHA-256).
     pub identity: ParamsIdentity,
+    /// The patient `realization` was scaled to.
+    pub patient: Patient,
     /// The sample rate every stage below was built for: stored here once, and given to
     /// the stages that need it rather than kept by each.
     pub sample_rate: SampleRate,
@@ -121,6 +157,7 @@ impl DeviceParams {
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         identity: ParamsIdentity,
+        patient: Patient,
         sample_rate: SampleRate,
         realization: DeviceRealization,
         exposure: ExposureConfig,
@@ -131,6 +168,7 @@ impl DeviceParams {
     ) -> Result<Self, BlobError> {
         let params = Self {
             identity,
+            patient,
             sample_rate,
             realization,
             exposure: ExposureSettings::new(exposure, sample_rate)
@@ -145,17 +183,19 @@ impl DeviceParams {
         Ok(params)
     }
 
-    /// A realization (discretized at `sample_rate`) with the documented default
-    /// configuration: weighting and axes ([`ExposureConfig::DEFAULT`]), alert thresholds,
+    /// A realization (of `patient`, discretized at `sample_rate`) with the documented
+    /// default configuration: weighting and axes ([`ExposureConfig::DEFAULT`]), alert thresholds,
     /// sensor checks, a level mounting, and telemetry at
     /// [`TelemetryConfig::DEFAULT_RATE_HZ`].
     pub fn with_defaults(
         identity: ParamsIdentity,
+        patient: Patient,
         sample_rate: SampleRate,
         realization: DeviceRealization,
     ) -> Result<Self, BlobError> {
         Self::new(
             identity,
+            patient,
             sample_rate,
             realization,
             ExposureConfig::DEFAULT,
@@ -173,6 +213,7 @@ impl DeviceParams {
 
     /// Checks what must hold before the device runs these parameters.
     pub fn validate(&self) -> Result<(), BlobError> {
+        self.patient.validate()?;
         let fs = self
             .sample_rate
             .check()
@@ -363,7 +404,8 @@ pub enum BlobError {
     Unstable,
     /// The sample rate is outside the supported range ([`SampleRate`]).
     SampleRate,
-    /// A configuration value is out of its range (thresholds, times, mounting, decimation).
+    /// A configuration value is out of its range (patient, thresholds, times, mounting,
+    /// decimation).
     BadConfig,
     /// The blob does not fit the buffer or the device's limit.
     TooLong,

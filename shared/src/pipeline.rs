@@ -185,12 +185,14 @@ impl DeviceParams {
                     AlertEvent::Level {
                         from,
                         to,
+                        criterion,
                         at_sample,
                     } => {
                         let n = at_sample.wrapping_sub(first) as usize;
                         AlertEvent::Level {
                             from,
                             to,
+                            criterion,
                             at_sample: indices.get(n).copied().unwrap_or(at_sample),
                         }
                     }

@@ -23,7 +23,7 @@ pub use crate::blob::{IDENTITY_LEN, ParamsIdentity};
 pub use crate::pipeline::Telemetry;
 
 /// Version of this module's encodings; the host refuses a device that speaks another.
-pub const PROTOCOL_VERSION: u16 = 3;
+pub const PROTOCOL_VERSION: u16 = 4;
 /// Largest encoded frame, including COBS overhead and the terminating zero, bytes.
 pub const MAX_FRAME_LEN: usize = 256;
 /// Samples carried by one [`HostToDevice::Samples`] frame at most.
@@ -120,6 +120,10 @@ pub struct Greeting {
     pub params_source: ParamsSource,
     /// Sample rate the parameters were built for, Hz.
     pub sample_rate_hz: f32,
+    /// Height of the patient the parameters were scaled to, m.
+    pub height_m: f32,
+    /// Mass of the patient the parameters were scaled to, kg.
+    pub mass_kg: f32,
     /// How the device last stopped.
     pub reset_cause: ResetCause,
     /// The last panic's message, if the last stop was a panic.
@@ -163,8 +167,8 @@ pub enum ResetCause {
     Software,
 }
 
-/// The device's counters.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+/// The device's counters, and the patient it predicts for.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Status {
     /// Valid frames received.
     pub frames_received: u32,
@@ -188,6 +192,10 @@ pub struct Status {
     /// Where the running parameters came from now (after uploads too), and, for the
     /// built-in default, why the flash blob was refused.
     pub params_source: ParamsSource,
+    /// Height of the patient the running parameters were scaled to, m.
+    pub height_m: f32,
+    /// Mass of the patient the running parameters were scaled to, kg.
+    pub mass_kg: f32,
 }
 
 /// A step of a parameter upload that the device accepted.

@@ -3,6 +3,7 @@
 use supine_core::blob::{
     BLOB_FORMAT_VERSION, BLOB_HEADER_LEN, BlobError, DeviceParams, MAX_BLOB_LEN, crc32,
 };
+use supine_core::model::params::{HEIGHT_RANGE_M, MASS_RANGE_KG};
 use supine_core::model::{ModelParams, Preset, device_realization};
 use supine_core::protocol::golden::{BLOB, HOST_TO_DEVICE, blob_example};
 use supine_core::protocol::{
@@ -140,9 +141,9 @@ fn a_sealed_blob_with_a_nan_or_an_unstable_pole_is_refused_behind_the_crc() {
             "{name}"
         );
     }
-    // The one stored rate, right after the 16-byte identity: out of range, not a number,
-    // or in range but not the rate the stages were built for.
-    let rate_at = BLOB_HEADER_LEN + 16;
+    // The one stored rate, right after the 16-byte identity and the patient (two f32):
+    // out of range, not a number, or in range but not the rate the stages were built for.
+    let rate_at = BLOB_HEADER_LEN + 16 + 8;
     assert_eq!(BLOB[rate_at..rate_at + 4], 500f32.to_le_bytes());
     for (hz, expected) in [
         (5000.0f32, BlobError::SampleRate),
@@ -166,6 +167,65 @@ fn a_sealed_blob_with_a_nan_or_an_unstable_pole_is_refused_behind_the_crc() {
         DeviceParams::decode(&reseal(trailing)).unwrap_err(),
         BlobError::Malformed
     );
+}
+
+/// The patient (height, mass as f32, right after the 16-byte identity) must lie within the
+/// model's range, the one the host's `--height-m`/`--mass-kg` use: a sealed blob with a
+/// 3 m patient is refused with `BadConfig` (code 11), not run.
+#[test]
+fn a_sealed_blob_with_a_patient_outside_the_models_range_is_refused() {
+    let height_at = BLOB_HEADER_LEN + 16;
+    let mass_at = height_at + 4;
+    assert_eq!(BLOB[height_at..height_at + 4], 1.6f32.to_le_bytes());
+    assert_eq!(BLOB[mass_at..mass_at + 4], 52f32.to_le_bytes());
+    let (lo_m, hi_m) = HEIGHT_RANGE_M;
+    let (lo_kg, hi_kg) = MASS_RANGE_KG;
+    let with = |at: usize, value: f32| {
+        let mut bytes = BLOB.to_vec();
+        bytes[at..at + 4].copy_from_slice(&value.to_le_bytes());
+        DeviceParams::decode(&reseal(bytes))
+    };
+    for (name, at, value, expected) in [
+        ("3 m tall", height_at, 3.0f32, BlobError::BadConfig),
+        (
+            "below the lowest height",
+            height_at,
+            0.49,
+            BlobError::BadConfig,
+        ),
+        ("negative mass", mass_at, -52.0, BlobError::BadConfig),
+        (
+            "above the highest mass",
+            mass_at,
+            301.0,
+            BlobError::BadConfig,
+        ),
+        ("NaN height", height_at, f32::NAN, BlobError::NonFinite),
+        (
+            "infinite mass",
+            mass_at,
+            f32::INFINITY,
+            BlobError::NonFinite,
+        ),
+    ] {
+        assert_eq!(with(at, value).unwrap_err(), expected, "{name}");
+    }
+    assert_eq!(BlobError::BadConfig.code(), 11);
+    // The range's ends are accepted, and read back as written.
+    for (at, value) in [
+        (height_at, lo_m),
+        (height_at, hi_m),
+        (mass_at, lo_kg),
+        (mass_at, hi_kg),
+    ] {
+        let params = with(at, value as f32).expect("the range's ends are accepted");
+        let read = if at == height_at {
+            params.patient.height_m
+        } else {
+            params.patient.mass_kg
+        };
+        assert_eq!(f64::from(read), value);
+    }
 }
 
 fn feed(acc: &mut FrameAccumulator, bytes: &[u8]) -> (Vec<HostToDevice>, Vec<FrameError>) {

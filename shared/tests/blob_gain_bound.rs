@@ -5,7 +5,7 @@
 
 use proptest::prelude::*;
 use supine_core::alerts::SensorCheckConfig;
-use supine_core::blob::{BlobError, DeviceParams, MAX_SIGNAL_M_S2};
+use supine_core::blob::{BlobError, DeviceParams, MAX_SIGNAL_M_S2, Patient};
 use supine_core::exposure::{AxisMapping, AxisWeighting, ExposureConfig};
 use supine_core::model::{ModelParams, ParamId, Preset, device_realization};
 use supine_core::protocol::golden::blob_example;
@@ -31,9 +31,12 @@ fn params_for(model: &ModelParams, rate_hz: f32, kind: WeightingKind) -> DeviceP
         full_scale_m_s2: SensorCheckConfig::MAX_FULL_SCALE_M_S2,
         ..SensorCheckConfig::DEFAULT
     };
-    let base = DeviceParams::with_defaults([0; 16], rate, realization).expect("defaults valid");
+    let patient = Patient::of(&model.subject);
+    let base =
+        DeviceParams::with_defaults([0; 16], patient, rate, realization).expect("defaults valid");
     DeviceParams::new(
         [0; 16],
+        patient,
         rate,
         realization,
         exposure,

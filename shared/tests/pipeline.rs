@@ -1,10 +1,11 @@
 //! The device pipeline: batching never changes a bit, faults are reported and contained,
 //! telemetry follows the decimation.
 
-use supine_core::alerts::{AlertEvent, SensorFault};
+use supine_core::alerts::{AlertConfig, AlertEvent, AlertSettings, Criterion, SensorFault};
 use supine_core::blob::DeviceParams;
 use supine_core::model::{ModelParams, Preset, device_realization};
 use supine_core::pipeline::{PipelineOutput, PipelineState};
+use supine_core::protocol::Telemetry;
 use supine_core::protocol::golden::blob_example;
 use supine_core::test_vector::TestVector;
 
@@ -141,4 +142,91 @@ fn telemetry_comes_every_decimation_samples() {
         })
         .collect();
     assert_eq!(sent, (0..100).map(|i| 10 * i).collect::<Vec<_>>());
+}
+
+/// Runs a 4 Hz sine of `amplitude_m_s2` on z for `seconds` through `params` with the alert
+/// thresholds of `alerts` (telemetry every sample); returns the level-change events and the
+/// telemetry, indexed by sample.
+fn sine_levels(
+    alerts: AlertConfig,
+    amplitude_m_s2: f32,
+    seconds: f32,
+) -> (Vec<AlertEvent>, Vec<Telemetry>) {
+    let mut params = litter_params(1);
+    params.alerts = AlertSettings::new(alerts, params.sample_rate).unwrap();
+    params.validate().unwrap();
+    let n = (seconds * params.sample_rate_hz()) as u32;
+    let input: Vec<[f32; 3]> = (0..n)
+        .map(|i| {
+            let t = f64::from(i) / f64::from(params.sample_rate_hz());
+            [
+                0.0,
+                0.0,
+                amplitude_m_s2 * (8.0 * std::f64::consts::PI * t).sin() as f32,
+            ]
+        })
+        .collect();
+    let indices: Vec<u32> = (0..n).collect();
+    let (mut events, mut telemetry) = (Vec::new(), Vec::new());
+    for o in run(&params, &input, &indices, 32) {
+        match o {
+            PipelineOutput::Alert(e @ AlertEvent::Level { .. }) => events.push(e),
+            PipelineOutput::Telemetry(t) => telemetry.push(t),
+            PipelineOutput::Alert(_) => {}
+        }
+    }
+    assert!(
+        telemetry
+            .iter()
+            .enumerate()
+            .all(|(i, t)| t.sample_index == i as u32)
+    );
+    (events, telemetry)
+}
+
+/// Issue 15, item 3: a raise by the VDV names the VDV, with the value the telemetry of the
+/// same sample reports, bit for bit (running-rms thresholds out of reach).
+#[test]
+fn a_level_raised_by_the_vdv_names_the_vdv_with_the_telemetrys_value() {
+    let vdv_only = AlertConfig {
+        running_rms_m_s2: [100.0, 200.0, 300.0],
+        vdv_m_s175: [1.0, 2.0, 3.0],
+        ..AlertConfig::DEFAULT
+    };
+    let (events, telemetry) = sine_levels(vdv_only, 2.0, 20.0);
+    assert!(!events.is_empty(), "the sine raises no level");
+    for e in &events {
+        let t = &telemetry[e.at_sample() as usize];
+        assert_eq!(
+            e.criterion(),
+            Some(Criterion::Vdv {
+                value_m_s175: t.vdv_m_s175
+            }),
+            "{e:?}"
+        );
+        assert!(t.vdv_m_s175 >= 1.0 && t.vector_running_rms_m_s2 < 100.0);
+    }
+}
+
+/// And a raise by the running rms names it, with the telemetry's vector running rms (VDV
+/// thresholds out of reach).
+#[test]
+fn a_level_raised_by_the_running_rms_names_it_with_the_telemetrys_value() {
+    let rms_only = AlertConfig {
+        vdv_m_s175: [1000.0, 2000.0, 3000.0],
+        ..AlertConfig::DEFAULT
+    };
+    let (events, telemetry) = sine_levels(rms_only, 1.0, 20.0);
+    assert!(!events.is_empty(), "the sine raises no level");
+    for e in &events {
+        let t = &telemetry[e.at_sample() as usize];
+        assert_eq!(
+            e.criterion(),
+            Some(Criterion::RunningRms {
+                value_m_s2: t.vector_running_rms_m_s2
+            }),
+            "{e:?}"
+        );
+        assert!(t.vector_running_rms_m_s2 >= 0.5);
+    }
 }

@@ -8,7 +8,7 @@ use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
 use supine_core::alerts::{AlertConfig, AlertEvent, SensorCheckConfig, SensorFault};
-use supine_core::blob::{BlobError, DeviceParams, TelemetryConfig};
+use supine_core::blob::{BlobError, DeviceParams, Patient, TelemetryConfig};
 use supine_core::exposure::ExposureConfig;
 use supine_core::model::{ModelParams, Preset, device_realization};
 use supine_core::mounting::Mounting;
@@ -277,10 +277,11 @@ fn one_hour_at_500_hz_does_not_drift() {
 
 /// The built-in default as the firmware builds it (`firmware/build.rs`).
 fn builtin_params() -> DeviceParams {
-    let realization = device_realization(&ModelParams::preset(Preset::PaperLitter), 500.0)
-        .expect("preset discretizes");
+    let model = ModelParams::preset(Preset::PaperLitter);
+    let realization = device_realization(&model, 500.0).expect("preset discretizes");
     DeviceParams::new(
         *b"builtin-litter\0\0",
+        Patient::of(&model.subject),
         SampleRate::new(500.0).expect("supported"),
         realization,
         ExposureConfig::DEFAULT,
@@ -417,6 +418,9 @@ fn garbage_sensor_faults_and_uploads_are_counted_and_the_device_keeps_running() 
             params_source: ParamsSource::BuiltInDefault {
                 reason: BlobError::Empty
             },
+            // The built-in default's patient: the paper's mean subject.
+            height_m: 1.82,
+            mass_kg: 81.0,
         }
     );
     assert_eq!(

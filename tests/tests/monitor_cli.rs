@@ -123,6 +123,7 @@ fn monitor_logs_what_the_host_pipeline_predicts_for_a_scripted_ride() {
     let mut lines = events_text.lines();
     assert_eq!(lines.next(), Some(EVENTS_HEADER));
     let logged: Vec<(u32, String, String, bool)> = lines
+        .clone()
         .map(|l| {
             let c = cells(l);
             (
@@ -145,6 +146,22 @@ fn monitor_logs_what_the_host_pipeline_predicts_for_a_scripted_ride() {
         })
         .collect();
     assert_eq!(logged, wanted);
+    // Each level change names what changed it, with the host's value to the bit.
+    let criteria: Vec<(String, Option<f32>, String)> = lines
+        .map(|l| {
+            let c = cells(l);
+            (c[5].to_string(), c[6].parse().ok(), c[7].to_string())
+        })
+        .collect();
+    let wanted_criteria: Vec<(String, Option<f32>, String)> = expected
+        .events
+        .iter()
+        .map(|e| match e.criterion() {
+            Some(c) => (c.name().into(), Some(c.value()), c.unit().into()),
+            None => (String::new(), None, String::new()),
+        })
+        .collect();
+    assert_eq!(criteria, wanted_criteria);
 
     // The plain view: no escape codes, each event as a tagged line, a summary on stderr.
     assert!(!stdout.contains('\x1b'), "escape codes in piped output");

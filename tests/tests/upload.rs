@@ -20,7 +20,7 @@ use std::time::Duration;
 use supine_core::alerts::{AlertConfig, SensorCheckConfig};
 use supine_core::blob::{BlobError, DeviceParams};
 use supine_core::exposure::ExposureConfig;
-use supine_core::model::{ModelParams, Preset};
+use supine_core::model::{ModelParams, Preset, Subject};
 use supine_core::mounting::Mounting;
 use supine_core::protocol::{
     DeviceToHost, Greeting, HostToDevice, PARAM_CHUNK_LEN, ParamAck, ParamBegin, ParamChunk,
@@ -143,7 +143,13 @@ fn committed(s: &Session) -> Vec<ParamAck> {
 #[test]
 fn a_signed_upload_switches_the_parameters_and_a_replay_of_it_is_refused() {
     let (a, _) = params_and_blob(Preset::PaperLitter);
-    let (b, blob_b) = params_and_blob(Preset::PaperRigid);
+    // B is scaled to another patient than A's mean subject (issue 15, item 2).
+    let mut file_b = file(Preset::PaperRigid);
+    file_b.params.subject = Subject {
+        height_m: 1.6,
+        mass_kg: 52.0,
+    };
+    let (b, blob_b) = flash::device_blob(&file_b, FS_HZ).expect("blob builds");
     assert_ne!(a.identity, b.identity);
     let n = 3000;
     let input = ride(n);
@@ -191,6 +197,14 @@ fn a_signed_upload_switches_the_parameters_and_a_replay_of_it_is_refused() {
             (b.identity, from(1))
         ]
     );
+    // Each greeting names the patient of the parameters it runs, and so does the status.
+    let patients: Vec<_> = s
+        .greetings
+        .iter()
+        .map(|g| (g.height_m, g.mass_kg))
+        .collect();
+    assert_eq!(patients, vec![(1.82, 81.0), (1.6, 52.0), (1.6, 52.0)]);
+    assert_eq!((s.status().height_m, s.status().mass_kg), (1.6, 52.0));
 
     // The telemetry is B's pipeline from a fresh state, exactly, and not A's.
     let indices: Vec<u32> = (0..n as u32).collect();
@@ -198,7 +212,12 @@ fn a_signed_upload_switches_the_parameters_and_a_replay_of_it_is_refused() {
     let host_a = reference::pipeline(&a, &indices, &input);
     assert_eq!(s.telemetry.len(), n);
     assert_eq!(s.telemetry, host_b.telemetry, "telemetry is not B's");
+    // Events bit for bit, each level change's criterion and value included.
     assert_eq!(s.events, host_b.events, "events are not B's");
+    assert!(
+        s.events.iter().any(|e| e.criterion().is_some()),
+        "B's thresholds raise a level on this ride"
+    );
     assert_ne!(host_a.telemetry, host_b.telemetry, "A and B must differ");
 }
 
@@ -686,13 +705,36 @@ fn supine_flash_writes_a_bootable_qemu_image_uploads_into_qemu_and_explains_fail
     );
     assert!(stderr.contains("public development key"), "{stderr}");
 
-    // --json: one object on stdout saying what the device acknowledged.
-    let (ok, stdout, stderr) =
-        run_cli(supine().args(["flash", "--preset", "paper-rigid", "--qemu", "--json"]));
+    assert!(stdout.contains("patient 1.82 m, 81 kg"), "{stdout}");
+
+    // --json, for a 1.6 m, 52 kg patient: one object on stdout saying what the device
+    // acknowledged, and the patient it greets with after the commit.
+    let (ok, stdout, stderr) = run_cli(supine().args([
+        "flash",
+        "--preset",
+        "paper-rigid",
+        "--height-m",
+        "1.6",
+        "--mass-kg",
+        "52",
+        "--qemu",
+        "--json",
+    ]));
     assert!(ok, "{stderr}");
     let report: serde_json::Value = serde_json::from_str(&stdout).expect("one JSON object");
+    let mut patient = rigid.clone();
+    patient.params.subject = Subject {
+        height_m: 1.6,
+        mass_kg: 52.0,
+    };
+    let patient_id = supine_host::device::device_params::identity(&patient).expect("identity");
     assert_eq!(report["target"], "qemu");
-    assert_eq!(report["params_identity"], rigid_hex.as_str());
+    assert_eq!(
+        report["params_identity"],
+        supine_host::device::device_params::identity_hex(&patient_id).as_str()
+    );
+    assert_eq!(report["greeting_subject"]["height_m"], 1.6);
+    assert_eq!(report["greeting_subject"]["mass_kg"], 52.0);
     assert_eq!(report["slot"], 0);
     assert_eq!(report["greeting_sample_rate_hz"], 500.0);
     assert_eq!(report["development_key"], true);

@@ -196,6 +196,8 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
                 let mut status = self.status;
                 status.stack_used_bytes = self.stack.high_water_bytes() as u32;
                 status.params_source = self.boot.source;
+                status.height_m = self.boot.params.patient.height_m;
+                status.mass_kg = self.boot.params.patient.mass_kg;
                 self.send(DeviceToHost::Status(status));
             }
             HostToDevice::ParamBegin(begin) => {
@@ -364,6 +366,8 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
             params_identity: self.boot.params.identity,
             params_source: self.boot.source,
             sample_rate_hz: self.boot.params.sample_rate_hz(),
+            height_m: self.boot.params.patient.height_m,
+            mass_kg: self.boot.params.patient.mass_kg,
             reset_cause: self.boot.reset_cause,
             last_panic: self.boot.last_panic.clone(),
         };

@@ -29,6 +29,8 @@ fn greets_at_boot_and_again_on_hello() {
         params_identity: BOOT_IDENTITY,
         params_source: ParamsSource::Flash { slot: 0 },
         sample_rate_hz: SAMPLE_RATE_HZ as f32,
+        height_m: 1.82,
+        mass_kg: 81.0,
         reset_cause: ResetCause::PowerOn,
         last_panic: heapless::String::new(),
     };
@@ -90,6 +92,8 @@ fn telemetry_and_alerts_are_the_pipelines_bit_for_bit_and_the_status_counts_them
             busy_ticks: 0,
             stack_used_bytes: STACK_BYTES as u32,
             params_source: ParamsSource::Flash { slot: 0 },
+            height_m: params.patient.height_m,
+            mass_kg: params.patient.mass_kg,
         }
     );
 }
@@ -199,8 +203,15 @@ fn an_accepted_upload_is_stored_in_the_other_slot_and_runs_from_the_next_sample(
     expected.push(DeviceToHost::Greeting(Greeting {
         params_identity: UPLOAD_IDENTITY,
         params_source: ParamsSource::Flash { slot: 1 },
+        height_m: UPLOAD_SUBJECT.height_m as f32,
+        mass_kg: UPLOAD_SUBJECT.mass_kg as f32,
         ..boot_greeting
     }));
+    // The boot blob's patient was the paper's mean subject.
+    assert_eq!(
+        (boot_greeting.height_m, boot_greeting.mass_kg),
+        (1.82, 81.0)
+    );
     assert_same_messages(&messages, &expected);
 
     // In flash: slot B holds the new blob with its commit record and wins at the next
@@ -221,6 +232,7 @@ fn an_accepted_upload_is_stored_in_the_other_slot_and_runs_from_the_next_sample(
     assert_same_messages(&messages, &pipeline_messages(&new, &new_indices, &after));
     assert_eq!(count_telemetry(&messages), 20);
     assert_eq!(status.params_source, ParamsSource::Flash { slot: 1 });
+    assert_eq!((status.height_m, status.mass_kg), (1.6, 52.0));
     assert_eq!(status.uploads_rejected, 0);
     assert_eq!(status.samples_processed, 120);
 }

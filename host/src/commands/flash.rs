@@ -12,6 +12,8 @@ use crate::device::flash::{self, UploadOutcome};
 use crate::device::image::{DEVELOPMENT_KEY_NOTICE, ProductImage};
 use crate::io::params_file::ModelSource;
 use crate::io::subject_args::SubjectArgs;
+use crate::monitor::json::subject_json;
+use crate::monitor::patient_text;
 
 /// Arguments of `supine flash`.
 #[derive(Debug, clap::Args)]
@@ -86,6 +88,8 @@ pub fn run(args: &Args) -> Result<()> {
     let timeout = values::timeout("--timeout-s", args.timeout_s)?;
     let (params, blob) = flash::device_blob(&file, args.fs_hz)?;
     let id = identity_hex(&params.identity);
+    let patient = patient_text(params.patient.height_m, params.patient.mass_kg);
+    let subject = subject_json(params.patient.height_m, params.patient.mass_kg);
     let counter = || flash::choose_counter(args.counter);
     let t = &args.target;
     let (text, json) = if let Some(out) = &t.qemu_image {
@@ -97,7 +101,7 @@ pub fn run(args: &Args) -> Result<()> {
         let addr = crate::device::qemu::PARAMS_ADDR;
         (
             format!(
-                "wrote {} ({} bytes: parameters {id} at {} Hz in slot A); run with -device loader,file={},addr={addr:#x}",
+                "wrote {} ({} bytes: parameters {id} at {} Hz for a {patient} in slot A); run with -device loader,file={},addr={addr:#x}",
                 out.display(),
                 image.len(),
                 args.fs_hz,
@@ -109,6 +113,7 @@ pub fn run(args: &Args) -> Result<()> {
                 "bytes": image.len(),
                 "params_identity": id,
                 "sample_rate_hz": args.fs_hz,
+                "subject": subject,
                 "load_address": format!("{addr:#x}"),
             }),
         )
@@ -124,7 +129,7 @@ pub fn run(args: &Args) -> Result<()> {
         flash::probe_download(chip, args.base_address, &image)?;
         (
             format!(
-                "flashed parameters {id} at {} Hz to {chip} at {:#010x}; now reset the board \
+                "flashed parameters {id} at {} Hz for a {patient} to {chip} at {:#010x}; now reset the board \
                  (`probe-rs reset --chip {chip}`, its reset button, or a power cycle): it reads \
                  its parameters only at boot",
                 args.fs_hz, args.base_address
@@ -135,6 +140,7 @@ pub fn run(args: &Args) -> Result<()> {
                 "base_address": format!("{:#010x}", args.base_address),
                 "params_identity": id,
                 "sample_rate_hz": args.fs_hz,
+                "subject": subject,
             }),
         )
     } else {
@@ -173,8 +179,11 @@ fn report(
     let g = &outcome.greeting;
     (
         format!(
-            "{device}: parameters {id} committed to slot {} and running (greeting: {} Hz, firmware {}; counter {counter})",
-            outcome.uploaded.slot, g.sample_rate_hz, g.firmware_version
+            "{device}: parameters {id} committed to slot {} and running (greeting: {} Hz, {}, firmware {}; counter {counter})",
+            outcome.uploaded.slot,
+            g.sample_rate_hz,
+            patient_text(g.height_m, g.mass_kg),
+            g.firmware_version
         ),
         json!({
             "target": if device == "QEMU" { "qemu" } else { "serial" },
@@ -183,6 +192,7 @@ fn report(
             "slot": outcome.uploaded.slot,
             "counter": counter,
             "greeting_sample_rate_hz": g.sample_rate_hz,
+            "greeting_subject": subject_json(g.height_m, g.mass_kg),
             "firmware_version": g.firmware_version.as_str(),
             "development_key": development_key,
         }),

@@ -16,6 +16,8 @@ use crate::io::params_file::ModelSource;
 use crate::io::ride_input::{RideInputArgs, open_stream};
 use crate::io::subject_args::SubjectArgs;
 use crate::io::telemetry_csv::{events_path, write_events, write_telemetry_streamed};
+use crate::monitor::json::subject_json;
+use crate::monitor::patient_text;
 
 /// Arguments of `supine replay`.
 #[derive(Debug, clap::Args)]
@@ -109,6 +111,8 @@ pub fn run(args: &Args) -> Result<()> {
     let raised = s.events.iter().filter(|e| e.is_raise()).count();
     let ride_s = result.samples as f64 / result.sample_rate_hz;
     let elapsed_s = s.elapsed.as_secs_f64();
+    // The patient as the device itself reports it (its status), not as this host built it.
+    let device = s.status();
     if args.json {
         let mut object = json!({
             "samples": result.samples,
@@ -121,6 +125,7 @@ pub fn run(args: &Args) -> Result<()> {
             "frames_lost": s.link.lost_frames,
             "frames_bad": s.link.bad_frames,
             "alerts_raised": raised,
+            "subject": subject_json(device.height_m, device.mass_kg),
             "stack_used_bytes": s.status().stack_used_bytes,
             "telemetry_csv": args.out,
             "events_csv": events,
@@ -140,9 +145,10 @@ pub fn run(args: &Args) -> Result<()> {
     // The device's own stack high-water mark: with the statics, its whole RAM use.
     println!("stack_used_bytes: {}", s.status().stack_used_bytes);
     eprintln!(
-        "replayed {} samples in {elapsed_s:.1} s ({:.1}x real time): {} telemetry records, frames lost {}, bad {}, alerts raised {}; wrote {} and {}",
+        "replayed {} samples in {elapsed_s:.1} s ({:.1}x real time) for a {}: {} telemetry records, frames lost {}, bad {}, alerts raised {}; wrote {} and {}",
         result.samples,
         ride_s / elapsed_s,
+        patient_text(device.height_m, device.mass_kg),
         records,
         s.link.lost_frames,
         s.link.bad_frames,

@@ -6,7 +6,7 @@
 
 use anyhow::{Result, anyhow};
 use sha2::{Digest, Sha256};
-use supine_core::blob::{DeviceParams, MAX_BLOB_LEN};
+use supine_core::blob::{DeviceParams, MAX_BLOB_LEN, Patient};
 use supine_core::model::device_realization;
 use supine_core::protocol::{IDENTITY_LEN, ParamsIdentity};
 use supine_core::sample_rate::SampleRate;
@@ -42,6 +42,7 @@ pub fn build(file: &ParamFile, sample_rate_hz: f64) -> Result<DeviceParams> {
         device_realization(&file.params, sample_rate_hz).map_err(|e| anyhow!("{e}"))?;
     DeviceParams::new(
         identity(file)?,
+        Patient::of(&file.params.subject),
         sample_rate,
         realization,
         device.exposure,

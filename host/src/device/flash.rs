@@ -254,6 +254,16 @@ pub fn upload_over_link<R: Read, W: Write>(
             identity_hex(&greeting.params_identity)
         );
     }
+    let p = params.patient;
+    if (greeting.height_m, greeting.mass_kg) != (p.height_m, p.mass_kg) {
+        bail!(
+            "the device acknowledged parameters for a {} m, {} kg patient but greets with {} m, {} kg",
+            p.height_m,
+            p.mass_kg,
+            greeting.height_m,
+            greeting.mass_kg
+        );
+    }
     Ok(UploadOutcome { uploaded, greeting })
 }
 

@@ -266,6 +266,8 @@ pub(crate) mod tests {
                 params_identity: [7; 16],
                 params_source: supine_core::protocol::ParamsSource::Flash { slot: 0 },
                 sample_rate_hz: 500.0,
+                height_m: 1.82,
+                mass_kg: 81.0,
                 reset_cause: supine_core::protocol::ResetCause::PowerOn,
                 last_panic: heapless::String::new(),
             }),

@@ -22,7 +22,7 @@ use std::path::Path;
 
 use anyhow::{Result, anyhow, bail};
 use serde::Serialize;
-use supine_core::alerts::{AlertConfig, AlertEvent, Level};
+use supine_core::alerts::{AlertConfig, AlertEvent, Criterion, Level};
 use supine_core::blob::DeviceParams;
 use supine_core::exposure::{
     AxisMapping, AxisValues, AxisWeighting, ExposureConfig, ExposureSettings, ExposureState,
@@ -197,6 +197,28 @@ pub struct TimedEvent {
     pub level: Option<&'static str>,
     /// The event raises (rather than clears) an alert.
     pub raise: bool,
+    /// What changed the level, with its value then (absent for faults): serialized as
+    /// `criterion` (`running-rms` or `vdv`) and `value_m_s2` or `value_m_s175`.
+    #[serde(flatten, serialize_with = "criterion_fields")]
+    pub criterion: Option<Criterion>,
+}
+
+/// [`TimedEvent::criterion`] as flat keys with the unit in the value's name.
+fn criterion_fields<S: serde::Serializer>(
+    c: &Option<Criterion>,
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    use serde::ser::SerializeMap;
+    let mut map = serializer.serialize_map(None)?;
+    if let Some(c) = c {
+        map.serialize_entry("criterion", c.name())?;
+        let key = match c {
+            Criterion::RunningRms { .. } => "value_m_s2",
+            Criterion::Vdv { .. } => "value_m_s175",
+        };
+        map.serialize_entry(key, &f64::from(c.value()))?;
+    }
+    map.end()
 }
 
 impl TimedEvent {
@@ -212,6 +234,7 @@ impl TimedEvent {
                 event: format!("{from} -> {to}"),
                 level: Some(to.name()),
                 raise: e.is_raise(),
+                criterion: e.criterion(),
             },
             AlertEvent::Fault { fault, active, .. } => Self {
                 time_s,
@@ -220,6 +243,7 @@ impl TimedEvent {
                 event: format!("{fault} {}", if active { "raised" } else { "cleared" }),
                 level: None,
                 raise: active,
+                criterion: None,
             },
         }
     }

@@ -16,9 +16,9 @@
 
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use supine_core::alerts::{AlertConfig, AlertSettings, SensorCheckConfig, SensorCheckSettings};
-use supine_core::blob::{DeviceParams, TelemetryConfig};
+use supine_core::blob::{DeviceParams, Patient, TelemetryConfig};
 use supine_core::exposure::{AxisMapping, AxisWeighting, ExposureConfig, ExposureSettings};
-use supine_core::model::DeviceRealization;
+use supine_core::model::{DeviceRealization, Subject};
 use supine_core::mounting::Mounting;
 use supine_core::sample_rate::SampleRate;
 use supine_core::weighting::WeightingKind;
@@ -336,8 +336,11 @@ pub fn core_check(
     SensorCheckSettings::new(section.sensor_checks, sample_rate).map_err(|e| e.to_string())?;
     section.mounting.validate().map_err(|e| e.to_string())?;
     if let Some(realization) = realization {
+        // The patient is the model's, checked with the model (`ModelParams::validate`, the
+        // same range): any valid one does here, where only `[device]` keys are judged.
         DeviceParams::new(
             [0; supine_core::protocol::IDENTITY_LEN],
+            Patient::of(&Subject::PAPER_MEAN),
             sample_rate,
             *realization,
             section.exposure,

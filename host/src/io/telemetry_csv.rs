@@ -9,7 +9,7 @@ use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Result, anyhow, bail};
-use supine_core::alerts::{AlertEvent, FaultFlags, Level};
+use supine_core::alerts::{AlertEvent, Criterion, FaultFlags, Level};
 use supine_core::protocol::Telemetry;
 
 use super::csv_lines::CsvLines;
@@ -20,8 +20,10 @@ use super::output::write_atomically;
 /// recording format name them (`head_x`: predicted head acceleration, m/s^2, litter axes);
 /// the rest carry their units.
 pub const TELEMETRY_HEADER: &str = "sample,time_s,head_x,head_y,head_z,running_rms_x_m_s2,running_rms_y_m_s2,running_rms_z_m_s2,running_rms_vector_m_s2,vdv_m_s175,alert_level,fault_flags,valid";
-/// Header of the alert events CSV.
-pub const EVENTS_HEADER: &str = "sample,time_s,kind,name,raised";
+/// Header of the alert events CSV. `criterion` is what changed a level (`running-rms` or
+/// `vdv`, [`Criterion::name`]) with its `value` then, in `unit` (`m/s^2` or `m/s^1.75`); a
+/// fault is its own cause, so those three cells are empty on a fault's row.
+pub const EVENTS_HEADER: &str = "sample,time_s,kind,name,raised,criterion,value,unit";
 
 /// Cells of a telemetry row.
 const TELEMETRY_CELLS: usize = 13;
@@ -225,6 +227,8 @@ pub struct EventRow {
     pub name: String,
     /// Raised (rather than cleared).
     pub raised: bool,
+    /// What changed the level and its value then (`None` for a fault).
+    pub criterion: Option<Criterion>,
 }
 
 impl EventRow {
@@ -240,13 +244,18 @@ impl EventRow {
             kind: kind.to_string(),
             name: name.to_string(),
             raised: e.is_raise(),
+            criterion: e.criterion(),
         }
     }
 
     /// The row as a line of the file, newline included.
     pub fn to_line(&self) -> String {
+        let (criterion, value, unit) = match &self.criterion {
+            Some(c) => (c.name(), c.value().to_string(), c.unit()),
+            None => ("", String::new(), ""),
+        };
         format!(
-            "{},{},{},{},{}\n",
+            "{},{},{},{},{},{criterion},{value},{unit}\n",
             self.sample,
             self.time_s,
             self.kind,
@@ -255,11 +264,16 @@ impl EventRow {
         )
     }
 
-    /// What happened, in words (`warning raised`, `stuck cleared`, `back to normal`).
+    /// What happened, in words (`level raised to warning by vdv 17.2 m/s^1.75`,
+    /// `sensor fault stuck cleared`).
     pub fn text(&self) -> String {
+        let by = self
+            .criterion
+            .map(|c| format!(" by {c}"))
+            .unwrap_or_default();
         match (self.kind.as_str(), self.raised) {
-            ("level", true) => format!("level raised to {}", self.name),
-            ("level", false) => format!("level lowered to {}", self.name),
+            ("level", true) => format!("level raised to {}{by}", self.name),
+            ("level", false) => format!("level lowered to {}{by}", self.name),
             (_, true) => format!("sensor fault {} raised", self.name),
             (_, false) => format!("sensor fault {} cleared", self.name),
         }
@@ -269,8 +283,8 @@ impl EventRow {
 /// Reads an events CSV ([`EVENTS_HEADER`]) written at `sample_rate_hz`.
 pub fn read_events(path: &Path, sample_rate_hz: f64) -> Result<Vec<EventRow>> {
     read_rows(path, EVENTS_HEADER, |cells, at| {
-        let [sample, _time, kind, name, raised] = cells[..] else {
-            bail!("{at}: expected 5 cells, found {}", cells.len());
+        let [sample, _time, kind, name, raised, criterion, value, unit] = cells[..] else {
+            bail!("{at}: expected 8 cells, found {}", cells.len());
         };
         let sample: u32 = sample.parse().map_err(|_| {
             anyhow!(
@@ -298,8 +312,51 @@ pub fn read_events(path: &Path, sample_rate_hz: f64) -> Result<Vec<EventRow>> {
             kind: kind.to_string(),
             name: name.to_string(),
             raised,
+            criterion: criterion_from_cells(kind, criterion, value, unit, at)?,
         })
     })
+}
+
+/// The criterion of an events row: for a level change `running-rms` with a value in `m/s^2`
+/// or `vdv` in `m/s^1.75`; for a fault, three empty cells.
+fn criterion_from_cells(
+    kind: &str,
+    criterion: &str,
+    value: &str,
+    unit: &str,
+    at: &str,
+) -> Result<Option<Criterion>> {
+    if kind == "fault" {
+        if [criterion, value, unit].iter().any(|c| !c.is_empty()) {
+            bail!("{at}, column criterion: expected empty criterion, value and unit for a fault");
+        }
+        return Ok(None);
+    }
+    let number = value.parse::<f32>().map_err(|_| {
+        anyhow!(
+            "{at}, column value: expected a number, found {}",
+            excerpt(value)
+        )
+    })?;
+    let criterion = match criterion {
+        "running-rms" => Criterion::RunningRms { value_m_s2: number },
+        "vdv" => Criterion::Vdv {
+            value_m_s175: number,
+        },
+        other => bail!(
+            "{at}, column criterion: expected running-rms or vdv, found {}",
+            excerpt(other)
+        ),
+    };
+    if unit != criterion.unit() {
+        bail!(
+            "{at}, column unit: expected {} for {}, found {}",
+            criterion.unit(),
+            criterion.name(),
+            excerpt(unit)
+        );
+    }
+    Ok(Some(criterion))
 }
 
 #[cfg(test)]
@@ -340,7 +397,7 @@ mod tests {
         write_events(&path, &[e], 500.0).expect("write");
         assert_eq!(
             std::fs::read_to_string(&path).expect("read"),
-            format!("{EVENTS_HEADER}\n900,1.8,fault,stuck,0\n")
+            format!("{EVENTS_HEADER}\n900,1.8,fault,stuck,0,,,\n")
         );
         let events = read_events(&path, 500.0).expect("read");
         assert_eq!(events.len(), 1);
@@ -348,6 +405,47 @@ mod tests {
         assert!((events[0].time_s - 1.8).abs() < 1e-12);
         assert_eq!(events[0].text(), "sensor fault stuck cleared");
         assert_eq!(events[0], EventRow::from_event(&e, 500.0));
+
+        // A level change carries its criterion and value, and reads back exactly.
+        let raised = AlertEvent::Level {
+            from: Level::Advisory,
+            to: Level::Warning,
+            criterion: Criterion::Vdv {
+                value_m_s175: 17.000_002,
+            },
+            at_sample: 1000,
+        };
+        let lowered = AlertEvent::Level {
+            from: Level::Warning,
+            to: Level::Normal,
+            criterion: Criterion::RunningRms { value_m_s2: 0.25 },
+            at_sample: 1500,
+        };
+        write_events(&path, &[raised, lowered], 500.0).expect("write");
+        assert_eq!(
+            std::fs::read_to_string(&path).expect("read"),
+            format!(
+                "{EVENTS_HEADER}\n1000,2,level,warning,1,vdv,17.000002,m/s^1.75\n1500,3,level,normal,0,running-rms,0.25,m/s^2\n"
+            )
+        );
+        let events = read_events(&path, 500.0).expect("read");
+        assert_eq!(events[0], EventRow::from_event(&raised, 500.0));
+        assert_eq!(events[1], EventRow::from_event(&lowered, 500.0));
+        assert_eq!(
+            events[0].text(),
+            "level raised to warning by vdv 17.000002 m/s^1.75"
+        );
+        // A unit that does not go with its criterion is refused, naming the column.
+        std::fs::write(
+            &path,
+            format!("{EVENTS_HEADER}\n1000,2,level,warning,1,vdv,17,m/s^2\n"),
+        )
+        .expect("write");
+        let err = read_events(&path, 500.0).expect_err("bad unit").to_string();
+        assert!(
+            err.ends_with("line 2, column unit: expected m/s^1.75 for vdv, found \"m/s^2\""),
+            "{err}"
+        );
     }
 
     #[test]

@@ -6,7 +6,7 @@ use std::io::Write;
 
 use anyhow::{Result, anyhow};
 use serde_json::{Value, json};
-use supine_core::alerts::AlertEvent;
+use supine_core::alerts::{AlertEvent, Criterion};
 use supine_core::pipeline::Telemetry;
 
 use super::state::{Monitor, Notice, fault_names};
@@ -33,14 +33,46 @@ pub fn event_json(e: &AlertEvent, sample_rate_hz: f64) -> Value {
     let sample = e.at_sample();
     let time_s = f64::from(sample) / sample_rate_hz;
     match *e {
-        AlertEvent::Level { from, to, .. } => json!({
-            "type": "event", "kind": "level", "sample": sample, "time_s": time_s,
-            "from": from.name(), "to": to.name(), "raised": to > from,
-        }),
+        AlertEvent::Level {
+            from,
+            to,
+            criterion,
+            ..
+        } => {
+            let mut event = json!({
+                "type": "event", "kind": "level", "sample": sample, "time_s": time_s,
+                "from": from.name(), "to": to.name(), "raised": to > from,
+                "criterion": criterion.name(),
+            });
+            let (key, value) = criterion_value_json(&criterion);
+            event[key] = json!(shortest(value));
+            event
+        }
         AlertEvent::Fault { fault, active, .. } => json!({
             "type": "event", "kind": "fault", "sample": sample, "time_s": time_s,
             "fault": fault.name(), "raised": active,
         }),
+    }
+}
+
+/// The f32's shortest decimal form as an f64 (`1.82`, not `1.8200000524520874`), as the
+/// CSV writes it: for numbers a person typed or reads (a height, a threshold's value).
+fn shortest(v: f32) -> f64 {
+    v.to_string().parse().unwrap_or(f64::NAN)
+}
+
+/// The patient a device's parameters were scaled to, under the keys of the mission
+/// report's `subject`: `{"height_m", "mass_kg"}`.
+pub fn subject_json(height_m: f32, mass_kg: f32) -> Value {
+    json!({ "height_m": shortest(height_m), "mass_kg": shortest(mass_kg) })
+}
+
+/// The criterion's value under a key that carries its unit: `value_m_s2` (running rms) or
+/// `value_m_s175` (VDV).
+pub fn criterion_value_json(c: &Criterion) -> (&'static str, f32) {
+    match *c {
+        Criterion::RunningRms { value_m_s2 } => ("value_m_s2", value_m_s2),
+        Criterion::Vdv { value_m_s175 } => ("value_m_s175", value_m_s175),
     }
 }
 
@@ -49,6 +81,7 @@ pub fn summary_json(m: &Monitor) -> Value {
     let c = m.counters();
     json!({
         "monitored_s": m.time_s(),
+        "subject": subject_json(m.greeting().height_m, m.greeting().mass_kg),
         "ride_s": m.ride_length_s(),
         "telemetry_records": c.telemetry,
         "alert_events": c.events,

@@ -154,7 +154,7 @@ impl MonitorLog {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use supine_core::alerts::{AlertEvent, Level, SensorFault};
+    use supine_core::alerts::{AlertEvent, Criterion, Level, SensorFault};
     use supine_core::protocol::Telemetry;
 
     fn telemetry(sample_index: u32) -> Telemetry {
@@ -180,6 +180,7 @@ mod tests {
         let event = AlertEvent::Level {
             from: Level::Normal,
             to: Level::Advisory,
+            criterion: Criterion::RunningRms { value_m_s2: 0.6 },
             at_sample: 240,
         };
         log.on_message(&DeviceToHost::Alert(event), 500.0)
@@ -197,7 +198,7 @@ mod tests {
         assert_eq!(std::fs::read_to_string(&t).expect("telemetry"), partial);
         assert_eq!(
             std::fs::read_to_string(&e).expect("events"),
-            format!("{EVENTS_HEADER}\n240,0.48,level,advisory,1\n")
+            format!("{EVENTS_HEADER}\n240,0.48,level,advisory,1,running-rms,0.6,m/s^2\n")
         );
         assert!(!dir.path().join("log.csv.partial").exists());
         assert!(!dir.path().join("log.events.csv.partial").exists());

@@ -17,6 +17,6 @@ pub mod state;
 pub mod view;
 
 pub use state::{
-    Counters, Monitor, Notice, Severity, describe_event, device_line, fault_names,
-    params_source_text,
+    Counters, Monitor, Notice, Severity, criterion_text, describe_event, device_line, fault_names,
+    params_source_text, patient_text,
 };

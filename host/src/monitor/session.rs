@@ -361,7 +361,7 @@ mod tests {
 
     use super::*;
     use crate::monitor::view::PlainView;
-    use supine_core::alerts::{AlertEvent, FaultFlags, Level, SensorFault};
+    use supine_core::alerts::{AlertEvent, Criterion, FaultFlags, Level, SensorFault};
     use supine_core::protocol::{
         DeviceFrame, MAX_FRAME_LEN, PROTOCOL_VERSION, ParamsSource, ResetCause, Status, Telemetry,
         encode_frame,
@@ -381,6 +381,8 @@ mod tests {
             params_identity: [1; 16],
             params_source: ParamsSource::Flash { slot: 1 },
             sample_rate_hz: 250.0,
+            height_m: 1.82,
+            mass_kg: 81.0,
             reset_cause: ResetCause::PowerOn,
             last_panic: heapless::String::new(),
         })
@@ -416,6 +418,9 @@ mod tests {
             DeviceToHost::Alert(AlertEvent::Level {
                 from: Level::Normal,
                 to: Level::Alarm,
+                criterion: Criterion::Vdv {
+                    value_m_s175: 21.25,
+                },
                 at_sample: 500,
             }),
         ));
@@ -463,7 +468,7 @@ mod tests {
         assert_eq!(
             lines[..2],
             [
-                "[ALARM] t 2.000 s (sample 500): alert level raised normal -> alarm",
+                "[ALARM] t 2.000 s (sample 500): alert level raised normal -> alarm by vdv 21.250 m/s^1.75",
                 "[FAULT] t 2.040 s (sample 510): sensor fault saturated raised",
             ]
         );

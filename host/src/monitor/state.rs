@@ -5,7 +5,7 @@
 use std::collections::VecDeque;
 
 use anyhow::Result;
-use supine_core::alerts::{AlertConfig, AlertEvent, FaultFlags, Level};
+use supine_core::alerts::{AlertConfig, AlertEvent, Criterion, FaultFlags, Level};
 use supine_core::protocol::{DeviceToHost, Greeting, ParamsSource, Status, Telemetry};
 
 use crate::device::device_params::identity_hex;
@@ -80,15 +80,33 @@ pub fn describe_event(event: &AlertEvent, sample_rate_hz: f64) -> String {
     let at = event.at_sample();
     let when = format!("t {:.3} s (sample {at})", f64::from(at) / sample_rate_hz);
     match *event {
-        AlertEvent::Level { from, to, .. } => {
+        AlertEvent::Level {
+            from,
+            to,
+            criterion,
+            ..
+        } => {
             let verb = if to > from { "raised" } else { "lowered" };
-            format!("{when}: alert level {verb} {from} -> {to}")
+            format!(
+                "{when}: alert level {verb} {from} -> {to} by {}",
+                criterion_text(&criterion)
+            )
         }
         AlertEvent::Fault { fault, active, .. } => {
             let verb = if active { "raised" } else { "cleared" };
             format!("{when}: sensor fault {fault} {verb}")
         }
     }
+}
+
+/// What changed a level, as the monitor shows it: `vdv 17.012 m/s^1.75`.
+pub fn criterion_text(c: &Criterion) -> String {
+    format!("{} {:.3} {}", c.name(), c.value(), c.unit())
+}
+
+/// The patient the device's parameters were scaled to: `patient 1.82 m, 81 kg`.
+pub fn patient_text(height_m: f32, mass_kg: f32) -> String {
+    format!("patient {height_m} m, {mass_kg} kg")
 }
 
 /// Counters of a monitoring session.
@@ -383,6 +401,8 @@ impl Monitor {
             c.link.bad_frames,
             c.link.reordered_frames,
         );
+        let g = &self.greeting;
+        text.push_str(&format!("; {}", patient_text(g.height_m, g.mass_kg)));
         if let Some(s) = &self.status {
             text.push_str(&format!(
                 "; device: {} samples processed, {} dropped, {} bad frames received",
@@ -401,15 +421,16 @@ pub fn params_source_text(source: ParamsSource) -> String {
     }
 }
 
-/// The device in one line: firmware, parameters and their source, sample rate.
+/// The device in one line: firmware, parameters and their source, sample rate, patient.
 pub fn device_line(g: &Greeting) -> String {
     let source = params_source_text(g.params_source);
     format!(
-        "firmware {}, protocol {}, parameters {} from {source}, {} Hz",
+        "firmware {}, protocol {}, parameters {} from {source}, {} Hz, {}",
         g.firmware_version.as_str(),
         g.protocol_version,
         identity_hex(&g.params_identity),
-        g.sample_rate_hz
+        g.sample_rate_hz,
+        patient_text(g.height_m, g.mass_kg)
     )
 }
 
@@ -437,6 +458,8 @@ mod tests {
             params_identity: [7; 16],
             params_source: ParamsSource::Flash { slot: 0 },
             sample_rate_hz: 500.0,
+            height_m: 1.82,
+            mass_kg: 81.0,
             reset_cause: ResetCause::PowerOn,
             last_panic: heapless::String::new(),
         }
@@ -513,6 +536,7 @@ mod tests {
         let level = |from, to| AlertEvent::Level {
             from,
             to,
+            criterion: Criterion::RunningRms { value_m_s2: 0.6 },
             at_sample: 1000,
         };
         assert_eq!(
@@ -540,7 +564,7 @@ mod tests {
         assert_eq!(Severity::of_event(&fault(false)), Severity::Info);
         assert_eq!(
             describe_event(&level(Level::Warning, Level::Advisory), 500.0),
-            "t 2.000 s (sample 1000): alert level lowered warning -> advisory"
+            "t 2.000 s (sample 1000): alert level lowered warning -> advisory by running-rms 0.600 m/s^2"
         );
         assert_eq!(
             describe_event(&fault(true), 250.0),
@@ -559,6 +583,7 @@ mod tests {
         let raise = AlertEvent::Level {
             from: Level::Normal,
             to: Level::Warning,
+            criterion: Criterion::RunningRms { value_m_s2: 0.6 },
             at_sample: 1001,
         };
         let notice = m
@@ -578,6 +603,7 @@ mod tests {
         let lower = AlertEvent::Level {
             from: Level::Warning,
             to: Level::Normal,
+            criterion: Criterion::RunningRms { value_m_s2: 0.6 },
             at_sample: 4000,
         };
         m.on_message(&DeviceToHost::Alert(lower)).expect("ok");

@@ -13,7 +13,7 @@ use crossterm::style::{Attribute, Color, Print, ResetColor, SetAttribute, SetFor
 use crossterm::terminal::{Clear, ClearType};
 use crossterm::{cursor, queue};
 
-use super::state::{Monitor, Notice, Severity, describe_event, params_source_text};
+use super::state::{Monitor, Notice, Severity, describe_event, params_source_text, patient_text};
 use crate::device::device_params::identity_hex;
 
 /// Redraw period of the live panel (10 Hz, whatever the telemetry rate).
@@ -118,12 +118,13 @@ pub fn panel_lines(m: &Monitor) -> Vec<Vec<Span>> {
         ))]);
     }
     lines.push(vec![plain(format!(
-        "device        fw {}  params {} ({})  {} Hz",
+        "device        fw {}  params {} ({})  {} Hz  {}",
         g.firmware_version.as_str(),
         // The first 8 hex digits name a parameter set well enough on screen.
         &identity_hex(&g.params_identity)[..8],
         params_source_text(g.params_source),
-        g.sample_rate_hz
+        g.sample_rate_hz,
+        patient_text(g.height_m, g.mass_kg)
     ))]);
     let c = m.counters();
     let link = &c.link;
@@ -381,6 +382,8 @@ mod tests {
             params_identity: [0xab; 16],
             params_source: ParamsSource::Flash { slot: 0 },
             sample_rate_hz: 500.0,
+            height_m: 1.82,
+            mass_kg: 81.0,
             reset_cause: ResetCause::PowerOn,
             last_panic: heapless::String::new(),
         };
@@ -425,6 +428,12 @@ mod tests {
         let lines = panel_lines(&monitor());
         assert!(
             find(&lines, "params abababab (flash slot 0)")
+                .severity
+                .is_none()
+        );
+        // The patient the device's parameters were scaled to, from its greeting.
+        assert!(
+            find(&lines, "500 Hz  patient 1.82 m, 81 kg")
                 .severity
                 .is_none()
         );

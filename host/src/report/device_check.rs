@@ -194,7 +194,7 @@ pub fn difference(v: f64, unit: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use supine_core::alerts::{AlertEvent, FaultFlags};
+    use supine_core::alerts::{AlertEvent, Criterion, FaultFlags};
     use supine_core::protocol::Telemetry;
 
     fn record(k: u32, head_z: f32, level: Level) -> Telemetry {
@@ -247,11 +247,13 @@ mod tests {
             AlertEvent::Level {
                 from: Level::Normal,
                 to: Level::Warning,
+                criterion: Criterion::RunningRms { value_m_s2: 1.0 },
                 at_sample: 1,
             },
             AlertEvent::Level {
                 from: Level::Warning,
                 to: Level::Normal,
+                criterion: Criterion::RunningRms { value_m_s2: 1.0 },
                 at_sample: 3,
             },
         ];

@@ -9,7 +9,7 @@
 
 use anyhow::{Result, bail};
 use serde::Serialize;
-use supine_core::alerts::{AlertConfig, Level};
+use supine_core::alerts::{AlertConfig, Criterion, Level};
 use supine_core::blob::DeviceParams;
 use supine_core::model::JOINT_OUTPUT_COUNT;
 use supine_core::pipeline::{PipelineOutput, PipelineState};
@@ -78,11 +78,11 @@ pub struct AlertRow {
     pub event: String,
     /// The event raises an alert.
     pub raise: bool,
-    /// What raised it: `running rms`, `VDV`, or `sensor fault`; for a lowered level, the
-    /// criterion whose value fell below the level's threshold last (`running rms and VDV`).
+    /// What raised it, as the device's pipeline names it in the event: `running rms` or
+    /// `VDV` (a lowered level: `running rms`, the only one that falls), or `sensor fault`.
     pub criterion: &'static str,
     /// The criterion's value at the event, m/s^2 (running rms) or m/s^1.75 (VDV); for a
-    /// fault or a lowered level, the running rms.
+    /// fault, the running rms.
     pub value: f64,
     /// Vector running rms at the event, m/s^2.
     pub running_rms_m_s2: f64,
@@ -226,8 +226,11 @@ pub fn evaluate_leg(
         .map(|e| {
             let k = (e.sample as usize).min(n.saturating_sub(1));
             let (rms, vdv) = (run.vector_rms[k], run.vdv[k]);
-            let (criterion, value) =
-                criterion(&params.alerts.config, e.kind, &e.event, e.raise, rms, vdv);
+            let (criterion, value) = match e.criterion {
+                Some(c @ Criterion::RunningRms { .. }) => ("running rms", f64::from(c.value())),
+                Some(c @ Criterion::Vdv { .. }) => ("VDV", f64::from(c.value())),
+                None => ("sensor fault", rms),
+            };
             AlertRow {
                 leg_time_s: e.sample as f64 / fs,
                 mission_time_s: start_s + e.sample as f64 / fs,
@@ -256,42 +259,6 @@ pub fn evaluate_leg(
         spectra,
         exposure,
     })
-}
-
-/// What raised (or lowered) a level: the criterion whose value is at or above the new
-/// level's threshold, and that value.
-fn criterion(
-    config: &AlertConfig,
-    kind: &str,
-    event: &str,
-    raise: bool,
-    rms: f64,
-    vdv: f64,
-) -> (&'static str, f64) {
-    if kind == "fault" {
-        return ("sensor fault", rms);
-    }
-    if !raise {
-        return ("running rms and VDV", rms);
-    }
-    let to = event.rsplit(' ').next().unwrap_or_default();
-    let Some(level) = LEVEL_NAMES.iter().position(|l| *l == to).filter(|&l| l > 0) else {
-        return ("running rms", rms);
-    };
-    if rms >= f64::from(config.running_rms_m_s2[level - 1]) {
-        ("running rms", rms)
-    } else if vdv >= f64::from(config.vdv_m_s175[level - 1]) {
-        ("VDV", vdv)
-    } else {
-        // Raised after the dwell on a value that has since eased below: the larger ratio.
-        let r = rms / f64::from(config.running_rms_m_s2[level - 1]);
-        let v = vdv / f64::from(config.vdv_m_s175[level - 1]);
-        if r >= v {
-            ("running rms", rms)
-        } else {
-            ("VDV", vdv)
-        }
-    }
 }
 
 /// The leg's neck and lower-back motion (the values `supine exposure` gives) and the

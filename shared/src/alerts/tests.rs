@@ -19,6 +19,21 @@ fn sample(rms_m_s2: f32, vdv_m_s175: f32) -> ExposureSample {
     }
 }
 
+/// The running-rms criterion as the state machine reports `rms_m_s2` (squared, then its
+/// square root: IEEE-754 rounds both exactly, so this is what the step computes).
+fn by_rms(rms_m_s2: f32) -> Criterion {
+    Criterion::RunningRms {
+        value_m_s2: (rms_m_s2 * rms_m_s2).sqrt(),
+    }
+}
+
+/// The VDV criterion as the state machine reports `vdv_m_s175` (fourth power, two roots).
+fn by_vdv(vdv_m_s175: f32) -> Criterion {
+    Criterion::Vdv {
+        value_m_s175: vdv_m_s175.powi(4).sqrt().sqrt(),
+    }
+}
+
 /// Feeds `rms(i)` (VDV 0) for `n` samples from index `start`; returns the events.
 fn feed(
     s: &AlertSettings,
@@ -46,16 +61,19 @@ fn a_rising_running_rms_raises_advisory_warning_and_alarm_after_the_raise_dwell(
             AlertEvent::Level {
                 from: Level::Normal,
                 to: Level::Advisory,
+                criterion: by_rms(0.6),
                 at_sample: 249
             },
             AlertEvent::Level {
                 from: Level::Advisory,
                 to: Level::Warning,
+                criterion: by_rms(0.9),
                 at_sample: 1249
             },
             AlertEvent::Level {
                 from: Level::Warning,
                 to: Level::Alarm,
+                criterion: by_rms(1.3),
                 at_sample: 2249
             },
         ]
@@ -74,6 +92,7 @@ fn a_jump_straight_to_alarm_is_one_event() {
         vec![AlertEvent::Level {
             from: Level::Normal,
             to: Level::Alarm,
+            criterion: by_rms(3.0),
             at_sample: 249
         }]
     );
@@ -117,6 +136,7 @@ fn a_level_clears_only_below_the_hysteresis_band_and_after_the_clear_dwell() {
         vec![AlertEvent::Level {
             from: Level::Warning,
             to: Level::Advisory,
+            criterion: by_rms(0.6),
             at_sample: 13_499
         }]
     );
@@ -128,6 +148,7 @@ fn a_level_clears_only_below_the_hysteresis_band_and_after_the_clear_dwell() {
         vec![AlertEvent::Level {
             from: Level::Advisory,
             to: Level::Normal,
+            criterion: by_rms(0.1),
             at_sample: 16_499
         }]
     );
@@ -150,11 +171,13 @@ fn a_vdv_over_its_threshold_raises_a_level_that_stays() {
             AlertEvent::Level {
                 from: Level::Normal,
                 to: Level::Advisory,
+                criterion: by_vdv(9.0),
                 at_sample: 249
             },
             AlertEvent::Level {
                 from: Level::Advisory,
                 to: Level::Warning,
+                criterion: by_vdv(17.5),
                 at_sample: 2249
             },
         ]
@@ -178,23 +201,61 @@ fn a_five_hertz_sine_through_the_exposure_stage_raises_advisory_half_a_second_af
     let e = ExposureSettings::new(ExposureConfig::DEFAULT, rate(FS)).unwrap();
     let a = AlertSettings::new(AlertConfig::DEFAULT, rate(FS)).unwrap();
     let (mut es, mut ast) = (ExposureState::new(), AlertState::new());
-    let mut ev = Vec::new();
+    let (mut ev, mut rms_m_s2) = (Vec::new(), Vec::new());
     for i in 0..(20.0 * FS) as u32 {
         let t = i as f64 / FS as f64;
         let z = (2.0 * std::f64::consts::PI * 5.0 * t).sin() as f32;
         let out = e.step(&mut es, [0.0, 0.0, z], i);
+        rms_m_s2.push(out.running_ms_m2_s4.sqrt());
         ev.extend(a.step(&mut ast, &out, i));
     }
     // Wj(5 Hz) is about 1.02: running rms about 0.72 m/s^2 -> advisory, not warning.
     assert_eq!(ev.len(), 1, "{ev:?}");
+    let at_sample = 2500 + 249;
     assert_eq!(
         ev[0],
         AlertEvent::Level {
             from: Level::Normal,
             to: Level::Advisory,
-            at_sample: 2500 + 249
+            criterion: Criterion::RunningRms {
+                value_m_s2: rms_m_s2[at_sample as usize]
+            },
+            at_sample
         }
     );
+    // Named with a value between the advisory and warning thresholds.
+    assert!(
+        (0.5..0.8).contains(&ev[0].criterion().map_or(0.0, |c| c.value())),
+        "{ev:?}"
+    );
+}
+
+#[test]
+fn a_raise_names_the_criterion_that_reaches_the_new_level() {
+    let s = AlertSettings::new(AlertConfig::DEFAULT, rate(FS)).unwrap();
+    // Running rms at advisory (0.6 m/s^2), VDV at warning (18 m/s^1.75): warning, by the VDV.
+    let mut st = AlertState::new();
+    let ev: Vec<_> = (0..1000)
+        .filter_map(|i| s.step(&mut st, &sample(0.6, 18.0), i))
+        .collect();
+    assert_eq!(
+        ev,
+        vec![AlertEvent::Level {
+            from: Level::Normal,
+            to: Level::Warning,
+            criterion: by_vdv(18.0),
+            at_sample: 249
+        }]
+    );
+    // Both at alarm: the running rms is named.
+    let mut st = AlertState::new();
+    let ev: Vec<_> = (0..1000)
+        .filter_map(|i| s.step(&mut st, &sample(1.5, 22.0), i))
+        .collect();
+    assert_eq!(ev.len(), 1);
+    assert_eq!(ev[0].criterion(), Some(by_rms(1.5)));
+    assert_eq!(by_vdv(18.0).name(), "vdv");
+    assert_eq!(by_rms(1.5).unit(), "m/s^2");
 }
 
 #[test]

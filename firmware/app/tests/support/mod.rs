@@ -12,8 +12,8 @@ use std::convert::Infallible;
 use std::rc::Rc;
 
 use supine_app::{App, Boot, StackGauge, TickCounter};
-use supine_core::blob::{DeviceParams, MAX_BLOB_LEN, TelemetryConfig};
-use supine_core::model::{ModelParams, Preset, device_realization};
+use supine_core::blob::{DeviceParams, MAX_BLOB_LEN, Patient, TelemetryConfig};
+use supine_core::model::{ModelParams, Preset, Subject, device_realization};
 use supine_core::pipeline::{PipelineOutput, PipelineState};
 use supine_core::protocol::{
     DeviceFrame, DeviceToHost, FrameAccumulator, FrameEvent, Greeting, HostToDevice, MAX_FRAME_LEN,
@@ -413,17 +413,21 @@ pub fn development_key() -> [u8; KEY_LEN] {
     parse_key(&text).expect("a valid key file")
 }
 
-/// Parameters from one of the paper's presets at 500 Hz, with the default settings.
+/// Parameters from one of the paper's presets scaled to `subject` at 500 Hz, with the
+/// default settings.
 pub fn preset_params(
     preset: Preset,
+    subject: Subject,
     identity: ParamsIdentity,
     telemetry: TelemetryConfig,
 ) -> DeviceParams {
-    let realization = device_realization(&ModelParams::preset(preset), SAMPLE_RATE_HZ)
-        .expect("the preset discretizes");
+    let mut model = ModelParams::preset(preset);
+    model.subject = subject;
+    let realization = device_realization(&model, SAMPLE_RATE_HZ).expect("the preset discretizes");
     let sample_rate = SampleRate::from_hz_f64(SAMPLE_RATE_HZ).expect("a supported rate");
     let mut params =
-        DeviceParams::with_defaults(identity, sample_rate, realization).expect("valid defaults");
+        DeviceParams::with_defaults(identity, Patient::of(&subject), sample_rate, realization)
+            .expect("valid defaults");
     params.telemetry = telemetry;
     params.validate().expect("valid parameters");
     params
@@ -440,15 +444,24 @@ pub fn encode(params: &DeviceParams) -> Vec<u8> {
 pub fn boot_params() -> DeviceParams {
     preset_params(
         Preset::PaperLitter,
+        Subject::PAPER_MEAN,
         BOOT_IDENTITY,
         TelemetryConfig::EVERY_SAMPLE,
     )
 }
 
-/// The uploaded parameters differ in the model and the telemetry rate (every 5th sample).
+/// The patient the uploaded parameters are scaled to.
+pub const UPLOAD_SUBJECT: Subject = Subject {
+    height_m: 1.6,
+    mass_kg: 52.0,
+};
+
+/// The uploaded parameters differ in the model, the patient ([`UPLOAD_SUBJECT`]) and the
+/// telemetry rate (every 5th sample).
 pub fn upload_params() -> DeviceParams {
     preset_params(
         Preset::PaperRigid,
+        UPLOAD_SUBJECT,
         UPLOAD_IDENTITY,
         TelemetryConfig::default_for(SAMPLE_RATE_HZ as f32),
     )
@@ -458,6 +471,7 @@ pub fn upload_params() -> DeviceParams {
 pub fn builtin_params() -> DeviceParams {
     preset_params(
         Preset::PaperLitter,
+        Subject::PAPER_MEAN,
         BUILTIN_IDENTITY,
         TelemetryConfig::EVERY_SAMPLE,
     )
