@@ -10,7 +10,7 @@
 use cortex_m_rt::entry;
 use supine_app::{App, Boot};
 use supine_core::protocol::ResetCause;
-use supine_firmware::boards::mps2_an386::{Board, SsramFlash};
+use supine_firmware::boards::mps2_an386::{Board, SsramFlash, Uart};
 use supine_firmware::cycles::InstructionCounter;
 use supine_firmware::param_flash::{self, ParamRegion};
 use supine_firmware::stack::PaintedStack;
@@ -19,6 +19,16 @@ use supine_firmware::{exit, panic_record, params};
 #[entry]
 fn main() -> ! {
     supine_firmware::reset_on_panic();
+    monitor().run()
+}
+
+/// The monitor, with the parameters chosen at boot.
+///
+/// Out of line: choosing the slot decodes and validates every slot, and those temporaries
+/// live in this frame, gone before the monitor runs. Inlined into `main`, whose frame
+/// holds the monitor for good, they would add about 8 KiB to the device's RAM.
+#[inline(never)]
+fn monitor() -> App<Uart, InstructionCounter, PaintedStack, SsramFlash> {
     let Some(board) = Board::take() else {
         // Only reachable if something took the peripherals before main: a build error.
         exit::exit(exit::FAILURE)
@@ -53,5 +63,4 @@ fn main() -> ! {
         flash,
         param_flash::device_key(),
     )
-    .run()
 }

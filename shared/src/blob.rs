@@ -172,6 +172,7 @@ impl DeviceParams {
     }
 
     /// Checks what must hold before the device runs these parameters.
+    #[inline(never)]
     pub fn validate(&self) -> Result<(), BlobError> {
         let fs = self
             .sample_rate
@@ -275,14 +276,22 @@ impl DeviceParams {
     }
 
     /// Reads and validates a blob; `bytes` may extend past its end (a flash slot).
+    #[inline(never)]
     pub fn decode(bytes: &[u8]) -> Result<Self, BlobError> {
-        let payload = blob_payload(bytes)?;
-        let params: Self = match postcard::take_from_bytes(payload) {
-            Ok((params, [])) => params,
-            _ => return Err(BlobError::Malformed),
-        };
+        let params = Self::from_payload(blob_payload(bytes)?)?;
         params.validate()?;
         Ok(params)
+    }
+
+    /// The payload decoded, not yet validated. Out of line, as is [`validate`]
+    /// (Self::validate): serde's temporaries and the checks' then take turns on the
+    /// device's stack instead of adding up in one frame.
+    #[inline(never)]
+    fn from_payload(payload: &[u8]) -> Result<Self, BlobError> {
+        match postcard::take_from_bytes(payload) {
+            Ok((params, [])) => Ok(params),
+            _ => Err(BlobError::Malformed),
+        }
     }
 }
 

@@ -97,18 +97,25 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
         flash: F,
         key: &'static [u8; KEY_LEN],
     ) -> Self {
-        let updates = Updates {
-            flash,
-            upload: Upload::new(),
-            key,
-        };
-        Self::build(link, counter, stack, boot, Some(updates))
+        Self::build(link, counter, stack, boot, Some((flash, key)))
     }
 
-    fn build(link: L, counter: C, stack: S, boot: Boot, updates: Option<Updates<F>>) -> Self {
+    /// The monitor; `updates` are the slots and key if it takes updates. The upload
+    /// buffer is made here, in place: passed in, its 4 KiB would be copied on the stack.
+    fn build(
+        link: L,
+        counter: C,
+        stack: S,
+        boot: Boot,
+        updates: Option<(F, &'static [u8; KEY_LEN])>,
+    ) -> Self {
         Self {
             link,
-            updates,
+            updates: updates.map(|(flash, key)| Updates {
+                flash,
+                upload: Upload::new(),
+                key,
+            }),
             counter,
             stack,
             boot,
