@@ -9,6 +9,7 @@
 
 use cortex_m_rt::entry;
 use supine_app::{App, Boot};
+use supine_core::blob::BlobError;
 use supine_core::protocol::ResetCause;
 use supine_firmware::boards::mps2_an386::{Board, SsramFlash, Uart};
 use supine_firmware::cycles::InstructionCounter;
@@ -39,7 +40,9 @@ fn monitor() -> App<Uart, InstructionCounter, PaintedStack, SsramFlash> {
         exit::exit(exit::FAILURE)
     };
     let flash = SsramFlash::new(region);
-    let Ok((params, source)) = params::load_from(&flash) else {
+    let mut loaded = Err(BlobError::Empty);
+    let source = params::load_to(&flash, &mut loaded);
+    let Ok(params) = loaded else {
         // The built-in default was validated when it was built: a broken build.
         exit::exit(exit::FAILURE)
     };

@@ -276,21 +276,40 @@ impl DeviceParams {
     }
 
     /// Reads and validates a blob; `bytes` may extend past its end (a flash slot).
-    #[inline(never)]
     pub fn decode(bytes: &[u8]) -> Result<Self, BlobError> {
-        let params = Self::from_payload(blob_payload(bytes)?)?;
-        params.validate()?;
-        Ok(params)
+        let mut decoded = Err(BlobError::Empty);
+        Self::decode_to(bytes, &mut decoded);
+        decoded
     }
 
-    /// The payload decoded, not yet validated. Out of line, as is [`validate`]
-    /// (Self::validate): serde's temporaries and the checks' then take turns on the
-    /// device's stack instead of adding up in one frame.
+    /// [`decode`](Self::decode), with the outcome written into `out`: the parameters are
+    /// decoded straight into the caller's variable and checked there, so the device's
+    /// stack holds no second copy of them (an upload's, BENCHMARKS.md).
     #[inline(never)]
-    fn from_payload(payload: &[u8]) -> Result<Self, BlobError> {
-        match postcard::take_from_bytes(payload) {
-            Ok((params, [])) => Ok(params),
-            _ => Err(BlobError::Malformed),
+    pub fn decode_to(bytes: &[u8], out: &mut Result<Self, BlobError>) {
+        match blob_payload(bytes) {
+            Ok(payload) => Self::from_payload(payload, out),
+            Err(e) => *out = Err(e),
+        }
+        if let Ok(params) = out
+            && let Err(e) = params.validate()
+        {
+            *out = Err(e);
+        }
+    }
+
+    /// The payload decoded, not yet validated. Out of line, as is
+    /// [`validate`](Self::validate): serde's temporaries and the checks' then take turns
+    /// on the device's stack instead of adding up in one frame.
+    #[inline(never)]
+    fn from_payload(payload: &[u8], out: &mut Result<Self, BlobError>) {
+        let mut deserializer = postcard::Deserializer::from_bytes(payload);
+        match Self::deserialize(&mut deserializer) {
+            Ok(params) => *out = Ok(params),
+            Err(_) => *out = Err(BlobError::Malformed),
+        }
+        if !matches!(deserializer.finalize(), Ok([])) {
+            *out = Err(BlobError::Malformed);
         }
     }
 }
