@@ -56,33 +56,8 @@ pub struct ActiveParams {
     pub counter: u32,
 }
 
-/// What one slot holds.
-// Decoded once at boot or after an update, never stored in bulk: the size gap is harmless.
-#[allow(clippy::large_enum_variant)]
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum SlotContent {
-    /// A valid blob and, if it was committed by an update, its counter.
-    Valid {
-        /// The validated parameters.
-        params: DeviceParams,
-        /// Counter of the commit record, `None` for a plain blob.
-        counter: Option<u32>,
-    },
-    /// No usable blob, and why.
-    Invalid(BlobError),
-}
-
-/// Reads and validates one slot.
-pub fn read_slot(bytes: &[u8]) -> SlotContent {
-    match DeviceParams::decode(bytes) {
-        Err(e) => SlotContent::Invalid(e),
-        Ok(params) => SlotContent::Valid {
-            params,
-            counter: commit_counter(bytes),
-        },
-    }
-}
-
+/// The counter of a slot's commit record, if the record is sound (its magic and CRC
+/// match); the blob itself is not checked here.
 fn commit_counter(bytes: &[u8]) -> Option<u32> {
     let len = announced_len(bytes)?;
     let blob = bytes.get(..len)?;
@@ -155,9 +130,8 @@ fn highest_counter(flash: &impl ParamFlash, scratch: &mut Result<DeviceParams, B
         .unwrap_or(0)
 }
 
-/// The counter of a slot holding a valid committed blob: [`read_slot`]'s, without keeping
-/// the parameters (decoded into `scratch`). The record is checked first, so a slot
-/// without one is not decoded.
+/// The counter of a slot holding a valid committed blob (its parameters decoded into
+/// `scratch`). The record is checked first, so a slot without one is not decoded.
 fn committed_counter(bytes: &[u8], scratch: &mut Result<DeviceParams, BlobError>) -> Option<u32> {
     let counter = commit_counter(bytes)?;
     DeviceParams::decode_to(bytes, scratch);
