@@ -27,7 +27,7 @@ fn main() -> ! {
 ///
 /// Out of line: choosing the slot decodes and validates every slot, and those temporaries
 /// live in this frame, gone before the monitor runs. Inlined into `main`, whose frame
-/// holds the monitor for good, they would add about 8 KiB to the device's RAM.
+/// holds the monitor for good, they would add kilobytes to the device's RAM.
 #[inline(never)]
 fn monitor() -> App<Uart, InstructionCounter, PaintedStack, SsramFlash> {
     let Some(board) = Board::take() else {
