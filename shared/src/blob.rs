@@ -12,7 +12,7 @@
 
 use core::fmt;
 
-use crc::{CRC_32_ISO_HDLC, Crc};
+use crc::{CRC_32_ISO_HDLC, Crc, NoTable};
 use serde::{Deserialize, Serialize};
 
 use crate::alerts::{AlertConfig, AlertSettings, SensorCheckConfig, SensorCheckSettings};
@@ -50,7 +50,7 @@ pub const MAX_STATE: f32 = 1.0e30;
 pub type ParamsIdentity = [u8; IDENTITY_LEN];
 
 /// The CRC-32/ISO-HDLC engine used for blobs and commit records.
-pub(crate) const CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
+pub(crate) const CRC32: Crc<u32, NoTable> = Crc::<u32, NoTable>::new(&CRC_32_ISO_HDLC);
 
 /// CRC-32/ISO-HDLC (the zlib/Ethernet CRC) of `bytes`.
 pub fn crc32(bytes: &[u8]) -> u32 {
