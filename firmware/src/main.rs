@@ -11,8 +11,9 @@
 
 use cortex_m_rt::entry;
 use supine_app::{App, Boot};
+use supine_core::blob::BlobError;
 use supine_core::protocol::ResetCause;
-use supine_firmware::boards::mps2_an386::{Board, SsramFlash};
+use supine_firmware::boards::mps2_an386::{Board, SsramFlash, Uart};
 use supine_firmware::cycles::InstructionCounter;
 use supine_firmware::host_file::{self, HostFile};
 use supine_firmware::param_flash::{self, ParamRegion};
@@ -23,6 +24,16 @@ use supine_firmware::{exit, panic_record, params};
 #[entry]
 fn main() -> ! {
     supine_firmware::reset_on_panic();
+    monitor().run()
+}
+
+/// The monitor, with the parameters chosen at boot.
+///
+/// Out of line: choosing the slot decodes and validates every slot, and those temporaries
+/// live in this frame, gone before the monitor runs. Inlined into `main`, whose frame
+/// holds the monitor for good, they would add kilobytes to the device's RAM.
+#[inline(never)]
+fn monitor() -> App<ReplayLink<Uart>, InstructionCounter, PaintedStack, SsramFlash> {
     let Some(board) = Board::take() else {
         // Only reachable if something took the peripherals before main: a build error.
         exit::exit(exit::FAILURE)
@@ -33,7 +44,9 @@ fn main() -> ! {
         exit::exit(exit::FAILURE)
     };
     let flash = SsramFlash::new(region);
-    let Ok((params, source)) = params::load_from(&flash) else {
+    let mut loaded = Err(BlobError::Empty);
+    let source = params::load_to(&flash, &mut loaded);
+    let Ok(params) = loaded else {
         // The built-in default was validated when it was built: a broken build.
         exit::exit(exit::FAILURE)
     };
@@ -58,7 +71,6 @@ fn main() -> ! {
         flash,
         param_flash::device_key(),
     )
-    .run()
 }
 
 /// The host file named by `--replay-input FILE` on the semihosting command line, open; a

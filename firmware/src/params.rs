@@ -13,7 +13,7 @@ use core::fmt;
 use supine_core::blob::{BlobError, DeviceParams};
 use supine_core::model::{DeviceRealization, RealizationError};
 use supine_core::protocol::{ParamsIdentity, ParamsSource};
-use supine_core::upload::{ParamFlash, select};
+use supine_core::upload::{ParamFlash, select_to};
 
 use crate::param_flash::ParamRegion;
 
@@ -94,10 +94,20 @@ pub fn default_blob() -> &'static [u8] {
 /// slot A was refused (`supine_core::upload::select`). Errs only if the built-in default
 /// itself is refused, which `firmware/build.rs` has already ruled out when it built it.
 pub fn load_from(flash: &impl ParamFlash) -> Result<(DeviceParams, ParamsSource), BlobError> {
-    match select(flash) {
-        Ok(active) => Ok((active.params, ParamsSource::Flash { slot: active.slot })),
+    let mut decoded = Err(BlobError::Empty);
+    let source = load_to(flash, &mut decoded);
+    decoded.map(|params| (params, source))
+}
+
+/// [`load_from`], with the parameters decoded into `out`: the caller's place, so boot
+/// holds no second copy of them on the stack.
+pub fn load_to(flash: &impl ParamFlash, out: &mut Result<DeviceParams, BlobError>) -> ParamsSource {
+    let (slot, _) = select_to(flash, out);
+    match *out {
+        Ok(_) => ParamsSource::Flash { slot },
         Err(reason) => {
-            DeviceParams::decode(DEFAULT_BLOB).map(|p| (p, ParamsSource::BuiltInDefault { reason }))
+            DeviceParams::decode_to(DEFAULT_BLOB, out);
+            ParamsSource::BuiltInDefault { reason }
         }
     }
 }

@@ -12,7 +12,7 @@
 
 use core::fmt;
 
-use crc::{CRC_32_ISO_HDLC, Crc};
+use crc::{CRC_32_ISO_HDLC, Crc, NoTable};
 use serde::{Deserialize, Serialize};
 
 use crate::alerts::{AlertConfig, AlertSettings, SensorCheckConfig, SensorCheckSettings};
@@ -50,7 +50,7 @@ pub const MAX_STATE: f32 = 1.0e30;
 pub type ParamsIdentity = [u8; IDENTITY_LEN];
 
 /// The CRC-32/ISO-HDLC engine used for blobs and commit records.
-pub(crate) const CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
+pub(crate) const CRC32: Crc<u32, NoTable> = Crc::<u32, NoTable>::new(&CRC_32_ISO_HDLC);
 
 /// CRC-32/ISO-HDLC (the zlib/Ethernet CRC) of `bytes`.
 pub fn crc32(bytes: &[u8]) -> u32 {
@@ -212,6 +212,7 @@ impl DeviceParams {
     }
 
     /// Checks what must hold before the device runs these parameters.
+    #[inline(never)]
     pub fn validate(&self) -> Result<(), BlobError> {
         self.patient.validate()?;
         let fs = self
@@ -317,13 +318,40 @@ impl DeviceParams {
 
     /// Reads and validates a blob; `bytes` may extend past its end (a flash slot).
     pub fn decode(bytes: &[u8]) -> Result<Self, BlobError> {
-        let payload = blob_payload(bytes)?;
-        let params: Self = match postcard::take_from_bytes(payload) {
-            Ok((params, [])) => params,
-            _ => return Err(BlobError::Malformed),
-        };
-        params.validate()?;
-        Ok(params)
+        let mut decoded = Err(BlobError::Empty);
+        Self::decode_to(bytes, &mut decoded);
+        decoded
+    }
+
+    /// [`decode`](Self::decode), with the outcome written into `out`: the parameters are
+    /// decoded straight into the caller's variable and checked there, so the device's
+    /// stack holds no second copy of them (an upload's, BENCHMARKS.md).
+    #[inline(never)]
+    pub fn decode_to(bytes: &[u8], out: &mut Result<Self, BlobError>) {
+        match blob_payload(bytes) {
+            Ok(payload) => Self::from_payload(payload, out),
+            Err(e) => *out = Err(e),
+        }
+        if let Ok(params) = out
+            && let Err(e) = params.validate()
+        {
+            *out = Err(e);
+        }
+    }
+
+    /// The payload decoded, not yet validated. Out of line, as is
+    /// [`validate`](Self::validate): serde's temporaries and the checks' then take turns
+    /// on the device's stack instead of adding up in one frame.
+    #[inline(never)]
+    fn from_payload(payload: &[u8], out: &mut Result<Self, BlobError>) {
+        let mut deserializer = postcard::Deserializer::from_bytes(payload);
+        match Self::deserialize(&mut deserializer) {
+            Ok(params) => *out = Ok(params),
+            Err(_) => *out = Err(BlobError::Malformed),
+        }
+        if !matches!(deserializer.finalize(), Ok([])) {
+            *out = Err(BlobError::Malformed);
+        }
     }
 }
 

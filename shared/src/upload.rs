@@ -56,33 +56,8 @@ pub struct ActiveParams {
     pub counter: u32,
 }
 
-/// What one slot holds.
-// Decoded once at boot or after an update, never stored in bulk: the size gap is harmless.
-#[allow(clippy::large_enum_variant)]
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum SlotContent {
-    /// A valid blob and, if it was committed by an update, its counter.
-    Valid {
-        /// The validated parameters.
-        params: DeviceParams,
-        /// Counter of the commit record, `None` for a plain blob.
-        counter: Option<u32>,
-    },
-    /// No usable blob, and why.
-    Invalid(BlobError),
-}
-
-/// Reads and validates one slot.
-pub fn read_slot(bytes: &[u8]) -> SlotContent {
-    match DeviceParams::decode(bytes) {
-        Err(e) => SlotContent::Invalid(e),
-        Ok(params) => SlotContent::Valid {
-            params,
-            counter: commit_counter(bytes),
-        },
-    }
-}
-
+/// The counter of a slot's commit record, if the record is sound (its magic and CRC
+/// match); the blob itself is not checked here.
 fn commit_counter(bytes: &[u8]) -> Option<u32> {
     let len = announced_len(bytes)?;
     let blob = bytes.get(..len)?;
@@ -112,50 +87,55 @@ fn commit_crc(blob: &[u8], counter: u32) -> u32 {
 
 /// The slot to run at boot, or the reason (slot 0's) there is none.
 pub fn select(flash: &impl ParamFlash) -> Result<ActiveParams, BlobError> {
-    let mut best: Option<ActiveParams> = None;
-    let mut plain_slot0 = None;
-    let mut reason = BlobError::Empty;
+    let mut decoded = Err(BlobError::Empty);
+    let (slot, counter) = select_to(flash, &mut decoded);
+    Ok(ActiveParams {
+        params: decoded?,
+        slot,
+        counter,
+    })
+}
+
+/// [`select`], with the parameters decoded into `out` (or slot 0's error, the reason no
+/// slot runs); returns the slot and its counter. The slot is chosen by counters alone and
+/// only it is decoded again, into the caller's place: the device boots with no second
+/// copy of the parameters on its stack.
+pub fn select_to(flash: &impl ParamFlash, out: &mut Result<DeviceParams, BlobError>) -> (u8, u32) {
+    let mut best: Option<(usize, u32)> = None;
     for slot in 0..SLOT_COUNT {
-        match read_slot(flash.slot(slot)) {
-            SlotContent::Valid {
-                params,
-                counter: Some(counter),
-            } => {
-                if best.is_none_or(|b| counter > b.counter) {
-                    best = Some(ActiveParams {
-                        params,
-                        slot: slot as u8,
-                        counter,
-                    });
-                }
-            }
-            SlotContent::Valid {
-                params,
-                counter: None,
-            } if slot == 0 => {
-                plain_slot0 = Some(ActiveParams {
-                    params,
-                    slot: 0,
-                    counter: 0,
-                });
-            }
-            SlotContent::Valid { .. } => {}
-            SlotContent::Invalid(e) if slot == 0 => reason = e,
-            SlotContent::Invalid(_) => {}
+        if let Some(counter) = committed_counter(flash.slot(slot), out)
+            && best.is_none_or(|(_, c)| counter > c)
+        {
+            best = Some((slot, counter));
         }
     }
-    best.or(plain_slot0).ok_or(reason)
+    // No committed slot: slot 0's blob, which then has no valid record (a plain blob), or
+    // slot 0's error as the reason.
+    let (slot, counter) = best.unwrap_or((0, 0));
+    DeviceParams::decode_to(flash.slot(slot), out);
+    (slot as u8, counter)
 }
 
 /// The highest counter any committed slot carries (0 if none): updates must exceed it.
 pub fn last_counter(flash: &impl ParamFlash) -> u32 {
+    highest_counter(flash, &mut Err(BlobError::Empty))
+}
+
+/// [`last_counter`], decoding each slot into `scratch` (left holding the last slot
+/// decoded): a commit lends the place its new parameters are decoded into next.
+fn highest_counter(flash: &impl ParamFlash, scratch: &mut Result<DeviceParams, BlobError>) -> u32 {
     (0..SLOT_COUNT)
-        .filter_map(|slot| match read_slot(flash.slot(slot)) {
-            SlotContent::Valid { counter, .. } => counter,
-            SlotContent::Invalid(_) => None,
-        })
+        .filter_map(|slot| committed_counter(flash.slot(slot), scratch))
         .max()
         .unwrap_or(0)
+}
+
+/// The counter of a slot holding a valid committed blob (its parameters decoded into
+/// `scratch`). The record is checked first, so a slot without one is not decoded.
+fn committed_counter(bytes: &[u8], scratch: &mut Result<DeviceParams, BlobError>) -> Option<u32> {
+    let counter = commit_counter(bytes)?;
+    DeviceParams::decode_to(bytes, scratch);
+    scratch.is_ok().then_some(counter)
 }
 
 /// A device key file that is not 64 hexadecimal digits.
@@ -230,12 +210,11 @@ impl Default for Upload {
     }
 }
 
-/// A committed update: what now runs.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// A committed update: where it went (the parameters are the caller's, see
+/// [`Upload::commit`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Committed {
-    /// The new parameters.
-    pub params: DeviceParams,
-    /// Their identity.
+    /// The new parameters' identity.
     pub identity: ParamsIdentity,
     /// The slot they went to.
     pub slot: u8,
@@ -307,7 +286,10 @@ impl Upload {
     }
 
     /// Verifies the received blob and, only if everything holds, writes it to the slot not
-    /// running (`running_slot`, `None` for the built-in parameters) and reads it back.
+    /// running (`running_slot`, `None` for the built-in parameters), reads it back and
+    /// replaces `params`, the running parameters, with it. Any refusal leaves `params`
+    /// untouched. The new parameters are decoded once, beside the running ones, and
+    /// copied over them: the device holds no other copy (its RAM budget, BENCHMARKS.md).
     ///
     /// Checks, each refused with its own code before flash is touched: all bytes arrived,
     /// the HMAC, the counter, the blob's own validation, and that its header announces
@@ -317,6 +299,7 @@ impl Upload {
         key: &[u8; KEY_LEN],
         flash: &mut impl ParamFlash,
         running_slot: Option<u8>,
+        params: &mut DeviceParams,
     ) -> Result<Committed, UploadError> {
         if !self.open {
             return Err(UploadError::NotStarted);
@@ -325,22 +308,45 @@ impl Upload {
             return Err(UploadError::Incomplete);
         }
         self.open = false;
-        let blob = &self.buf[..self.expected];
+        self.verify_mac(key)?;
+        self.store(flash, running_slot, params)
+    }
+
+    /// The HMAC. Out of line: its state and the new parameters take turns on the stack.
+    #[inline(never)]
+    fn verify_mac(&self, key: &[u8; KEY_LEN]) -> Result<(), UploadError> {
         let mut mac = new_mac(key, self.counter).ok_or(UploadError::BadSignature)?;
-        mac.update(blob);
+        mac.update(self.blob());
         mac.verify_slice(&self.mac)
-            .map_err(|_| UploadError::BadSignature)?;
-        if self.counter <= last_counter(flash) {
+            .map_err(|_| UploadError::BadSignature)
+    }
+
+    /// The counter, the blob's validation and length, then the write and, last, `params`
+    /// replaced. The slots' counters and the new parameters are decoded into one place.
+    #[inline(never)]
+    fn store(
+        &self,
+        flash: &mut impl ParamFlash,
+        running_slot: Option<u8>,
+        params: &mut DeviceParams,
+    ) -> Result<Committed, UploadError> {
+        let mut decoded = Err(BlobError::Empty);
+        if self.counter <= highest_counter(flash, &mut decoded) {
             return Err(UploadError::Replayed);
         }
-        let decoded = DeviceParams::decode(blob);
+        let blob = self.blob();
+        DeviceParams::decode_to(blob, &mut decoded);
         // A header that announces another length than `ParamBegin` did: a valid blob with
         // bytes after it, or one cut short (its only fault then is being truncated).
         let other_len = announced_len(blob).is_some_and(|len| len != blob.len());
         if other_len && matches!(decoded, Ok(_) | Err(BlobError::Truncated)) {
             return Err(UploadError::LengthMismatch);
         }
-        let params = decoded.map_err(UploadError::Blob)?;
+        // Borrowed, not moved: a move would be a second copy on the device's stack.
+        let new = match &decoded {
+            Ok(new) => new,
+            Err(e) => return Err(UploadError::Blob(*e)),
+        };
         let target = match running_slot {
             Some(0) => 1,
             _ => 0,
@@ -351,12 +357,17 @@ impl Upload {
             scrub(flash, target);
             return Err(UploadError::Flash);
         }
+        *params = *new;
         Ok(Committed {
-            params,
             identity: params.identity,
             slot: target as u8,
             counter: self.counter,
         })
+    }
+
+    /// The bytes received.
+    fn blob(&self) -> &[u8] {
+        self.buf.get(..self.expected).unwrap_or(&[])
     }
 }
 

@@ -108,7 +108,29 @@ fn upload(
             bytes,
         })?;
     }
-    up.commit(&KEY, flash, running).map(|c| c.slot)
+    commit(up, flash, running, blob)
+}
+
+/// Commits with running parameters unlike any blob's, and checks what `commit` promises
+/// of them: replaced by exactly the blob's on success, untouched on any refusal.
+fn commit(
+    up: &mut Upload,
+    flash: &mut SimFlash,
+    running: Option<u8>,
+    blob: &[u8],
+) -> Result<u8, UploadError> {
+    let mut params = blob_example().unwrap();
+    params.identity = [0xEE; 16];
+    let before = params;
+    let outcome = up.commit(&KEY, flash, running, &mut params);
+    match outcome {
+        Ok(c) => {
+            assert_eq!(params, DeviceParams::decode(blob).unwrap());
+            assert_eq!(c.identity, params.identity);
+        }
+        Err(_) => assert_eq!(params, before, "a refused upload changed the parameters"),
+    }
+    outcome.map(|c| c.slot)
 }
 
 #[test]
@@ -228,7 +250,7 @@ fn unsigned_replayed_truncated_and_corrupted_updates_change_nothing() {
     })
     .unwrap();
     assert_eq!(
-        up.commit(&KEY, &mut flash, Some(1)).map(|c| c.slot),
+        commit(&mut up, &mut flash, Some(1), &other),
         Err(UploadError::Incomplete)
     );
     // Chunks out of order, and chunks without a begin.
@@ -309,7 +331,7 @@ fn a_cut_transfer_followed_by_a_reset_keeps_the_running_parameters() {
     // Reset: the RAM session is gone (a fresh one starts empty), flash untouched.
     let mut up = Upload::new();
     assert_eq!(
-        up.commit(&KEY, &mut flash, Some(0)).map(|c| c.slot),
+        commit(&mut up, &mut flash, Some(0), &new),
         Err(UploadError::NotStarted)
     );
     let boot = select(&flash).unwrap();

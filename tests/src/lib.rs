@@ -17,6 +17,15 @@ use supine_core::test_vector::TestVector;
 /// `firmware/build.rs` uses too.
 pub const BUILTIN_SAMPLE_RATE_HZ: f64 = supine_core::model::DEFAULT_SAMPLE_RATE_HZ;
 
+/// The product monitor's whole RAM budget (issue 16): its statics and its stack's
+/// high-water mark together, bytes.
+pub const RAM_BUDGET_BYTES: u64 = 16 * 1024;
+
+/// The deepest the product monitor's stack may reach, boot, streaming and a committed
+/// upload included: 14,964 B measured (BENCHMARKS.md) and a 396 B margin. The image's
+/// statics and this stay within [`RAM_BUDGET_BYTES`] (`image_size.rs`).
+pub const MONITOR_STACK_CEILING_BYTES: u32 = 15 * 1024;
+
 /// One firmware build at a time: parallel tests would only queue on cargo's lock.
 static BUILD: Mutex<()> = Mutex::new(());
 

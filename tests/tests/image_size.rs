@@ -4,7 +4,7 @@
 //! time instead (`stack_used_bytes` in the status, `monitor.rs`).
 
 use object::{Object, ObjectSegment};
-use supine_qemu_tests::firmware;
+use supine_qemu_tests::{MONITOR_STACK_CEILING_BYTES, RAM_BUDGET_BYTES, firmware};
 
 /// `memory.x`: RAM starts here; everything below is flash (code, then the PARAMS region).
 const RAM_ORIGIN: u64 = supine_host::device::memory_map::RAM_ORIGIN as u64;
@@ -48,5 +48,11 @@ fn the_product_image_fits_64_kib_of_flash_and_16_kib_of_static_ram() {
     assert!(
         ram <= STATIC_RAM_BUDGET_BYTES,
         "static RAM {ram} B over 16 KiB"
+    );
+    // All RAM: the statics and the stack the QEMU tests hold the monitor to.
+    let stack = u64::from(MONITOR_STACK_CEILING_BYTES);
+    assert!(
+        ram + stack <= RAM_BUDGET_BYTES,
+        "static RAM {ram} B and a stack ceiling of {stack} B pass 16 KiB"
     );
 }

@@ -34,7 +34,7 @@ use supine_host::device::qemu::{PARAMS_ADDR, Qemu, QemuConfig};
 use supine_host::device::replay::{Outgoing, Session, SessionConfig, sample_messages, session};
 use supine_host::exposure::reference;
 use supine_host::io::params_file::{DeviceSection, ParamFile};
-use supine_qemu_tests::firmware;
+use supine_qemu_tests::{MONITOR_STACK_CEILING_BYTES, firmware};
 
 const FS_HZ: f64 = 500.0;
 const STEP: Duration = Duration::from_secs(20);
@@ -212,6 +212,13 @@ fn a_signed_upload_switches_the_parameters_and_a_replay_of_it_is_refused() {
     let host_a = reference::pipeline(&a, &indices, &input);
     assert_eq!(s.telemetry.len(), n);
     assert_eq!(s.telemetry, host_b.telemetry, "telemetry is not B's");
+    // The deepest path the monitor has: boot, a committed upload, a refused one, a ride.
+    let stack = s.status().stack_used_bytes;
+    println!("stack_used_bytes: {stack}");
+    assert!(
+        stack > 0 && stack <= MONITOR_STACK_CEILING_BYTES,
+        "stack_used_bytes {stack}"
+    );
     // Events bit for bit, each level change's criterion and value included.
     assert_eq!(s.events, host_b.events, "events are not B's");
     assert!(

@@ -40,8 +40,9 @@ use crate::tx_ring::TxRing;
 use crate::updates::{NoUpdates, Updates};
 
 /// Free ring space required before a block is processed, so the pipeline never waits on
-/// the link: 16 telemetry frames and a few alert frames need about 1 KiB.
-const TX_HEADROOM: usize = 2048;
+/// the link: 16 telemetry frames of at most 48 bytes (768) and a few alert frames. If a
+/// block ever needs more, the ring drains as it fills: slower, never lost.
+const TX_HEADROOM: usize = 1280;
 
 /// The longest stretch of missing sample indices, in seconds of samples at the running
 /// rate, counted as lost: longer than any stall of a running device (the Black Pill's
@@ -97,18 +98,25 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
         flash: F,
         key: &'static [u8; KEY_LEN],
     ) -> Self {
-        let updates = Updates {
-            flash,
-            upload: Upload::new(),
-            key,
-        };
-        Self::build(link, counter, stack, boot, Some(updates))
+        Self::build(link, counter, stack, boot, Some((flash, key)))
     }
 
-    fn build(link: L, counter: C, stack: S, boot: Boot, updates: Option<Updates<F>>) -> Self {
+    /// The monitor; `updates` are the slots and key if it takes updates. The upload
+    /// buffer is made here, in place: passed in, its 4 KiB would be copied on the stack.
+    fn build(
+        link: L,
+        counter: C,
+        stack: S,
+        boot: Boot,
+        updates: Option<(F, &'static [u8; KEY_LEN])>,
+    ) -> Self {
         Self {
             link,
-            updates,
+            updates: updates.map(|(flash, key)| Updates {
+                flash,
+                upload: Upload::new(),
+                key,
+            }),
             counter,
             stack,
             boot,
@@ -229,14 +237,15 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
             ParamsSource::BuiltInDefault { .. } => None,
         };
         let result = match self.updates.as_mut() {
-            Some(u) => u.upload.commit(u.key, &mut u.flash, running),
+            Some(u) => u
+                .upload
+                .commit(u.key, &mut u.flash, running, &mut self.boot.params),
             None => Err(UploadError::UpdatesUnsupported),
         };
         let committed = match result {
             Ok(c) => c,
             Err(e) => return self.answer_upload(Err(e)),
         };
-        self.boot.params = committed.params;
         self.boot.source = ParamsSource::Flash {
             slot: committed.slot,
         };

@@ -6,9 +6,10 @@ use supine_core::protocol::Telemetry;
 use crate::link::{self, Link};
 use supine_core::protocol::telemetry_frame;
 
-/// Bytes of the transmit ring: more than one block's worst-case output. A power of two,
-/// so `i & TX_MASK` indexes it without a bounds check.
-const TX_RING_LEN: usize = 4096;
+/// Bytes of the transmit ring: more than one block's worst-case output (the monitor's
+/// `TX_HEADROOM`), and no more: it is an eighth of the device's 16 KiB RAM budget. A
+/// power of two, so `i & TX_MASK` indexes it without a bounds check.
+const TX_RING_LEN: usize = 2048;
 const TX_MASK: usize = TX_RING_LEN - 1;
 
 /// A byte ring for outgoing frames.

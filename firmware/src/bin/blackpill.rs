@@ -19,7 +19,8 @@ use stm32f4xx_hal::rcc::Config;
 use stm32f4xx_hal::serial::Serial;
 use stm32f4xx_hal::watchdog::IndependentWatchdog;
 use supine_app::{App, Boot};
-use supine_core::protocol::ResetCause;
+use supine_core::blob::BlobError;
+use supine_core::protocol::{PANIC_MESSAGE_LEN, ParamsSource, ResetCause};
 use supine_firmware::boards::blackpill::{BoardFlash, Usart1Link};
 use supine_firmware::cycles::InstructionCounter;
 use supine_firmware::param_flash::{self, ParamRegion};
@@ -51,23 +52,6 @@ fn main() -> ! {
         defmt::error!("the PARAMS region is not sectors 6 and 7: broken build");
         cortex_m::peripheral::SCB::sys_reset()
     };
-    let Ok((params, source)) = params::load_from(&flash) else {
-        defmt::error!("the built-in parameters are refused: broken build");
-        cortex_m::peripheral::SCB::sys_reset()
-    };
-    match source {
-        supine_core::protocol::ParamsSource::Flash { slot } => {
-            defmt::info!("parameters from flash slot {}", slot)
-        }
-        supine_core::protocol::ParamsSource::BuiltInDefault { reason } => {
-            defmt::warn!(
-                "built-in default parameters: flash blob refused ({})",
-                reason.code()
-            )
-        }
-    }
-    let mounting = params.mounting;
-
     let Ok(serial) = Serial::new(dp.USART1, (gpioa.pa9, gpioa.pa10), 921_600.bps(), &mut rcc)
     else {
         defmt::error!("USART1 configuration refused");
@@ -81,7 +65,23 @@ fn main() -> ! {
         I2cMode::fast(400.kHz(), DutyCycle::Ratio2to1),
         &mut rcc,
     );
-    let mut sensor = match Lis3dhSource::new(i2c, mounting) {
+
+    let counter = InstructionCounter::new(cp.SYST);
+    // A panic resets through software after recording its message; the watchdog flag
+    // alone means the loop hung.
+    let reset_cause = if last_panic.is_some() {
+        ResetCause::Panic
+    } else if watchdog_reset {
+        ResetCause::Watchdog
+    } else {
+        ResetCause::PowerOn
+    };
+    let boot = BootState {
+        reset_cause,
+        last_panic: last_panic.unwrap_or_default(),
+    };
+    let mut app = monitor(link, counter, flash, boot);
+    let mut sensor = match Lis3dhSource::new(i2c, app.mounting()) {
         Ok(sensor) => Some(sensor),
         Err(_) => {
             // Keep serving the host (greeting, status); the missing samples show as none.
@@ -89,25 +89,6 @@ fn main() -> ! {
             None
         }
     };
-
-    let boot = Boot {
-        build: "+blackpill",
-        params,
-        source,
-        // A panic resets through software after recording its message; the watchdog
-        // flag alone means the loop hung.
-        reset_cause: if last_panic.is_some() {
-            ResetCause::Panic
-        } else if watchdog_reset {
-            ResetCause::Watchdog
-        } else {
-            ResetCause::PowerOn
-        },
-        last_panic: last_panic.unwrap_or_default(),
-    };
-    let counter = InstructionCounter::new(cp.SYST);
-    let key = param_flash::device_key();
-    let mut app = App::with_updates(link, counter, PaintedStack, boot, flash, key);
     app.greet();
     loop {
         app.poll();
@@ -122,4 +103,54 @@ fn main() -> ! {
         }
         watchdog.feed();
     }
+}
+
+/// How the last run ended, for the greeting.
+struct BootState {
+    reset_cause: ResetCause,
+    last_panic: heapless::String<PANIC_MESSAGE_LEN>,
+}
+
+/// The monitor, with the parameters chosen at boot.
+///
+/// Out of line: choosing the slot decodes and validates every slot, and those temporaries
+/// live in this frame, gone before the monitor runs. Inlined into `main`, whose frame
+/// holds the monitor for good, they would stay under it (as in `src/main.rs`).
+#[inline(never)]
+fn monitor(
+    link: Usart1Link,
+    counter: InstructionCounter,
+    flash: BoardFlash,
+    state: BootState,
+) -> App<Usart1Link, InstructionCounter, PaintedStack, BoardFlash> {
+    let mut loaded = Err(BlobError::Empty);
+    let source = params::load_to(&flash, &mut loaded);
+    let Ok(params) = loaded else {
+        defmt::error!("the built-in parameters are refused: broken build");
+        cortex_m::peripheral::SCB::sys_reset()
+    };
+    match source {
+        ParamsSource::Flash { slot } => defmt::info!("parameters from flash slot {}", slot),
+        ParamsSource::BuiltInDefault { reason } => {
+            defmt::warn!(
+                "built-in default parameters: flash blob refused ({})",
+                reason.code()
+            )
+        }
+    }
+    let boot = Boot {
+        build: "+blackpill",
+        params,
+        source,
+        reset_cause: state.reset_cause,
+        last_panic: state.last_panic,
+    };
+    App::with_updates(
+        link,
+        counter,
+        PaintedStack,
+        boot,
+        flash,
+        param_flash::device_key(),
+    )
 }
