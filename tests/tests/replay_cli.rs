@@ -101,6 +101,8 @@ fn supine_replay_writes_telemetry_and_events_and_counts_instructions() {
     assert!(ips > 500.0 && ips < 5000.0, "{ips}");
     assert!(stderr.contains("replayed 2000 samples"), "{stderr}");
     assert!(stderr.contains("frames lost 0, bad 0"), "{stderr}");
+    // The patient as the device's status reports it: the preset's mean subject.
+    assert!(stderr.contains("for a patient 1.82 m, 81 kg"), "{stderr}");
     let csv = std::fs::read_to_string(&out).expect("telemetry written");
     let mut lines = csv.lines();
     assert_eq!(
