@@ -263,7 +263,7 @@ fn no_frame_is_lost_or_reordered_at_2_khz() {
 
 /// One hour at 500 Hz (1.8 million samples) as `supine replay` sends it, with the shipping
 /// telemetry rate (100 Hz): no drift from the host's reference, counters consistent, stack
-/// constant. About 3 minutes (BENCHMARKS.md, replay throughput).
+/// constant. About 30 s on an idle machine (BENCHMARKS.md, replay throughput).
 #[test]
 fn one_hour_at_500_hz_does_not_drift() {
     let decimation = TelemetryConfig::default_for(500.0).decimation;
