@@ -24,7 +24,10 @@ use supine_firmware::{exit, panic_record, params};
 #[entry]
 fn main() -> ! {
     supine_firmware::reset_on_panic();
-    monitor().run()
+    // Before the monitor's frame: the command line's buffer then adds nothing to the
+    // stack's peak, which boot's slot choice sets.
+    let input = replay_input();
+    monitor(input).run()
 }
 
 /// The monitor, with the parameters chosen at boot.
@@ -33,7 +36,9 @@ fn main() -> ! {
 /// live in this frame, gone before the monitor runs. Inlined into `main`, whose frame
 /// holds the monitor for good, they would add kilobytes to the device's RAM.
 #[inline(never)]
-fn monitor() -> App<ReplayLink<Uart>, InstructionCounter, PaintedStack, SsramFlash> {
+fn monitor(
+    replay_input: Option<HostFile>,
+) -> App<ReplayLink<Uart>, InstructionCounter, PaintedStack, SsramFlash> {
     let Some(board) = Board::take() else {
         // Only reachable if something took the peripherals before main: a build error.
         exit::exit(exit::FAILURE)
@@ -62,7 +67,7 @@ fn monitor() -> App<ReplayLink<Uart>, InstructionCounter, PaintedStack, SsramFla
         last_panic: last_panic.unwrap_or_default(),
     };
     let counter = InstructionCounter::new(board.syst);
-    let link = ReplayLink::new(board.uart0, replay_input());
+    let link = ReplayLink::new(board.uart0, replay_input);
     App::with_updates(
         link,
         counter,
@@ -75,6 +80,8 @@ fn monitor() -> App<ReplayLink<Uart>, InstructionCounter, PaintedStack, SsramFla
 
 /// The host file named by `--replay-input FILE` on the semihosting command line, open; a
 /// file named but not opened ends the run, so the host hears of it rather than waiting.
+/// Out of line, so its buffer is gone before the monitor is built.
+#[inline(never)]
 fn replay_input() -> Option<HostFile> {
     let mut line = [0u8; host_file::COMMAND_LINE_LEN];
     let len = host_file::command_line(&mut line)?.len();
