@@ -150,7 +150,57 @@ pub fn y_range<'a>(
     (if from_zero { lo } else { lo - pad }, hi + pad)
 }
 
+/// Height of one legend row, px (13 px text and spacing), and the legend box's margin and
+/// padding together.
+const LEGEND_ROW_PX: f64 = 19.0;
+const LEGEND_FRAME_PX: f64 = 24.0;
+/// Room for the bands' names between the data and the legend, px.
+const BAND_LABEL_PX: f64 = 16.0;
+/// Caption, axis labels and margins: what the plot area is not, px.
+const NON_PLOT_PX: f64 = 70.0;
+
+/// Where the data, the bands' names and the legend go, top to bottom: the legend in the
+/// upper right above everything, the bands' names under it, the data below them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct YLayout {
+    /// The y range drawn.
+    range: (f64, f64),
+    /// Top of the bands' names, in y units.
+    band_label_y: f64,
+}
+
 impl Chart {
+    /// The y range, raised so that the legend and the bands' names sit above the data
+    /// rather than over it (a chart named by levels keeps its range: its ticks are the
+    /// names).
+    fn y_layout(&self) -> YLayout {
+        let (y0, data_y1) = self.y_range;
+        let rows = self.lines.iter().filter(|l| !l.label.is_empty()).count();
+        let legend_px = if rows == 0 || self.y_tick_names.is_some() {
+            0.0
+        } else {
+            rows as f64 * LEGEND_ROW_PX + LEGEND_FRAME_PX
+        };
+        let label_px = if legend_px > 0.0 && !self.bands.is_empty() {
+            BAND_LABEL_PX
+        } else {
+            0.0
+        };
+        let plot_px = (f64::from(self.height_px) - NON_PLOT_PX).max(1.0);
+        // At most half the plot for the legend: a chart with many series stays readable.
+        let share = ((legend_px + label_px) / plot_px).min(0.5);
+        let y1 = data_y1 + (data_y1 - y0) * share / (1.0 - share);
+        let band_label_y = if label_px > 0.0 {
+            data_y1 + label_px * (y1 - y0) / plot_px
+        } else {
+            y1 - 0.04 * (y1 - y0)
+        };
+        YLayout {
+            range: (y0, y1),
+            band_label_y,
+        }
+    }
+
     /// The chart as an `<svg>` element.
     pub fn to_svg(&self) -> Result<String> {
         let mut svg = String::new();
@@ -159,7 +209,8 @@ impl Chart {
                 SVGBackend::with_string(&mut svg, (WIDTH_PX, self.height_px)).into_drawing_area();
             root.fill(&WHITE).map_err(plot_error)?;
             let (x0, x1) = self.x_range_s;
-            let (y0, y1) = self.y_range;
+            let layout = self.y_layout();
+            let (y0, y1) = layout.range;
             let mut chart = ChartBuilder::on(&root)
                 .caption(&self.title, ("sans-serif", 17))
                 .margin_left(10)
@@ -206,7 +257,7 @@ impl Chart {
                 chart
                     .draw_series(std::iter::once(Text::new(
                         band.label.clone(),
-                        (band.start_s + 0.01 * (x1 - x0), y1 - 0.04 * (y1 - y0)),
+                        (band.start_s + 0.01 * (x1 - x0), layout.band_label_y),
                         ("sans-serif", 13).into_font().color(&RGBColor(110, 80, 40)),
                     )))
                     .map_err(plot_error)?;
@@ -410,6 +461,46 @@ mod tests {
         assert_eq!(label_rows(&instants, (0.0, 60.0)), [0, 1, 0, 1, 2, 0]);
         // Zoomed in to 20-30 s (100 px/s), the first three have room on one row.
         assert_eq!(label_rows(&instants[..3], (20.0, 30.0)), [0, 0, 0]);
+    }
+
+    #[test]
+    fn the_legend_and_the_bands_names_get_room_above_the_data() {
+        let line = |label: &str| Line {
+            points: vec![(0.0, 0.0), (1.0, 1.0)],
+            color: Rgb(0, 0, 0),
+            width: 1,
+            dashed: false,
+            label: label.into(),
+        };
+        let mut chart = Chart {
+            y_range: (0.0, 1.0),
+            height_px: 300,
+            lines: vec![line("a"), line(""), line("b"), line("c")],
+            ..Chart::default()
+        };
+        // Three labelled rows: 3 x 19 + 24 = 81 px of a 230 px plot. The data keep the
+        // lower 1 - 81/230 of the height, so the top of the range is 1 / (1 - 81/230).
+        let layout = chart.y_layout();
+        assert_eq!(layout.range.0, 0.0);
+        let top = 1.0 / (1.0 - 81.0 / 230.0);
+        assert!((layout.range.1 - top).abs() < 1e-12, "{layout:?}");
+        // With bands, 16 px more, and their names' top 16 px above the data's.
+        chart.bands.push(Band {
+            start_s: 0.0,
+            end_s: 1.0,
+            label: "leg 1".into(),
+            color: Rgb(0, 0, 0),
+        });
+        let layout = chart.y_layout();
+        let top = 1.0 / (1.0 - 97.0 / 230.0);
+        assert!((layout.range.1 - top).abs() < 1e-12, "{layout:?}");
+        assert!((layout.band_label_y - (1.0 + 16.0 * top / 230.0)).abs() < 1e-12);
+        // Named ticks (the levels) keep their range; no legend, no room.
+        chart.y_tick_names = Some(vec!["normal".into()]);
+        assert_eq!(chart.y_layout().range, (0.0, 1.0));
+        chart.y_tick_names = None;
+        chart.lines.clear();
+        assert_eq!(chart.y_layout().range, (0.0, 1.0));
     }
 
     #[test]
