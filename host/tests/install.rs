@@ -12,6 +12,11 @@
 use std::os::unix::fs::PermissionsExt as _;
 use std::path::Path;
 use std::process::Command;
+use std::sync::Mutex;
+
+/// Held by each test for its whole run: `cargo install` may relink this build's
+/// `supine` while the other test copies it.
+static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
 
 /// A stand-in `cargo` first on the `PATH`: if the tool ran cargo, the marker would exist.
 fn trap_cargo(bin: &Path, marker: &Path) {
@@ -26,6 +31,7 @@ fn trap_cargo(bin: &Path, marker: &Path) {
 
 #[test]
 fn the_installed_binary_runs_the_demo_from_an_empty_folder_without_the_source_tree() {
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let root = tempfile::tempdir().expect("install root");
     let bin = root.path().join("bin");
     std::fs::create_dir(&bin).expect("mkdir bin");
@@ -35,6 +41,7 @@ fn the_installed_binary_runs_the_demo_from_an_empty_folder_without_the_source_tr
 
 #[test]
 fn cargo_install_into_a_temporary_root_gives_a_tool_that_runs_the_demo() {
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let root = tempfile::tempdir().expect("install root");
     let host = Path::new(env!("CARGO_MANIFEST_DIR"));
     // This test binary is TARGET/debug/deps/install-HASH.
