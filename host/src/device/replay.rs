@@ -49,6 +49,16 @@ pub enum Outgoing {
     Raw(Vec<u8>),
 }
 
+impl Outgoing {
+    /// Writes it to `writer`: the one way a script item goes out, by either route.
+    fn send<W: std::io::Write>(&self, writer: &mut FrameWriter<W>) -> Result<()> {
+        match self {
+            Outgoing::Message(m) => writer.send(m),
+            Outgoing::Raw(bytes) => writer.send_raw(bytes),
+        }
+    }
+}
+
 /// How to run a session.
 #[derive(Clone, Debug)]
 pub struct SessionConfig {
@@ -219,7 +229,8 @@ fn streamed_session(
     stop: &Arc<AtomicBool>,
     on_telemetry: &mut TelemetrySink<'_>,
 ) -> Result<Session> {
-    let blob_dir = ScratchDir::new("blob")?;
+    // The blob, and for the file route the frames: both read by QEMU, removed with it.
+    let scratch = ScratchDir::new("blob")?;
     let mut qemu_config = QemuConfig::new(&config.kernel)
         .uart()
         .timeout(config.timeout);
@@ -227,12 +238,12 @@ fn streamed_session(
     let uart_script: Box<dyn Iterator<Item = Result<Outgoing>> + Send> = match route {
         ScriptRoute::Uart => Box::new(script),
         ScriptRoute::HostFile => {
-            let path = blob_dir.path().join("input.bin");
+            let path = scratch.path().join("input.bin");
             write_script_file(&path, script, stop)?;
             let path = path.to_str().ok_or_else(|| {
                 anyhow!(
                     "the scratch folder {} is not UTF-8: QEMU cannot pass it to the device",
-                    blob_dir.path().display()
+                    scratch.path().display()
                 )
             })?;
             qemu_config = qemu_config
@@ -246,7 +257,7 @@ fn streamed_session(
         qemu_config = qemu_config.icount();
     }
     if let Some(blob) = &config.blob {
-        let path = blob_dir.path().join("params.bin");
+        let path = scratch.path().join("params.bin");
         std::fs::write(&path, blob).context("writing the parameter blob")?;
         qemu_config = qemu_config.params_blob(path);
     }
@@ -289,10 +300,7 @@ fn write_script_file(
         if stop.load(Ordering::Relaxed) {
             bail!("interrupted");
         }
-        match item? {
-            Outgoing::Message(m) => writer.send(&m)?,
-            Outgoing::Raw(bytes) => writer.send_raw(&bytes)?,
-        }
+        item?.send(&mut writer)?;
     }
     writer
         .flush()
@@ -326,8 +334,7 @@ fn talk(
                 return Ok(());
             }
             match item {
-                Ok(Outgoing::Message(m)) => writer.send(&m)?,
-                Ok(Outgoing::Raw(bytes)) => writer.send_raw(&bytes)?,
+                Ok(outgoing) => outgoing.send(&mut writer)?,
                 Err(e) => {
                     failed.store(true, Ordering::Relaxed);
                     return Err(e);
@@ -426,8 +433,8 @@ pub struct ReplayResult {
 }
 
 /// Builds the blob of `file` for the ride's rate, streams the ride's platform columns
-/// through the product image in QEMU (by the host-file route), and hands each telemetry record to
-/// `on_telemetry` as it arrives: memory does not grow with the ride's length.
+/// through the product image in QEMU (by the host-file route), and hands each telemetry
+/// record to `on_telemetry` as it arrives: memory does not grow with the ride's length.
 pub fn replay(
     kernel: &ProductImage,
     file: &ParamFile,

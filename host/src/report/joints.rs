@@ -10,6 +10,7 @@ use std::fmt::Write as _;
 use anyhow::Result;
 use serde::Serialize;
 
+use crate::exposure::report::combined_rms_m_s2;
 use crate::report::charts::{self, Layout};
 use crate::report::html::{escape, figure};
 use crate::report::mission::Leg;
@@ -39,15 +40,14 @@ pub fn mission_joints(legs: &[Leg]) -> Vec<MissionJoint> {
     let Some(first) = legs.first() else {
         return Vec::new();
     };
-    let total_s: f64 = legs.iter().map(|l| l.duration_s).sum();
     (0..first.joints.len())
         .map(|o| {
-            let mut energy = 0.0;
+            let mut rms_and_duration = Vec::with_capacity(legs.len());
             let mut max_running_rms = 0.0_f64;
             let mut peak = (0.0_f64, 0.0, 1);
             for (i, leg) in legs.iter().enumerate() {
                 let Some(j) = leg.joints.get(o) else { continue };
-                energy += j.rms * j.rms * leg.duration_s;
+                rms_and_duration.push((j.rms, leg.duration_s));
                 max_running_rms = max_running_rms.max(j.max_running_rms);
                 if j.largest_excursion > peak.0 {
                     peak = (
@@ -60,11 +60,8 @@ pub fn mission_joints(legs: &[Leg]) -> Vec<MissionJoint> {
             MissionJoint {
                 output: first.joints[o].output,
                 unit: first.joints[o].unit,
-                rms: if total_s > 0.0 {
-                    (energy / total_s).sqrt()
-                } else {
-                    0.0
-                },
+                // The head's energy-equivalent combination; the formula holds for any unit.
+                rms: combined_rms_m_s2(&rms_and_duration),
                 max_running_rms,
                 largest_excursion: peak.0,
                 largest_excursion_at_mission_s: peak.1,
