@@ -16,7 +16,9 @@ use std::fs;
 use std::path::PathBuf;
 
 use supine_core::blob::{DeviceParams, MAX_BLOB_LEN, Patient};
-use supine_core::model::{DEFAULT_SAMPLE_RATE_HZ, ModelParams, Preset, device_realization};
+use supine_core::model::{
+    DEFAULT_SAMPLE_RATE_HZ, ModelParams, Preset, device_model, device_realization,
+};
 use supine_core::sample_rate::SampleRate;
 
 /// Identity of the built-in default parameters (not a SHA-256: a fixed, readable name that
@@ -103,13 +105,14 @@ fn write_builtin_realization(out_dir: &std::path::Path) {
 /// at boot exactly like a blob in flash.
 fn write_default_blob(out_dir: &std::path::Path) {
     let model = ModelParams::preset(Preset::PaperLitter);
-    let realization = device_realization(&model, DEFAULT_SAMPLE_RATE_HZ)
+    let (realization, joints) = device_model(&model, DEFAULT_SAMPLE_RATE_HZ)
         .unwrap_or_else(|err| panic!("the paper-litter preset does not discretize: {err}"));
     let sample_rate = SampleRate::from_hz_f64(DEFAULT_SAMPLE_RATE_HZ)
         .unwrap_or_else(|err| panic!("the default sample rate: {err}"));
     let patient = Patient::of(&model.subject);
-    let params = DeviceParams::with_defaults(BUILTIN_IDENTITY, patient, sample_rate, realization)
-        .unwrap_or_else(|err| panic!("the default device parameters are refused: {err}"));
+    let params =
+        DeviceParams::with_defaults(BUILTIN_IDENTITY, patient, sample_rate, realization, joints)
+            .unwrap_or_else(|err| panic!("the default device parameters are refused: {err}"));
     let mut buf = vec![0u8; MAX_BLOB_LEN];
     let len = params
         .encode(&mut buf)

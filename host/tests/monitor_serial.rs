@@ -89,6 +89,7 @@ fn greeting(protocol_version: u16) -> DeviceToHost {
         mass_kg: 47.5,
         reset_cause: ResetCause::PowerOn,
         last_panic: heapless::String::new(),
+        joint_outputs: 0,
     })
 }
 
@@ -102,6 +103,7 @@ fn telemetry(sample_index: u32, level: Level) -> DeviceToHost {
         alert_level: level,
         fault_flags: FaultFlags::empty(),
         valid: true,
+        joints: supine_core::joint_exposure::JointValues::EMPTY,
     })
 }
 

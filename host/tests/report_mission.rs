@@ -340,6 +340,7 @@ fn device_log(n: u32, fs: f64) -> DeviceLog {
                 },
                 fault_flags: FaultFlags::empty(),
                 valid: k >= 500,
+                joints: supine_core::joint_exposure::JointValues::EMPTY,
             }
         })
         .collect();

@@ -18,15 +18,15 @@ use serde::{Deserialize, Serialize};
 use crate::alerts::{AlertConfig, AlertSettings, SensorCheckConfig, SensorCheckSettings};
 use crate::exposure::{ExposureConfig, ExposureError, ExposureSettings};
 use crate::model::params::{HEIGHT_RANGE_M, MASS_RANGE_KG};
-use crate::model::{DeviceRealization, RealizationError, Subject};
+use crate::model::{DeviceRealization, JointReadout, RealizationError, Subject};
 use crate::mounting::Mounting;
 use crate::sample_rate::SampleRate;
 use crate::weighting::WeightingError;
 
 /// First four bytes of every blob.
 pub const BLOB_MAGIC: [u8; 4] = *b"SUPB";
-/// Version of the header and payload encoding (4: the patient's height and mass).
-pub const BLOB_FORMAT_VERSION: u16 = 4;
+/// Version of the header and payload encoding (5: the joint outputs' readout).
+pub const BLOB_FORMAT_VERSION: u16 = 5;
 /// Header length, bytes.
 pub const BLOB_HEADER_LEN: usize = 16;
 /// Largest blob the device accepts (header and payload), bytes.
@@ -138,6 +138,9 @@ pub struct DeviceParams {
     pub sample_rate: SampleRate,
     /// The model's discretized head-output realization.
     pub realization: DeviceRealization,
+    /// The joint outputs read from `realization`'s states (none, some or all ten), on the
+    /// samples telemetry reports.
+    pub joints: JointReadout,
     /// Weighting and exposure evaluation, with the axis mapping.
     pub exposure: ExposureSettings,
     /// Exposure alert thresholds, hysteresis and dwell.
@@ -146,7 +149,8 @@ pub struct DeviceParams {
     pub sensor_checks: SensorCheckSettings,
     /// Sensor-to-litter rotation and gravity.
     pub mounting: Mounting,
-    /// Reporting rate.
+    /// Reporting rate (the payload's last field: its varint ends the blob in a byte that
+    /// is neither 0 nor 0xFF, which tells a cut write from a bad CRC, [`blob_payload`]).
     pub telemetry: TelemetryConfig,
 }
 
@@ -165,12 +169,14 @@ impl DeviceParams {
         sensor_checks: SensorCheckConfig,
         mounting: Mounting,
         telemetry: TelemetryConfig,
+        joints: JointReadout,
     ) -> Result<Self, BlobError> {
         let params = Self {
             identity,
             patient,
             sample_rate,
             realization,
+            joints,
             exposure: ExposureSettings::new(exposure, sample_rate)
                 .map_err(BlobError::from_exposure)?,
             alerts: AlertSettings::new(alerts, sample_rate).map_err(|_| BlobError::BadConfig)?,
@@ -186,12 +192,13 @@ impl DeviceParams {
     /// A realization (of `patient`, discretized at `sample_rate`) with the documented
     /// default configuration: weighting and axes ([`ExposureConfig::DEFAULT`]), alert thresholds,
     /// sensor checks, a level mounting, and telemetry at
-    /// [`TelemetryConfig::DEFAULT_RATE_HZ`].
+    /// [`TelemetryConfig::DEFAULT_RATE_HZ`], reading the joint outputs of `joints`.
     pub fn with_defaults(
         identity: ParamsIdentity,
         patient: Patient,
         sample_rate: SampleRate,
         realization: DeviceRealization,
+        joints: JointReadout,
     ) -> Result<Self, BlobError> {
         Self::new(
             identity,
@@ -203,6 +210,7 @@ impl DeviceParams {
             SensorCheckConfig::DEFAULT,
             Mounting::LEVEL,
             TelemetryConfig::default_for(sample_rate.hz()),
+            joints,
         )
     }
 
@@ -224,6 +232,10 @@ impl DeviceParams {
             RealizationError::Unstable => BlobError::Unstable,
             RealizationError::TooManyBlocks | RealizationError::Layout => BlobError::Malformed,
         })?;
+        self.joints.check(&self.realization).map_err(|e| match e {
+            RealizationError::NotFinite => BlobError::NonFinite,
+            _ => BlobError::Malformed,
+        })?;
         if !self.config_numbers().all(f32::is_finite) {
             return Err(BlobError::NonFinite);
         }
@@ -244,8 +256,9 @@ impl DeviceParams {
         self.check_bounded()
     }
 
-    /// That no input within the sensor's full scale can drive the realization or a
-    /// weighting past [`MAX_SIGNAL_M_S2`] or a state past [`MAX_STATE`]: stable poles are
+    /// That no input within the sensor's full scale can drive the realization, a joint
+    /// output (m or rad: the same bound keeps its square finite) or a weighting past
+    /// [`MAX_SIGNAL_M_S2`] or a state past [`MAX_STATE`]: stable poles are
     /// not enough, a coefficient of 1e30 or a pole 1e-12 inside the unit circle passes the
     /// checks above and still overflows f32 (docs/protocol.md, "Validation", step 7).
     /// Such a blob is refused as `Unstable`: not bounded-input bounded-output in f32.
@@ -257,10 +270,11 @@ impl DeviceParams {
             .ok_or(BlobError::Unstable)?;
         let within = |state: f32, output: f32| state <= MAX_STATE && output <= MAX_SIGNAL_M_S2;
         let head_m_s2 = model.outputs.map(|gain| gain * full_scale);
-        let mut bounded = within(
-            model.state * full_scale,
-            head_m_s2.iter().fold(0.0, |m, &v| v.max(m)),
-        );
+        let state = model.state * full_scale;
+        let joints = self
+            .joints
+            .amplification(&self.realization, state, full_scale);
+        let mut bounded = within(state, head_m_s2.iter().fold(joints, |m, &v| v.max(m)));
         for (weighting, head) in self.exposure.weighting.iter().zip(head_m_s2) {
             let filter = weighting.amplification().ok_or(BlobError::Unstable)?;
             bounded &= within(filter.state * head, filter.output * head);

@@ -6,7 +6,7 @@
 //! Cortex-M4F and on the workstation.
 //!
 //! The data path reads one way: `model`, `weighting` and `mounting`, then `exposure`,
-//! `alerts`, `blob`, `pipeline`, `protocol` and `upload`; a module uses only those before
+//! `alerts`, `joint_exposure`, `blob`, `pipeline`, `protocol` and `upload`; a module uses only those before
 //! it, and the leaf utilities (`fpu`, `gain_bound`, `sample_rate`, `test_vector`, `timing`) anywhere
 //! (`tests/module_layers.rs` checks it).
 //!
@@ -21,6 +21,7 @@ pub mod blob;
 pub mod exposure;
 pub mod fpu;
 pub mod gain_bound;
+pub mod joint_exposure;
 pub mod model;
 pub mod mounting;
 pub mod pipeline;

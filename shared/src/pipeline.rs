@@ -14,7 +14,8 @@ use crate::alerts::{AlertEvent, AlertState, FaultFlags, Level, SensorCheckState}
 use crate::blob::DeviceParams;
 use crate::exposure::{ExposureSample, ExposureState};
 use crate::fpu::sqrt_f32;
-use crate::model::ModalState;
+use crate::joint_exposure::{JointExposureState, JointValues, running_gain};
+use crate::model::{JOINT_OUTPUT_COUNT, ModalState};
 
 /// Samples per block on the device (32 ms at 500 Hz, far below the alert dwell times).
 pub const BLOCK_LEN: usize = 16;
@@ -52,6 +53,9 @@ pub struct Telemetry {
     pub fault_flags: FaultFlags,
     /// Whether the weighting has settled and the exposure values mean something yet.
     pub valid: bool,
+    /// The joint outputs the parameters read, at this sample (m or rad; in
+    /// [`packed_order`](crate::joint_exposure::packed_order), the others left out).
+    pub joints: JointValues,
 }
 
 /// The running memory of the whole chain: constant size, no heap.
@@ -59,6 +63,7 @@ pub struct Telemetry {
 pub struct PipelineState {
     model: ModalState<f32>,
     exposure: ExposureState,
+    joints: JointExposureState,
     alerts: AlertState,
     sensors: SensorCheckState,
     /// Last finite input, held in place of a non-finite one so NaN never enters a filter.
@@ -86,6 +91,7 @@ impl PipelineState {
                 blocks: [[0.0; 2]; crate::model::discrete::MAX_BLOCKS],
             },
             exposure: ExposureState::new(),
+            joints: JointExposureState::new(),
             alerts: AlertState::new(),
             sensors: SensorCheckState::new(),
             last_good_m_s2: [0.0; 3],
@@ -109,6 +115,11 @@ impl PipelineState {
     /// The exposure state, for full reports ([`crate::exposure::ExposureSettings::values`]).
     pub const fn exposure(&self) -> &ExposureState {
         &self.exposure
+    }
+
+    /// The joint outputs' running mean square and largest excursion.
+    pub const fn joints(&self) -> &JointExposureState {
+        &self.joints
     }
 }
 
@@ -151,6 +162,13 @@ impl DeviceParams {
             });
         let mut head = [[0.0f32; 3]; N];
         let full_scale = self.sensor_checks.config.full_scale_m_s2;
+        // The joint outputs are read on the samples telemetry reports (module
+        // `joint_exposure`): their values, in sample order, for the records below.
+        let decimation = self.telemetry.decimation.max(1);
+        let joint_gain = running_gain(self.exposure.running_gain, decimation);
+        let mut countdown = state.telemetry_countdown;
+        let mut joints: Vec<[f32; JOINT_OUTPUT_COUNT], N> = Vec::new();
+        let mut joint_count = 0;
         for (out, x) in head.iter_mut().zip(input_m_s2) {
             // A non-finite sample is replaced by the last good one; a finite one is clipped
             // to the full scale, as the sensor itself would: a sample no sensor can produce
@@ -169,10 +187,24 @@ impl DeviceParams {
                     }
                 });
             }
+            if countdown == 0 {
+                countdown = decimation;
+                let mut y = [0.0; JOINT_OUTPUT_COUNT];
+                joint_count = self.joints.read_packed(
+                    &self.realization,
+                    &state.model,
+                    state.last_good_m_s2,
+                    &mut y,
+                );
+                state.joints.step(joint_gain, &y[..joint_count]);
+                let _ = joints.push(y);
+            }
+            countdown -= 1;
             *out = self
                 .realization
                 .step(&mut state.model, state.last_good_m_s2);
         }
+        let mut reported = joints.iter();
         let mut exposure = [ExposureSample::default(); N];
         let first = indices[0];
         self.exposure
@@ -224,11 +256,15 @@ impl DeviceParams {
             }
             state.processed = state.processed.wrapping_add(1);
             if state.telemetry_countdown == 0 {
-                state.telemetry_countdown = self.telemetry.decimation.max(1);
+                state.telemetry_countdown = decimation;
+                let joints = reported
+                    .next()
+                    .map_or(JointValues::EMPTY, |y| JointValues::packed(joint_count, *y));
                 emit(PipelineOutput::Telemetry(self.telemetry_of(
                     index,
                     head[n],
                     &exposure[n],
+                    joints,
                     state,
                 )));
             }
@@ -241,6 +277,7 @@ impl DeviceParams {
         sample_index: u32,
         head_acc_m_s2: [f32; 3],
         exposure: &ExposureSample,
+        joints: JointValues,
         state: &PipelineState,
     ) -> Telemetry {
         let k = self.exposure.config.axes.axes().map(|a| a.k);
@@ -254,15 +291,24 @@ impl DeviceParams {
             alert_level: state.level,
             fault_flags: state.faults,
             valid: exposure.valid,
+            joints,
         };
         // Belt and braces: a value that is not finite is never reported as valid. The sum is
         // finite only if every term is (NaN and infinities propagate; an overflow of the sum
-        // alone would only err towards not valid), and costs seven additions, not eight
-        // branches, per record.
+        // alone would only err towards not valid), and costs a few additions, not a branch
+        // per value, per record.
         let [h0, h1, h2] = t.head_acc_m_s2;
         let [r0, r1, r2] = t.running_rms_m_s2;
-        let finite =
-            (h0 + h1 + h2 + r0 + r1 + r2 + t.vector_running_rms_m_s2 + t.vdv_m_s175).is_finite();
+        let finite = (h0
+            + h1
+            + h2
+            + r0
+            + r1
+            + r2
+            + t.vector_running_rms_m_s2
+            + t.vdv_m_s175
+            + t.joints.sum())
+        .is_finite();
         Telemetry {
             valid: t.valid && finite,
             ..t

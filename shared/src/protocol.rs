@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::alerts::AlertEvent;
 use crate::blob::BlobError;
+use crate::joint_exposure::JointValues;
 
 pub use framing::{FrameAccumulator, FrameError, FrameEvent, encode_frame};
 // What the messages carry, defined where it is made: the identity with the blob, the
@@ -23,7 +24,7 @@ pub use crate::blob::{IDENTITY_LEN, ParamsIdentity};
 pub use crate::pipeline::Telemetry;
 
 /// Version of this module's encodings; the host refuses a device that speaks another.
-pub const PROTOCOL_VERSION: u16 = 4;
+pub const PROTOCOL_VERSION: u16 = 5;
 /// Largest encoded frame, including COBS overhead and the terminating zero, bytes.
 pub const MAX_FRAME_LEN: usize = 256;
 /// Samples carried by one [`HostToDevice::Samples`] frame at most.
@@ -128,6 +129,10 @@ pub struct Greeting {
     pub reset_cause: ResetCause,
     /// The last panic's message, if the last stop was a panic.
     pub last_panic: String<PANIC_MESSAGE_LEN>,
+    /// The joint outputs the parameters read (bit `i` for
+    /// [`JointOutput::ALL`](crate::model::JointOutput::ALL)`[i]`): the ones, in that
+    /// order, that [`Telemetry::joints`] and the status's joint lists hold.
+    pub joint_outputs: u16,
 }
 
 /// Where the running parameters came from.
@@ -196,6 +201,12 @@ pub struct Status {
     pub height_m: f32,
     /// Mass of the patient the running parameters were scaled to, kg.
     pub mass_kg: f32,
+    /// Running rms (tau as the head's, 1 s by default) of each joint output the
+    /// parameters read, m or rad, in [`Greeting::joint_outputs`] order.
+    pub joint_running_rms: JointValues,
+    /// Largest absolute value of each joint output read since the pipeline started, m or
+    /// rad, in the same order.
+    pub joint_largest_excursion: JointValues,
 }
 
 /// A step of a parameter upload that the device accepted.

@@ -7,7 +7,7 @@ use proptest::prelude::*;
 use supine_core::alerts::SensorCheckConfig;
 use supine_core::blob::{BlobError, DeviceParams, MAX_SIGNAL_M_S2, Patient};
 use supine_core::exposure::{AxisMapping, AxisWeighting, ExposureConfig};
-use supine_core::model::{ModelParams, ParamId, Preset, device_realization};
+use supine_core::model::{JointReadout, ModelParams, ParamId, Preset, device_realization};
 use supine_core::protocol::golden::blob_example;
 use supine_core::sample_rate::SampleRate;
 use supine_core::weighting::WeightingKind;
@@ -32,8 +32,8 @@ fn params_for(model: &ModelParams, rate_hz: f32, kind: WeightingKind) -> DeviceP
         ..SensorCheckConfig::DEFAULT
     };
     let patient = Patient::of(&model.subject);
-    let base =
-        DeviceParams::with_defaults([0; 16], patient, rate, realization).expect("defaults valid");
+    let base = DeviceParams::with_defaults([0; 16], patient, rate, realization, JointReadout::NONE)
+        .expect("defaults valid");
     DeviceParams::new(
         [0; 16],
         patient,
@@ -44,6 +44,7 @@ fn params_for(model: &ModelParams, rate_hz: f32, kind: WeightingKind) -> DeviceP
         checks,
         base.mounting,
         base.telemetry,
+        JointReadout::NONE,
     )
     .expect("a blob the product builds is accepted")
 }

@@ -15,6 +15,7 @@ const LAYERS: &[&[&str]] = &[
     &["model", "weighting", "mounting"],
     &["exposure"],
     &["alerts"],
+    &["joint_exposure"],
     &["blob"],
     &["pipeline"],
     &["protocol"],

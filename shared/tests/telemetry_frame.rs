@@ -8,6 +8,7 @@
 
 use proptest::prelude::*;
 use supine_core::alerts::{FaultFlags, Level};
+use supine_core::joint_exposure::JointValues;
 use supine_core::protocol::telemetry_frame::{self, MAX_FRAME};
 use supine_core::protocol::{
     DeviceFrame, DeviceToHost, FrameAccumulator, FrameEvent, MAX_FRAME_LEN, Telemetry, encode_frame,
@@ -92,9 +93,20 @@ fn any_telemetry() -> impl Strategy<Value = Telemetry> {
         level,
         faults,
         any::<bool>(),
+        prop::collection::vec(any_f32_bits(), 0..=10),
     )
         .prop_map(
-            |(sample_index, head, running, vector, vdv, alert_level, fault_flags, valid)| {
+            |(
+                sample_index,
+                head,
+                running,
+                vector,
+                vdv,
+                alert_level,
+                fault_flags,
+                valid,
+                joints,
+            )| {
                 Telemetry {
                     sample_index,
                     head_acc_m_s2: head,
@@ -104,6 +116,7 @@ fn any_telemetry() -> impl Strategy<Value = Telemetry> {
                     alert_level,
                     fault_flags,
                     valid,
+                    joints: JointValues::from_slice(&joints).expect("at most ten"),
                 }
             },
         )
@@ -154,6 +167,10 @@ fn every_fault_set_and_level_at_every_varint_length_matches() {
                     alert_level: level,
                     fault_flags: FaultFlags::try_from_repr(bits).expect("known bits"),
                     valid,
+                    joints: JointValues::from_slice(
+                        &[0.0, f32::NAN, 1e-3][..usize::from(bits % 4)],
+                    )
+                    .expect("at most ten"),
                 };
                 assert_eq!(
                     hand_frame(seq, &t),
@@ -177,6 +194,7 @@ fn the_longest_frame_fills_max_frame_and_decodes_back() {
         alert_level: Level::Alarm,
         fault_flags: FaultFlags::all(),
         valid: true,
+        joints: JointValues::from_slice(&[1.5e-3; 10]).expect("ten"),
     };
     let frame = hand_frame(u32::MAX, &t);
     assert_eq!(frame.len(), MAX_FRAME);

@@ -10,7 +10,7 @@ use std::time::Duration;
 use supine_core::alerts::{AlertConfig, AlertEvent, SensorCheckConfig, SensorFault};
 use supine_core::blob::{BlobError, DeviceParams, Patient, TelemetryConfig};
 use supine_core::exposure::ExposureConfig;
-use supine_core::model::{ModelParams, Preset, device_realization};
+use supine_core::model::{ModelParams, Preset, device_model};
 use supine_core::mounting::Mounting;
 use supine_core::protocol::{
     FrameAccumulator, FrameEvent, HostToDevice, ParamBegin, ParamsSource, Status, Telemetry,
@@ -48,6 +48,7 @@ fn test_params_file() -> ParamFile {
             },
             sensor_checks: SensorCheckConfig::DEFAULT,
             mounting: Mounting::LEVEL,
+            joint_outputs: supine_host::io::device_section::JointSelection::ALL,
             telemetry_decimation: Some(1),
         }),
     }
@@ -283,7 +284,7 @@ fn one_hour_at_500_hz_does_not_drift() {
 /// The built-in default as the firmware builds it (`firmware/build.rs`).
 fn builtin_params() -> DeviceParams {
     let model = ModelParams::preset(Preset::PaperLitter);
-    let realization = device_realization(&model, 500.0).expect("preset discretizes");
+    let (realization, joints) = device_model(&model, 500.0).expect("preset discretizes");
     DeviceParams::new(
         *b"builtin-litter\0\0",
         Patient::of(&model.subject),
@@ -294,6 +295,7 @@ fn builtin_params() -> DeviceParams {
         SensorCheckConfig::DEFAULT,
         Mounting::LEVEL,
         TelemetryConfig::default_for(500.0),
+        joints,
     )
     .expect("defaults valid")
 }
@@ -426,8 +428,13 @@ fn garbage_sensor_faults_and_uploads_are_counted_and_the_device_keeps_running() 
             // The built-in default's patient: the paper's mean subject.
             height_m: 1.82,
             mass_kg: 81.0,
+            // The built-in default reads all ten joint outputs.
+            joint_running_rms: status.joint_running_rms,
+            joint_largest_excursion: status.joint_largest_excursion,
         }
     );
+    assert_eq!(status.joint_running_rms.as_slice().len(), 10);
+    assert_eq!(status.joint_largest_excursion.as_slice().len(), 10);
     assert_eq!(
         s.statuses[0].samples_processed, 3500,
         "status after the first part"

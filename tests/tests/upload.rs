@@ -55,6 +55,7 @@ fn file(preset: Preset) -> ParamFile {
             },
             sensor_checks: SensorCheckConfig::DEFAULT,
             mounting: Mounting::LEVEL,
+            joint_outputs: supine_host::io::device_section::JointSelection::ALL,
             telemetry_decimation: Some(1),
         }),
     }

@@ -40,8 +40,9 @@ use crate::tx_ring::TxRing;
 use crate::updates::{NoUpdates, Updates};
 
 /// Free ring space required before a block is processed, so the pipeline never waits on
-/// the link: 16 telemetry frames of at most 48 bytes (768) and a few alert frames. If a
-/// block ever needs more, the ring drains as it fills: slower, never lost.
+/// the link at the shipping telemetry rate: 4 telemetry frames of at most 89 bytes (ten
+/// joint values) and a few alert frames. A block with more (telemetry every sample) drains
+/// the ring as it fills: slower, never lost.
 const TX_HEADROOM: usize = 1280;
 
 /// The longest stretch of missing sample indices, in seconds of samples at the running
@@ -206,6 +207,9 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
                 status.params_source = self.boot.source;
                 status.height_m = self.boot.params.patient.height_m;
                 status.mass_kg = self.boot.params.patient.mass_kg;
+                let count = self.boot.params.joints.packed_outputs().count();
+                status.joint_running_rms = self.state.joints().running_rms(count);
+                status.joint_largest_excursion = self.state.joints().largest_excursion(count);
                 self.send(DeviceToHost::Status(status));
             }
             HostToDevice::ParamBegin(begin) => {
@@ -379,6 +383,7 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
             mass_kg: self.boot.params.patient.mass_kg,
             reset_cause: self.boot.reset_cause,
             last_panic: self.boot.last_panic.clone(),
+            joint_outputs: self.boot.params.joints.mask(),
         };
         self.send(DeviceToHost::Greeting(greeting));
     }

@@ -33,6 +33,8 @@ fn greets_at_boot_and_again_on_hello() {
         mass_kg: 81.0,
         reset_cause: ResetCause::PowerOn,
         last_panic: heapless::String::new(),
+        // The default: all ten joint outputs.
+        joint_outputs: 0b11_1111_1111,
     };
     assert_eq!(greeting, expected);
     rig.send(&HostToDevice::Hello);
@@ -58,6 +60,11 @@ fn telemetry_and_alerts_are_the_pipelines_bit_for_bit_and_the_status_counts_them
 
     let expected = pipeline_messages(&params, &indices, &input);
     assert_same_messages(&messages, &expected);
+    // The joints' exposure the status reports is the pipeline's own, at the same point.
+    let mut state = PipelineState::new();
+    params.process(&mut state, &indices, &input, |_| {});
+    let joint_count = params.joints.packed_outputs().count();
+    assert_eq!(joint_count, 10);
     assert_eq!(count_telemetry(&messages), 3300, "one record per sample");
     let alerts: Vec<AlertEvent> = messages
         .iter()
@@ -94,7 +101,16 @@ fn telemetry_and_alerts_are_the_pipelines_bit_for_bit_and_the_status_counts_them
             params_source: ParamsSource::Flash { slot: 0 },
             height_m: params.patient.height_m,
             mass_kg: params.patient.mass_kg,
+            joint_running_rms: state.joints().running_rms(joint_count),
+            joint_largest_excursion: state.joints().largest_excursion(joint_count),
         }
+    );
+    assert!(
+        status
+            .joint_largest_excursion
+            .as_slice()
+            .iter()
+            .all(|&v| v > 0.0)
     );
 }
 

@@ -376,6 +376,13 @@ fn time_stages(counter: &InstructionCounter, out: &mut Console) -> Result<(), Fa
         alert_level: supine_core::alerts::Level::Warning,
         fault_flags: FaultFlags::empty(),
         valid: true,
+        // All ten joint outputs, the default: the largest record.
+        joints: supine_core::joint_exposure::JointValues::packed(
+            10,
+            [
+                1e-3, -2e-3, 3e-3, 4e-3, -5e-3, 6e-3, 7e-3, -8e-3, 9e-3, 1e-2,
+            ],
+        ),
     };
     let mut frame = [0u8; telemetry_frame::MAX_FRAME];
     let (t, ()) = counter.ticks(|| {

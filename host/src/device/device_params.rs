@@ -7,7 +7,7 @@
 use anyhow::{Result, anyhow};
 use sha2::{Digest, Sha256};
 use supine_core::blob::{DeviceParams, MAX_BLOB_LEN, Patient};
-use supine_core::model::device_realization;
+use supine_core::model::Model;
 use supine_core::protocol::{IDENTITY_LEN, ParamsIdentity};
 use supine_core::sample_rate::SampleRate;
 
@@ -38,8 +38,17 @@ pub fn build(file: &ParamFile, sample_rate_hz: f64) -> Result<DeviceParams> {
         .map_err(|e| anyhow!("{e}, found {sample_rate_hz} Hz"))?;
     // Discretized at the rate as given, the blob's stages at its f32 value (as before the
     // rate was stored once: the same bytes for the same file and rate).
-    let realization =
-        device_realization(&file.params, sample_rate_hz).map_err(|e| anyhow!("{e}"))?;
+    let model = Model::new(&file.params).map_err(|e| anyhow!("{e}"))?;
+    let realization = model
+        .device_realization(sample_rate_hz)
+        .map_err(|e| anyhow!("{e}"))?;
+    let joints = model
+        .device_joint_readout(
+            sample_rate_hz,
+            &realization,
+            &device.joint_outputs.outputs(),
+        )
+        .map_err(|e| anyhow!("the joint outputs' readout: {e}"))?;
     DeviceParams::new(
         identity(file)?,
         Patient::of(&file.params.subject),
@@ -50,6 +59,7 @@ pub fn build(file: &ParamFile, sample_rate_hz: f64) -> Result<DeviceParams> {
         device.sensor_checks,
         device.mounting,
         device.telemetry(sample_rate.hz()),
+        joints,
     )
     .map_err(|e| {
         let refused = check(&device, sample_rate, Some(&realization)).err();

@@ -270,6 +270,7 @@ pub(crate) mod tests {
                 mass_kg: 81.0,
                 reset_cause: supine_core::protocol::ResetCause::PowerOn,
                 last_panic: heapless::String::new(),
+                joint_outputs: 0,
             }),
         };
         let mut buf = [0u8; MAX_FRAME_LEN];

@@ -18,7 +18,9 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use supine_core::alerts::{AlertConfig, AlertSettings, SensorCheckConfig, SensorCheckSettings};
 use supine_core::blob::{DeviceParams, Patient, TelemetryConfig};
 use supine_core::exposure::{AxisMapping, AxisWeighting, ExposureConfig, ExposureSettings};
-use supine_core::model::{DeviceRealization, Subject};
+use supine_core::model::{
+    DeviceRealization, JOINT_OUTPUT_COUNT, JointOutput, JointReadout, Subject,
+};
 use supine_core::mounting::Mounting;
 use supine_core::sample_rate::SampleRate;
 use supine_core::weighting::WeightingKind;
@@ -42,6 +44,73 @@ pub struct DeviceSection {
     /// Telemetry every this many samples; absent, about 100 Hz at the blob's sample rate
     /// ([`TelemetryConfig::default_for`]).
     pub telemetry_decimation: Option<u16>,
+    /// The joint outputs the device reads and reports (`joint_outputs = ["neck_x", ...]`;
+    /// all ten by default, `[]` for none).
+    pub joint_outputs: JointSelection,
+}
+
+/// A set of joint outputs, written in the file as a list of their names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct JointSelection {
+    /// Bit `i` for [`JointOutput::ALL`]`[i]`.
+    pub mask: u16,
+}
+
+impl JointSelection {
+    /// All ten outputs: the default.
+    pub const ALL: Self = Self {
+        mask: (1 << JOINT_OUTPUT_COUNT) - 1,
+    };
+
+    /// The outputs, in [`JointOutput::ALL`] order.
+    pub fn outputs(&self) -> Vec<JointOutput> {
+        JointOutput::ALL
+            .into_iter()
+            .filter(|o| self.mask & (1 << o.index()) != 0)
+            .collect()
+    }
+
+    fn is_all(&self) -> bool {
+        *self == Self::ALL
+    }
+}
+
+impl Default for JointSelection {
+    fn default() -> Self {
+        Self::ALL
+    }
+}
+
+impl Serialize for JointSelection {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_seq(self.outputs().iter().map(|o| o.name()))
+    }
+}
+
+impl<'de> Deserialize<'de> for JointSelection {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let names = Vec::<String>::deserialize(d)?;
+        let mut mask = 0u16;
+        for name in &names {
+            let Some(output) = JointOutput::from_name(name.trim()) else {
+                let all: Vec<&str> = JointOutput::ALL.iter().map(|o| o.name()).collect();
+                return Err(serde::de::Error::custom(format!(
+                    "expected joint outputs among {}, found {}",
+                    all.join(", "),
+                    value(name)
+                )));
+            };
+            let bit = 1 << output.index();
+            if mask & bit != 0 {
+                return Err(serde::de::Error::custom(format!(
+                    "expected each joint output once, found {} twice",
+                    output.name()
+                )));
+            }
+            mask |= bit;
+        }
+        Ok(Self { mask })
+    }
 }
 
 /// The `[device]` table as a file holds it: every key optional.
@@ -54,6 +123,8 @@ struct DeviceTable {
     mounting: Mounting,
     #[serde(skip_serializing_if = "Option::is_none")]
     telemetry_decimation: Option<u16>,
+    #[serde(skip_serializing_if = "JointSelection::is_all")]
+    joint_outputs: JointSelection,
 }
 
 /// `[device.exposure]`: the core's [`ExposureConfig`], every key optional.
@@ -203,6 +274,7 @@ impl From<DeviceTable> for DeviceSection {
             },
             mounting: t.mounting,
             telemetry_decimation: t.telemetry_decimation,
+            joint_outputs: t.joint_outputs,
         }
     }
 }
@@ -215,6 +287,7 @@ impl From<DeviceSection> for DeviceTable {
             sensor_checks: s.sensor_checks.into(),
             mounting: s.mounting,
             telemetry_decimation: s.telemetry_decimation,
+            joint_outputs: s.joint_outputs,
         }
     }
 }
@@ -301,6 +374,7 @@ impl Default for DeviceSection {
             sensor_checks: SensorCheckConfig::DEFAULT,
             mounting: Mounting::LEVEL,
             telemetry_decimation: None,
+            joint_outputs: JointSelection::ALL,
         }
     }
 }
@@ -348,6 +422,7 @@ pub fn core_check(
             section.sensor_checks,
             section.mounting,
             section.telemetry(sample_rate.hz()),
+            JointReadout::NONE,
         )
         .map_err(|e| match section.telemetry(sample_rate.hz()).decimation {
             // The blob's only rule without a stage of its own (its error says only "out of

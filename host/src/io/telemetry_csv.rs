@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Result, anyhow, bail};
 use supine_core::alerts::{AlertEvent, Criterion, FaultFlags, Level};
+use supine_core::joint_exposure::JointValues;
 use supine_core::protocol::Telemetry;
 
 use super::csv_lines::CsvLines;
@@ -203,6 +204,7 @@ pub fn read_telemetry(path: &Path) -> Result<Vec<Telemetry>> {
             alert_level,
             fault_flags,
             valid,
+            joints: JointValues::EMPTY,
         })
     })
 }
@@ -375,6 +377,7 @@ mod tests {
             alert_level: Level::Warning,
             fault_flags: FaultFlags::try_from_repr(0b0100).expect("a known fault bit"),
             valid: true,
+            joints: supine_core::joint_exposure::JointValues::EMPTY,
         };
         let dir = tempfile::tempdir().expect("temp dir");
         let path = dir.path().join("device.csv");

@@ -167,6 +167,7 @@ mod tests {
             alert_level: Level::Advisory,
             fault_flags: SensorFault::IndexGap.into(),
             valid: true,
+            joints: supine_core::joint_exposure::JointValues::EMPTY,
         }
     }
 

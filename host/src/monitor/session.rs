@@ -385,6 +385,7 @@ mod tests {
             mass_kg: 81.0,
             reset_cause: ResetCause::PowerOn,
             last_panic: heapless::String::new(),
+            joint_outputs: 0,
         })
     }
 
@@ -398,6 +399,7 @@ mod tests {
             alert_level: Level::Advisory,
             fault_flags: FaultFlags::empty(),
             valid: true,
+            joints: supine_core::joint_exposure::JointValues::EMPTY,
         })
     }
 

@@ -462,6 +462,7 @@ mod tests {
             mass_kg: 81.0,
             reset_cause: ResetCause::PowerOn,
             last_panic: heapless::String::new(),
+            joint_outputs: 0,
         }
     }
 
@@ -475,6 +476,7 @@ mod tests {
             alert_level: level,
             fault_flags,
             valid: true,
+            joints: supine_core::joint_exposure::JointValues::EMPTY,
         }
     }
 

@@ -386,6 +386,7 @@ mod tests {
             mass_kg: 81.0,
             reset_cause: ResetCause::PowerOn,
             last_panic: heapless::String::new(),
+            joint_outputs: 0,
         };
         let mut m = Monitor::new(&g).expect("monitor");
         m.on_message(&DeviceToHost::Telemetry(Telemetry {
@@ -397,6 +398,7 @@ mod tests {
             alert_level: Level::Alarm,
             fault_flags: SensorFault::Stuck.into(),
             valid: true,
+            joints: supine_core::joint_exposure::JointValues::EMPTY,
         }))
         .expect("telemetry");
         m.on_message(&DeviceToHost::Alert(AlertEvent::Fault {

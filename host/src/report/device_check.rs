@@ -207,6 +207,7 @@ mod tests {
             alert_level: level,
             fault_flags: FaultFlags::empty(),
             valid: k >= 2,
+            joints: supine_core::joint_exposure::JointValues::EMPTY,
         }
     }
 

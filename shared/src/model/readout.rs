@@ -177,53 +177,60 @@ impl JointReadout {
     }
 
     /// Checks a loaded readout against the head realization it reads: rows within bounds,
-    /// each joint output at most once and in the group its input axis drives, unused rows
-    /// zero, every coefficient finite.
+    /// each joint output in the group its input axis drives and in [`JointOutput::ALL`]
+    /// order there (so at most once), every coefficient in use finite. Coefficients past
+    /// the rows and blocks in use are never read, so they are not checked: the device's
+    /// flash is kept for what matters.
     pub fn check(&self, head: &DiscreteModal<f32, 3>) -> Result<(), RealizationError> {
-        let finite = self
-            .groups
-            .iter()
-            .flat_map(|g| g.feedthrough.iter())
-            .chain(self.rows.iter().flatten().flatten())
-            .all(|v| v.is_finite());
-        if !finite {
-            return Err(RealizationError::NotFinite);
-        }
-        let mut seen = [false; JOINT_OUTPUT_COUNT];
-        let mut first = 0;
-        for ((axis, group), head_group) in self.groups.iter().enumerate().zip(&head.groups) {
-            let rows = usize::from(group.row_count);
-            if rows > MAX_JOINT_ROWS {
+        for (axis, group) in self.groups.iter().enumerate() {
+            if usize::from(group.row_count) > MAX_JOINT_ROWS {
                 return Err(RealizationError::Layout);
             }
+            let mut next = 0;
             for &o in group.outputs() {
                 let fits = JointOutput::ALL
                     .get(usize::from(o))
                     .is_some_and(|j| j.input_axis().index() == axis);
-                match seen.get_mut(usize::from(o)) {
-                    Some(s) if fits && !*s => *s = true,
-                    _ => return Err(RealizationError::Layout),
+                if !fits || o < next {
+                    return Err(RealizationError::Layout);
                 }
+                next = o + 1;
             }
+        }
+        // A sum of the coefficients' magnitudes: NaN or infinite if any one is.
+        if self.amplification(head, 1.0, 1.0).is_finite() {
+            Ok(())
+        } else {
+            Err(RealizationError::NotFinite)
+        }
+    }
+
+    /// The outputs it reads, as a mask (bit `i` for [`JointOutput::ALL`]`[i]`).
+    pub fn mask(&self) -> u16 {
+        self.groups
+            .iter()
+            .flat_map(|g| g.outputs())
+            .fold(0, |m, &o| m | 1u16.checked_shl(u32::from(o)).unwrap_or(0))
+    }
+
+    /// A bound on every output's magnitude when each block state's Euclidean norm is at
+    /// most `state` and each input at most `input` (m/s^2): what the blob's check of
+    /// overflow needs ([`crate::blob::DeviceParams::validate`]). The sum of every row's
+    /// bound, not the largest: looser, and NaN or infinite if any coefficient in use is.
+    pub fn amplification(&self, head: &DiscreteModal<f32, 3>, state: f32, input: f32) -> f32 {
+        let mut total = 0.0f32;
+        let mut first = 0;
+        for (group, head_group) in self.groups.iter().zip(&head.groups) {
             let end = (first + usize::from(head_group.block_count)).min(MAX_BLOCKS);
-            let unused_zero = group.feedthrough[rows..].iter().all(|&v| v == 0.0)
-                && self.rows[first..end]
-                    .iter()
-                    .all(|r| r[rows..].iter().flatten().all(|&v| v == 0.0));
-            if !unused_zero {
-                return Err(RealizationError::Layout);
+            let rows = usize::from(group.row_count).min(MAX_JOINT_ROWS);
+            for (r, d) in group.feedthrough[..rows].iter().enumerate() {
+                let coefficients = self.rows[first..end].iter().map(|b| b[r]);
+                let from_state: f32 = coefficients.map(|[c0, c1]| c0.abs() + c1.abs()).sum();
+                total += d.abs() * input + from_state * state;
             }
             first = end;
         }
-        let outside = self.rows[first.min(MAX_BLOCKS)..]
-            .iter()
-            .flatten()
-            .flatten()
-            .any(|&v| v != 0.0);
-        if outside {
-            return Err(RealizationError::Layout);
-        }
-        Ok(())
+        total
     }
 
     /// Whether it reads joint output `output`.
@@ -236,35 +243,61 @@ impl JointReadout {
     /// The joint outputs (m or rad, [`JointOutput::ALL`] order; zero where not read) at the
     /// sample whose input is `input_m_s2`, from the state `head` holds *before* that
     /// sample's step (the outputs `head.step` would return alongside, for the head).
-    #[inline]
     pub fn read(
         &self,
         head: &DiscreteModal<f32, 3>,
         state: &ModalState<f32>,
         input_m_s2: [f32; 3],
     ) -> [f32; JOINT_OUTPUT_COUNT] {
+        let mut packed = [0.0; JOINT_OUTPUT_COUNT];
+        let count = self.read_packed(head, state, input_m_s2, &mut packed);
         let mut y = [0.0; JOINT_OUTPUT_COUNT];
+        for (o, v) in self.packed_outputs().zip(&packed[..count]) {
+            if let Some(out) = y.get_mut(usize::from(o)) {
+                *out = *v;
+            }
+        }
+        y
+    }
+
+    /// The outputs read, in the order [`read_packed`](Self::read_packed) gives them: by
+    /// driving axis (x, y, z), in [`JointOutput::ALL`] order within an axis.
+    pub fn packed_outputs(&self) -> impl Iterator<Item = u8> + '_ {
+        self.groups.iter().flat_map(|g| g.outputs().iter().copied())
+    }
+
+    /// [`read`](Self::read), packed: the outputs read, in
+    /// [`packed_outputs`](Self::packed_outputs) order, written to the start of `out`;
+    /// returns how many. What the device runs, once per telemetry record: out of line
+    /// and in loops over the rows in use, so it costs its flash once.
+    #[inline(never)]
+    pub fn read_packed(
+        &self,
+        head: &DiscreteModal<f32, 3>,
+        state: &ModalState<f32>,
+        input_m_s2: [f32; 3],
+        out: &mut [f32; JOINT_OUTPUT_COUNT],
+    ) -> usize {
+        let mut count = 0;
         let mut first = 0;
         for ((group, head_group), u) in self.groups.iter().zip(&head.groups).zip(input_m_s2) {
             let end = (first + usize::from(head_group.block_count)).min(MAX_BLOCKS);
-            let mut acc = [0.0f32; MAX_JOINT_ROWS];
             let rows = usize::from(group.row_count).min(MAX_JOINT_ROWS);
-            for (a, d) in acc[..rows].iter_mut().zip(&group.feedthrough) {
+            let Some(acc) = out.get_mut(count..count + rows) else {
+                break;
+            };
+            for (a, d) in acc.iter_mut().zip(&group.feedthrough) {
                 *a = d * u;
             }
             for (block_rows, x) in self.rows[first..end].iter().zip(&state.blocks[first..end]) {
-                for (a, c) in acc[..rows].iter_mut().zip(block_rows) {
+                for (a, c) in acc.iter_mut().zip(block_rows) {
                     *a += c[0] * x[0] + c[1] * x[1];
                 }
             }
-            for (&o, a) in group.outputs().iter().zip(acc) {
-                if let Some(out) = y.get_mut(usize::from(o)) {
-                    *out = a;
-                }
-            }
+            count += rows;
             first = end;
         }
-        y
+        count
     }
 
     /// The discrete frequency response of the joint outputs read (rows in

@@ -11,6 +11,7 @@
 //! varint(seq) varint(1 = DeviceToHost::Telemetry) varint(sample_index)
 //! f32le x3 (head) f32le x3 (running rms) f32le (vector rms) f32le (vdv)
 //! varint(alert level variant) u8 (fault flags) u8 (valid: 0 or 1)
+//! varint(joint value count, 0 to 10) f32le x count (joint values)
 //! ```
 //!
 //! then COBS with the terminating zero. `shared/tests/telemetry_frame.rs` compares it byte for
@@ -24,8 +25,9 @@ use crate::pipeline::Telemetry;
 /// Postcard variant index of `DeviceToHost::Telemetry` (the second variant).
 const TELEMETRY_VARIANT: u8 = 1;
 
-/// Longest postcard payload: two 5-byte varints, the variant, 8 f32s and 3 small fields.
-const MAX_RAW: usize = 5 + 1 + 5 + 8 * 4 + 1 + 1 + 1;
+/// Longest postcard payload: two 5-byte varints, the variant, 8 f32s, 3 small fields, the
+/// joint values' count and ten joint values.
+const MAX_RAW: usize = 5 + 1 + 5 + 8 * 4 + 1 + 1 + 1 + 1 + 10 * 4;
 
 /// Longest frame: COBS adds one byte per 254 (one here) plus the terminating zero.
 pub const MAX_FRAME: usize = MAX_RAW + 2;
@@ -125,5 +127,11 @@ pub fn encode(seq: u32, t: &Telemetry, frame: &mut [u8; MAX_FRAME]) -> usize {
     c.byte(t.alert_level as u8);
     c.byte(t.fault_flags.as_repr());
     c.byte(u8::from(t.valid));
+    let joints = t.joints.as_slice();
+    // At most ten: one varint byte.
+    c.byte(joints.len() as u8);
+    for &v in joints {
+        c.float(v);
+    }
     c.finish()
 }

@@ -13,7 +13,7 @@ use std::rc::Rc;
 
 use supine_app::{App, Boot, StackGauge, TickCounter};
 use supine_core::blob::{DeviceParams, MAX_BLOB_LEN, Patient, TelemetryConfig};
-use supine_core::model::{ModelParams, Preset, Subject, device_realization};
+use supine_core::model::{ModelParams, Preset, Subject, device_model};
 use supine_core::pipeline::{PipelineOutput, PipelineState};
 use supine_core::protocol::{
     DeviceFrame, DeviceToHost, FrameAccumulator, FrameEvent, Greeting, HostToDevice, MAX_FRAME_LEN,
@@ -423,10 +423,12 @@ pub fn preset_params(
 ) -> DeviceParams {
     let mut model = ModelParams::preset(preset);
     model.subject = subject;
-    let realization = device_realization(&model, SAMPLE_RATE_HZ).expect("the preset discretizes");
+    let (realization, joints) =
+        device_model(&model, SAMPLE_RATE_HZ).expect("the preset discretizes");
     let sample_rate = SampleRate::from_hz_f64(SAMPLE_RATE_HZ).expect("a supported rate");
+    let patient = Patient::of(&subject);
     let mut params =
-        DeviceParams::with_defaults(identity, Patient::of(&subject), sample_rate, realization)
+        DeviceParams::with_defaults(identity, patient, sample_rate, realization, joints)
             .expect("valid defaults");
     params.telemetry = telemetry;
     params.validate().expect("valid parameters");
