@@ -3,7 +3,7 @@
 
 use supine_core::alerts::{AlertConfig, AlertEvent, AlertSettings, Criterion, SensorFault};
 use supine_core::blob::DeviceParams;
-use supine_core::model::{ModelParams, Preset, device_realization};
+use supine_core::model::{ModelParams, Preset, device_model};
 use supine_core::pipeline::{PipelineOutput, PipelineState};
 use supine_core::protocol::Telemetry;
 use supine_core::protocol::golden::blob_example;
@@ -11,8 +11,8 @@ use supine_core::test_vector::TestVector;
 
 fn litter_params(decimation: u16) -> DeviceParams {
     let mut params = blob_example().unwrap();
-    params.realization =
-        device_realization(&ModelParams::preset(Preset::PaperLitter), 500.0).unwrap();
+    (params.realization, params.joints) =
+        device_model(&ModelParams::preset(Preset::PaperLitter), 500.0).unwrap();
     params.telemetry.decimation = decimation;
     params.validate().unwrap();
     params
