@@ -117,6 +117,9 @@ pub fn select_to(flash: &impl ParamFlash, out: &mut Result<DeviceParams, BlobErr
 }
 
 /// The highest counter any committed slot carries (0 if none): updates must exceed it.
+// Out of line: the parameters it decodes each slot into (1.7 KB) then stay off the frame
+// of its caller, the device's main loop, which an upload's commit builds on.
+#[inline(never)]
 pub fn last_counter(flash: &impl ParamFlash) -> u32 {
     highest_counter(flash, &mut Err(BlobError::Empty))
 }
