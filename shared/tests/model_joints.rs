@@ -317,7 +317,11 @@ fn a_readout_encodes_as_its_fields_in_order_and_decodes_back() {
     // The same bytes as the fields encoded one after the other with serde's own code.
     let mut expected = Vec::new();
     let mut field = [0u8; 4096];
-    expected.extend_from_slice(postcard::to_slice(&readout.groups, &mut field).unwrap());
+    for g in &readout.groups {
+        expected.extend_from_slice(postcard::to_slice(&g.row_count, &mut field).unwrap());
+        expected.extend_from_slice(postcard::to_slice(&g.outputs, &mut field).unwrap());
+        expected.extend_from_slice(postcard::to_slice(&g.feedthrough, &mut field).unwrap());
+    }
     expected.extend_from_slice(postcard::to_slice(&readout.rows, &mut field).unwrap());
     assert_eq!(bytes, expected);
     let back: supine_core::model::JointReadout = postcard::from_bytes(&bytes).unwrap();

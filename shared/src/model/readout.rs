@@ -12,7 +12,6 @@
 //! block and row: 118 for all ten outputs of the presets' 15 blocks.
 
 use nalgebra::Complex;
-use serde::{Deserialize, Serialize};
 
 use super::ModelError;
 use super::channel::{DEVICE_CHANNELS, DEVICE_OUTPUT_COUNT, FIRST_DEVICE_JOINT};
@@ -26,7 +25,7 @@ use super::modal::ModalAnalysis;
 pub const MAX_JOINT_ROWS: usize = 4;
 
 /// The joint rows of one axis group.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ReadoutGroup {
     /// Rows in use: the first `row_count` of `outputs`, `feedthrough` and each block's rows.
     pub row_count: u8,
@@ -50,62 +49,93 @@ impl ReadoutGroup {
 }
 
 /// The joint outputs a blob asks for, as rows over the head realization's blocks.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct JointReadout {
     /// One group per support axis, x, y, z, over the head realization's groups of blocks.
     pub groups: [ReadoutGroup; 3],
     /// Per block, its rows (m or rad per unit state); rows past the group's count are zero.
-    #[serde(with = "flat_rows")]
     pub rows: [[[f32; 2]; MAX_JOINT_ROWS]; MAX_BLOCKS],
 }
 
-/// The rows as one tuple of their 128 numbers, encoded and decoded in a loop. Serde's
-/// derived code for nested arrays is unrolled per element: for these rows about 3 KiB of
-/// the device's flash in the blob decoder (measured on the product image). The bytes are
-/// the derived encoding's (postcard writes a fixed-size array as its elements in order;
-/// `shared/tests/model_joints.rs` checks it).
-mod flat_rows {
+/// Encoded and decoded by hand, in loops, as exactly the bytes serde's derive gives for
+/// the fields in order (each group's row count, outputs and direct terms, then the rows
+/// block by block; postcard writes a fixed-size array as its elements in order, and
+/// `shared/tests/model_joints.rs` checks the bytes). The derived code is unrolled per
+/// element: for these 155 numbers about 1.5 KiB of the device's flash in the blob decoder.
+mod wire {
     use core::fmt;
 
     use serde::de::{Error, SeqAccess, Visitor};
     use serde::ser::SerializeTuple;
-    use serde::{Deserializer, Serializer};
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-    use super::{MAX_BLOCKS, MAX_JOINT_ROWS};
+    use super::{JointReadout, MAX_BLOCKS, MAX_JOINT_ROWS};
 
-    type Rows = [[[f32; 2]; MAX_JOINT_ROWS]; MAX_BLOCKS];
-    const LEN: usize = MAX_BLOCKS * MAX_JOINT_ROWS * 2;
+    const LEN: usize = 3 * (1 + 2 * MAX_JOINT_ROWS) + MAX_BLOCKS * MAX_JOINT_ROWS * 2;
 
-    pub fn serialize<S: Serializer>(rows: &Rows, serializer: S) -> Result<S::Ok, S::Error> {
-        let mut tuple = serializer.serialize_tuple(LEN)?;
-        for v in rows.iter().flatten().flatten() {
-            tuple.serialize_element(v)?;
+    impl Serialize for JointReadout {
+        fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+            let mut tuple = serializer.serialize_tuple(LEN)?;
+            for g in &self.groups {
+                tuple.serialize_element(&g.row_count)?;
+                for o in &g.outputs {
+                    tuple.serialize_element(o)?;
+                }
+                for d in &g.feedthrough {
+                    tuple.serialize_element(d)?;
+                }
+            }
+            for v in self.rows.iter().flatten().flatten() {
+                tuple.serialize_element(v)?;
+            }
+            tuple.end()
         }
-        tuple.end()
     }
 
-    struct RowsVisitor;
+    struct ReadoutVisitor;
 
-    impl<'de> Visitor<'de> for RowsVisitor {
-        type Value = Rows;
+    /// The next element, or an error naming how many came before.
+    fn next<'de, T: Deserialize<'de>, A: SeqAccess<'de>>(
+        seq: &mut A,
+        k: &mut usize,
+    ) -> Result<T, A::Error> {
+        let v = seq
+            .next_element()?
+            .ok_or_else(|| A::Error::invalid_length(*k, &ReadoutVisitor))?;
+        *k += 1;
+        Ok(v)
+    }
+
+    impl<'de> Visitor<'de> for ReadoutVisitor {
+        type Value = JointReadout;
 
         fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-            f.write_str("the joint readout's rows")
+            f.write_str("the joint readout")
         }
 
-        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Rows, A::Error> {
-            let mut rows = [[[0.0; 2]; MAX_JOINT_ROWS]; MAX_BLOCKS];
-            for (k, v) in rows.iter_mut().flatten().flatten().enumerate() {
-                *v = seq
-                    .next_element()?
-                    .ok_or_else(|| A::Error::invalid_length(k, &self))?;
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<JointReadout, A::Error> {
+            let mut r = JointReadout::NONE;
+            let mut k = 0;
+            for g in &mut r.groups {
+                g.row_count = next(&mut seq, &mut k)?;
+                for o in &mut g.outputs {
+                    *o = next(&mut seq, &mut k)?;
+                }
+                for d in &mut g.feedthrough {
+                    *d = next(&mut seq, &mut k)?;
+                }
             }
-            Ok(rows)
+            for v in r.rows.iter_mut().flatten().flatten() {
+                *v = next(&mut seq, &mut k)?;
+            }
+            Ok(r)
         }
     }
 
-    pub fn deserialize<'de, D: Deserializer<'de>>(deserializer: D) -> Result<Rows, D::Error> {
-        deserializer.deserialize_tuple(LEN, RowsVisitor)
+    impl<'de> Deserialize<'de> for JointReadout {
+        fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+            deserializer.deserialize_tuple(LEN, ReadoutVisitor)
+        }
     }
 }
 
