@@ -235,7 +235,7 @@ impl DeviceParams {
             RealizationError::Unstable => BlobError::Unstable,
             RealizationError::TooManyBlocks | RealizationError::Layout => BlobError::Malformed,
         })?;
-        self.joints.check(&self.realization).map_err(|e| match e {
+        self.joints.check().map_err(|e| match e {
             RealizationError::NotFinite => BlobError::NonFinite,
             _ => BlobError::Malformed,
         })?;
@@ -274,9 +274,7 @@ impl DeviceParams {
         let within = |state: f32, output: f32| state <= MAX_STATE && output <= MAX_SIGNAL_M_S2;
         let head_m_s2 = model.outputs.map(|gain| gain * full_scale);
         let state = model.state * full_scale;
-        let joints = self
-            .joints
-            .amplification(&self.realization, state, full_scale);
+        let joints = self.joints.amplification(state, full_scale);
         let mut bounded = within(state, head_m_s2.iter().fold(joints, |m, &v| v.max(m)));
         for (weighting, head) in self.exposure.weighting.iter().zip(head_m_s2) {
             let filter = weighting.amplification().ok_or(BlobError::Unstable)?;

@@ -189,15 +189,11 @@ impl DeviceParams {
             }
             if countdown == 0 {
                 countdown = decimation;
-                let mut y = [0.0; JOINT_OUTPUT_COUNT];
-                joint_count = self.joints.read_packed(
-                    &self.realization,
-                    &state.model,
-                    state.last_good_m_s2,
-                    &mut y,
-                );
-                state.joints.step(joint_gain, &y[..joint_count]);
-                let _ = joints.push(y);
+                if joints.push([0.0; JOINT_OUTPUT_COUNT]).is_ok()
+                    && let Some(y) = joints.last_mut()
+                {
+                    joint_count = self.read_joints(state, joint_gain, y);
+                }
             }
             countdown -= 1;
             *out = self
@@ -270,6 +266,23 @@ impl DeviceParams {
             }
             state.telemetry_countdown -= 1;
         }
+    }
+
+    /// The joint outputs read (packed into `y`; returns how many) at the sample about to
+    /// be stepped, taken into their exposure with `gain`. Out of line: the pipeline is
+    /// compiled for two block lengths, and this need not be twice in flash.
+    #[inline(never)]
+    fn read_joints(
+        &self,
+        state: &mut PipelineState,
+        gain: f32,
+        y: &mut [f32; JOINT_OUTPUT_COUNT],
+    ) -> usize {
+        let count =
+            self.joints
+                .read_packed(&self.realization, &state.model, state.last_good_m_s2, y);
+        state.joints.step(gain, &y[..count]);
+        count
     }
 
     fn telemetry_of(

@@ -287,22 +287,22 @@ fn a_readout_reads_only_the_joint_outputs_asked_for_and_a_bad_one_is_refused() {
     let all = model
         .device_joint_readout(500.0, &head, &JointOutput::ALL)
         .unwrap();
-    assert_eq!(all.check(&head), Ok(()));
+    assert_eq!(all.check(), Ok(()));
     let mut unread = all;
     unread.rows[15][0][0] = 1.0; // past the 15 blocks in use: never read
-    assert_eq!(unread.check(&head), Ok(()));
+    assert_eq!(unread.check(), Ok(()));
     let mut bad = all;
     bad.rows[3][1][0] = f32::INFINITY; // a coefficient in use
-    assert!(bad.check(&head).is_err());
+    assert!(bad.check().is_err());
     let mut bad = all;
     bad.groups[1].outputs.swap(0, 1); // out of order within its axis
-    assert!(bad.check(&head).is_err());
+    assert!(bad.check().is_err());
     let mut bad = all;
     bad.groups[0].outputs[1] = bad.groups[1].outputs[0]; // a y output in the x group
-    assert!(bad.check(&head).is_err());
+    assert!(bad.check().is_err());
     let mut bad = all;
     bad.groups[2].feedthrough[0] = f32::NAN;
-    assert!(bad.check(&head).is_err());
+    assert!(bad.check().is_err());
 }
 
 #[test]

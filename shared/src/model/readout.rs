@@ -202,16 +202,15 @@ impl JointReadout {
             }
             first = end;
         }
-        readout.check(head).map_err(ModelError::Realization)?;
+        readout.check().map_err(ModelError::Realization)?;
         Ok(readout)
     }
 
     /// Checks a loaded readout against the head realization it reads: rows within bounds,
     /// each joint output in the group its input axis drives and in [`JointOutput::ALL`]
-    /// order there (so at most once), every coefficient in use finite. Coefficients past
-    /// the rows and blocks in use are never read, so they are not checked: the device's
-    /// flash is kept for what matters.
-    pub fn check(&self, head: &DiscreteModal<f32, 3>) -> Result<(), RealizationError> {
+    /// order there (so at most once), every coefficient finite (the rows not in use are
+    /// never read, and zero as built).
+    pub fn check(&self) -> Result<(), RealizationError> {
         for (axis, group) in self.groups.iter().enumerate() {
             if usize::from(group.row_count) > MAX_JOINT_ROWS {
                 return Err(RealizationError::Layout);
@@ -228,7 +227,7 @@ impl JointReadout {
             }
         }
         // A sum of the coefficients' magnitudes: NaN or infinite if any one is.
-        if self.amplification(head, 1.0, 1.0).is_finite() {
+        if self.amplification(1.0, 1.0).is_finite() {
             Ok(())
         } else {
             Err(RealizationError::NotFinite)
@@ -245,22 +244,18 @@ impl JointReadout {
 
     /// A bound on every output's magnitude when each block state's Euclidean norm is at
     /// most `state` and each input at most `input` (m/s^2): what the blob's check of
-    /// overflow needs ([`crate::blob::DeviceParams::validate`]). The sum of every row's
-    /// bound, not the largest: looser, and NaN or infinite if any coefficient in use is.
-    pub fn amplification(&self, head: &DiscreteModal<f32, 3>, state: f32, input: f32) -> f32 {
-        let mut total = 0.0f32;
-        let mut first = 0;
-        for (group, head_group) in self.groups.iter().zip(&head.groups) {
-            let end = (first + usize::from(head_group.block_count)).min(MAX_BLOCKS);
-            let rows = usize::from(group.row_count).min(MAX_JOINT_ROWS);
-            for (r, d) in group.feedthrough[..rows].iter().enumerate() {
-                let coefficients = self.rows[first..end].iter().map(|b| b[r]);
-                let from_state: f32 = coefficients.map(|[c0, c1]| c0.abs() + c1.abs()).sum();
-                total += d.abs() * input + from_state * state;
-            }
-            first = end;
-        }
-        total
+    /// overflow needs ([`crate::blob::DeviceParams::validate`]). The sum over every
+    /// coefficient, the rows not in use too: looser than any one output's bound, NaN or
+    /// infinite if any coefficient is, and one short loop on the device.
+    pub fn amplification(&self, state: f32, input: f32) -> f32 {
+        let direct: f32 = self
+            .groups
+            .iter()
+            .flat_map(|g| g.feedthrough)
+            .map(f32::abs)
+            .sum();
+        let rows: f32 = self.rows.iter().flatten().flatten().map(|c| c.abs()).sum();
+        direct * input + rows * state
     }
 
     /// Whether it reads joint output `output`.
