@@ -549,3 +549,68 @@ fn a_panic_resets_the_device_and_the_next_greeting_names_it() {
         s.diagnostics
     );
 }
+
+/// Issue 16: a minute of a rough ride (`supine ride --profile rough-road`'s generator) by
+/// the replay's file route at the shipping telemetry rate (every 5th sample): every
+/// joint value the device reports is the host's f32 pipeline's, bit for bit, and within
+/// 1e-6 of that output's peak of the f64 model at the same sample.
+#[test]
+fn the_devices_joint_outputs_match_the_f64_model_over_a_minute_of_a_rough_ride() {
+    use supine_core::joint_exposure::packed_order;
+    use supine_host::demo::ride::{DemoProfile, make};
+    let fs = 500.0;
+    let mut file = test_params_file();
+    if let Some(device) = &mut file.device {
+        device.telemetry_decimation = Some(5);
+    }
+    let params = device_params::build(&file, fs).expect("params build");
+    let blob = device_params::encode(&params).expect("blob encodes");
+    let input = make(DemoProfile::RoughRoad, 60.0, fs, 7)
+        .expect("a rough ride")
+        .samples();
+    let indices: Vec<u32> = (0..input.len() as u32).collect();
+    let host = reference::pipeline(&params, &indices, &input);
+    let joints = reference::joints_f64(&file.params, fs, &input).expect("f64 model");
+    let s = run_via(
+        Route::File,
+        Some(blob),
+        false,
+        sample_messages(0, &input),
+        240,
+    );
+    assert_eq!(
+        s.telemetry, host.telemetry,
+        "the device is the host's pipeline"
+    );
+    let order: Vec<_> = packed_order(params.joints.mask()).collect();
+    assert_eq!(order.len(), 10, "all ten by default");
+    let mut peak = [0.0f64; 10];
+    for y in &joints {
+        for (p, v) in peak.iter_mut().zip(y) {
+            *p = p.max(v.abs());
+        }
+    }
+    let mut worst = [0.0f64; 10];
+    for t in &s.telemetry {
+        let reference = joints[t.sample_index as usize];
+        for (k, output) in order.iter().enumerate() {
+            let o = output.index();
+            let d = (f64::from(t.joints.as_slice()[k]) - reference[o]).abs();
+            worst[o] = worst[o].max(d);
+        }
+    }
+    for output in &order {
+        let o = output.index();
+        println!("{output}: worst {:.3e} of a peak {:.3e}", worst[o], peak[o]);
+    }
+    for output in &order {
+        let o = output.index();
+        assert!(peak[o] > 0.0, "{output}");
+        assert!(
+            worst[o] <= 1e-6 * peak[o],
+            "{output}: {} of a peak {}",
+            worst[o],
+            peak[o]
+        );
+    }
+}

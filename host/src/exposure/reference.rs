@@ -6,12 +6,13 @@
 //!   events are expected bit for bit; exposure is compared at 1e-3 relative to leave room
 //!   for a compiler that fuses differently.
 //! - [`head_f64`] steps the model's f64 realization (before rounding to f32): the accuracy
-//!   reference for the predicted head acceleration (1e-4 m/s^2 max abs over a minute).
+//!   reference for the predicted head acceleration (1e-4 m/s^2 max abs over a minute);
+//!   [`joints_f64`] the same for the joint outputs.
 
 use anyhow::{Result, anyhow};
 use supine_core::alerts::AlertEvent;
 use supine_core::blob::DeviceParams;
-use supine_core::model::{ModalState, Model, ModelParams, Output};
+use supine_core::model::{JOINT_OUTPUT_COUNT, JointOutput, ModalState, Model, ModelParams, Output};
 use supine_core::pipeline::{PipelineOutput, PipelineState};
 use supine_core::protocol::Telemetry;
 
@@ -45,6 +46,24 @@ pub fn head_f64(
 ) -> Result<Vec<[f64; 3]>> {
     let realization = Model::new(params)
         .and_then(|model| model.realization(sample_rate_hz, &Output::HEAD))
+        .map_err(|e| anyhow!("the model does not discretize at {sample_rate_hz} Hz: {e}"))?;
+    let mut state = ModalState::<f64>::default();
+    Ok(input_m_s2
+        .iter()
+        .map(|x| realization.step(&mut state, x.map(f64::from)))
+        .collect())
+}
+
+/// The ten joint outputs (m or rad, [`JointOutput::ALL`] order) of the f64 model at
+/// `sample_rate_hz` for each input sample (widened exactly from f32), from rest: the
+/// accuracy reference for the device's joint values.
+pub fn joints_f64(
+    params: &ModelParams,
+    sample_rate_hz: f64,
+    input_m_s2: &[[f32; 3]],
+) -> Result<Vec<[f64; JOINT_OUTPUT_COUNT]>> {
+    let realization = Model::new(params)
+        .and_then(|model| model.realization(sample_rate_hz, &JointOutput::ALL))
         .map_err(|e| anyhow!("the model does not discretize at {sample_rate_hz} Hz: {e}"))?;
     let mut state = ModalState::<f64>::default();
     Ok(input_m_s2
