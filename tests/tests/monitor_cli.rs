@@ -88,7 +88,10 @@ fn monitor_logs_what_the_host_pipeline_predicts_for_a_scripted_ride() {
     // Telemetry: one row per record, at the same samples, head within 1e-4 m/s^2.
     let text = std::fs::read_to_string(&log).expect("log written");
     let mut lines = text.lines();
-    assert_eq!(lines.next(), Some(TELEMETRY_HEADER));
+    // The parameters read all ten joint outputs (the default): their columns follow.
+    let header = supine_host::io::telemetry_csv::telemetry_header(0b11_1111_1111);
+    assert!(header.starts_with(TELEMETRY_HEADER));
+    assert_eq!(lines.next(), Some(header.as_str()));
     let rows: Vec<Vec<&str>> = lines.map(cells).collect();
     assert_eq!(rows.len(), expected.telemetry.len());
     let mut worst_pipeline = 0.0f64;

@@ -105,10 +105,9 @@ fn supine_replay_writes_telemetry_and_events_and_counts_instructions() {
     assert!(stderr.contains("for a patient 1.82 m, 81 kg"), "{stderr}");
     let csv = std::fs::read_to_string(&out).expect("telemetry written");
     let mut lines = csv.lines();
-    assert_eq!(
-        lines.next(),
-        Some(supine_host::io::telemetry_csv::TELEMETRY_HEADER)
-    );
+    // The preset's blob reads all ten joint outputs (the default): their columns follow.
+    let header = supine_host::io::telemetry_csv::telemetry_header(0b11_1111_1111);
+    assert_eq!(lines.next(), Some(header.as_str()));
     assert_eq!(lines.count(), 2000);
     let events = std::fs::read_to_string(dir.path().join("device.events.csv")).expect("events");
     assert!(events.starts_with(supine_host::io::telemetry_csv::EVENTS_HEADER));

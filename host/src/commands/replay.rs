@@ -81,7 +81,8 @@ pub fn run(args: &Args) -> Result<()> {
     let mut progress = Progress::new(total, ride.sample_rate_hz());
     let mut records = 0usize;
     let mut processed = 0u64;
-    let result = write_telemetry_streamed(&args.out, ride.sample_rate_hz(), |emit| {
+    let joint_mask = file.device.unwrap_or_default().joint_outputs.mask;
+    let result = write_telemetry_streamed(&args.out, ride.sample_rate_hz(), joint_mask, |emit| {
         replay(
             &kernel,
             &file,

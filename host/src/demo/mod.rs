@@ -420,7 +420,12 @@ fn host_reference(
 ) -> Result<HostReference> {
     let indices: Vec<u32> = (0..samples.len() as u32).collect();
     let run = reference::pipeline(params, &indices, samples);
-    write_telemetry(&files.host, &run.telemetry, SAMPLE_RATE_HZ)?;
+    write_telemetry(
+        &files.host,
+        &run.telemetry,
+        SAMPLE_RATE_HZ,
+        params.joints.mask(),
+    )?;
     write_events(&files.host_events, &run.events, SAMPLE_RATE_HZ)?;
     let head_f64 = reference::head_f64(&file.params, SAMPLE_RATE_HZ, samples)?;
     Ok(HostReference {

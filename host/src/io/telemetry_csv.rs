@@ -10,7 +10,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Result, anyhow, bail};
 use supine_core::alerts::{AlertEvent, Criterion, FaultFlags, Level};
-use supine_core::joint_exposure::JointValues;
+use supine_core::joint_exposure::{JointValues, packed_order};
+use supine_core::model::{JOINT_OUTPUT_COUNT, JointOutput, JointUnit};
 use supine_core::protocol::Telemetry;
 
 use super::csv_lines::CsvLines;
@@ -21,6 +22,32 @@ use super::output::write_atomically;
 /// recording format name them (`head_x`: predicted head acceleration, m/s^2, litter axes);
 /// the rest carry their units.
 pub const TELEMETRY_HEADER: &str = "sample,time_s,head_x,head_y,head_z,running_rms_x_m_s2,running_rms_y_m_s2,running_rms_z_m_s2,running_rms_vector_m_s2,vdv_m_s175,alert_level,fault_flags,valid";
+/// The joint output columns' names for the outputs in `joint_mask` (bit `i` for
+/// [`JointOutput::ALL`]`[i]`), in the order the device reports them
+/// ([`packed_order`]), units in the names: `neck_x_m`, ..., `neck_ry_rad`.
+pub fn joint_columns(joint_mask: u16) -> Vec<String> {
+    packed_order(joint_mask).map(joint_column).collect()
+}
+
+fn joint_column(output: JointOutput) -> String {
+    let unit = match output.unit() {
+        JointUnit::Metre => "m",
+        JointUnit::Radian => "rad",
+    };
+    format!("{}_{unit}", output.name())
+}
+
+/// The telemetry CSV's header for a device reporting the joint outputs of `joint_mask`:
+/// [`TELEMETRY_HEADER`], then one column per joint output ([`joint_columns`]).
+pub fn telemetry_header(joint_mask: u16) -> String {
+    let mut header = TELEMETRY_HEADER.to_string();
+    for column in joint_columns(joint_mask) {
+        header.push(',');
+        header.push_str(&column);
+    }
+    header
+}
+
 /// Header of the alert events CSV. `criterion` is what changed a level (`running-rms` or
 /// `vdv`, [`Criterion::name`]) with its `value` then, in `unit` (`m/s^2` or `m/s^1.75`); a
 /// fault is its own cause, so those three cells are empty on a fault's row.
@@ -38,13 +65,20 @@ pub fn events_path(out: &Path) -> PathBuf {
     out.with_file_name(format!("{stem}.events.csv"))
 }
 
-/// One line of the telemetry CSV ([`TELEMETRY_HEADER`]), newline included; written whole
-/// by [`write_telemetry`] and row by row by `supine monitor`'s live log.
+/// One line of the telemetry CSV ([`telemetry_header`]: the record's joint values last),
+/// newline included; written whole by [`write_telemetry`] and row by row by `supine
+/// monitor`'s live log.
 pub fn telemetry_row(t: &Telemetry, sample_rate_hz: f64) -> String {
     let [hx, hy, hz] = t.head_acc_m_s2;
     let [rx, ry, rz] = t.running_rms_m_s2;
+    let joints: String = t
+        .joints
+        .as_slice()
+        .iter()
+        .map(|v| format!(",{v}"))
+        .collect();
     format!(
-        "{},{},{hx},{hy},{hz},{rx},{ry},{rz},{},{},{},{},{}\n",
+        "{},{},{hx},{hy},{hz},{rx},{ry},{rz},{},{},{},{},{}{joints}\n",
         t.sample_index,
         f64::from(t.sample_index) / sample_rate_hz,
         t.vector_running_rms_m_s2,
@@ -60,9 +94,15 @@ pub fn event_row(e: &AlertEvent, sample_rate_hz: f64) -> String {
     EventRow::from_event(e, sample_rate_hz).to_line()
 }
 
-/// Writes the telemetry CSV ([`TELEMETRY_HEADER`]), whole or not at all.
-pub fn write_telemetry(path: &Path, telemetry: &[Telemetry], sample_rate_hz: f64) -> Result<()> {
-    write_telemetry_streamed(path, sample_rate_hz, |emit| {
+/// Writes the telemetry CSV ([`telemetry_header`] of `joint_mask`, the joint outputs the
+/// records carry), whole or not at all.
+pub fn write_telemetry(
+    path: &Path,
+    telemetry: &[Telemetry],
+    sample_rate_hz: f64,
+    joint_mask: u16,
+) -> Result<()> {
+    write_telemetry_streamed(path, sample_rate_hz, joint_mask, |emit| {
         telemetry.iter().try_for_each(emit)
     })
 }
@@ -73,11 +113,12 @@ pub fn write_telemetry(path: &Path, telemetry: &[Telemetry], sample_rate_hz: f64
 pub fn write_telemetry_streamed<T>(
     path: &Path,
     sample_rate_hz: f64,
+    joint_mask: u16,
     produce: impl FnOnce(&mut dyn FnMut(&Telemetry) -> Result<()>) -> Result<T>,
 ) -> Result<T> {
     let mut produced = None;
     write_atomically(path, |w| {
-        writeln!(w, "{TELEMETRY_HEADER}")?;
+        writeln!(w, "{}", telemetry_header(joint_mask))?;
         let mut emit = |t: &Telemetry| -> Result<()> {
             Ok(w.write_all(telemetry_row(t, sample_rate_hz).as_bytes())?)
         };
@@ -98,12 +139,14 @@ pub fn write_events(path: &Path, events: &[AlertEvent], sample_rate_hz: f64) -> 
     })
 }
 
-/// The data rows of the CSV at `path`, whose first line must be `header`, each turned
-/// into a record by `parse` (given the row's cells and its position, `FILE: line N`).
-/// The file is read line by line ([`CsvLines`]), so memory holds the records, not the text.
+/// The data rows of the CSV at `path`, whose first line must be one `accepts` takes
+/// (`header` describes it in errors), each turned into a record by `parse` (given the
+/// row's cells and its position, `FILE: line N`). The file is read line by line
+/// ([`CsvLines`]), so memory holds the records, not the text.
 fn read_rows<T>(
     path: &Path,
     header: &str,
+    mut accepts: impl FnMut(&[&str]) -> bool,
     mut parse: impl FnMut(&[&str], &str) -> Result<T>,
 ) -> Result<Vec<T>> {
     let mut lines =
@@ -132,7 +175,7 @@ fn read_rows<T>(
             })?);
         }
         if first {
-            if cells.join(",") != header {
+            if !accepts(&cells) {
                 bail!(
                     "{at}: expected the header \"{header}\", found {}",
                     excerpt(cells.join(","))
@@ -145,68 +188,116 @@ fn read_rows<T>(
     }
 }
 
-/// Reads a telemetry CSV ([`TELEMETRY_HEADER`]) back into the records it was written
+/// The joint outputs a telemetry header names after [`TELEMETRY_HEADER`], as a mask, if
+/// they are joint columns in the device's order ([`telemetry_header`] of that mask).
+fn joint_mask_of(header: &[&str]) -> Option<u16> {
+    let base = TELEMETRY_HEADER.split(',').count();
+    if header.get(..base)?.join(",") != TELEMETRY_HEADER {
+        return None;
+    }
+    let mut mask = 0u16;
+    for name in &header[base..] {
+        let output = JointOutput::ALL
+            .into_iter()
+            .find(|o| joint_column(*o) == *name)?;
+        mask |= 1 << output.index();
+    }
+    (joint_columns(mask) == header[base..]).then_some(mask)
+}
+
+/// Reads a telemetry CSV ([`telemetry_header`]) back into the records it was written
 /// from (the `time_s` column is derived, so it is not read).
 pub fn read_telemetry(path: &Path) -> Result<Vec<Telemetry>> {
-    read_rows(path, TELEMETRY_HEADER, |cells, at| {
-        if cells.len() != TELEMETRY_CELLS {
-            bail!(
-                "{at}: expected {TELEMETRY_CELLS} cells, found {}",
-                cells.len()
-            );
+    // Set by the header, read by every row.
+    let joint_count = std::cell::Cell::new(0);
+    let described = format!(
+        "{TELEMETRY_HEADER}[,joint columns of {}]",
+        joint_columns((1 << JOINT_OUTPUT_COUNT) - 1).join(",")
+    );
+    let accepts = |h: &[&str]| match joint_mask_of(h) {
+        Some(mask) => {
+            joint_count.set(mask.count_ones() as usize);
+            true
         }
-        let num = |i: usize| -> Result<f32> {
-            cells[i].parse::<f32>().map_err(|_| {
-                anyhow!(
-                    "{at}, cell {}: expected a number, found {}",
-                    i + 1,
-                    excerpt(cells[i])
-                )
-            })
-        };
-        let sample_index: u32 = cells[0].parse().map_err(|_| {
-            anyhow!(
-                "{at}, column sample: expected an index, found {}",
-                excerpt(cells[0])
-            )
-        })?;
-        let alert_level = level_from_name(cells[10]).ok_or_else(|| {
-            anyhow!(
-                "{at}, column alert_level: expected normal, advisory, warning or alarm, found {}",
-                excerpt(cells[10])
-            )
-        })?;
-        let fault_flags = cells[11]
-            .parse()
-            .ok()
-            .and_then(FaultFlags::try_from_repr)
-            .ok_or_else(|| {
-                anyhow!(
-                    "{at}, column fault_flags: expected 0..={}, found {}",
-                    FaultFlags::all().as_repr(),
-                    excerpt(cells[11])
-                )
-            })?;
-        let valid = match cells[12] {
-            "0" => false,
-            "1" => true,
-            other => bail!(
-                "{at}, column valid: expected 0 or 1, found {}",
-                excerpt(other)
-            ),
-        };
-        Ok(Telemetry {
-            sample_index,
-            head_acc_m_s2: [num(2)?, num(3)?, num(4)?],
-            running_rms_m_s2: [num(5)?, num(6)?, num(7)?],
-            vector_running_rms_m_s2: num(8)?,
-            vdv_m_s175: num(9)?,
-            alert_level,
-            fault_flags,
-            valid,
-            joints: JointValues::EMPTY,
-        })
+        None => false,
+    };
+    read_rows(path, &described, accepts, |cells, at| {
+        telemetry_record(cells, at, joint_count.get())
     })
+}
+
+/// One telemetry row with `joint_count` joint columns.
+fn telemetry_record(cells: &[&str], at: &str, joint_count: usize) -> Result<Telemetry> {
+    let expected = TELEMETRY_CELLS + joint_count;
+    if cells.len() != expected {
+        bail!("{at}: expected {expected} cells, found {}", cells.len());
+    }
+    let num = |i: usize| -> Result<f32> {
+        cells[i].parse::<f32>().map_err(|_| {
+            anyhow!(
+                "{at}, cell {}: expected a number, found {}",
+                i + 1,
+                excerpt(cells[i])
+            )
+        })
+    };
+    let sample_index: u32 = cells[0].parse().map_err(|_| {
+        anyhow!(
+            "{at}, column sample: expected an index, found {}",
+            excerpt(cells[0])
+        )
+    })?;
+    let alert_level = level_from_name(cells[10]).ok_or_else(|| {
+        anyhow!(
+            "{at}, column alert_level: expected normal, advisory, warning or alarm, found {}",
+            excerpt(cells[10])
+        )
+    })?;
+    let fault_flags = cells[11]
+        .parse()
+        .ok()
+        .and_then(FaultFlags::try_from_repr)
+        .ok_or_else(|| {
+            anyhow!(
+                "{at}, column fault_flags: expected 0..={}, found {}",
+                FaultFlags::all().as_repr(),
+                excerpt(cells[11])
+            )
+        })?;
+    let valid = match cells[12] {
+        "0" => false,
+        "1" => true,
+        other => bail!(
+            "{at}, column valid: expected 0 or 1, found {}",
+            excerpt(other)
+        ),
+    };
+    Ok(Telemetry {
+        sample_index,
+        head_acc_m_s2: [num(2)?, num(3)?, num(4)?],
+        running_rms_m_s2: [num(5)?, num(6)?, num(7)?],
+        vector_running_rms_m_s2: num(8)?,
+        vdv_m_s175: num(9)?,
+        alert_level,
+        fault_flags,
+        valid,
+        joints: joints_of(&cells[TELEMETRY_CELLS..], at)?,
+    })
+}
+
+/// The joint cells of a telemetry row, numbers each.
+fn joints_of(cells: &[&str], at: &str) -> Result<JointValues> {
+    let mut values = [0.0f32; JOINT_OUTPUT_COUNT];
+    for (k, (v, cell)) in values.iter_mut().zip(cells).enumerate() {
+        *v = cell.parse().map_err(|_| {
+            anyhow!(
+                "{at}, cell {}: expected a joint output's value, found {}",
+                TELEMETRY_CELLS + k + 1,
+                excerpt(cell)
+            )
+        })?;
+    }
+    Ok(JointValues::packed(cells.len(), values))
 }
 
 /// The level named `name` (`normal`, `advisory`, `warning`, `alarm`).
@@ -284,39 +375,44 @@ impl EventRow {
 
 /// Reads an events CSV ([`EVENTS_HEADER`]) written at `sample_rate_hz`.
 pub fn read_events(path: &Path, sample_rate_hz: f64) -> Result<Vec<EventRow>> {
-    read_rows(path, EVENTS_HEADER, |cells, at| {
-        let [sample, _time, kind, name, raised, criterion, value, unit] = cells[..] else {
-            bail!("{at}: expected 8 cells, found {}", cells.len());
-        };
-        let sample: u32 = sample.parse().map_err(|_| {
-            anyhow!(
-                "{at}, column sample: expected an index, found {}",
-                excerpt(sample)
-            )
-        })?;
-        if kind != "level" && kind != "fault" {
-            bail!(
-                "{at}, column kind: expected level or fault, found {}",
-                excerpt(kind)
-            );
-        }
-        let raised = match raised {
-            "0" => false,
-            "1" => true,
-            other => bail!(
-                "{at}, column raised: expected 0 or 1, found {}",
-                excerpt(other)
-            ),
-        };
-        Ok(EventRow {
-            sample,
-            time_s: f64::from(sample) / sample_rate_hz,
-            kind: kind.to_string(),
-            name: name.to_string(),
-            raised,
-            criterion: criterion_from_cells(kind, criterion, value, unit, at)?,
-        })
-    })
+    read_rows(
+        path,
+        EVENTS_HEADER,
+        |h| h.join(",") == EVENTS_HEADER,
+        |cells, at| {
+            let [sample, _time, kind, name, raised, criterion, value, unit] = cells[..] else {
+                bail!("{at}: expected 8 cells, found {}", cells.len());
+            };
+            let sample: u32 = sample.parse().map_err(|_| {
+                anyhow!(
+                    "{at}, column sample: expected an index, found {}",
+                    excerpt(sample)
+                )
+            })?;
+            if kind != "level" && kind != "fault" {
+                bail!(
+                    "{at}, column kind: expected level or fault, found {}",
+                    excerpt(kind)
+                );
+            }
+            let raised = match raised {
+                "0" => false,
+                "1" => true,
+                other => bail!(
+                    "{at}, column raised: expected 0 or 1, found {}",
+                    excerpt(other)
+                ),
+            };
+            Ok(EventRow {
+                sample,
+                time_s: f64::from(sample) / sample_rate_hz,
+                kind: kind.to_string(),
+                name: name.to_string(),
+                raised,
+                criterion: criterion_from_cells(kind, criterion, value, unit, at)?,
+            })
+        },
+    )
 }
 
 /// The criterion of an events row: for a level change `running-rms` with a value in `m/s^2`
@@ -381,7 +477,7 @@ mod tests {
         };
         let dir = tempfile::tempdir().expect("temp dir");
         let path = dir.path().join("device.csv");
-        write_telemetry(&path, &[t], 500.0).expect("write");
+        write_telemetry(&path, &[t], 500.0, 0).expect("write");
         assert_eq!(
             std::fs::read_to_string(&path).expect("read"),
             format!(
@@ -389,6 +485,32 @@ mod tests {
             )
         );
         assert_eq!(read_telemetry(&path).expect("read"), vec![t]);
+
+        // With joint outputs: neck_x (x), neck_ry and low_back_z (z), in the device's order.
+        let mask = (1 << 0) | (1 << 3) | (1 << 7);
+        let with_joints = Telemetry {
+            joints: JointValues::from_slice(&[1.5e-4, -0.0125, 3e-5]).expect("three"),
+            ..t
+        };
+        write_telemetry(&path, &[with_joints], 500.0, mask).expect("write");
+        let text = std::fs::read_to_string(&path).expect("read");
+        let mut lines = text.lines();
+        assert_eq!(
+            lines.next(),
+            Some(format!("{TELEMETRY_HEADER},neck_x_m,neck_ry_rad,low_back_z_m").as_str())
+        );
+        assert!(
+            lines
+                .next()
+                .expect("a row")
+                .ends_with(",warning,4,1,0.00015,-0.0125,0.00003")
+        );
+        assert_eq!(read_telemetry(&path).expect("read"), vec![with_joints]);
+        // Joint columns out of the device's order are not a telemetry header.
+        let swapped = text.replace("neck_ry_rad,low_back_z_m", "low_back_z_m,neck_ry_rad");
+        std::fs::write(&path, swapped).expect("write");
+        let err = read_telemetry(&path).unwrap_err().to_string();
+        assert!(err.contains("line 1: expected the header"), "{err}");
 
         let e = AlertEvent::Fault {
             fault: SensorFault::Stuck,

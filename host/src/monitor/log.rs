@@ -1,6 +1,8 @@
 //! The monitor's CSV log: every telemetry record and every alert event, in the formats of
-//! `supine replay` (two files: `LOG.csv` with [`TELEMETRY_HEADER`], `<stem>.events.csv`
-//! with [`EVENTS_HEADER`]), so one reader serves both commands.
+//! `supine replay` (two files: `LOG.csv` with [`telemetry_header`], `<stem>.events.csv`
+//! with [`EVENTS_HEADER`]), so one reader serves both commands. The telemetry header's
+//! joint columns are the ones the device's greeting announces, so it is written when the
+//! first telemetry record comes (or at the end, if none does).
 //!
 //! The log is written while the session runs, into `<name>.partial` files flushed at least
 //! every [`FLUSH_INTERVAL`] (a crash loses at most that much, and leaves files whose name
@@ -12,10 +14,10 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use anyhow::{Result, anyhow};
-use supine_core::protocol::DeviceToHost;
+use supine_core::protocol::{DeviceToHost, Greeting};
 
 use crate::io::telemetry_csv::{
-    EVENTS_HEADER, TELEMETRY_HEADER, event_row, events_path, telemetry_row,
+    EVENTS_HEADER, event_row, events_path, telemetry_header, telemetry_row,
 };
 
 /// Longest time between flushes.
@@ -29,7 +31,7 @@ struct LiveFile {
 }
 
 impl LiveFile {
-    fn create(path: &Path, header: &str) -> Result<Self> {
+    fn create(path: &Path, header: Option<&str>) -> Result<Self> {
         let name = path
             .file_name()
             .ok_or_else(|| anyhow!("{}: not a file name", path.display()))?
@@ -42,7 +44,9 @@ impl LiveFile {
             partial,
             out: BufWriter::new(file),
         };
-        live.write(&format!("{header}\n"))?;
+        if let Some(header) = header {
+            live.write(&format!("{header}\n"))?;
+        }
         Ok(live)
     }
 
@@ -72,13 +76,17 @@ pub struct MonitorLog {
     events: LiveFile,
     last_flush: Instant,
     rows: u64,
+    /// The joint outputs the last greeting announced (none before one).
+    joint_mask: u16,
+    /// Whether the telemetry file has its header yet.
+    header_written: bool,
 }
 
 impl MonitorLog {
     /// Creates `path` (telemetry) and its `<stem>.events.csv` under `.partial` names.
     pub fn create(path: &Path) -> Result<Self> {
-        let telemetry = LiveFile::create(path, TELEMETRY_HEADER)?;
-        let events = match LiveFile::create(&events_path(path), EVENTS_HEADER) {
+        let telemetry = LiveFile::create(path, None)?;
+        let events = match LiveFile::create(&events_path(path), Some(EVENTS_HEADER)) {
             Ok(events) => events,
             Err(e) => {
                 let _ = std::fs::remove_file(&telemetry.partial);
@@ -90,7 +98,27 @@ impl MonitorLog {
             events,
             last_flush: Instant::now(),
             rows: 0,
+            joint_mask: 0,
+            header_written: false,
         })
+    }
+
+    /// Takes the joint outputs a greeting announces as the telemetry file's joint columns,
+    /// unless its header is already written.
+    pub fn on_greeting(&mut self, greeting: &Greeting) {
+        if !self.header_written {
+            self.joint_mask = greeting.joint_outputs;
+        }
+    }
+
+    /// Writes the telemetry header, with the joint columns announced so far, if not yet.
+    fn ensure_header(&mut self) -> Result<()> {
+        if !self.header_written {
+            self.header_written = true;
+            self.telemetry
+                .write(&format!("{}\n", telemetry_header(self.joint_mask)))?;
+        }
+        Ok(())
     }
 
     /// The final paths: telemetry, events.
@@ -102,7 +130,9 @@ impl MonitorLog {
     /// messages are not logged. Flushes when [`FLUSH_INTERVAL`] has passed.
     pub fn on_message(&mut self, message: &DeviceToHost, sample_rate_hz: f64) -> Result<()> {
         match message {
+            DeviceToHost::Greeting(g) => self.on_greeting(g),
             DeviceToHost::Telemetry(t) => {
+                self.ensure_header()?;
                 self.telemetry.write(&telemetry_row(t, sample_rate_hz))?;
                 self.rows += 1;
             }
@@ -129,7 +159,8 @@ impl MonitorLog {
     }
 
     /// Flushes both files and renames them into place; returns their final paths.
-    pub fn finish(self) -> Result<(PathBuf, PathBuf)> {
+    pub fn finish(mut self) -> Result<(PathBuf, PathBuf)> {
+        self.ensure_header()?;
         let telemetry = self.telemetry.finish()?;
         let events = self.events.finish()?;
         Ok((telemetry, events))
@@ -138,6 +169,7 @@ impl MonitorLog {
     /// Flushes both files and leaves them under their `.partial` names (the session
     /// failed); returns those names.
     pub fn abandon(mut self) -> (PathBuf, PathBuf) {
+        let _ = self.ensure_header();
         let _ = self.telemetry.flush();
         let _ = self.events.flush();
         (self.telemetry.partial, self.events.partial)
@@ -156,6 +188,8 @@ mod tests {
     use super::*;
     use supine_core::alerts::{AlertEvent, Criterion, Level, SensorFault};
     use supine_core::protocol::Telemetry;
+
+    use crate::io::telemetry_csv::TELEMETRY_HEADER;
 
     fn telemetry(sample_index: u32) -> Telemetry {
         Telemetry {

@@ -225,7 +225,7 @@ fn talk(
     qemu: &mut Qemu,
     run: &QemuRun,
     view: &mut dyn View,
-    log: Option<&mut MonitorLog>,
+    mut log: Option<&mut MonitorLog>,
     stop: &Arc<AtomicBool>,
 ) -> Result<(Monitor, Ending)> {
     let deadline = Instant::now() + qemu.remaining();
@@ -243,6 +243,9 @@ fn talk(
             identity_hex(&greeting.params_identity),
             greeting.params_source
         );
+    }
+    if let Some(log) = log.as_deref_mut() {
+        log.on_greeting(&greeting);
     }
     let mut monitor = Monitor::new(&greeting)?;
     monitor.set_ride_length_s(Some(run.samples.len() as f64 / run.sample_rate_hz));
@@ -329,7 +332,7 @@ pub fn run_serial(
     baud: u32,
     greeting_timeout: Duration,
     view: &mut dyn View,
-    log: Option<&mut MonitorLog>,
+    mut log: Option<&mut MonitorLog>,
     stop: &AtomicBool,
 ) -> Result<(Monitor, Ending)> {
     let serial = open_serial(port, baud)?;
@@ -337,6 +340,9 @@ pub fn run_serial(
     let greeting = wait_greeting(&mut reader, greeting_timeout, stop)
         .with_context(|| format!("{port} at {baud} baud"))?;
     eprintln!("supine monitor: {}", device_line(&greeting));
+    if let Some(log) = log.as_deref_mut() {
+        log.on_greeting(&greeting);
+    }
     let mut monitor = Monitor::new(&greeting)?;
     let ending = follow(&mut reader, &mut monitor, view, log, stop, false, None)?;
     Ok((monitor, ending))
