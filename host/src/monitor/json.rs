@@ -2,6 +2,7 @@
 //! and per notice (alert event, greeting, status) as they arrive, and `--json`, the
 //! closing summary as one object. Units are in the key names, as in the CSV log.
 
+use crate::io::telemetry_csv::joint_columns;
 use std::io::Write;
 
 use anyhow::{Result, anyhow};
@@ -13,7 +14,12 @@ use super::state::{Monitor, Notice, fault_names};
 use super::view::View;
 
 /// One telemetry record as a JSON object, its time at `sample_rate_hz`.
-pub fn telemetry_json(t: &Telemetry, sample_rate_hz: f64) -> Value {
+pub fn telemetry_json(t: &Telemetry, sample_rate_hz: f64, joint_mask: u16) -> Value {
+    let joints: serde_json::Map<String, Value> = joint_columns(joint_mask)
+        .into_iter()
+        .zip(t.joints.as_slice())
+        .map(|(name, &v)| (name, json!(shortest(v))))
+        .collect();
     json!({
         "type": "telemetry",
         "sample": t.sample_index,
@@ -25,6 +31,7 @@ pub fn telemetry_json(t: &Telemetry, sample_rate_hz: f64) -> Value {
         "level": t.alert_level.name(),
         "faults": fault_names(t.fault_flags),
         "valid": t.valid,
+        "joints": joints,
     })
 }
 
@@ -139,7 +146,8 @@ impl<W: Write> JsonlView<W> {
             && let Some(t) = m.latest()
         {
             self.records_written = c.telemetry;
-            self.line(&telemetry_json(t, m.sample_rate_hz()))?;
+            let mask = m.greeting().joint_outputs;
+            self.line(&telemetry_json(t, m.sample_rate_hz(), mask))?;
         }
         if c.events > self.events_written {
             let new = (c.events - self.events_written) as usize;

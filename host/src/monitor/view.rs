@@ -5,6 +5,11 @@
 //! The panel's content is a pure function ([`panel_lines`]), tested without a terminal;
 //! the views only decide when to draw and how to colour.
 
+use supine_core::joint_exposure::packed_order;
+use supine_core::model::{JOINT_OUTPUT_COUNT, JointOutput};
+use supine_core::protocol::Telemetry;
+
+use crate::exposure::joints::display_unit;
 use std::io::{self, Write};
 use std::time::{Duration, Instant};
 
@@ -116,6 +121,7 @@ pub fn panel_lines(m: &Monitor) -> Vec<Vec<Span>> {
         lines.push(vec![plain(format!(
             "weighted rms  x {rx:8.3}  y {ry:8.3}  z {rz:8.3} m/s^2"
         ))]);
+        lines.extend(joint_lines(m, t).into_iter().map(|l| vec![plain(l)]));
     }
     lines.push(vec![plain(format!(
         "device        fw {}  params {} ({})  {} Hz  {}",
@@ -149,6 +155,52 @@ pub fn panel_lines(m: &Monitor) -> Vec<Vec<Span>> {
             plain("event         "),
             marked(Severity::of_event(e), describe_event(e, m.sample_rate_hz())),
         ]);
+    }
+    lines
+}
+
+/// The joint outputs the device reports, per joint (neck, lower back): the latest
+/// values, and from the latest status their running rms and largest excursion, in mm
+/// and degrees; an output not reported is `-`.
+fn joint_lines(m: &Monitor, t: &Telemetry) -> Vec<String> {
+    let mask = m.greeting().joint_outputs;
+    if mask == 0 {
+        return Vec::new();
+    }
+    // Each output's place in the device's lists.
+    let mut place = [None; JOINT_OUTPUT_COUNT];
+    for (k, output) in packed_order(mask).enumerate() {
+        place[output.index()] = Some(k);
+    }
+    let row = |label: &str, values: &[f32]| -> Vec<String> {
+        ["neck", "low back"]
+            .iter()
+            .enumerate()
+            .map(|(j, joint)| {
+                let cells: Vec<String> = JointOutput::ALL[5 * j..5 * j + 5]
+                    .iter()
+                    .map(|&o| {
+                        let (_, scale) = display_unit(o);
+                        let name = &o.name()[o.name().rfind('_').map_or(0, |i| i + 1)..];
+                        match place[o.index()].and_then(|k| values.get(k)) {
+                            Some(&v) => format!("{name} {:+7.2}", f64::from(v) * scale),
+                            None => format!("{name} {:>7}", "-"),
+                        }
+                    })
+                    .collect();
+                format!(
+                    "{:<14}{}  mm, {}  deg",
+                    format!("{joint} {label}"),
+                    cells[..3].join("  "),
+                    cells[3..].join("  ")
+                )
+            })
+            .collect()
+    };
+    let mut lines = row("", t.joints.as_slice());
+    if let Some(s) = m.status() {
+        lines.extend(row("rms", s.joint_running_rms.as_slice()));
+        lines.extend(row("max", s.joint_largest_excursion.as_slice()));
     }
     lines
 }
@@ -414,6 +466,35 @@ mod tests {
             reordered_frames: 0,
         });
         m
+    }
+
+    #[test]
+    fn the_panel_shows_the_reported_joint_outputs_in_mm_and_degrees() {
+        let mut g = monitor().greeting().clone();
+        // neck_x and neck_ry: x's group first, then z's.
+        g.joint_outputs = (1 << 0) | (1 << 3);
+        let mut m = Monitor::new(&g).expect("monitor");
+        let t = Telemetry {
+            joints: supine_core::joint_exposure::JointValues::from_slice(&[0.0015, -0.01])
+                .expect("two"),
+            ..*monitor().latest().expect("telemetry")
+        };
+        m.on_message(&DeviceToHost::Telemetry(t))
+            .expect("telemetry");
+        let text: Vec<String> = panel_lines(&m)
+            .iter()
+            .map(|l| l.iter().map(|s| s.text.as_str()).collect())
+            .collect();
+        let neck = text
+            .iter()
+            .find(|l| l.starts_with("neck "))
+            .expect("a neck line");
+        assert!(neck.contains("x   +1.50"), "{neck}");
+        assert!(neck.contains("y       -"), "{neck}");
+        assert!(neck.contains("ry   -0.57"), "{neck}");
+        assert!(text.iter().any(|l| l.starts_with("low back ")), "{text:?}");
+        // Without a status yet, no running rms or largest excursion lines.
+        assert!(!text.iter().any(|l| l.starts_with("neck rms")), "{text:?}");
     }
 
     fn find(lines: &[Vec<Span>], text: &str) -> Span {
