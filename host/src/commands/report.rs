@@ -62,10 +62,10 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
     args.subject.apply(&mut file)?;
     let band = args.band.request(&args.model, &file)?;
     let mounting = file.device.unwrap_or_default().mounting;
-    let read = |path: &std::path::Path| args.ride.read(path, &mounting);
+    let rides = args.ride.opener(mounting);
     let mut report = report::build(
         &args.input,
-        read,
+        rides,
         &file,
         &model_name(&args.model),
         args.compare,
@@ -73,7 +73,7 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
     if let Some(request) = &band {
         report.band = Some(report::band::build(
             &args.input,
-            read,
+            rides,
             &file,
             &report.legs,
             &report.mission,

@@ -380,14 +380,14 @@ impl Layout {
 }
 
 /// The uniform-sampling check: every step within [`UNIFORM_TOLERANCE`] of the mean step.
-struct Uniform<'a> {
+pub(crate) struct Uniform<'a> {
     path: &'a Path,
     mean_step_s: f64,
 }
 
 impl<'a> Uniform<'a> {
     /// The check for `samples` samples from `first_s` to `last_s`; at least two are needed.
-    fn new(
+    pub(crate) fn new(
         path: &'a Path,
         samples: usize,
         first_s: Option<&f64>,
@@ -406,7 +406,7 @@ impl<'a> Uniform<'a> {
     }
 
     /// Checks the step that ends on `line`.
-    fn check(&self, line: u64, step_s: f64) -> Result<(), RecordingError> {
+    pub(crate) fn check(&self, line: u64, step_s: f64) -> Result<(), RecordingError> {
         if (step_s - self.mean_step_s).abs() > UNIFORM_TOLERANCE * self.mean_step_s {
             return Err(RecordingError::NotUniform {
                 path: self.path.to_path_buf(),
@@ -567,6 +567,22 @@ impl PlatformStream {
     /// The sample rate from the mean step, Hz, as [`Recording::sample_rate_hz`] gives it.
     pub fn sample_rate_hz(&self) -> f64 {
         (self.samples - 1) as f64 / (self.last_s - self.first_s)
+    }
+
+    /// Time of the first sample, s.
+    pub fn start_s(&self) -> f64 {
+        self.first_s
+    }
+
+    /// Every row's 13 numbers (time, platform, sensors; the sensors zero in a ride), read
+    /// from the file as they are taken.
+    pub fn rows(
+        &self,
+    ) -> Result<impl Iterator<Item = Result<[f64; 13], RecordingError>>, RecordingError> {
+        let mut rows = open_rows(&self.path)?;
+        Ok(std::iter::from_fn(move || {
+            rows.next_row().transpose().map(|r| r.map(|(_, row)| row))
+        }))
     }
 
     /// The platform samples as the device is streamed them ([`device_samples`]), read

@@ -26,7 +26,7 @@ pub mod mission;
 pub mod spectrum;
 pub mod trace;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{Result, bail};
 use serde::Serialize;
@@ -35,7 +35,7 @@ use supine_core::alerts::AlertConfig;
 use crate::device::device_params;
 use crate::exposure::report::ThresholdsReport;
 use crate::io::params_file::ParamFile;
-use crate::io::recording::{Layout, Recording};
+use crate::io::ride_rows::OpenRide;
 use mission::{Leg, MissionTotals, evaluate_leg, totals};
 
 /// The patient the model was scaled to.
@@ -102,12 +102,12 @@ pub struct MissionReport {
     pub thresholds: AlertConfig,
 }
 
-/// Evaluates the rides at `inputs` (each read by `read`) as the legs of a mission, or as
-/// two rides compared. One ride is in memory at a time: a leg keeps only its values, its
-/// chart series and its spectra.
+/// Evaluates the rides at `inputs` (each opened by `rides`) as the legs of a mission, or
+/// as two rides compared. Each ride is read row by row; a leg keeps only its values, its
+/// bounded chart series and its spectra.
 pub fn build(
     inputs: &[PathBuf],
-    read: impl Fn(&Path) -> Result<(Recording, Layout)>,
+    rides: impl OpenRide,
     file: &ParamFile,
     model: &str,
     compare: bool,
@@ -121,15 +121,9 @@ pub fn build(
     let mut legs = Vec::with_capacity(inputs.len());
     let mut start_s = 0.0;
     for path in inputs {
-        let (recording, layout) = read(path)?;
+        let ride = rides.open_ride(path)?;
         // Compared rides share one time axis from zero; legs follow each other.
-        let leg = evaluate_leg(
-            &recording,
-            layout,
-            file,
-            model,
-            if compare { 0.0 } else { start_s },
-        )?;
+        let leg = evaluate_leg(&ride, file, model, if compare { 0.0 } else { start_s })?;
         start_s += leg.duration_s;
         legs.push(leg);
     }
