@@ -570,6 +570,63 @@ mod tests {
     }
 
     #[test]
+    fn a_ride_opened_row_by_row_gives_the_read_rides_rows_and_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let (own, foreign) = two_files(dir.path());
+        let level = Mounting::LEVEL;
+        let upside_down = Mounting {
+            sensor_to_litter: [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]],
+            gravity_m_s2: STANDARD_GRAVITY_M_S2 as f32,
+        };
+        let removing = RideInputArgs {
+            remove_gravity: true,
+            ..foreign_args()
+        };
+        for (args, path, mounting) in [
+            (RideInputArgs::default(), &own, &level),
+            (foreign_args(), &foreign, &level),
+            (removing, &foreign, &upside_down),
+        ] {
+            // Upside down, the level ride reads -2 g in z after the removal: refused alike.
+            let (read, layout) = match args.read(path, mounting) {
+                Ok(read) => read,
+                Err(e) => {
+                    assert_eq!(error(args.open(path, mounting)), e.to_string());
+                    continue;
+                }
+            };
+            let source = args.open(path, mounting).unwrap();
+            assert_eq!(source.layout(), layout);
+            assert_eq!(source.len(), read.len());
+            assert_eq!(source.sample_rate_hz(), read.sample_rate_hz());
+            assert_eq!(source.start_s(), read.time_s[0]);
+            let rows: Vec<[f64; 3]> = source.platform().unwrap().map(Result::unwrap).collect();
+            let whole: Vec<[f64; 3]> = (0..read.len())
+                .map(|k| read.platform_m_s2.each_ref().map(|c| c[k]))
+                .collect();
+            assert_eq!(rows, whole);
+        }
+        // Every refusal of a file in the same words.
+        let path = dir.path().join("logger.csv");
+        let args = RideInputArgs {
+            columns: Some(ColumnNames::parse("time=t,x=a x,y=a y,z=a z").unwrap()),
+            ..RideInputArgs::default()
+        };
+        for text in [
+            "t,a x,a y,a z\n0,0,0,0\n2,0,0,0\n4,0,0,0,5\n",
+            "t,a x,a y,a z\n0,0,0,0\n2,0,0\u{1b}x,0\n",
+            "t,a x,a y,a z\n0,0,0,0\n2,0,0,0\n2,0,0,0\n",
+            "t,a x,a y,a z\n0,0,0,0\n2,0,0,0\n4.1,0,0,0\n6,0,0,0\n",
+            "t,b x,a y,a z\n0,0,0,0\n",
+            "t,a x,a y,a z\n0,0,0,9.8\n1,0,0,9.8\n",
+        ] {
+            std::fs::write(&path, text).unwrap();
+            let read = error(args.read(&path, &level));
+            assert_eq!(error(args.open(&path, &level)), read, "{text}");
+        }
+    }
+
+    #[test]
     fn columns_are_parsed_strictly() {
         let ok = ColumnNames::parse("z=Z axis,time=t,y=Y,x=X").unwrap();
         assert_eq!(ok.names, ["t", "X", "Y", "Z axis"].map(String::from));

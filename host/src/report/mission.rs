@@ -517,3 +517,40 @@ pub fn level_of(name: &str) -> Level {
         .find(|l| l.name() == name)
         .unwrap_or(Level::Normal)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_long_legs_series_stays_bounded_and_keeps_its_peaks() {
+        let fs = 500.0;
+        // Three times the points at 10 Hz: buckets of four chart steps.
+        let n = 3 * MAX_CHART_POINTS * chart_step(fs) + 7;
+        let mut series = SeriesBuilder::new(n, fs);
+        assert_eq!(series.bucket, 4 * chart_step(fs));
+        let spike = 1_234_567;
+        for k in 0..n {
+            let rms = if k == spike { 9.0 } else { 0.5 };
+            let z = if k == spike + 1 { -30.0 } else { 0.1 };
+            let level = u8::from(k == spike + 2) * 3;
+            series.push(k, rms, k as f64, level, z, [rms; JOINT_OUTPUT_COUNT]);
+        }
+        let s = series.finish();
+        assert!(s.t_s.len() <= MAX_CHART_POINTS + 1, "{}", s.t_s.len());
+        assert_eq!(s.t_s.len(), n.div_ceil(4 * chart_step(fs)) + 1);
+        assert_eq!(s.vector_rms_m_s2.iter().copied().fold(0.0, f64::max), 9.0);
+        assert_eq!(
+            s.joint_running_rms.iter().map(|j| j[3]).fold(0.0, f64::max),
+            9.0
+        );
+        assert_eq!(
+            s.platform_z_m_s2.iter().map(|p| p.0).fold(0.0, f64::min),
+            -30.0
+        );
+        assert_eq!(s.level.iter().copied().max(), Some(3));
+        // The VDV at each bucket's start, and the leg's end last.
+        assert_eq!(s.vdv_m_s175[1], (4 * chart_step(fs)) as f64);
+        assert_eq!(s.t_s.last().copied(), Some(n as f64 / fs));
+    }
+}
