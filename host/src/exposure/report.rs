@@ -12,8 +12,7 @@
 //!
 //! Both need a sample rate the device supports ([`SampleRate`]); a ride at another
 //! rate is converted first by the band-limited [`crate::exposure::resample`] (zero phase),
-//! at the user's request only, and only then is the ride held whole (the resampler's
-//! mirrored ends need both ends of the signal).
+//! at the user's request only, as it is read ([`Resampler::stream`]).
 //!
 //! Rides come from [`RideSource`] (opened by [`crate::io::ride_input`]), which also
 //! accepts a file with only the platform columns (what `supine ride` writes), its sensor
@@ -105,7 +104,8 @@ impl<'a> EvaluationInput<'a> {
     }
 
     /// The values of `columns` (indices in [`COLUMNS`]) of each sample at the evaluation's
-    /// rate, read as they are taken (whole, only when resampled).
+    /// rate, read as they are taken (a resampled ride too: [`Resampler::stream`]; one too
+    /// short for it is converted whole).
     pub fn columns<const K: usize>(
         &self,
         columns: [usize; K],
@@ -117,10 +117,14 @@ impl<'a> EvaluationInput<'a> {
         let Some(resampler) = &self.resampler else {
             return Ok(Box::new(rows));
         };
+        if let Ok(stream) = resampler.stream(self.source.len(), rows) {
+            return Ok(Box::new(stream));
+        }
         let mut whole: [Vec<f64>; K] = std::array::from_fn(|_| Vec::new());
-        for row in rows {
-            for (column, v) in whole.iter_mut().zip(row?) {
-                column.push(v);
+        for row in self.source.rows()? {
+            let row = row?;
+            for (column, c) in whole.iter_mut().zip(columns) {
+                column.push(row[c]);
             }
         }
         let converted = whole.map(|c| resampler.process(&c));
