@@ -7,8 +7,8 @@
 //!
 //! The recording's own sample rate is used; `--fs HZ` converts it first with the
 //! band-limited, zero-phase resampler of [`crate::exposure::resample`]. The ride is read
-//! row by row ([`crate::io::ride_rows`]): memory does not grow with its length (except
-//! with `--fs`, whose resampler takes the ride whole).
+//! row by row ([`crate::io::ride_rows`]): memory does not grow with its length, with
+//! `--fs` too.
 
 use std::io::Write;
 use std::path::PathBuf;
