@@ -120,21 +120,32 @@ fn per_leg(
         .collect()
 }
 
-/// The litter's vertical acceleration (the input), min and max per chart step.
+/// The longest bucket of the legs' series, s (0.1 s, a chart step, unless a leg is long).
+fn bucket_s(legs: &[Leg]) -> f64 {
+    legs.iter()
+        .filter_map(|l| match l.series.t_s.as_slice() {
+            [a, b, _, ..] => Some(b - a),
+            _ => None,
+        })
+        .fold(0.0, f64::max)
+}
+
+/// The litter's vertical acceleration (the input), min and max per bucket of the series.
 pub fn input(legs: &[Leg], layout: Layout) -> Chart {
+    let bucket_s = bucket_s(legs);
     let mut lines = per_leg(
         legs,
         layout,
         |l| l.series.platform_z_m_s2.iter().map(|p| p.1).collect(),
         Rgb(214, 39, 40),
-        "litter z (vertical), max per 0.1 s",
+        &format!("litter z (vertical), max per {bucket_s:.1} s"),
     );
     lines.extend(per_leg(
         legs,
         layout,
         |l| l.series.platform_z_m_s2.iter().map(|p| p.0).collect(),
         Rgb(240, 140, 140),
-        "min per 0.1 s",
+        &format!("min per {bucket_s:.1} s"),
     ));
     let all = legs
         .iter()
