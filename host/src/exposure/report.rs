@@ -358,7 +358,7 @@ pub struct ModelExposure {
     /// [`MAX_LISTED_EVENTS`]).
     pub alerts: Vec<TimedEvent>,
     /// Events after the listed ones, counted only (absent when none).
-    #[serde(skip_serializing_if = "is_zero")]
+    #[serde(skip_serializing_if = "none_omitted")]
     pub alerts_omitted: usize,
     /// Highest exposure level reached.
     pub max_level: &'static str,
@@ -369,7 +369,8 @@ pub struct ModelExposure {
     pub joints: Vec<JointReport>,
 }
 
-fn is_zero(n: &usize) -> bool {
+/// No event was left out of a list (serde's test for leaving the count out).
+pub fn none_omitted(n: &usize) -> bool {
     *n == 0
 }
 

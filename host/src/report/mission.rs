@@ -133,7 +133,7 @@ pub struct Leg {
     /// Alert events with their criteria (the first [`MAX_LISTED_EVENTS`]).
     pub alerts: Vec<AlertRow>,
     /// Events after the listed ones, counted only (absent when none).
-    #[serde(skip_serializing_if = "is_zero")]
+    #[serde(skip_serializing_if = "crate::exposure::report::none_omitted")]
     pub alerts_omitted: usize,
     /// Seconds at each level.
     pub time_at_level_s: TimeAtLevel,
@@ -153,10 +153,6 @@ pub struct Leg {
     /// The dose rate at the leg's end, for the projection.
     #[serde(skip)]
     pub recent_dose: RecentDose,
-}
-
-fn is_zero(n: &usize) -> bool {
-    *n == 0
 }
 
 /// The rate of VDV^4 over the end of a leg: the last [`PROJECTION_WINDOW_S`] of its
