@@ -163,6 +163,8 @@ fn a_leg_read_row_by_row_gives_the_whole_rides_spectra_levels_alerts_and_project
             .fold(f64::MAX, f64::min),
         z_min
     );
+    let page = supine_host::report::html::render(&report, None).unwrap();
+    assert!(page.contains("litter z (vertical), max per 0.1 s"));
 }
 
 #[test]

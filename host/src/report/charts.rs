@@ -120,14 +120,23 @@ fn per_leg(
         .collect()
 }
 
-/// The longest bucket of the legs' series, s (0.1 s, a chart step, unless a leg is long).
-fn bucket_s(legs: &[Leg]) -> f64 {
-    legs.iter()
+/// The buckets of the legs' series as a legend says them: `0.1 s` (a chart step), or a
+/// range when a long leg has longer ones.
+fn bucket_s(legs: &[Leg]) -> String {
+    let (shortest, longest) = legs
+        .iter()
         .filter_map(|l| match l.series.t_s.as_slice() {
             [a, b, _, ..] => Some(b - a),
             _ => None,
         })
-        .fold(0.0, f64::max)
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), w| {
+            (lo.min(w), hi.max(w))
+        });
+    if shortest >= longest {
+        format!("{longest:.1} s")
+    } else {
+        format!("{shortest:.1}-{longest:.1} s")
+    }
 }
 
 /// The litter's vertical acceleration (the input), min and max per bucket of the series.
@@ -138,14 +147,14 @@ pub fn input(legs: &[Leg], layout: Layout) -> Chart {
         layout,
         |l| l.series.platform_z_m_s2.iter().map(|p| p.1).collect(),
         Rgb(214, 39, 40),
-        &format!("litter z (vertical), max per {bucket_s:.1} s"),
+        &format!("litter z (vertical), max per {bucket_s}"),
     );
     lines.extend(per_leg(
         legs,
         layout,
         |l| l.series.platform_z_m_s2.iter().map(|p| p.0).collect(),
         Rgb(240, 140, 140),
-        &format!("min per {bucket_s:.1} s"),
+        &format!("min per {bucket_s}"),
     ));
     let all = legs
         .iter()
