@@ -506,6 +506,9 @@ impl Objective {
         }
     }
 
+    // The block's system is filled entry by entry from several arrays at once: index
+    // loops say that most plainly.
+    #[allow(clippy::needless_range_loop)]
     fn evaluate_scope(
         &self,
         theta: &[f64],
