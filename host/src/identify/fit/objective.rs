@@ -555,12 +555,13 @@ impl Objective {
                 .collect();
             let mut uv = vec![([zero; MAX_OUTPUTS], [zero; 3]); shape_ids.len()];
             let mut projected = vec![[(zero, zero); COMPONENTS]; shape_ids.len()];
+            // Every frequency overwrites the n x n and n x (nk + no) entries the solve reads.
+            let mut a = [[zero; MAX_BLOCK]; MAX_BLOCK];
+            let mut rhs = [[zero; MAX_RHS]; MAX_BLOCK];
             for (f, &freq_hz) in self.target.freqs_hz.iter().enumerate() {
                 let omega = 2.0 * PI * freq_hz;
                 // X = A^-1 F (F = (K + j w C) G) in the first nk columns, W = A^-1 R^T
                 // (the read outputs' rows of R) in the next no.
-                let mut a = [[zero; MAX_BLOCK]; MAX_BLOCK];
-                let mut rhs = [[zero; MAX_RHS]; MAX_BLOCK];
                 for i in 0..n {
                     for j in 0..n {
                         a[i][j] = Cplx::new(
