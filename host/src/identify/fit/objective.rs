@@ -189,18 +189,32 @@ fn solve_small(
     rhs: &mut [[Cplx; MAX_RHS]; MAX_BLOCK],
     nrhs: usize,
 ) -> bool {
+    // 1 / the pivot of each column, used again by the back substitution (row `col` of A
+    // no longer changes once its column is eliminated).
+    let mut inverse = [Cplx::new(0.0, 0.0); MAX_BLOCK];
     for col in 0..n {
-        let pivot = (col..n)
-            .max_by(|&i, &j| a[i][col].norm_sqr().total_cmp(&a[j][col].norm_sqr()))
-            .unwrap_or(col);
-        if a[pivot][col].norm_sqr() == 0.0 {
+        // The largest |a|^2 in the column, the last one on a tie.
+        let (mut pivot, mut largest) = (col, a[col][col].norm_sqr());
+        for i in col + 1..n {
+            let v = a[i][col].norm_sqr();
+            if v.total_cmp(&largest).is_ge() {
+                (pivot, largest) = (i, v);
+            }
+        }
+        if largest == 0.0 {
             return false;
         }
         if pivot != col {
-            a.swap(col, pivot);
-            rhs.swap(col, pivot);
+            // Only what is read later: A's columns from `col` on, B's first `nrhs`.
+            for k in col..n {
+                (a[col][k], a[pivot][k]) = (a[pivot][k], a[col][k]);
+            }
+            for k in 0..nrhs {
+                (rhs[col][k], rhs[pivot][k]) = (rhs[pivot][k], rhs[col][k]);
+            }
         }
         let inv = Cplx::new(1.0, 0.0) / a[col][col];
+        inverse[col] = inv;
         for row in col + 1..n {
             let factor = a[row][col] * inv;
             if factor == Cplx::new(0.0, 0.0) {
@@ -217,7 +231,7 @@ fn solve_small(
         }
     }
     for col in (0..n).rev() {
-        let inv = Cplx::new(1.0, 0.0) / a[col][col];
+        let inv = inverse[col];
         for k in 0..nrhs {
             let mut acc = rhs[col][k];
             for j in col + 1..n {
@@ -639,9 +653,11 @@ impl Objective {
                         projected[s][c] = (t * mag_factor[c], t * phase_factor[c]);
                     }
                 }
+                let rows = jac.nrows();
+                let entries = jac.as_mut_slice();
                 for &(p, col, s) in &block_cols {
                     let projected = &projected[s];
-                    let column = &mut jac.column_mut(col);
+                    let column = &mut entries[col * rows..(col + 1) * rows];
                     if self.free[p].is_stiffness() {
                         let value = values[p];
                         for &c in &block.components {
