@@ -14,6 +14,7 @@ use crate::alerts::{AlertEvent, AlertState, FaultFlags, Level, SensorCheckState}
 use crate::blob::DeviceParams;
 use crate::exposure::{ExposureSample, ExposureState};
 use crate::fpu::sqrt_f32;
+use crate::input_resolution::{to_counts, to_m_s2};
 use crate::model::ModalState;
 
 /// Samples per block on the device (32 ms at 500 Hz, far below the alert dwell times).
@@ -30,6 +31,16 @@ pub enum PipelineOutput {
     Alert(AlertEvent),
     /// The telemetry of one sample (every `decimation`-th sample).
     Telemetry(Telemetry),
+    /// The input the model got for one sample (every sample, before that sample's alerts
+    /// and telemetry), in input-resolution counts
+    /// ([`crate::input_resolution::to_m_s2`] gives m/s^2): after clipping, rounding and
+    /// the hold of a non-finite sample. The device streams it on request.
+    Input {
+        /// Index of the sample.
+        sample_index: u32,
+        /// x, y, z counts.
+        counts: [i16; 3],
+    },
 }
 
 /// One telemetry record: what the device reports about one sample (the protocol sends it
@@ -61,8 +72,9 @@ pub struct PipelineState {
     exposure: ExposureState,
     alerts: AlertState,
     sensors: SensorCheckState,
-    /// Last finite input, held in place of a non-finite one so NaN never enters a filter.
-    last_good_m_s2: [f32; 3],
+    /// Last finite input as the model got it (input-resolution counts), held in place of a
+    /// non-finite one so NaN never enters a filter.
+    last_input_counts: [i16; 3],
     /// Alert level and active faults as of the last processed sample.
     level: Level,
     faults: FaultFlags,
@@ -88,7 +100,7 @@ impl PipelineState {
             exposure: ExposureState::new(),
             alerts: AlertState::new(),
             sensors: SensorCheckState::new(),
-            last_good_m_s2: [0.0; 3],
+            last_input_counts: [0; 3],
             level: Level::Normal,
             faults: FaultFlags::empty(),
             telemetry_countdown: 0,
@@ -150,28 +162,22 @@ impl DeviceParams {
                 let _ = events.push(e);
             });
         let mut head = [[0.0f32; 3]; N];
+        let mut inputs = [[0i16; 3]; N];
         let full_scale = self.sensor_checks.config.full_scale_m_s2;
-        for (out, x) in head.iter_mut().zip(input_m_s2) {
+        for ((out, input), x) in head.iter_mut().zip(&mut inputs).zip(input_m_s2) {
             // A non-finite sample is replaced by the last good one; a finite one is clipped
-            // to the full scale, as the sensor itself would: a sample no sensor can produce
-            // (1e30 m/s^2) must not overflow the model's and the exposure's f32 state. Both
-            // raise their fault (non-finite, saturated) in the sensor checks above.
+            // to the full scale, as the sensor itself would, and to the input range, and
+            // rounded to the input resolution: a sample no sensor can produce
+            // (1e30 m/s^2) must not overflow the model's and the exposure's f32 state, and
+            // the model must get exactly what the input stream can carry. Both clips raise
+            // their fault (non-finite, saturated) in the sensor checks above.
             if x.iter().all(|v| v.is_finite()) {
-                // Plain comparisons: f32::min/max would add NaN handling the check above
-                // has made unnecessary, on every axis of every sample.
-                state.last_good_m_s2 = x.map(|v| {
-                    if v > full_scale {
-                        full_scale
-                    } else if v < -full_scale {
-                        -full_scale
-                    } else {
-                        v
-                    }
-                });
+                state.last_input_counts = x.map(|v| to_counts(v, full_scale));
             }
+            *input = state.last_input_counts;
             *out = self
                 .realization
-                .step(&mut state.model, state.last_good_m_s2);
+                .step(&mut state.model, state.last_input_counts.map(to_m_s2));
         }
         let mut exposure = [ExposureSample::default(); N];
         let first = indices[0];
@@ -204,6 +210,10 @@ impl DeviceParams {
         let (faults, levels) = events.split_at(fault_events);
         let (mut fi, mut li) = (0, 0);
         for (n, &index) in indices.iter().enumerate() {
+            emit(PipelineOutput::Input {
+                sample_index: index,
+                counts: inputs[n],
+            });
             while let Some(e) = faults.get(fi).filter(|e| e.at_sample() == index) {
                 if let AlertEvent::Fault { fault, active, .. } = *e {
                     if active {

@@ -49,6 +49,10 @@ fn bits(outputs: &[PipelineOutput]) -> Vec<String> {
                 t.valid
             ),
             PipelineOutput::Alert(e) => format!("{e:?}"),
+            PipelineOutput::Input {
+                sample_index,
+                counts,
+            } => format!("input {sample_index} {counts:?}"),
         })
         .collect()
 }
@@ -62,12 +66,14 @@ fn cutting_the_stream_into_any_batches_gives_the_same_bits() {
         .collect();
     let indices: Vec<u32> = (0..5000).collect();
     let reference = bits(&run(&params, &input, &indices, 1));
+    // One telemetry record and one input per sample, plus the events.
     assert_eq!(
         reference.len(),
-        5000 + reference
-            .iter()
-            .filter(|l| l.starts_with("Level") || l.starts_with("Fault"))
-            .count()
+        2 * 5000
+            + reference
+                .iter()
+                .filter(|l| l.starts_with("Level") || l.starts_with("Fault"))
+                .count()
     );
     for batch in [7, 16, 64, 333] {
         assert_eq!(
@@ -172,7 +178,7 @@ fn sine_levels(
         match o {
             PipelineOutput::Alert(e @ AlertEvent::Level { .. }) => events.push(e),
             PipelineOutput::Telemetry(t) => telemetry.push(t),
-            PipelineOutput::Alert(_) => {}
+            PipelineOutput::Alert(_) | PipelineOutput::Input { .. } => {}
         }
     }
     assert!(
@@ -229,4 +235,73 @@ fn a_level_raised_by_the_running_rms_names_it_with_the_telemetrys_value() {
         );
         assert!(t.vector_running_rms_m_s2 >= 0.5);
     }
+}
+
+/// The `Input` outputs of a run: (sample index, counts).
+fn inputs(out: &[PipelineOutput]) -> Vec<(u32, [i16; 3])> {
+    out.iter()
+        .filter_map(|o| match o {
+            PipelineOutput::Input {
+                sample_index,
+                counts,
+            } => Some((*sample_index, *counts)),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn the_model_computes_on_the_input_rounded_to_the_input_resolution_and_reports_it() {
+    let params = litter_params(1);
+    let raw: Vec<[f32; 3]> = TestVector::new(6)
+        .take(3000)
+        .map(|x| x.map(|v| v * 3.0))
+        .collect();
+    // Rounded independently of the core: f64 arithmetic, ties cannot occur in this data.
+    let rounded: Vec<[f32; 3]> = raw
+        .iter()
+        .map(|x| x.map(|v| ((f64::from(v) * 512.0).round() / 512.0) as f32))
+        .collect();
+    assert!(raw != rounded, "the test data is not already on the grid");
+    let indices: Vec<u32> = (0..3000).collect();
+    let from_raw = run(&params, &raw, &indices, 16);
+    // Only the rounded input matters: feeding it directly gives the same bits everywhere.
+    assert_eq!(bits(&from_raw), bits(&run(&params, &rounded, &indices, 16)));
+    let expected: Vec<(u32, [i16; 3])> = rounded
+        .iter()
+        .zip(0..)
+        .map(|(x, i)| (i, x.map(|v| (v * 512.0) as i16)))
+        .collect();
+    assert_eq!(inputs(&from_raw), expected);
+}
+
+#[test]
+fn an_input_beyond_the_input_range_is_clipped_and_raises_saturation() {
+    let params = litter_params(1);
+    // Inside the default 16 g full scale, beyond the 64 m/s^2 the counts hold.
+    assert!(params.sensor_checks.config.full_scale_m_s2 > 100.0);
+    let mut input: Vec<[f32; 3]> = TestVector::new(7).take(1000).collect();
+    input[500] = [70.0, -80.0, 63.0];
+    let indices: Vec<u32> = (0..1000).collect();
+    let out = run(&params, &input, &indices, 16);
+    assert!(out.contains(&PipelineOutput::Alert(AlertEvent::Fault {
+        fault: SensorFault::Saturated,
+        active: true,
+        at_sample: 500
+    })));
+    assert_eq!(
+        inputs(&out)[500],
+        (500, [i16::MAX, -i16::MAX, 63 * 512]),
+        "clipped to the range, the in-range axis kept"
+    );
+}
+
+#[test]
+fn a_non_finite_sample_is_reported_as_the_held_input_the_model_got() {
+    let params = litter_params(1);
+    let mut input: Vec<[f32; 3]> = TestVector::new(8).take(100).collect();
+    input[40] = [f32::NAN, 1.0, 1.0];
+    let indices: Vec<u32> = (0..100).collect();
+    let reported = inputs(&run(&params, &input, &indices, 16));
+    assert_eq!(reported[40].1, reported[39].1);
 }
