@@ -576,7 +576,13 @@ impl SensorCheckConfig {
     /// (docs/exposure.md#input-resolution).
     #[inline(always)]
     pub fn saturation_m_s2(&self) -> f32 {
-        self.full_scale_m_s2.min(INPUT_RANGE_M_S2)
+        // A comparison, not f32::min: no NaN handling (validation refuses a NaN full
+        // scale) and no libm call on the device.
+        if self.full_scale_m_s2 < INPUT_RANGE_M_S2 {
+            self.full_scale_m_s2
+        } else {
+            INPUT_RANGE_M_S2
+        }
     }
 }
 

@@ -31,8 +31,8 @@ pub enum PipelineOutput {
     Alert(AlertEvent),
     /// The telemetry of one sample (every `decimation`-th sample).
     Telemetry(Telemetry),
-    /// The input the model got for one sample (every sample, before that sample's alerts
-    /// and telemetry), in input-resolution counts
+    /// The input the model got for one sample (every sample; a block's inputs come before
+    /// its alerts and telemetry), in input-resolution counts
     /// ([`crate::input_resolution::to_m_s2`] gives m/s^2): after clipping, rounding and
     /// the hold of a non-finite sample. The device streams it on request.
     Input {
@@ -108,6 +108,17 @@ impl PipelineState {
         }
     }
 
+    /// The model's input for the raw sample `x`, in input-resolution counts: `x` clipped
+    /// and rounded, or the last one if `x` is not finite. Out of line: both block sizes'
+    /// copies of the pipeline share it (inlined, each would carry its own).
+    #[inline(never)]
+    fn take_input(&mut self, x: &[f32; 3], full_scale_m_s2: f32) -> [i16; 3] {
+        if x.iter().all(|v| v.is_finite()) {
+            self.last_input_counts = x.map(|v| to_counts(v, full_scale_m_s2));
+        }
+        self.last_input_counts
+    }
+
     /// Samples processed since start.
     pub const fn processed(&self) -> u32 {
         self.processed
@@ -162,22 +173,20 @@ impl DeviceParams {
                 let _ = events.push(e);
             });
         let mut head = [[0.0f32; 3]; N];
-        let mut inputs = [[0i16; 3]; N];
         let full_scale = self.sensor_checks.config.full_scale_m_s2;
-        for ((out, input), x) in head.iter_mut().zip(&mut inputs).zip(input_m_s2) {
+        for ((out, x), &index) in head.iter_mut().zip(input_m_s2).zip(indices) {
             // A non-finite sample is replaced by the last good one; a finite one is clipped
             // to the full scale, as the sensor itself would, and to the input range, and
             // rounded to the input resolution: a sample no sensor can produce
             // (1e30 m/s^2) must not overflow the model's and the exposure's f32 state, and
             // the model must get exactly what the input stream can carry. Both clips raise
             // their fault (non-finite, saturated) in the sensor checks above.
-            if x.iter().all(|v| v.is_finite()) {
-                state.last_input_counts = x.map(|v| to_counts(v, full_scale));
-            }
-            *input = state.last_input_counts;
-            *out = self
-                .realization
-                .step(&mut state.model, state.last_input_counts.map(to_m_s2));
+            let counts = state.take_input(x, full_scale);
+            emit(PipelineOutput::Input {
+                sample_index: index,
+                counts,
+            });
+            *out = self.realization.step(&mut state.model, counts.map(to_m_s2));
         }
         let mut exposure = [ExposureSample::default(); N];
         let first = indices[0];
@@ -210,10 +219,6 @@ impl DeviceParams {
         let (faults, levels) = events.split_at(fault_events);
         let (mut fi, mut li) = (0, 0);
         for (n, &index) in indices.iter().enumerate() {
-            emit(PipelineOutput::Input {
-                sample_index: index,
-                counts: inputs[n],
-            });
             while let Some(e) = faults.get(fi).filter(|e| e.at_sample() == index) {
                 if let AlertEvent::Fault { fault, active, .. } = *e {
                     if active {

@@ -120,15 +120,16 @@ pub enum DeviceToHost {
 }
 
 /// The model's input for consecutive samples, in input-resolution counts
-/// (`crate::input_resolution`): every sample as its difference from the one before, the
-/// first from zero, so that postcard's zigzag varints make most samples a few bytes and
-/// every frame decodes on its own ([`InputBatch::samples`]).
+/// (`crate::input_resolution`), packed ([`input_frame`]: per axis the zigzag-varint
+/// difference from the sample before, the first from zero) so that most samples take a
+/// few bytes and every frame decodes on its own ([`InputBatch::samples`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct InputBatch {
     /// Index of the first sample; the next ones follow without gaps.
     pub first_sample_index: u32,
-    /// x, y, z count differences (wrapping i16 arithmetic) per sample.
-    pub delta_counts: Vec<[i16; 3], MAX_INPUT_SAMPLES_PER_FRAME>,
+    /// The samples, packed ([`input_frame::pack`]).
+    #[serde(serialize_with = "input_frame::serialize_packed")]
+    pub packed: Vec<u8, { input_frame::MAX_PACKED_LEN }>,
 }
 
 /// The device introduces itself.

@@ -6,7 +6,7 @@
 //! the decoded batch gives back the counts.
 
 use proptest::prelude::*;
-use supine_core::protocol::input_frame::{self, MAX_FRAME};
+use supine_core::protocol::input_frame::{self, MAX_FRAME, PackError};
 use supine_core::protocol::{
     DeviceFrame, DeviceToHost, FrameAccumulator, FrameEvent, InputBatch,
     MAX_INPUT_SAMPLES_PER_FRAME, encode_frame,
@@ -67,7 +67,7 @@ proptest! {
             .enumerate()
             .map(|(n, &c)| (first.wrapping_add(n as u32), c))
             .collect();
-        prop_assert_eq!(batch.samples().collect::<Vec<_>>(), expected);
+        prop_assert_eq!(batch.samples().expect("decodes").to_vec(), expected);
     }
 }
 
@@ -81,5 +81,38 @@ fn a_full_frame_of_the_widest_differences_fits_the_link_limit() {
     let mut hand = [0u8; MAX_FRAME];
     let len = input_frame::encode(u32::MAX, u32::MAX, &samples, &mut hand);
     assert!(len <= supine_core::protocol::MAX_FRAME_LEN, "{len}");
-    assert_eq!(len, MAX_FRAME, "the bound is reached, so it is the right one");
+    assert_eq!(
+        len, MAX_FRAME,
+        "the bound is reached, so it is the right one"
+    );
+}
+
+#[test]
+fn packed_bytes_that_do_not_make_whole_samples_are_refused() {
+    let mut batch = InputBatch::from_counts(7, &[[1, 2, 3], [4, 5, 6]]);
+    assert_eq!(
+        batch.samples().expect("decodes").to_vec(),
+        vec![(7, [1, 2, 3]), (8, [4, 5, 6])]
+    );
+    // Cut inside the second sample.
+    batch.packed.truncate(4);
+    assert_eq!(batch.samples(), Err(PackError::Malformed));
+    // A varint longer than an i16's (four bytes).
+    batch.packed.clear();
+    batch
+        .packed
+        .extend_from_slice(&[0x80, 0x80, 0x80, 0x01, 0, 0])
+        .unwrap();
+    assert_eq!(batch.samples(), Err(PackError::Malformed));
+    // Three bytes, but above u16.
+    batch.packed.clear();
+    batch
+        .packed
+        .extend_from_slice(&[0xFF, 0xFF, 0x7F, 0, 0])
+        .unwrap();
+    assert_eq!(batch.samples(), Err(PackError::Malformed));
+    // More samples than a frame carries (17 samples of zeros).
+    batch.packed.clear();
+    batch.packed.extend_from_slice(&[0; 51]).unwrap();
+    assert_eq!(batch.samples(), Err(PackError::TooLong));
 }

@@ -257,10 +257,10 @@ fn the_model_computes_on_the_input_rounded_to_the_input_resolution_and_reports_i
         .take(3000)
         .map(|x| x.map(|v| v * 3.0))
         .collect();
-    // Rounded independently of the core: f64 arithmetic, ties cannot occur in this data.
+    // Rounded independently of the core, in f64.
     let rounded: Vec<[f32; 3]> = raw
         .iter()
-        .map(|x| x.map(|v| ((f64::from(v) * 512.0).round() / 512.0) as f32))
+        .map(|x| x.map(|v| ((f64::from(v) * 512.0).round_ties_even() / 512.0) as f32))
         .collect();
     assert!(raw != rounded, "the test data is not already on the grid");
     let indices: Vec<u32> = (0..3000).collect();

@@ -5,8 +5,8 @@
 use heapless::{String, Vec};
 
 use super::{
-    DeviceFrame, DeviceToHost, Greeting, HostToDevice, PROTOCOL_VERSION, ParamAck, ParamBegin,
-    InputBatch, ParamChunk, ParamsSource, ResetCause, SampleBatch, Status, Telemetry, UploadError,
+    DeviceFrame, DeviceToHost, Greeting, HostToDevice, InputBatch, PROTOCOL_VERSION, ParamAck,
+    ParamBegin, ParamChunk, ParamsSource, ResetCause, SampleBatch, Status, Telemetry, UploadError,
 };
 use crate::alerts::{AlertEvent, Criterion, Level, SensorFault};
 use crate::blob::{BlobError, DeviceParams, Patient};
@@ -110,7 +110,7 @@ pub fn device_to_host_examples() -> [DeviceFrame; 13] {
         DeviceToHost::ParamAck(ParamAck::Received { bytes: 300 }),
         DeviceToHost::ParamNack(UploadError::Replayed),
         DeviceToHost::ParamNack(UploadError::LengthMismatch),
-        // Differences of one, two and three zigzag-varint bytes, and one that wraps.
+        // Differences of one, two and three zigzag-varint bytes, and ones that wrap.
         DeviceToHost::Input(InputBatch::from_counts(
             1000,
             &[[1, -1, 64], [-3, 2, -8192], [32767, -32767, 0]],
@@ -153,7 +153,7 @@ pub const DEVICE_TO_HOST: [&[u8]; 13] = [
     &[0x06, 0x09, 0x04, 0x01, 0xac, 0x02, 0x00],
     &[0x04, 0x0a, 0x05, 0x04, 0x00],
     &[0x04, 0x0b, 0x05, 0x08, 0x00],
-    &[0x18, 0x0c, 0x06, 0xe8, 0x07, 0x03, 0x02, 0x01, 0x80, 0x01, 0x07, 0x06, 0xff, 0x80, 0x01, 0xfb, 0xff, 0x03, 0xfe, 0xff, 0x03, 0x80, 0x80, 0x01, 0x00],
+    &[0x18, 0x0c, 0x06, 0xe8, 0x07, 0x12, 0x02, 0x01, 0x80, 0x01, 0x07, 0x06, 0xff, 0x80, 0x01, 0xfb, 0xff, 0x03, 0xfe, 0xff, 0x03, 0x80, 0x80, 0x01, 0x00],
 ];
 
 /// A blob built from fixed numbers only (no eigen-solver in the loop), so its bytes

@@ -1,34 +1,64 @@
-//! The input stream's frame encoded by hand, byte for byte what
-//! [`encode_frame`](super::encode_frame) (postcard + COBS) produces for
-//! `DeviceFrame { seq, message: DeviceToHost::Input(batch) }`.
+//! The input stream's frame: the model's input for consecutive samples, packed, and the
+//! frame encoded by hand, byte for byte what [`encode_frame`](super::encode_frame)
+//! (postcard + COBS) produces for `DeviceFrame { seq, message: DeviceToHost::Input(batch) }`.
 //!
-//! One goes out per block of samples while the stream is on, so, like telemetry, it is
-//! written in one pass straight from the pipeline's counts (the differences taken here),
-//! through the same COBS writer (`telemetry_frame`). postcard's layout:
+//! Packing: per sample and axis (x, y, z), the difference from the sample before (the
+//! first sample's from zero, so each frame decodes on its own), wrapping i16 arithmetic,
+//! as a zigzag varint (postcard's encoding of a signed integer): a quiet ride's samples
+//! take 3-6 bytes. The message carries the packed bytes as a byte string, so the device's
+//! generic encoder needs next to no code for it. One frame goes out per block of samples
+//! while the stream is on, encoded here without serde (postcard's generic COBS encoder
+//! costs about 30 instructions a byte on the device):
 //!
 //! ```text
 //! varint(seq) varint(6 = DeviceToHost::Input) varint(first_sample_index)
-//! varint(sample count) then per sample and axis zigzag-varint(i16 difference)
+//! varint(packed length) packed bytes
 //! ```
 //!
 //! then COBS with the terminating zero. `shared/tests/input_frame.rs` compares it byte for
 //! byte with postcard's encoding of [`InputBatch::from_counts`], so a change to
 //! `DeviceToHost`'s variant order or to [`InputBatch`] not mirrored here fails on the host.
 
-use super::InputBatch;
-use super::MAX_INPUT_SAMPLES_PER_FRAME;
-use super::telemetry_frame::Cobs;
+use serde::Serializer;
+
+use super::{InputBatch, MAX_INPUT_SAMPLES_PER_FRAME};
 
 /// Postcard variant index of `DeviceToHost::Input` (the seventh variant).
 const INPUT_VARIANT: u8 = 6;
 
-/// Longest postcard payload: three 5-byte varints, the variant, and 3 bytes (the longest
-/// zigzag varint of an i16) per axis and sample.
-const MAX_RAW: usize = 5 + 1 + 5 + 1 + MAX_INPUT_SAMPLES_PER_FRAME * 3 * 3;
+/// Longest packed batch: 3 bytes (the longest zigzag varint of an i16) per axis and sample.
+pub const MAX_PACKED_LEN: usize = MAX_INPUT_SAMPLES_PER_FRAME * 3 * 3;
+
+/// Longest postcard payload: three 5-byte varints, the variant and the packed samples
+/// (whose length takes two varint bytes).
+const MAX_RAW: usize = 5 + 1 + 5 + 2 + MAX_PACKED_LEN;
 
 /// Longest frame: COBS adds one byte per 254 (one here: the payload is shorter) plus the
 /// terminating zero.
 pub const MAX_FRAME: usize = MAX_RAW + 2;
+
+/// Packs `counts` (at most [`MAX_INPUT_SAMPLES_PER_FRAME`], any more are left out) into
+/// `out`; returns the packed length.
+pub fn pack(counts: &[[i16; 3]], out: &mut [u8; MAX_PACKED_LEN]) -> usize {
+    pack_at(counts, out, 0)
+}
+
+/// [`pack`] into `out` from offset `at`; returns the offset after the packed bytes.
+fn pack_at(counts: &[[i16; 3]], out: &mut [u8], mut at: usize) -> usize {
+    let counts = counts.get(..MAX_INPUT_SAMPLES_PER_FRAME).unwrap_or(counts);
+    // One loop over the axes of all samples; each value's predecessor is 3 values back,
+    // kept in `before` (x, y, z of the sample before, rotating).
+    let mut before = [0i16; 3];
+    for &now in counts.as_flattened() {
+        at = put_varint(out, at, u32::from(zigzag(now.wrapping_sub(before[0]))));
+        before = [before[1], before[2], now];
+    }
+    at
+}
+
+/// Longest header before the packed bytes: three 5-byte varints, the variant... as
+/// [`MAX_RAW`] counts them.
+const MAX_HEADER: usize = MAX_RAW - MAX_PACKED_LEN;
 
 /// Encodes the frame of the samples `counts` (consecutive indices from
 /// `first_sample_index`; at most [`MAX_INPUT_SAMPLES_PER_FRAME`], any more are left out)
@@ -39,57 +69,148 @@ pub fn encode(
     counts: &[[i16; 3]],
     frame: &mut [u8; MAX_FRAME],
 ) -> usize {
-    let counts = counts.get(..MAX_INPUT_SAMPLES_PER_FRAME).unwrap_or(counts);
-    let mut c = Cobs::new(frame);
-    c.varint(seq);
-    c.byte(INPUT_VARIANT);
-    c.varint(first_sample_index);
-    c.byte(counts.len() as u8);
-    let mut previous = [0i16; 3];
-    for sample in counts {
-        for (&now, before) in sample.iter().zip(&mut previous) {
-            c.varint(zigzag(now.wrapping_sub(*before)));
-            *before = now;
+    // The packed samples first, after room for the longest header; then the header,
+    // whose last field is their length, just before them.
+    let mut raw = [0u8; MAX_RAW];
+    let end = pack_at(counts, &mut raw, MAX_HEADER);
+    let mut header = [0u8; MAX_HEADER];
+    let mut len = put_varint(&mut header, 0, seq);
+    len = put_varint(&mut header, len, INPUT_VARIANT.into());
+    len = put_varint(&mut header, len, first_sample_index);
+    len = put_varint(&mut header, len, (end - MAX_HEADER) as u32);
+    let start = MAX_HEADER - len;
+    if let (Some(dst), Some(src)) = (raw.get_mut(start..MAX_HEADER), header.get(..len)) {
+        dst.copy_from_slice(src);
+    }
+    cobs(raw.get(start..end).unwrap_or(&[]), frame)
+}
+
+/// Writes `v` as a varint (7 bits a byte, low first) into `out` at `at`; returns the
+/// offset after it. Bytes past the end of `out` are dropped (never: callers size `out`).
+#[inline(never)]
+fn put_varint(out: &mut [u8], mut at: usize, mut v: u32) -> usize {
+    loop {
+        let low = (v & 0x7F) as u8;
+        v >>= 7;
+        if let Some(b) = out.get_mut(at) {
+            *b = if v == 0 { low } else { low | 0x80 };
+        }
+        at += 1;
+        if v == 0 {
+            return at;
         }
     }
-    c.finish()
+}
+
+/// COBS-encodes `raw` (shorter than 254 bytes: one code byte per zero, no long runs) into
+/// `frame` with the terminating zero; returns the frame's length.
+fn cobs(raw: &[u8], frame: &mut [u8; MAX_FRAME]) -> usize {
+    let (mut code_at, mut out) = (0, 1);
+    for &b in raw {
+        if b == 0 {
+            if let Some(code) = frame.get_mut(code_at) {
+                *code = (out - code_at) as u8;
+            }
+            code_at = out;
+        } else if let Some(slot) = frame.get_mut(out) {
+            *slot = b;
+        }
+        out += 1;
+    }
+    if let Some(code) = frame.get_mut(code_at) {
+        *code = (out - code_at) as u8;
+    }
+    if let Some(end) = frame.get_mut(out) {
+        *end = 0;
+    }
+    out + 1
 }
 
 /// postcard's signed-integer mapping: 0, -1, 1, -2, ... to 0, 1, 2, 3, ...
 #[inline(always)]
-fn zigzag(v: i16) -> u32 {
-    u32::from(((v << 1) ^ (v >> 15)) as u16)
+fn zigzag(v: i16) -> u16 {
+    ((v << 1) ^ (v >> 15)) as u16
 }
+
+/// The inverse of [`zigzag`].
+fn unzigzag(v: u16) -> i16 {
+    ((v >> 1) as i16) ^ -((v & 1) as i16)
+}
+
+/// Why the packed bytes of an [`InputBatch`] do not decode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PackError {
+    /// A varint is cut off, longer than an i16's, or the bytes end inside a sample.
+    Malformed,
+    /// More samples than a frame carries.
+    TooLong,
+}
+
+impl core::fmt::Display for PackError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            PackError::Malformed => "input batch: malformed packed samples",
+            PackError::TooLong => "input batch: more samples than a frame carries",
+        })
+    }
+}
+
+impl core::error::Error for PackError {}
 
 impl InputBatch {
     /// The batch of `counts` (consecutive indices from `first_sample_index`; at most
-    /// [`MAX_INPUT_SAMPLES_PER_FRAME`], any more are left out): each sample as its
-    /// difference from the one before, the first from zero.
+    /// [`MAX_INPUT_SAMPLES_PER_FRAME`], any more are left out).
     pub fn from_counts(first_sample_index: u32, counts: &[[i16; 3]]) -> Self {
-        let mut delta_counts = heapless::Vec::new();
-        let mut previous = [0i16; 3];
-        for sample in counts.iter().take(MAX_INPUT_SAMPLES_PER_FRAME) {
-            let mut d = [0i16; 3];
-            for ((d, &now), before) in d.iter_mut().zip(sample).zip(&mut previous) {
-                *d = now.wrapping_sub(*before);
-                *before = now;
-            }
-            let _ = delta_counts.push(d);
-        }
+        let mut buf = [0u8; MAX_PACKED_LEN];
+        let len = pack(counts, &mut buf);
+        let mut packed = heapless::Vec::new();
+        let _ = packed.extend_from_slice(buf.get(..len).unwrap_or(&[]));
         Self {
             first_sample_index,
-            delta_counts,
+            packed,
         }
     }
 
     /// The samples: (sample index, x, y, z counts), the differences added back up.
-    pub fn samples(&self) -> impl Iterator<Item = (u32, [i16; 3])> + '_ {
+    pub fn samples(
+        &self,
+    ) -> Result<heapless::Vec<(u32, [i16; 3]), MAX_INPUT_SAMPLES_PER_FRAME>, PackError> {
+        let mut out = heapless::Vec::new();
         let mut previous = [0i16; 3];
-        self.delta_counts.iter().zip(0u32..).map(move |(d, n)| {
-            for (p, &d) in previous.iter_mut().zip(d) {
-                *p = p.wrapping_add(d);
+        let mut bytes = self.packed.iter();
+        let mut index = self.first_sample_index;
+        while bytes.len() > 0 {
+            let mut sample = [0i16; 3];
+            for (s, p) in sample.iter_mut().zip(&mut previous) {
+                let mut v: u32 = 0;
+                let mut shift = 0;
+                loop {
+                    let &b = bytes.next().ok_or(PackError::Malformed)?;
+                    v |= u32::from(b & 0x7F) << shift;
+                    shift += 7;
+                    if b & 0x80 == 0 {
+                        break;
+                    }
+                    if shift > 14 {
+                        return Err(PackError::Malformed);
+                    }
+                }
+                let v = u16::try_from(v).map_err(|_| PackError::Malformed)?;
+                *p = p.wrapping_add(unzigzag(v));
+                *s = *p;
             }
-            (self.first_sample_index.wrapping_add(n), previous)
-        })
+            out.push((index, sample)).map_err(|_| PackError::TooLong)?;
+            index = index.wrapping_add(1);
+        }
+        Ok(out)
     }
+}
+
+/// The packed bytes go out as a byte string (postcard: length, then the bytes), the wire
+/// form a derived `Vec<u8>` would also give, through the serializer's one bytes call.
+pub(super) fn serialize_packed<S: Serializer>(
+    packed: &heapless::Vec<u8, MAX_PACKED_LEN>,
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    serializer.serialize_bytes(packed)
 }

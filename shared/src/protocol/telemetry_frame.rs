@@ -34,23 +34,13 @@ pub const MAX_FRAME: usize = MAX_RAW + 2;
 /// pass: each nonzero byte goes to its place at once; each zero closes a run by writing
 /// the run's length as the code byte where the run started. Runs stay below 254 bytes:
 /// the whole payload is shorter than that.
-pub(super) struct Cobs<'a, const N: usize> {
-    frame: &'a mut [u8; N],
+struct Cobs<'a> {
+    frame: &'a mut [u8; MAX_FRAME],
     code_at: usize,
     out: usize,
 }
 
-impl<'a, const N: usize> Cobs<'a, N> {
-    /// Starts a frame in `frame` (its first byte is the first run's code).
-    #[inline(always)]
-    pub(super) fn new(frame: &'a mut [u8; N]) -> Self {
-        Self {
-            frame,
-            code_at: 0,
-            out: 1,
-        }
-    }
-
+impl Cobs<'_> {
     #[inline(always)]
     fn put(&mut self, at: usize, b: u8) {
         if let Some(slot) = self.frame.get_mut(at) {
@@ -59,7 +49,7 @@ impl<'a, const N: usize> Cobs<'a, N> {
     }
 
     #[inline(always)]
-    pub(super) fn byte(&mut self, b: u8) {
+    fn byte(&mut self, b: u8) {
         if b == 0 {
             self.put(self.code_at, (self.out - self.code_at) as u8);
             self.code_at = self.out;
@@ -70,7 +60,7 @@ impl<'a, const N: usize> Cobs<'a, N> {
     }
 
     #[inline(always)]
-    pub(super) fn varint(&mut self, mut v: u32) {
+    fn varint(&mut self, mut v: u32) {
         while v >= 0x80 {
             self.byte((v as u8) | 0x80);
             v >>= 7;
@@ -97,7 +87,7 @@ impl<'a, const N: usize> Cobs<'a, N> {
 
     /// Closes the last run and writes the terminating zero; returns the frame length.
     #[inline(always)]
-    pub(super) fn finish(mut self) -> usize {
+    fn finish(mut self) -> usize {
         self.put(self.code_at, (self.out - self.code_at) as u8);
         self.put(self.out, 0);
         self.out + 1
@@ -108,7 +98,11 @@ impl<'a, const N: usize> Cobs<'a, N> {
 /// included (at most [`MAX_FRAME`]).
 #[inline(always)]
 pub fn encode(seq: u32, t: &Telemetry, frame: &mut [u8; MAX_FRAME]) -> usize {
-    let mut c = Cobs::new(frame);
+    let mut c = Cobs {
+        frame,
+        code_at: 0,
+        out: 1,
+    };
     c.varint(seq);
     c.byte(TELEMETRY_VARIANT);
     c.varint(t.sample_index);
