@@ -118,7 +118,7 @@ mod tests {
         assert_eq!(to_counts(50.0, 20.0), 20 * 512);
         assert_eq!(to_counts(-50.0, 20.0), -20 * 512);
         assert_eq!(to_counts(f32::NAN, NO_LIMIT), 0);
-        assert!(INPUT_RANGE_M_S2 < 64.0 && INPUT_RANGE_M_S2 > 63.99);
+        assert_eq!(INPUT_RANGE_M_S2, 64.0 - 1.0 / 512.0);
     }
 
     #[test]
