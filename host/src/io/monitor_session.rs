@@ -13,6 +13,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Result, anyhow};
 use serde::{Deserialize, Serialize};
+use supine_core::protocol::Status;
 
 use super::output::write_atomically;
 pub use super::recording::PLATFORM_HEADER_LINE;
@@ -76,6 +77,8 @@ pub struct SessionInfo {
     pub input_frames_bad: u64,
     /// Index of the first sample in the input file, if any.
     pub first_input_sample: Option<u32>,
+    /// The device's last status (its counters), if it sent one.
+    pub status: Option<Status>,
 }
 
 impl SessionInfo {

@@ -159,6 +159,7 @@ impl MonitorLog {
                     input_samples_lost: 0,
                     input_frames_bad: 0,
                     first_input_sample: None,
+                    status: None,
                 });
             }
         }
@@ -219,6 +220,11 @@ impl MonitorLog {
             DeviceToHost::Alert(e) => self.events.write(&event_row(e, sample_rate_hz))?,
             DeviceToHost::Input(batch) => self.on_input(batch, sample_rate_hz)?,
             DeviceToHost::Greeting(g) => self.on_greeting(g),
+            DeviceToHost::Status(status) => {
+                if let Some(s) = self.session.as_mut() {
+                    s.status = Some(*status);
+                }
+            }
             _ => {}
         }
         self.flush_if_due()
