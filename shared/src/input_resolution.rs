@@ -25,10 +25,18 @@ pub const INPUT_RANGE_M_S2: f32 = INPUT_MAX_COUNTS as f32 * INPUT_STEP_M_S2;
 /// The count nearest `v_m_s2` (ties to even) after clipping to +-`full_scale_m_s2` and to
 /// +-[`INPUT_MAX_COUNTS`]. `v_m_s2` should be finite (the pipeline holds the last finite
 /// sample instead); NaN gives 0 rather than a panic.
-// Out of line: the device calls it once per axis from one place, and inlined thrice it
-// costs 200 B more flash for a few instructions per axis.
-#[inline(never)]
+#[inline(always)]
 pub fn to_counts(v_m_s2: f32, full_scale_m_s2: f32) -> i16 {
+    // Through i32, which the FPU converts in one instruction; the clip keeps the value
+    // inside i16.
+    counts_f32(v_m_s2, full_scale_m_s2) as i32 as i16
+}
+
+/// [`to_counts`] as a whole-valued f32 (exact: below 2^15), so that the device can take
+/// both the count it streams and the m/s^2 its model gets (`counts * INPUT_STEP_M_S2`,
+/// exact) from one rounding.
+#[inline(always)]
+pub fn counts_f32(v_m_s2: f32, full_scale_m_s2: f32) -> f32 {
     // Clipped in counts (scaling by a power of two is exact), with plain comparisons:
     // f32::clamp would add NaN handling and a panic path.
     let max = f32::from(INPUT_MAX_COUNTS);
@@ -44,9 +52,7 @@ pub fn to_counts(v_m_s2: f32, full_scale_m_s2: f32) -> i16 {
     };
     // Adding and taking away 1.5 * 2^23 leaves no fraction bits for |scaled| < 2^22: f32's
     // own rounding (to nearest, ties to even) rounds to a whole count, in two additions.
-    // Through i32, which the FPU converts in one instruction; the clip above keeps the
-    // value inside i16.
-    ((scaled + ROUNDER) - ROUNDER) as i32 as i16
+    (scaled + ROUNDER) - ROUNDER
 }
 
 /// 1.5 * 2^23: see [`to_counts`].

@@ -14,7 +14,7 @@ use crate::alerts::{AlertEvent, AlertState, FaultFlags, Level, SensorCheckState}
 use crate::blob::DeviceParams;
 use crate::exposure::{ExposureSample, ExposureState};
 use crate::fpu::sqrt_f32;
-use crate::input_resolution::{to_counts, to_m_s2};
+use crate::input_resolution::{INPUT_STEP_M_S2, counts_f32};
 use crate::model::ModalState;
 
 /// Samples per block on the device (32 ms at 500 Hz, far below the alert dwell times).
@@ -31,16 +31,6 @@ pub enum PipelineOutput {
     Alert(AlertEvent),
     /// The telemetry of one sample (every `decimation`-th sample).
     Telemetry(Telemetry),
-    /// The input the model got for one sample (every sample; a block's inputs come before
-    /// its alerts and telemetry), in input-resolution counts
-    /// ([`crate::input_resolution::to_m_s2`] gives m/s^2): after clipping, rounding and
-    /// the hold of a non-finite sample. The device streams it on request.
-    Input {
-        /// Index of the sample.
-        sample_index: u32,
-        /// x, y, z counts.
-        counts: [i16; 3],
-    },
 }
 
 /// One telemetry record: what the device reports about one sample (the protocol sends it
@@ -72,9 +62,13 @@ pub struct PipelineState {
     exposure: ExposureState,
     alerts: AlertState,
     sensors: SensorCheckState,
-    /// Last finite input as the model got it (input-resolution counts), held in place of a
-    /// non-finite one so NaN never enters a filter.
-    last_input_counts: [i16; 3],
+    /// Last finite input as the model got it (whole input-resolution counts, as f32),
+    /// held in place of a non-finite one so NaN never enters a filter.
+    last_input_counts: [f32; 3],
+    /// The model's input for the last [`BLOCK_LEN`] samples, in input-resolution counts:
+    /// a ring, the next slot at `recent_at`. What the device streams on request.
+    recent_inputs: [[i16; 3]; BLOCK_LEN],
+    recent_at: usize,
     /// Alert level and active faults as of the last processed sample.
     level: Level,
     faults: FaultFlags,
@@ -100,7 +94,9 @@ impl PipelineState {
             exposure: ExposureState::new(),
             alerts: AlertState::new(),
             sensors: SensorCheckState::new(),
-            last_input_counts: [0; 3],
+            last_input_counts: [0.0; 3],
+            recent_inputs: [[0; 3]; BLOCK_LEN],
+            recent_at: 0,
             level: Level::Normal,
             faults: FaultFlags::empty(),
             telemetry_countdown: 0,
@@ -108,15 +104,43 @@ impl PipelineState {
         }
     }
 
-    /// The model's input for the raw sample `x`, in input-resolution counts: `x` clipped
-    /// and rounded, or the last one if `x` is not finite. Out of line: both block sizes'
-    /// copies of the pipeline share it (inlined, each would carry its own).
+    /// The model's inputs for the raw samples `raw`, m/s^2, into `out`: each sample
+    /// clipped and rounded to the input resolution, or the last finite one in place of one
+    /// that is not; their counts go to the ring of recent inputs. A block at a time and out
+    /// of line: both block sizes' copies of the pipeline share one loop, and its call
+    /// costs once per block, not per sample.
     #[inline(never)]
-    fn take_input(&mut self, x: &[f32; 3], full_scale_m_s2: f32) -> [i16; 3] {
-        if x.iter().all(|v| v.is_finite()) {
-            self.last_input_counts = x.map(|v| to_counts(v, full_scale_m_s2));
+    fn take_inputs(&mut self, raw: &[[f32; 3]], full_scale_m_s2: f32, out: &mut [[f32; 3]]) {
+        let mut last = self.last_input_counts;
+        let mut at = self.recent_at;
+        for (x, o) in raw.iter().zip(out) {
+            if x.iter().all(|v| v.is_finite()) {
+                last = x.map(|v| counts_f32(v, full_scale_m_s2));
+            }
+            *o = last.map(|c| c * INPUT_STEP_M_S2);
+            if let Some(slot) = self.recent_inputs.get_mut(at) {
+                *slot = last.map(|c| c as i32 as i16);
+            }
+            at = (at + 1) % BLOCK_LEN;
         }
-        self.last_input_counts
+        self.last_input_counts = last;
+        self.recent_at = at;
+    }
+
+    /// The model's input for the last `out.len()` samples processed (at most
+    /// [`BLOCK_LEN`]), oldest first, in input-resolution counts
+    /// ([`crate::input_resolution::to_m_s2`] gives m/s^2): after the hold of a non-finite
+    /// sample, the clips and the rounding. The device streams them on request, read after
+    /// each call of [`DeviceParams::process`] with at most [`BLOCK_LEN`] samples.
+    pub fn recent_inputs(&self, out: &mut [[i16; 3]]) {
+        let n = out.len().min(BLOCK_LEN);
+        let mut at = (self.recent_at + BLOCK_LEN - n) % BLOCK_LEN;
+        for o in out.iter_mut().take(n) {
+            if let Some(&c) = self.recent_inputs.get(at) {
+                *o = c;
+            }
+            at = (at + 1) % BLOCK_LEN;
+        }
     }
 
     /// Samples processed since start.
@@ -172,21 +196,21 @@ impl DeviceParams {
             .step_block(&mut state.sensors, input_m_s2, indices, |e| {
                 let _ = events.push(e);
             });
+        // The model's input, then (in place) its output, per sample.
         let mut head = [[0.0f32; 3]; N];
-        let full_scale = self.sensor_checks.config.full_scale_m_s2;
-        for ((out, x), &index) in head.iter_mut().zip(input_m_s2).zip(indices) {
-            // A non-finite sample is replaced by the last good one; a finite one is clipped
-            // to the full scale, as the sensor itself would, and to the input range, and
-            // rounded to the input resolution: a sample no sensor can produce
-            // (1e30 m/s^2) must not overflow the model's and the exposure's f32 state, and
-            // the model must get exactly what the input stream can carry. Both clips raise
-            // their fault (non-finite, saturated) in the sensor checks above.
-            let counts = state.take_input(x, full_scale);
-            emit(PipelineOutput::Input {
-                sample_index: index,
-                counts,
-            });
-            *out = self.realization.step(&mut state.model, counts.map(to_m_s2));
+        // A non-finite sample is replaced by the last good one; a finite one is clipped to
+        // the full scale, as the sensor itself would, and to the input range, and rounded
+        // to the input resolution: a sample no sensor can produce (1e30 m/s^2) must not
+        // overflow the model's and the exposure's f32 state, and the model must get
+        // exactly what the input stream can carry. Both clips raise their fault
+        // (non-finite, saturated) in the sensor checks above.
+        state.take_inputs(
+            input_m_s2,
+            self.sensor_checks.config.full_scale_m_s2,
+            &mut head,
+        );
+        for h in head.iter_mut() {
+            *h = self.realization.step(&mut state.model, *h);
         }
         let mut exposure = [ExposureSample::default(); N];
         let first = indices[0];

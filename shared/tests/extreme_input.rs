@@ -30,7 +30,6 @@ fn run(params: &DeviceParams, input: &[[f32; 3]]) -> (Vec<Telemetry>, Vec<AlertE
     params.process(&mut state, &indices, input, |o| match o {
         PipelineOutput::Telemetry(t) => telemetry.push(t),
         PipelineOutput::Alert(e) => events.push(e),
-        PipelineOutput::Input { .. } => {}
     });
     (telemetry, events)
 }

@@ -46,12 +46,13 @@ proptest! {
         };
         let mut buf = [0u8; 512];
         let postcard = encode_frame(&frame, &mut buf).expect("fits").to_vec();
-        let mut hand = [0xAA; MAX_FRAME];
-        let len = input_frame::encode(seq, first, &samples, &mut hand);
-        prop_assert_eq!(&hand[..len], &postcard[..]);
+        let mut buf = [0xAA; MAX_FRAME];
+        let at = input_frame::encode(seq, first, &samples, &mut buf);
+        let hand = &buf[at];
+        prop_assert_eq!(hand, &postcard[..]);
 
         let mut acc = FrameAccumulator::new();
-        let decoded: Vec<DeviceFrame> = hand[..len]
+        let decoded: Vec<DeviceFrame> = hand
             .iter()
             .filter_map(|&b| match acc.push::<DeviceFrame>(b) {
                 FrameEvent::Message(m) => Some(m),
@@ -78,11 +79,12 @@ fn a_full_frame_of_the_widest_differences_fits_the_link_limit() {
         // wrap to small ones.
         .map(|n| if n % 2 == 0 { [10_000; 3] } else { [0; 3] })
         .collect();
-    let mut hand = [0u8; MAX_FRAME];
-    let len = input_frame::encode(u32::MAX, u32::MAX, &samples, &mut hand);
-    assert!(len <= supine_core::protocol::MAX_FRAME_LEN, "{len}");
+    let mut buf = [0u8; MAX_FRAME];
+    let at = input_frame::encode(u32::MAX, u32::MAX, &samples, &mut buf);
+    assert!(at.len() <= supine_core::protocol::MAX_FRAME_LEN, "{at:?}");
     assert_eq!(
-        len, MAX_FRAME,
+        at,
+        0..MAX_FRAME,
         "the bound is reached, so it is the right one"
     );
 }

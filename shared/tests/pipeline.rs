@@ -4,7 +4,7 @@
 use supine_core::alerts::{AlertConfig, AlertEvent, AlertSettings, Criterion, SensorFault};
 use supine_core::blob::DeviceParams;
 use supine_core::model::{ModelParams, Preset, device_realization};
-use supine_core::pipeline::{PipelineOutput, PipelineState};
+use supine_core::pipeline::{BLOCK_LEN, PipelineOutput, PipelineState};
 use supine_core::protocol::Telemetry;
 use supine_core::protocol::golden::blob_example;
 use supine_core::test_vector::TestVector;
@@ -49,10 +49,6 @@ fn bits(outputs: &[PipelineOutput]) -> Vec<String> {
                 t.valid
             ),
             PipelineOutput::Alert(e) => format!("{e:?}"),
-            PipelineOutput::Input {
-                sample_index,
-                counts,
-            } => format!("input {sample_index} {counts:?}"),
         })
         .collect()
 }
@@ -66,14 +62,12 @@ fn cutting_the_stream_into_any_batches_gives_the_same_bits() {
         .collect();
     let indices: Vec<u32> = (0..5000).collect();
     let reference = bits(&run(&params, &input, &indices, 1));
-    // One telemetry record and one input per sample, plus the events.
     assert_eq!(
         reference.len(),
-        2 * 5000
-            + reference
-                .iter()
-                .filter(|l| l.starts_with("Level") || l.starts_with("Fault"))
-                .count()
+        5000 + reference
+            .iter()
+            .filter(|l| l.starts_with("Level") || l.starts_with("Fault"))
+            .count()
     );
     for batch in [7, 16, 64, 333] {
         assert_eq!(
@@ -178,7 +172,7 @@ fn sine_levels(
         match o {
             PipelineOutput::Alert(e @ AlertEvent::Level { .. }) => events.push(e),
             PipelineOutput::Telemetry(t) => telemetry.push(t),
-            PipelineOutput::Alert(_) | PipelineOutput::Input { .. } => {}
+            PipelineOutput::Alert(_) => {}
         }
     }
     assert!(
@@ -237,17 +231,18 @@ fn a_level_raised_by_the_running_rms_names_it_with_the_telemetrys_value() {
     }
 }
 
-/// The `Input` outputs of a run: (sample index, counts).
-fn inputs(out: &[PipelineOutput]) -> Vec<(u32, [i16; 3])> {
-    out.iter()
-        .filter_map(|o| match o {
-            PipelineOutput::Input {
-                sample_index,
-                counts,
-            } => Some((*sample_index, *counts)),
-            _ => None,
-        })
-        .collect()
+/// Runs `input` in calls of one block each, as the device does, and collects the model's
+/// input after each call (`PipelineState::recent_inputs`): (sample index, counts).
+fn inputs_of(params: &DeviceParams, input: &[[f32; 3]], indices: &[u32]) -> Vec<(u32, [i16; 3])> {
+    let mut state = PipelineState::new();
+    let mut out = Vec::new();
+    for (i, x) in indices.chunks(BLOCK_LEN).zip(input.chunks(BLOCK_LEN)) {
+        params.process(&mut state, i, x, |_| {});
+        let mut recent = vec![[0i16; 3]; i.len()];
+        state.recent_inputs(&mut recent);
+        out.extend(i.iter().copied().zip(recent));
+    }
+    out
 }
 
 #[test]
@@ -272,7 +267,7 @@ fn the_model_computes_on_the_input_rounded_to_the_input_resolution_and_reports_i
         .zip(0..)
         .map(|(x, i)| (i, x.map(|v| (v * 512.0) as i16)))
         .collect();
-    assert_eq!(inputs(&from_raw), expected);
+    assert_eq!(inputs_of(&params, &raw, &indices), expected);
 }
 
 #[test]
@@ -290,7 +285,7 @@ fn an_input_beyond_the_input_range_is_clipped_and_raises_saturation() {
         at_sample: 500
     })));
     assert_eq!(
-        inputs(&out)[500],
+        inputs_of(&params, &input, &indices)[500],
         (500, [i16::MAX, -i16::MAX, 63 * 512]),
         "clipped to the range, the in-range axis kept"
     );
@@ -302,6 +297,6 @@ fn a_non_finite_sample_is_reported_as_the_held_input_the_model_got() {
     let mut input: Vec<[f32; 3]> = TestVector::new(8).take(100).collect();
     input[40] = [f32::NAN, 1.0, 1.0];
     let indices: Vec<u32> = (0..100).collect();
-    let reported = inputs(&run(&params, &input, &indices, 16));
+    let reported = inputs_of(&params, &input, &indices);
     assert_eq!(reported[40].1, reported[39].1);
 }

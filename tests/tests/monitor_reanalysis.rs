@@ -162,3 +162,114 @@ fn a_monitor_log_re_analysed_by_report_matches_the_device_bit_for_bit() {
     );
     assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
 }
+
+/// What the stream costs at 500 Hz on the 20 s rough-road ride, the shipping telemetry
+/// rate (the preset's default, 100 Hz): instructions per sample with it off and on (QEMU
+/// `-icount`), and bytes per second on the link, counted from the frames the device sent.
+/// The streamed inputs must be exactly the host pipeline's (BENCHMARKS.md quotes the
+/// printed figures).
+#[test]
+fn the_input_stream_costs_on_the_device_and_the_link_at_500_hz() {
+    use std::sync::Arc;
+    use std::sync::atomic::AtomicBool;
+    use std::time::Duration;
+    use supine_core::model::Preset;
+    use supine_core::protocol::{
+        DeviceFrame, DeviceToHost, HostToDevice, MAX_FRAME_LEN, encode_frame,
+    };
+    use supine_host::device::device_params;
+    use supine_host::device::replay::{Outgoing, SessionConfig, sample_messages, session};
+    use supine_host::exposure::reference;
+    use supine_host::io::params_file::ParamFile;
+
+    let dir = tempfile::tempdir().expect("temp dir");
+    let ride = dir.path().join("ride.csv");
+    let (ok, _, stderr) = supine(&[
+        "ride",
+        "--profile",
+        "rough-road",
+        "--duration-s",
+        "20",
+        "--seed",
+        "3",
+        "--out",
+        &s(&ride),
+    ]);
+    assert!(ok, "{stderr}");
+    let (recording, _) = read_input(&ride).expect("ride reads");
+    let samples = recording.platform_samples();
+    let fs = recording.sample_rate_hz();
+    let file = ParamFile::preset(Preset::PaperLitter);
+    let params = device_params::build(&file, fs).expect("params");
+    let blob = device_params::encode(&params).expect("blob");
+    let config = SessionConfig {
+        kernel: firmware(supine_host::device::firmware::PRODUCT_BINARY),
+        blob: Some(blob),
+        icount: true,
+        timeout: Duration::from_secs(300),
+    };
+    let frame_len = |message: DeviceToHost| {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let frame = DeviceFrame { seq: 0, message };
+        encode_frame(&frame, &mut buf).expect("fits").len()
+    };
+    let mut figures = Vec::new();
+    for stream in [false, true] {
+        let mut script = Vec::new();
+        if stream {
+            script.push(Outgoing::Message(HostToDevice::StreamInput {
+                enabled: true,
+            }));
+        }
+        script.extend(sample_messages(0, &samples));
+        script.push(Outgoing::Message(HostToDevice::GetStatus));
+        let stop = Arc::new(AtomicBool::new(false));
+        let run = session(&config, script, &stop).expect("session");
+        let status = run.status();
+        assert_eq!(status.samples_processed, samples.len() as u32);
+        assert_eq!(run.link.lost_frames, 0);
+        let mut streamed = Vec::new();
+        let mut input_bytes = 0;
+        for m in &run.other {
+            if let DeviceToHost::Input(batch) = m {
+                streamed.extend(batch.samples().expect("decodes").iter().map(|(_, c)| *c));
+                input_bytes += frame_len(m.clone());
+            }
+        }
+        // Sequence numbers of up to 3 bytes in a 20 s run, as in a long one up to 2^21.
+        let telemetry_bytes: usize = run
+            .telemetry
+            .iter()
+            .map(|t| frame_len(DeviceToHost::Telemetry(*t)))
+            .sum();
+        let seconds = samples.len() as f64 / fs;
+        if stream {
+            let host = reference::pipeline(
+                &params,
+                &(0..samples.len() as u32).collect::<Vec<_>>(),
+                &samples,
+            );
+            assert_eq!(
+                streamed, host.input_counts,
+                "the stream is the pipeline's input"
+            );
+        } else {
+            assert!(streamed.is_empty());
+        }
+        println!(
+            "stream {}: instructions_per_sample {:.0}, stack_used_bytes {}, telemetry {:.0} B/s, input {:.0} B/s ({:.2} B a sample), link {:.0} B/s of 11,520 (115.2 kbit/s)",
+            if stream { "on" } else { "off" },
+            run.instructions_per_sample(),
+            status.stack_used_bytes,
+            telemetry_bytes as f64 / seconds,
+            input_bytes as f64 / seconds,
+            input_bytes as f64 / samples.len() as f64,
+            (telemetry_bytes + input_bytes) as f64 / seconds,
+        );
+        figures.push(run.instructions_per_sample());
+    }
+    // The stream on costs a frame a block: 158 instructions a sample when measured
+    // (BENCHMARKS.md); a regression guard, not a budget.
+    assert!(figures[1] > figures[0], "{figures:?}");
+    assert!(figures[1] - figures[0] < 200.0, "{figures:?}");
+}

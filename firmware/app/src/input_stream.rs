@@ -2,61 +2,50 @@
 //! every sample goes to the host as `DeviceToHost::Input` frames, one per run of
 //! consecutive sample indices in a block, after the block's telemetry and alerts.
 //!
-//! The pipeline reports each sample's input (`PipelineOutput::Input`) while it runs; they
-//! are only copied here then, and encoded after the pipeline returns, so the frame's
-//! scratch bytes never add to the pipeline's own stack depth.
+//! The pipeline keeps the last block's inputs (`PipelineState::recent_inputs`); they are
+//! read and encoded after it returns, so the stream costs nothing per sample when off and
+//! its frame's scratch bytes never add to the pipeline's own stack depth.
 
-use supine_core::pipeline::BLOCK_LEN;
+use supine_core::pipeline::{BLOCK_LEN, PipelineState};
 use supine_core::protocol::input_frame;
 
 use crate::link::Link;
 use crate::tx_ring::TxRing;
 
-/// Whether the stream is on, and the current block's inputs.
+/// Whether the stream is on.
 pub(crate) struct InputStream {
     enabled: bool,
-    counts: [[i16; 3]; BLOCK_LEN],
-    len: usize,
 }
 
 impl InputStream {
     /// Off, as at boot.
     pub(crate) const fn new() -> Self {
-        Self {
-            enabled: false,
-            counts: [[0; 3]; BLOCK_LEN],
-            len: 0,
-        }
+        Self { enabled: false }
     }
 
     pub(crate) fn set_enabled(&mut self, enabled: bool) {
         self.enabled = enabled;
-        self.len = 0;
     }
 
-    /// Keeps one sample's input (the block's next), if the stream is on.
-    #[inline(always)]
-    pub(crate) fn keep(&mut self, counts: [i16; 3]) {
-        if self.enabled
-            && let Some(slot) = self.counts.get_mut(self.len)
-        {
-            *slot = counts;
-            self.len += 1;
-        }
-    }
-
-    /// Sends the kept inputs of the block whose sample indices are `indices` (in the order
-    /// kept), one frame per run of consecutive indices, numbered from `seq` on.
+    /// If the stream is on, sends the inputs of the samples just processed, whose indices
+    /// are `indices` (at most a block), one frame per run of consecutive indices,
+    /// numbered from `seq` on.
     // Out of line: once per block, off the per-sample path.
     #[inline(never)]
     pub(crate) fn send(
-        &mut self,
+        &self,
         indices: &[u32],
+        state: &PipelineState,
         tx: &mut TxRing,
         link: &mut impl Link,
         seq: &mut u32,
     ) {
-        let len = core::mem::take(&mut self.len).min(indices.len());
+        if !self.enabled {
+            return;
+        }
+        let len = indices.len().min(BLOCK_LEN);
+        let mut counts = [[0i16; 3]; BLOCK_LEN];
+        state.recent_inputs(counts.get_mut(..len).unwrap_or(&mut []));
         let mut start = 0;
         while start < len {
             let first = indices.get(start).copied().unwrap_or(0);
@@ -64,11 +53,11 @@ impl InputStream {
             while end < len && indices.get(end) == Some(&first.wrapping_add((end - start) as u32)) {
                 end += 1;
             }
-            let mut frame = [0u8; input_frame::MAX_FRAME];
-            let counts = self.counts.get(start..end).unwrap_or(&[]);
-            let n = input_frame::encode(*seq, first, counts, &mut frame);
+            let mut buf = [0u8; input_frame::MAX_FRAME];
+            let run = counts.get(start..end).unwrap_or(&[]);
+            let frame = input_frame::encode(*seq, first, run, &mut buf);
             *seq = seq.wrapping_add(1);
-            tx.push(frame.get(..n).unwrap_or(&[]), link);
+            tx.push(buf.get(frame).unwrap_or(&[]), link);
             start = end;
         }
     }

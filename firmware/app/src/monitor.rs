@@ -369,9 +369,8 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
                     *seq = seq.wrapping_add(1);
                 }
                 PipelineOutput::Alert(e) => queue_frame(tx, link, seq, DeviceToHost::Alert(e)),
-                PipelineOutput::Input { counts, .. } => input_stream.keep(counts),
             });
-        input_stream.send(indices, tx, link, seq);
+        input_stream.send(indices, state, tx, link, seq);
         status.busy_ticks = status
             .busy_ticks
             .wrapping_add(u64::from(counter.ticks_since(start)));

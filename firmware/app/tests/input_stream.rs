@@ -8,26 +8,35 @@ mod support;
 
 use supine_app::IDLE_FLUSH_TICKS;
 use supine_core::input_resolution::to_m_s2;
-use supine_core::pipeline::{PipelineOutput, PipelineState};
+use supine_core::pipeline::{BLOCK_LEN, PipelineState};
 use supine_core::protocol::{DeviceToHost, HostToDevice, MAX_INPUT_SAMPLES_PER_FRAME};
 use support::*;
 
-/// The pipeline's own report of its input for these samples, from rest.
+/// The pipeline's own report of its input for these samples, from rest (the host's
+/// reference reads it back block by block).
 fn pipeline_inputs(
     params: &supine_core::blob::DeviceParams,
     indices: &[u32],
     samples: &[[f32; 3]],
 ) -> Streamed {
+    let run = inputs_block_by_block(params, indices, samples);
+    indices.iter().copied().zip(run).collect()
+}
+
+/// The model's inputs, a block per call as the device runs them.
+fn inputs_block_by_block(
+    params: &supine_core::blob::DeviceParams,
+    indices: &[u32],
+    samples: &[[f32; 3]],
+) -> Vec<[i16; 3]> {
+    let mut state = PipelineState::new();
     let mut out = Vec::new();
-    params.process(&mut PipelineState::new(), indices, samples, |o| {
-        if let PipelineOutput::Input {
-            sample_index,
-            counts,
-        } = o
-        {
-            out.push((sample_index, counts));
-        }
-    });
+    for (i, x) in indices.chunks(BLOCK_LEN).zip(samples.chunks(BLOCK_LEN)) {
+        params.process(&mut state, i, x, |_| {});
+        let mut recent = vec![[0i16; 3]; i.len()];
+        state.recent_inputs(&mut recent);
+        out.extend(recent);
+    }
     out
 }
 

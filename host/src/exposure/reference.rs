@@ -13,7 +13,7 @@ use supine_core::alerts::AlertEvent;
 use supine_core::blob::DeviceParams;
 use supine_core::input_resolution::{INPUT_RANGE_M_S2, quantize_m_s2};
 use supine_core::model::{ModalState, Model, ModelParams, Output};
-use supine_core::pipeline::{PipelineOutput, PipelineState};
+use supine_core::pipeline::{BLOCK_LEN, PipelineOutput, PipelineState};
 use supine_core::protocol::Telemetry;
 
 /// What the pipeline produced for a stream: telemetry and alert events in order.
@@ -33,11 +33,17 @@ pub struct PipelineRun {
 pub fn pipeline(params: &DeviceParams, indices: &[u32], input_m_s2: &[[f32; 3]]) -> PipelineRun {
     let mut state = PipelineState::new();
     let mut run = PipelineRun::default();
-    params.process(&mut state, indices, input_m_s2, |out| match out {
-        PipelineOutput::Telemetry(t) => run.telemetry.push(t),
-        PipelineOutput::Alert(e) => run.events.push(e),
-        PipelineOutput::Input { counts, .. } => run.input_counts.push(counts),
-    });
+    // A block per call, as the device runs it, so that each block's inputs can be read
+    // back (the results do not depend on how the stream is cut).
+    for (i, x) in indices.chunks(BLOCK_LEN).zip(input_m_s2.chunks(BLOCK_LEN)) {
+        params.process(&mut state, i, x, |out| match out {
+            PipelineOutput::Telemetry(t) => run.telemetry.push(t),
+            PipelineOutput::Alert(e) => run.events.push(e),
+        });
+        let at = run.input_counts.len();
+        run.input_counts.resize(at + i.len(), [0; 3]);
+        state.recent_inputs(&mut run.input_counts[at..]);
+    }
     run
 }
 

@@ -34,7 +34,7 @@ pub const MAX_PACKED_LEN: usize = MAX_INPUT_SAMPLES_PER_FRAME * 3 * 3;
 const MAX_RAW: usize = 5 + 1 + 5 + 2 + MAX_PACKED_LEN;
 
 /// Longest frame: COBS adds one byte per 254 (one here: the payload is shorter) plus the
-/// terminating zero.
+/// terminating zero. Also the size of [`encode`]'s buffer.
 pub const MAX_FRAME: usize = MAX_RAW + 2;
 
 /// Packs `counts` (at most [`MAX_INPUT_SAMPLES_PER_FRAME`], any more are left out) into
@@ -50,39 +50,65 @@ fn pack_at(counts: &[[i16; 3]], out: &mut [u8], mut at: usize) -> usize {
     // kept in `before` (x, y, z of the sample before, rotating).
     let mut before = [0i16; 3];
     for &now in counts.as_flattened() {
-        at = put_varint(out, at, u32::from(zigzag(now.wrapping_sub(before[0]))));
+        let v = zigzag(now.wrapping_sub(before[0]));
+        // Most differences take one byte: written here, the rest by the general varint.
+        match out.get_mut(at) {
+            Some(b) if v < 0x80 => {
+                *b = v as u8;
+                at += 1;
+            }
+            _ => at = put_varint(out, at, u32::from(v)),
+        }
         before = [before[1], before[2], now];
     }
     at
 }
 
-/// Longest header before the packed bytes: three 5-byte varints, the variant... as
-/// [`MAX_RAW`] counts them.
+/// Longest header before the packed bytes: the sequence number, the variant, the first
+/// index and the packed length.
 const MAX_HEADER: usize = MAX_RAW - MAX_PACKED_LEN;
 
 /// Encodes the frame of the samples `counts` (consecutive indices from
 /// `first_sample_index`; at most [`MAX_INPUT_SAMPLES_PER_FRAME`], any more are left out)
-/// into `frame`; returns its length, terminating zero included.
+/// in `buf`; returns where in `buf` the frame is, terminating zero included.
+///
+/// One buffer, no copy of the samples: they are packed at a fixed offset after room for
+/// the longest header, the header (whose last field is their length) goes just before
+/// them, and COBS is applied in place (the payload is shorter than 254 bytes, so every
+/// code byte replaces a zero of the payload, and the first goes before it).
 pub fn encode(
     seq: u32,
     first_sample_index: u32,
     counts: &[[i16; 3]],
-    frame: &mut [u8; MAX_FRAME],
-) -> usize {
-    // The packed samples first, after room for the longest header; then the header,
-    // whose last field is their length, just before them.
-    let mut raw = [0u8; MAX_RAW];
-    let end = pack_at(counts, &mut raw, MAX_HEADER);
+    buf: &mut [u8; MAX_FRAME],
+) -> core::ops::Range<usize> {
+    const PACKED_AT: usize = 1 + MAX_HEADER;
+    let end = pack_at(counts, buf, PACKED_AT);
     let mut header = [0u8; MAX_HEADER];
     let mut len = put_varint(&mut header, 0, seq);
     len = put_varint(&mut header, len, INPUT_VARIANT.into());
     len = put_varint(&mut header, len, first_sample_index);
-    len = put_varint(&mut header, len, (end - MAX_HEADER) as u32);
-    let start = MAX_HEADER - len;
-    if let (Some(dst), Some(src)) = (raw.get_mut(start..MAX_HEADER), header.get(..len)) {
+    len = put_varint(&mut header, len, (end - PACKED_AT) as u32);
+    let start = PACKED_AT - len - 1;
+    if let (Some(dst), Some(src)) = (buf.get_mut(start + 1..PACKED_AT), header.get(..len)) {
         dst.copy_from_slice(src);
     }
-    cobs(raw.get(start..end).unwrap_or(&[]), frame)
+    let mut code_at = start;
+    for i in start + 1..end {
+        if buf.get(i) == Some(&0) {
+            if let Some(code) = buf.get_mut(code_at) {
+                *code = (i - code_at) as u8;
+            }
+            code_at = i;
+        }
+    }
+    if let Some(code) = buf.get_mut(code_at) {
+        *code = (end - code_at) as u8;
+    }
+    if let Some(zero) = buf.get_mut(end) {
+        *zero = 0;
+    }
+    start..end + 1
 }
 
 /// Writes `v` as a varint (7 bits a byte, low first) into `out` at `at`; returns the
@@ -100,30 +126,6 @@ fn put_varint(out: &mut [u8], mut at: usize, mut v: u32) -> usize {
             return at;
         }
     }
-}
-
-/// COBS-encodes `raw` (shorter than 254 bytes: one code byte per zero, no long runs) into
-/// `frame` with the terminating zero; returns the frame's length.
-fn cobs(raw: &[u8], frame: &mut [u8; MAX_FRAME]) -> usize {
-    let (mut code_at, mut out) = (0, 1);
-    for &b in raw {
-        if b == 0 {
-            if let Some(code) = frame.get_mut(code_at) {
-                *code = (out - code_at) as u8;
-            }
-            code_at = out;
-        } else if let Some(slot) = frame.get_mut(out) {
-            *slot = b;
-        }
-        out += 1;
-    }
-    if let Some(code) = frame.get_mut(code_at) {
-        *code = (out - code_at) as u8;
-    }
-    if let Some(end) = frame.get_mut(out) {
-        *end = 0;
-    }
-    out + 1
 }
 
 /// postcard's signed-integer mapping: 0, -1, 1, -2, ... to 0, 1, 2, 3, ...

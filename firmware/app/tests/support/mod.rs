@@ -519,8 +519,6 @@ pub fn pipeline_messages_from(
     params.process(state, indices, samples, |o| match o {
         PipelineOutput::Telemetry(t) => out.push(DeviceToHost::Telemetry(t)),
         PipelineOutput::Alert(e) => out.push(DeviceToHost::Alert(e)),
-        // Streamed only on request (`StreamInput`).
-        PipelineOutput::Input { .. } => {}
     });
     out
 }
