@@ -79,6 +79,15 @@ pub struct SessionInfo {
     pub first_input_sample: Option<u32>,
     /// The device's last status (its counters), if it sent one.
     pub status: Option<Status>,
+    /// The host's link counters at the end: frames decoded, lost (gaps in the device's
+    /// sequence numbers), bad and reordered.
+    pub link_frames: u64,
+    /// See `link_frames`.
+    pub link_lost_frames: u64,
+    /// See `link_frames`.
+    pub link_bad_frames: u64,
+    /// See `link_frames`.
+    pub link_reordered_frames: u64,
 }
 
 impl SessionInfo {

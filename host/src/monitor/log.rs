@@ -19,6 +19,7 @@ use anyhow::{Result, anyhow};
 use supine_core::protocol::{DeviceToHost, Greeting, InputBatch};
 
 use crate::device::device_params::identity_hex;
+use crate::device::link::LinkStats;
 use crate::io::monitor_session::{
     PLATFORM_HEADER_LINE, SessionInfo, input_path, input_row, session_path,
 };
@@ -88,6 +89,11 @@ pub struct MonitorLog {
     rows: u64,
 }
 
+/// An f32 as the shortest decimal that reads back as it (1.82, not 1.8200000524520874).
+fn shortest(x: f32) -> f64 {
+    format!("{x}").parse().unwrap_or(f64::from(x))
+}
+
 /// The files a finished log left.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LogFiles {
@@ -151,8 +157,8 @@ impl MonitorLog {
                     firmware_version: g.firmware_version.to_string(),
                     params_identity: identity,
                     sample_rate_hz: rate_hz,
-                    height_m: f64::from(g.height_m),
-                    mass_kg: f64::from(g.mass_kg),
+                    height_m: shortest(g.height_m),
+                    mass_kg: shortest(g.mass_kg),
                     params_changed: false,
                     input_frames: 0,
                     input_samples: 0,
@@ -160,6 +166,10 @@ impl MonitorLog {
                     input_frames_bad: 0,
                     first_input_sample: None,
                     status: None,
+                    link_frames: 0,
+                    link_lost_frames: 0,
+                    link_bad_frames: 0,
+                    link_reordered_frames: 0,
                 });
             }
         }
@@ -196,6 +206,17 @@ impl MonitorLog {
             self.next_input = index.checked_add(1);
         }
         Ok(())
+    }
+
+    /// Records the link's counters as they stand (the last call before `finish` is what
+    /// the session file says).
+    pub fn on_link(&mut self, stats: LinkStats) {
+        if let Some(s) = self.session.as_mut() {
+            s.link_frames = stats.frames;
+            s.link_lost_frames = stats.lost_frames;
+            s.link_bad_frames = stats.bad_frames;
+            s.link_reordered_frames = stats.reordered_frames;
+        }
     }
 
     /// What the session file will say (once the device greeted).
@@ -387,7 +408,7 @@ mod tests {
         let (session_file, info) = files.session.expect("the device greeted");
         assert_eq!(SessionInfo::read(&session_file).expect("reads"), info);
         assert_eq!(info.params_identity, "07".repeat(16));
-        assert_eq!((info.height_m, info.mass_kg), (1.6f32.into(), 52.0));
+        assert_eq!((info.height_m, info.mass_kg), (1.6, 52.0));
         assert_eq!(info.sample_rate_hz, 500.0);
         assert_eq!(info.input_frames, 3);
         assert_eq!(info.input_samples, 3);

@@ -106,6 +106,9 @@ pub fn follow<R: Read>(
             }
             let message = reader.next_before(Instant::now() + STEP);
             monitor.on_link(reader.stats);
+            if let Some(log) = log.as_deref_mut() {
+                log.on_link(reader.stats);
+            }
             let message = match message {
                 Ok(message) => message,
                 // Ctrl-C on a terminal also reaches QEMU (same process group), whose link

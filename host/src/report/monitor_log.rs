@@ -16,6 +16,7 @@ use anyhow::{Result, anyhow, bail};
 use supine_core::blob::DeviceParams;
 
 use crate::device::device_params::{self, identity_hex};
+use crate::device::link::LinkStats;
 use crate::exposure::reference;
 use crate::io::monitor_session::{SessionInfo, input_path, session_path};
 use crate::io::params_file::ParamFile;
@@ -174,7 +175,12 @@ pub fn device_log(
             ),
             firmware_version: s.firmware_version.clone(),
             status: s.status,
-            link: Default::default(),
+            link: LinkStats {
+                frames: s.link_frames,
+                bad_frames: s.link_bad_frames,
+                lost_frames: s.link_lost_frames,
+                reordered_frames: s.link_reordered_frames,
+            },
             step_times: Vec::new(),
             notes: vec![(
                 "input stream".to_string(),
