@@ -7,7 +7,8 @@
 //!
 //! The data path reads one way: `model`, `weighting` and `mounting`, then `exposure`,
 //! `alerts`, `blob`, `pipeline`, `protocol` and `upload`; a module uses only those before
-//! it, and the leaf utilities (`fpu`, `gain_bound`, `sample_rate`, `test_vector`, `timing`) anywhere
+//! it, and the leaf utilities (`fpu`, `gain_bound`, `input_resolution`, `sample_rate`, `test_vector`,
+//! `timing`) anywhere
 //! (`tests/module_layers.rs` checks it).
 //!
 //! Float functions that core lacks come from `libm` explicitly, never from an extension
@@ -21,6 +22,7 @@ pub mod blob;
 pub mod exposure;
 pub mod fpu;
 pub mod gain_bound;
+pub mod input_resolution;
 pub mod model;
 pub mod mounting;
 pub mod pipeline;

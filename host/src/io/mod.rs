@@ -15,6 +15,7 @@
 //! - [`subject_args`]: `--height-m`, `--mass-kg`, the patient the model is scaled to.
 //! - [`h_csv`]: the transmissibility CSV of `supine model` and `supine transmissibility`.
 //! - [`telemetry_csv`]: a device's telemetry and alert events as CSV (replay, monitor, demo).
+//! - [`monitor_session`]: the input and session files beside a monitor log, for re-analysis.
 //! - [`wording`]: counts with their noun in printed summaries.
 
 pub mod csv_lines;
@@ -22,6 +23,7 @@ pub mod dataset;
 pub mod device_section;
 pub mod excerpt;
 pub mod h_csv;
+pub mod monitor_session;
 pub mod output;
 pub mod output_folder;
 pub mod params_file;

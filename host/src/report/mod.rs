@@ -12,6 +12,8 @@
 //! - [`device_check`], [`device_charts`], [`device_section`], [`trace`]: with a device
 //!   log (what a device sent for the ride, as `supine demo` has it), the device's own
 //!   account beside the host's: the largest difference of each output, identical events.
+//! - [`monitor_log`]: a session logged by `supine monitor --log` as the input: its input
+//!   stream is the ride, its telemetry and events the device log.
 //!
 //! The JSON's key names are the contract of `--json` (`docs/exposure.md#mission-report`).
 
@@ -23,6 +25,7 @@ pub mod device_section;
 pub mod html;
 pub mod joints;
 pub mod mission;
+pub mod monitor_log;
 pub mod spectrum;
 pub mod trace;
 
