@@ -9,6 +9,7 @@ use clap::Parser;
 use serde_json::Value;
 use supine_core::alerts::{AlertEvent, Criterion};
 use supine_core::exposure::ExposureState;
+use supine_core::input_resolution::quantize_m_s2;
 use supine_core::model::ModalState;
 use supine_core::weighting::{WeightingKind, analog_response};
 use supine_host::cli::{Cli, Command, one_line, run};
@@ -185,7 +186,8 @@ fn the_model_form_equals_the_device_stages_stepped_by_hand() {
     assert_eq!(v["layout"], "platform-only");
     assert_eq!(num(&v, "sample_rate_hz"), fs);
 
-    // By hand: the model, the exposure stage and the alert stage, one sample at a time.
+    // By hand: the input's rounding to the device's resolution, the model, the exposure
+    // stage and the alert stage, one sample at a time.
     let file = ParamFile::preset(supine_core::model::Preset::PaperLitter);
     let params = supine_host::device::device_params::build(&file, fs).unwrap();
     let input = read_platform(&path);
@@ -194,7 +196,8 @@ fn the_model_form_equals_the_device_stages_stepped_by_hand() {
     let mut alerts = supine_core::alerts::AlertState::new();
     let mut events = Vec::new();
     for (k, x) in input.iter().enumerate() {
-        let head = params.realization.step(&mut model, *x);
+        let x = quantize_m_s2(*x, params.sensor_checks.config.full_scale_m_s2);
+        let head = params.realization.step(&mut model, x);
         let e = params.exposure.step(&mut exposure, head, k as u32);
         if let Some(ev) = params.alerts.step(&mut alerts, &e, k as u32) {
             events.push(ev);

@@ -31,6 +31,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::exposure::ExposureSample;
 use crate::fpu::sqrt_f32;
+use crate::input_resolution::INPUT_RANGE_M_S2;
 use crate::sample_rate::SampleRate;
 
 /// Standard gravity, m/s^2 (for full scales quoted in g).
@@ -569,6 +570,20 @@ impl SensorCheckConfig {
     /// what the model and the exposure's squares and fourth powers can ever see: with it,
     /// no finite sample can overflow their f32 state (docs/exposure.md#sensor-faults).
     pub const MAX_FULL_SCALE_M_S2: f32 = 400.0 * STANDARD_GRAVITY_M_S2;
+
+    /// |sample| at or above this is saturation, m/s^2: the full scale, or the device's
+    /// input range if smaller, since the pipeline clips every input to both
+    /// (docs/exposure.md#input-resolution).
+    #[inline(always)]
+    pub fn saturation_m_s2(&self) -> f32 {
+        // A comparison, not f32::min: no NaN handling (validation refuses a NaN full
+        // scale) and no libm call on the device.
+        if self.full_scale_m_s2 < INPUT_RANGE_M_S2 {
+            self.full_scale_m_s2
+        } else {
+            INPUT_RANGE_M_S2
+        }
+    }
 }
 
 impl Default for SensorCheckConfig {
@@ -658,10 +673,11 @@ impl SensorCheckSettings {
         sample_index: u32,
     ) -> SensorEvents {
         let mut bad = FaultFlags::empty();
+        let saturation = self.config.saturation_m_s2();
         for (i, &x) in sample_m_s2.iter().enumerate() {
             // One comparison catches NaN, infinities and saturation: NaN compares false.
             #[allow(clippy::neg_cmp_op_on_partial_ord)]
-            if !(x.abs() < self.config.full_scale_m_s2) {
+            if !(x.abs() < saturation) {
                 bad |= if x.is_finite() {
                     SensorFault::Saturated
                 } else {
@@ -728,7 +744,7 @@ impl SensorCheckSettings {
         sample_indices: &[u32; N],
         mut on_event: impl FnMut(AlertEvent),
     ) {
-        let full_scale = self.config.full_scale_m_s2;
+        let full_scale = self.config.saturation_m_s2();
         let stuck = self.stuck_after_samples;
         let mut n = 0;
         while n < N {

@@ -6,8 +6,9 @@
 //! Cortex-M4F and on the workstation.
 //!
 //! The data path reads one way: `model`, `weighting` and `mounting`, then `exposure`,
-//! `alerts`, `joint_exposure`, `blob`, `pipeline`, `protocol` and `upload`; a module uses only those before
-//! it, and the leaf utilities (`fpu`, `gain_bound`, `sample_rate`, `test_vector`, `timing`) anywhere
+//! `alerts`, `joint_exposure`, `blob`, `pipeline`, `protocol` and `upload`; a module uses
+//! only those before it, and the leaf utilities (`fpu`, `gain_bound`, `input_resolution`,
+//! `sample_rate`, `test_vector`, `timing`) anywhere
 //! (`tests/module_layers.rs` checks it).
 //!
 //! Float functions that core lacks come from `libm` explicitly, never from an extension
@@ -21,6 +22,7 @@ pub mod blob;
 pub mod exposure;
 pub mod fpu;
 pub mod gain_bound;
+pub mod input_resolution;
 pub mod joint_exposure;
 pub mod model;
 pub mod mounting;

@@ -14,6 +14,7 @@ use crate::alerts::{AlertEvent, AlertState, FaultFlags, Level, SensorCheckState}
 use crate::blob::DeviceParams;
 use crate::exposure::{ExposureSample, ExposureState};
 use crate::fpu::sqrt_f32;
+use crate::input_resolution::{INPUT_STEP_M_S2, counts_f32};
 use crate::joint_exposure::{JointExposureState, JointValues, running_gain};
 use crate::model::{JOINT_OUTPUT_COUNT, ModalState};
 
@@ -66,8 +67,13 @@ pub struct PipelineState {
     joints: JointExposureState,
     alerts: AlertState,
     sensors: SensorCheckState,
-    /// Last finite input, held in place of a non-finite one so NaN never enters a filter.
-    last_good_m_s2: [f32; 3],
+    /// Last finite input as the model got it (whole input-resolution counts, as f32),
+    /// held in place of a non-finite one so NaN never enters a filter.
+    last_input_counts: [f32; 3],
+    /// The model's input for the last [`BLOCK_LEN`] samples, in input-resolution counts:
+    /// a ring, the next slot at `recent_at`. What the device streams on request.
+    recent_inputs: [[i16; 3]; BLOCK_LEN],
+    recent_at: usize,
     /// Alert level and active faults as of the last processed sample.
     level: Level,
     faults: FaultFlags,
@@ -94,11 +100,52 @@ impl PipelineState {
             joints: JointExposureState::new(),
             alerts: AlertState::new(),
             sensors: SensorCheckState::new(),
-            last_good_m_s2: [0.0; 3],
+            last_input_counts: [0.0; 3],
+            recent_inputs: [[0; 3]; BLOCK_LEN],
+            recent_at: 0,
             level: Level::Normal,
             faults: FaultFlags::empty(),
             telemetry_countdown: 0,
             processed: 0,
+        }
+    }
+
+    /// The model's inputs for the raw samples `raw`, m/s^2, into `out`: each sample
+    /// clipped and rounded to the input resolution, or the last finite one in place of one
+    /// that is not; their counts go to the ring of recent inputs. A block at a time and out
+    /// of line: both block sizes' copies of the pipeline share one loop, and its call
+    /// costs once per block, not per sample.
+    #[inline(never)]
+    fn take_inputs(&mut self, raw: &[[f32; 3]], full_scale_m_s2: f32, out: &mut [[f32; 3]]) {
+        let mut last = self.last_input_counts;
+        let mut at = self.recent_at;
+        for (x, o) in raw.iter().zip(out) {
+            if x.iter().all(|v| v.is_finite()) {
+                last = x.map(|v| counts_f32(v, full_scale_m_s2));
+            }
+            *o = last.map(|c| c * INPUT_STEP_M_S2);
+            if let Some(slot) = self.recent_inputs.get_mut(at) {
+                *slot = last.map(|c| c as i32 as i16);
+            }
+            at = (at + 1) % BLOCK_LEN;
+        }
+        self.last_input_counts = last;
+        self.recent_at = at;
+    }
+
+    /// The model's input for the last `out.len()` samples processed (at most
+    /// [`BLOCK_LEN`]), oldest first, in input-resolution counts
+    /// ([`crate::input_resolution::to_m_s2`] gives m/s^2): after the hold of a non-finite
+    /// sample, the clips and the rounding. The device streams them on request, read after
+    /// each call of [`DeviceParams::process`] with at most [`BLOCK_LEN`] samples.
+    pub fn recent_inputs(&self, out: &mut [[i16; 3]]) {
+        let n = out.len().min(BLOCK_LEN);
+        let mut at = (self.recent_at + BLOCK_LEN - n) % BLOCK_LEN;
+        for o in out.iter_mut().take(n) {
+            if let Some(&c) = self.recent_inputs.get(at) {
+                *o = c;
+            }
+            at = (at + 1) % BLOCK_LEN;
         }
     }
 
@@ -160,8 +207,19 @@ impl DeviceParams {
             .step_block(&mut state.sensors, input_m_s2, indices, |e| {
                 let _ = events.push(e);
             });
+        // The model's input, then (in place) its output, per sample.
         let mut head = [[0.0f32; 3]; N];
-        let full_scale = self.sensor_checks.config.full_scale_m_s2;
+        // A non-finite sample is replaced by the last good one; a finite one is clipped to
+        // the full scale, as the sensor itself would, and to the input range, and rounded
+        // to the input resolution: a sample no sensor can produce (1e30 m/s^2) must not
+        // overflow the model's and the exposure's f32 state, and the model must get
+        // exactly what the input stream can carry. Both clips raise their fault
+        // (non-finite, saturated) in the sensor checks above.
+        state.take_inputs(
+            input_m_s2,
+            self.sensor_checks.config.full_scale_m_s2,
+            &mut head,
+        );
         // The joint outputs are read on the samples telemetry reports (module
         // `joint_exposure`): their values, in sample order, for the records below.
         let decimation = self.telemetry.decimation.max(1);
@@ -169,36 +227,17 @@ impl DeviceParams {
         let mut countdown = state.telemetry_countdown;
         let mut joints: Vec<[f32; JOINT_OUTPUT_COUNT], N> = Vec::new();
         let mut joint_count = 0;
-        for (out, x) in head.iter_mut().zip(input_m_s2) {
-            // A non-finite sample is replaced by the last good one; a finite one is clipped
-            // to the full scale, as the sensor itself would: a sample no sensor can produce
-            // (1e30 m/s^2) must not overflow the model's and the exposure's f32 state. Both
-            // raise their fault (non-finite, saturated) in the sensor checks above.
-            if x.iter().all(|v| v.is_finite()) {
-                // Plain comparisons: f32::min/max would add NaN handling the check above
-                // has made unnecessary, on every axis of every sample.
-                state.last_good_m_s2 = x.map(|v| {
-                    if v > full_scale {
-                        full_scale
-                    } else if v < -full_scale {
-                        -full_scale
-                    } else {
-                        v
-                    }
-                });
-            }
+        for h in head.iter_mut() {
             if countdown == 0 {
                 countdown = decimation;
                 if joints.push([0.0; JOINT_OUTPUT_COUNT]).is_ok()
                     && let Some(y) = joints.last_mut()
                 {
-                    joint_count = self.read_joints(state, joint_gain, y);
+                    joint_count = self.read_joints(state, joint_gain, *h, y);
                 }
             }
             countdown -= 1;
-            *out = self
-                .realization
-                .step(&mut state.model, state.last_good_m_s2);
+            *h = self.realization.step(&mut state.model, *h);
         }
         let mut reported = joints.iter();
         let mut exposure = [ExposureSample::default(); N];
@@ -276,11 +315,12 @@ impl DeviceParams {
         &self,
         state: &mut PipelineState,
         gain: f32,
+        input_m_s2: [f32; 3],
         y: &mut [f32; JOINT_OUTPUT_COUNT],
     ) -> usize {
-        let count =
-            self.joints
-                .read_packed(&self.realization, &state.model, state.last_good_m_s2, y);
+        let count = self
+            .joints
+            .read_packed(&self.realization, &state.model, input_m_s2, y);
         state.joints.step(gain, &y[..count]);
         count
     }

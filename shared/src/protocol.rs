@@ -8,6 +8,7 @@
 
 pub mod framing;
 pub mod golden;
+pub mod input_frame;
 pub mod telemetry_frame;
 
 use heapless::{String, Vec};
@@ -24,11 +25,13 @@ pub use crate::blob::{IDENTITY_LEN, ParamsIdentity};
 pub use crate::pipeline::Telemetry;
 
 /// Version of this module's encodings; the host refuses a device that speaks another.
-pub const PROTOCOL_VERSION: u16 = 5;
+pub const PROTOCOL_VERSION: u16 = 6;
 /// Largest encoded frame, including COBS overhead and the terminating zero, bytes.
 pub const MAX_FRAME_LEN: usize = 256;
 /// Samples carried by one [`HostToDevice::Samples`] frame at most.
 pub const MAX_SAMPLES_PER_FRAME: usize = 8;
+/// Samples carried by one [`DeviceToHost::Input`] frame at most: one pipeline block.
+pub const MAX_INPUT_SAMPLES_PER_FRAME: usize = crate::pipeline::BLOCK_LEN;
 /// Parameter-blob bytes carried by one upload chunk at most.
 pub const PARAM_CHUNK_LEN: usize = 128;
 /// Longest firmware version string, bytes.
@@ -51,6 +54,12 @@ pub enum HostToDevice {
     ParamChunk(ParamChunk),
     /// Verify the uploaded blob and switch to it.
     ParamCommit,
+    /// Start or stop streaming the model's input ([`DeviceToHost::Input`]); off at boot
+    /// and after a parameter switch.
+    StreamInput {
+        /// Whether to stream.
+        enabled: bool,
+    },
 }
 
 /// Consecutive samples starting at one sample index.
@@ -106,6 +115,22 @@ pub enum DeviceToHost {
     ParamAck(ParamAck),
     /// A parameter upload was refused; nothing changed.
     ParamNack(UploadError),
+    /// The input the model got for consecutive samples, while [`HostToDevice::StreamInput`]
+    /// has it on; sent after the samples' telemetry and alerts.
+    Input(InputBatch),
+}
+
+/// The model's input for consecutive samples, in input-resolution counts
+/// (`crate::input_resolution`), packed ([`input_frame`]: per axis the zigzag-varint
+/// difference from the sample before, the first from zero) so that most samples take a
+/// few bytes and every frame decodes on its own ([`InputBatch::samples`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct InputBatch {
+    /// Index of the first sample; the next ones follow without gaps.
+    pub first_sample_index: u32,
+    /// The samples, packed ([`input_frame::pack`]).
+    #[serde(serialize_with = "input_frame::serialize_packed")]
+    pub packed: Vec<u8, { input_frame::MAX_PACKED_LEN }>,
 }
 
 /// The device introduces itself.

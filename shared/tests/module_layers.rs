@@ -23,7 +23,14 @@ const LAYERS: &[&[&str]] = &[
 ];
 
 /// Utilities any module may use; each uses only the utilities before it in this list.
-const LEAVES: &[&str] = &["fpu", "gain_bound", "sample_rate", "test_vector", "timing"];
+const LEAVES: &[&str] = &[
+    "fpu",
+    "gain_bound",
+    "input_resolution",
+    "sample_rate",
+    "test_vector",
+    "timing",
+];
 
 fn src_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("src")

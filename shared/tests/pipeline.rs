@@ -4,7 +4,7 @@
 use supine_core::alerts::{AlertConfig, AlertEvent, AlertSettings, Criterion, SensorFault};
 use supine_core::blob::DeviceParams;
 use supine_core::model::{ModelParams, Preset, device_model};
-use supine_core::pipeline::{PipelineOutput, PipelineState};
+use supine_core::pipeline::{BLOCK_LEN, PipelineOutput, PipelineState};
 use supine_core::protocol::Telemetry;
 use supine_core::protocol::golden::blob_example;
 use supine_core::test_vector::TestVector;
@@ -229,4 +229,74 @@ fn a_level_raised_by_the_running_rms_names_it_with_the_telemetrys_value() {
         );
         assert!(t.vector_running_rms_m_s2 >= 0.5);
     }
+}
+
+/// Runs `input` in calls of one block each, as the device does, and collects the model's
+/// input after each call (`PipelineState::recent_inputs`): (sample index, counts).
+fn inputs_of(params: &DeviceParams, input: &[[f32; 3]], indices: &[u32]) -> Vec<(u32, [i16; 3])> {
+    let mut state = PipelineState::new();
+    let mut out = Vec::new();
+    for (i, x) in indices.chunks(BLOCK_LEN).zip(input.chunks(BLOCK_LEN)) {
+        params.process(&mut state, i, x, |_| {});
+        let mut recent = vec![[0i16; 3]; i.len()];
+        state.recent_inputs(&mut recent);
+        out.extend(i.iter().copied().zip(recent));
+    }
+    out
+}
+
+#[test]
+fn the_model_computes_on_the_input_rounded_to_the_input_resolution_and_reports_it() {
+    let params = litter_params(1);
+    let raw: Vec<[f32; 3]> = TestVector::new(6)
+        .take(3000)
+        .map(|x| x.map(|v| v * 3.0))
+        .collect();
+    // Rounded independently of the core, in f64.
+    let rounded: Vec<[f32; 3]> = raw
+        .iter()
+        .map(|x| x.map(|v| ((f64::from(v) * 512.0).round_ties_even() / 512.0) as f32))
+        .collect();
+    assert!(raw != rounded, "the test data is not already on the grid");
+    let indices: Vec<u32> = (0..3000).collect();
+    let from_raw = run(&params, &raw, &indices, 16);
+    // Only the rounded input matters: feeding it directly gives the same bits everywhere.
+    assert_eq!(bits(&from_raw), bits(&run(&params, &rounded, &indices, 16)));
+    let expected: Vec<(u32, [i16; 3])> = rounded
+        .iter()
+        .zip(0..)
+        .map(|(x, i)| (i, x.map(|v| (v * 512.0) as i16)))
+        .collect();
+    assert_eq!(inputs_of(&params, &raw, &indices), expected);
+}
+
+#[test]
+fn an_input_beyond_the_input_range_is_clipped_and_raises_saturation() {
+    let params = litter_params(1);
+    // Inside the default 16 g full scale, beyond the 64 m/s^2 the counts hold.
+    assert!(params.sensor_checks.config.full_scale_m_s2 > 100.0);
+    let mut input: Vec<[f32; 3]> = TestVector::new(7).take(1000).collect();
+    input[500] = [70.0, -80.0, 63.0];
+    let indices: Vec<u32> = (0..1000).collect();
+    let out = run(&params, &input, &indices, 16);
+    assert!(out.contains(&PipelineOutput::Alert(AlertEvent::Fault {
+        fault: SensorFault::Saturated,
+        active: true,
+        at_sample: 500
+    })));
+    assert_eq!(
+        inputs_of(&params, &input, &indices)[500],
+        (500, [i16::MAX, -i16::MAX, 63 * 512]),
+        "clipped to the range, the in-range axis kept"
+    );
+}
+
+#[test]
+fn a_non_finite_sample_is_reported_as_the_held_input_the_model_got() {
+    let params = litter_params(1);
+    let mut input: Vec<[f32; 3]> = TestVector::new(8).take(100).collect();
+    input[40] = [f32::NAN, 1.0, 1.0];
+    let indices: Vec<u32> = (0..100).collect();
+    let reported = inputs_of(&params, &input, &indices);
+    assert_eq!(reported[40].1, reported[39].1);
 }

@@ -6,6 +6,7 @@
 use core::f64::consts::TAU;
 
 use supine_core::blob::DeviceParams;
+use supine_core::input_resolution::quantize_m_s2;
 use supine_core::joint_exposure::packed_order;
 use supine_core::model::modal::{argument, modulus};
 use supine_core::model::{JointOutput, ModalState, Model, ModelParams, Preset};
@@ -69,7 +70,10 @@ fn reported_joint_values_are_the_readouts_and_their_exposure_is_the_f64_one() {
         // The readout alone, stepped beside the head realization, sample by sample.
         let mut model_state = ModalState::<f32>::default();
         let mut expected = Vec::new();
-        for (n, &u) in input.iter().enumerate() {
+        let full_scale = params.sensor_checks.config.full_scale_m_s2;
+        for (n, &x) in input.iter().enumerate() {
+            // The model's input: the sample rounded to the input resolution.
+            let u = quantize_m_s2(x, full_scale);
             if n % usize::from(decimation) == 0 {
                 expected.push(params.joints.read(&params.realization, &model_state, u));
             }

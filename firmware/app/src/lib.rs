@@ -10,12 +10,13 @@
 //!
 //! Each module has one job: [`Boot`] says what the device starts with, `link` moves single
 //! bytes over the link, `tx_ring` queues outgoing frames (encoded by
-//! `supine_core::protocol::telemetry_frame`), `updates` holds the parameter slots and the upload in progress, and
+//! `supine_core::protocol::telemetry_frame`), `input_stream` keeps and sends the model's input on request, `updates` holds the parameter slots and the upload in progress, and
 //! `monitor` is the loop itself.
 #![no_std]
 
 mod boot;
 mod counter;
+mod input_stream;
 mod link;
 mod monitor;
 mod stack_gauge;

@@ -6,7 +6,9 @@
 //!     Samples  -> sample buffer (index + litter-frame acceleration, m/s^2)
 //!                 16 buffered -> DeviceParams::process -> DeviceFrame{seq, Telemetry|Alert}
 //!     Hello    -> (flush the buffer) Greeting
+//!                 (StreamInput on: + DeviceFrame{seq, Input} per block, the model's input)
 //!     GetStatus-> (flush the buffer) Status
+//!     StreamInput -> (flush the buffer) input stream on or off
 //!     Param*   -> Upload (RAM) -> HMAC, counter, blob checks -> the other flash slot
 //!                 -> ParamAck(Committed) + Greeting, pipeline restarted on the new blob;
 //!                 any refusal -> ParamNack(code), counted, nothing changed
@@ -34,6 +36,7 @@ use supine_sensor::{ReplaySource, SampleSource};
 
 use crate::boot::Boot;
 use crate::counter::TickCounter;
+use crate::input_stream::InputStream;
 use crate::link::{self, Link};
 use crate::stack_gauge::StackGauge;
 use crate::tx_ring::TxRing;
@@ -77,6 +80,7 @@ pub struct App<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash = NoUpdates
     next_index: Option<u32>,
     last_byte: u32,
     replay: ReplaySource<MAX_SAMPLES_PER_FRAME>,
+    input_stream: InputStream,
 }
 
 impl<L: Link, C: TickCounter, S: StackGauge> App<L, C, S> {
@@ -132,6 +136,7 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
             next_index: None,
             last_byte: 0,
             replay: ReplaySource::new(),
+            input_stream: InputStream::new(),
         }
     }
 
@@ -219,6 +224,11 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
                 self.answer_upload(answer);
             }
             HostToDevice::ParamCommit => self.commit_upload(),
+            HostToDevice::StreamInput { enabled } => {
+                // The buffered samples go out under the old setting.
+                self.process_buffered();
+                self.input_stream.set_enabled(enabled);
+            }
         }
     }
 
@@ -249,6 +259,8 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
         // parameters (and possibly another sample rate).
         self.state = PipelineState::new();
         self.next_index = None;
+        // A stream of inputs to other parameters is another session: the host asks again.
+        self.input_stream.set_enabled(false);
         self.answer_upload(Ok(ParamAck::Committed {
             identity: committed.identity,
             slot: committed.slot,
@@ -337,6 +349,7 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
             status,
             indices,
             samples_m_s2,
+            input_stream,
             ..
         } = self;
         let (indices, samples) = (
@@ -353,6 +366,7 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
                 }
                 PipelineOutput::Alert(e) => queue_frame(tx, link, seq, DeviceToHost::Alert(e)),
             });
+        input_stream.send(indices, state, tx, link, seq);
         status.busy_ticks = status
             .busy_ticks
             .wrapping_add(u64::from(counter.ticks_since(start)));

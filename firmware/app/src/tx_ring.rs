@@ -33,6 +33,9 @@ impl TxRing {
     }
 
     /// Appends `bytes`, first writing the oldest bytes to `link` (waiting) if room lacks.
+    // Out of line: the generic messages, the input stream and the telemetry frames that
+    // wrap around the ring's end share one copy (about 250 B of flash each).
+    #[inline(never)]
     pub(crate) fn push(&mut self, bytes: &[u8], link: &mut impl Link) {
         while self.free() < bytes.len() && self.len > 0 {
             self.drain_blocking_one(link);

@@ -6,7 +6,9 @@
 //!   weighted and evaluated without a model.
 //!
 //! The recording's own sample rate is used; `--fs HZ` converts it first with the
-//! band-limited, zero-phase resampler of [`crate::exposure::resample`].
+//! band-limited, zero-phase resampler of [`crate::exposure::resample`]. The ride is read
+//! row by row ([`crate::io::ride_rows`]): memory does not grow with its length, with
+//! `--fs` too.
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -69,8 +71,8 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
     let text = match (&args.channel, args.weighting) {
         (Some(channel), Some(kind)) => {
             // No parameters: a raw reading is taken as level-mounted.
-            let (recording, layout) = args.ride.read(&args.input, &Mounting::LEVEL)?;
-            let report = evaluate_channel(&recording, layout, channel, kind.into(), args.fs_hz)?;
+            let ride = args.ride.open(&args.input, &Mounting::LEVEL)?;
+            let report = evaluate_channel(&ride, channel, kind.into(), args.fs_hz)?;
             if args.json {
                 serde_json::to_string(&report)? + "\n"
             } else {
@@ -92,8 +94,8 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
             let mut file = source.load()?;
             args.subject.apply(&mut file)?;
             let mounting = file.device.unwrap_or_default().mounting;
-            let (recording, layout) = args.ride.read(&args.input, &mounting)?;
-            let report = evaluate_model(&recording, layout, &file, model, args.fs_hz)?;
+            let ride = args.ride.open(&args.input, &mounting)?;
+            let report = evaluate_model(&ride, &file, model, args.fs_hz)?;
             if args.json {
                 serde_json::to_string(&report)? + "\n"
             } else {

@@ -17,7 +17,7 @@ use crate::io::ride_input::{RideInputArgs, open_stream};
 use crate::io::subject_args::SubjectArgs;
 use crate::monitor::color::ColorChoice;
 use crate::monitor::json::{JsonlView, summary_json};
-use crate::monitor::log::MonitorLog;
+use crate::monitor::log::{LogFiles, MonitorLog};
 use crate::monitor::session::{Ending, QemuRun, run_qemu, run_serial};
 use crate::monitor::view::{LiveView, PlainView, View};
 
@@ -138,7 +138,7 @@ pub fn run(args: &Args, color: ColorChoice) -> Result<()> {
         Err(e) => {
             return Err(match log {
                 Some(log) if log.rows() > 0 => {
-                    let (t, _) = log.abandon();
+                    let (t, _, _) = log.abandon();
                     e.context(format!("the log so far is in {}", t.display()))
                 }
                 Some(log) => {
@@ -155,8 +155,11 @@ pub fn run(args: &Args, color: ColorChoice) -> Result<()> {
     } else {
         eprintln!("{}", monitor.summary());
     }
-    if let Some((t, e)) = written {
-        eprintln!("wrote {} and {}", t.display(), e.display());
+    if let Some(files) = written {
+        eprintln!("{}", written_line(&files));
+        if let Some(note) = input_note(&files) {
+            eprintln!("supine monitor: {note}");
+        }
     }
     match (ending, &qemu_run) {
         (Ending::Stopped, Some(run)) => bail!(
@@ -165,6 +168,44 @@ pub fn run(args: &Args, color: ColorChoice) -> Result<()> {
             run.samples.len()
         ),
         _ => Ok(()),
+    }
+}
+
+/// The files a finished log wrote, in one line.
+fn written_line(files: &LogFiles) -> String {
+    let mut names = vec![
+        files.telemetry.display().to_string(),
+        files.events.display().to_string(),
+        files.input.display().to_string(),
+    ];
+    if let Some((path, _)) = &files.session {
+        names.push(path.display().to_string());
+    }
+    format!("wrote {}", names.join(", "))
+}
+
+/// What keeps the input file from being re-analysed as it is, if anything.
+fn input_note(files: &LogFiles) -> Option<String> {
+    let input = files.input.display();
+    let Some((_, s)) = &files.session else {
+        return Some(format!(
+            "{input} is empty: the device never greeted, so no input stream was asked for"
+        ));
+    };
+    if s.input_samples_lost > 0 || s.input_frames_bad > 0 {
+        Some(format!(
+            "the input stream lost {} samples ({} bad frames): {input} has gaps and \
+             cannot be re-analysed",
+            s.input_samples_lost, s.input_frames_bad
+        ))
+    } else if s.params_changed {
+        Some(format!(
+            "the device changed parameters during the session: {input} stops there"
+        ))
+    } else if s.input_samples == 0 {
+        Some(format!("{input} is empty: the device sent no input stream"))
+    } else {
+        None
     }
 }
 

@@ -5,7 +5,7 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use anyhow::{Context as _, Result, anyhow};
+use anyhow::{Context as _, Result, anyhow, bail};
 use clap::ValueEnum as _;
 
 use crate::commands::band_args::{BandArgs, band_threads};
@@ -13,12 +13,15 @@ use crate::io::output::write_atomically;
 use crate::io::params_file::ModelSource;
 use crate::io::ride_input::RideInputArgs;
 use crate::io::subject_args::SubjectArgs;
-use crate::report::{self, html};
+use crate::report::device_check::{Check, DeviceLog};
+use crate::report::{self, html, monitor_log};
 
 /// Arguments of `supine report`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// A ride (one leg of the mission); give one per leg, in order.
+    /// A ride (one leg of the mission); give one per leg, in order. A log of
+    /// `supine monitor --log` (recognized by its header) is re-analysed instead: its input
+    /// stream is the ride, and the device's own values are shown beside the host's.
     #[arg(long, value_name = "RIDE.csv", required = true)]
     pub input: Vec<PathBuf>,
     /// How to read the rides (another logger's columns and units, gravity).
@@ -62,18 +65,46 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
     args.subject.apply(&mut file)?;
     let band = args.band.request(&args.model, &file)?;
     let mounting = file.device.unwrap_or_default().mounting;
-    let read = |path: &std::path::Path| args.ride.read(path, &mounting);
+    let rides = args.ride.opener(mounting);
+    let logged = match args.input.as_slice() {
+        [one] if monitor_log::is_monitor_log(one) => Some((one, monitor_log::open(one, &file)?)),
+        inputs => {
+            if let Some(log) = inputs.iter().find(|p| monitor_log::is_monitor_log(p)) {
+                bail!(
+                    "{}: a monitor log is re-analysed on its own: give it as the only --input",
+                    log.display()
+                );
+            }
+            None
+        }
+    };
+    let inputs = match &logged {
+        Some((_, session)) => vec![session.ride.clone()],
+        None => args.input.clone(),
+    };
     let mut report = report::build(
-        &args.input,
-        read,
+        &inputs,
+        rides,
         &file,
         &model_name(&args.model),
         args.compare,
     )?;
+    let device = match &logged {
+        Some((log, session)) => {
+            let (recording, _) = args.ride.read(&session.ride, &mounting)?;
+            Some(monitor_log::device_log(
+                log,
+                session,
+                &file,
+                &recording.platform_samples(),
+            )?)
+        }
+        None => None,
+    };
     if let Some(request) = &band {
         report.band = Some(report::band::build(
-            &args.input,
-            read,
+            &inputs,
+            rides,
             &file,
             &report.legs,
             &report.mission,
@@ -81,13 +112,17 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
             band_threads(),
         )?);
     }
-    let page = html::render(&report, None)?;
+    let page = html::render(&report, device.as_ref())?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("{}: cannot create the folder", args.out.display()))?;
     let path = args.out.join("report.html");
     write_atomically(&path, |w| Ok(w.write_all(page.as_bytes())?))?;
     if args.json {
-        let text = serde_json::to_string(&report)? + "\n";
+        let mut json = serde_json::to_value(&report)?;
+        if let (Some(log), Some(object)) = (&device, json.as_object_mut()) {
+            object.insert("device_check".into(), device_check_json(log));
+        }
+        let text = serde_json::to_string(&json)? + "\n";
         out.write_all(text.as_bytes())
             .map_err(|e| anyhow!("writing the JSON: {e}"))?;
     }
@@ -105,6 +140,30 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
         report.mission.max_level
     );
     Ok(())
+}
+
+/// The device-versus-host check of a monitor log, for `--json`: largest differences
+/// (0 when bit for bit; null when a series is missing a record) and whether the events
+/// agree.
+fn device_check_json(log: &DeviceLog) -> serde_json::Value {
+    let c = Check::new(log);
+    let finite = |v: f64| v.is_finite().then_some(v);
+    serde_json::json!({
+        "agree": c.agree(),
+        "head_diff_f32_m_s2": finite(c.head_diff_f32_m_s2),
+        "head_diff_f64_m_s2": finite(c.head_diff_f64_m_s2),
+        "rms_diff_m_s2": finite(c.rms_diff_m_s2),
+        "events_agree": c.events_agree,
+        "records_complete": c.records_complete,
+        "device_records": log.device.len(),
+        "host_records": log.host.len(),
+        "device_events": log.device_events.len(),
+        "host_events": log.host_events.len(),
+        "samples": log.samples,
+        "device_mtvv_m_s2": c.device_mtvv_m_s2,
+        "device_vdv_m_s175": c.device_vdv_m_s175,
+        "highest_level": c.highest_level.name(),
+    })
 }
 
 /// Builds and writes the report; the JSON goes to standard output.

@@ -12,8 +12,9 @@
 //! host's as its device section ([`data`]); summarize ([`summary`]). Each step is a
 //! function of its own below [`run`].
 //!
-//! The output folder gets `ride.csv`, `device.csv` and `device.events.csv` (what the
-//! device sent), `host.csv` and `host.events.csv` (the host's reference), `params.toml`
+//! The output folder gets `ride.csv`, `device.csv`, `device.events.csv`,
+//! `device.input.csv` and `device.session.json` (what the device sent, as
+//! `supine monitor --log` writes it), `host.csv` and `host.events.csv` (the host's reference), `params.toml`
 //! (the parameters flashed) and `report.html`. A previous `report.html` is removed first,
 //! so a failed run never leaves an older report that looks like this run's.
 
@@ -35,6 +36,7 @@ use crate::device::flash;
 use crate::device::image::ProductImage;
 use crate::exposure::reference;
 use crate::exposure::ride::ShockKind;
+use crate::io::monitor_session::{input_path, session_path};
 use crate::io::output_folder::{self, OutputFolder};
 use crate::io::params_file::{self, DeviceSection, ParamFile};
 use crate::io::recording::read_input;
@@ -117,6 +119,10 @@ pub struct DemoFiles {
     pub device: PathBuf,
     /// The device's alert events.
     pub device_events: PathBuf,
+    /// The device's input stream, as a ride.
+    pub device_input: PathBuf,
+    /// The device's session facts (parameters, patient, input stream).
+    pub device_session: PathBuf,
     /// The host's reference telemetry.
     pub host: PathBuf,
     /// The host's reference events.
@@ -133,6 +139,8 @@ impl DemoFiles {
             &self.params,
             &self.device,
             &self.device_events,
+            &self.device_input,
+            &self.device_session,
             &self.host,
             &self.host_events,
             &self.report,
@@ -149,6 +157,8 @@ impl DemoFiles {
             params: dir.join("params.toml"),
             device: dir.join("device.csv"),
             device_events: dir.join("device.events.csv"),
+            device_input: input_path(&dir.join("device.csv")),
+            device_session: session_path(&dir.join("device.csv")),
             host: dir.join("host.csv"),
             host_events: dir.join("host.events.csv"),
             report: dir.join("report.html"),
@@ -523,6 +533,11 @@ fn device_run(
             ("ride.csv", "the input"),
             ("device.csv", "the device's telemetry"),
             ("device.events.csv", "the device's alert events"),
+            ("device.input.csv", "the input the device's model got (its input stream)"),
+            (
+                "device.session.json",
+                "the device's parameters identity, rate and patient",
+            ),
             ("host.csv", "the host's reference telemetry"),
             ("host.events.csv", "the host's reference events"),
             ("params.toml", "the parameters flashed"),

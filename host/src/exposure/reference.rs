@@ -12,8 +12,9 @@
 use anyhow::{Result, anyhow};
 use supine_core::alerts::AlertEvent;
 use supine_core::blob::DeviceParams;
+use supine_core::input_resolution::{INPUT_RANGE_M_S2, quantize_m_s2};
 use supine_core::model::{JOINT_OUTPUT_COUNT, JointOutput, ModalState, Model, ModelParams, Output};
-use supine_core::pipeline::{PipelineOutput, PipelineState};
+use supine_core::pipeline::{BLOCK_LEN, PipelineOutput, PipelineState};
 use supine_core::protocol::Telemetry;
 
 /// What the pipeline produced for a stream: telemetry and alert events in order.
@@ -23,6 +24,9 @@ pub struct PipelineRun {
     pub telemetry: Vec<Telemetry>,
     /// Alert edges, in the order raised.
     pub events: Vec<AlertEvent>,
+    /// The input the model got, per sample, in input-resolution counts
+    /// (`supine_core::input_resolution`).
+    pub input_counts: Vec<[i16; 3]>,
 }
 
 /// Runs `params`' device pipeline on samples `input_m_s2` (litter axes, gravity removed)
@@ -30,15 +34,25 @@ pub struct PipelineRun {
 pub fn pipeline(params: &DeviceParams, indices: &[u32], input_m_s2: &[[f32; 3]]) -> PipelineRun {
     let mut state = PipelineState::new();
     let mut run = PipelineRun::default();
-    params.process(&mut state, indices, input_m_s2, |out| match out {
-        PipelineOutput::Telemetry(t) => run.telemetry.push(t),
-        PipelineOutput::Alert(e) => run.events.push(e),
-    });
+    // A block per call, as the device runs it, so that each block's inputs can be read
+    // back (the results do not depend on how the stream is cut).
+    for (i, x) in indices.chunks(BLOCK_LEN).zip(input_m_s2.chunks(BLOCK_LEN)) {
+        params.process(&mut state, i, x, |out| match out {
+            PipelineOutput::Telemetry(t) => run.telemetry.push(t),
+            PipelineOutput::Alert(e) => run.events.push(e),
+        });
+        let at = run.input_counts.len();
+        run.input_counts.resize(at + i.len(), [0; 3]);
+        state.recent_inputs(&mut run.input_counts[at..]);
+    }
     run
 }
 
 /// The head acceleration (x, y, z, m/s^2) of the f64 model at `sample_rate_hz` for each
-/// input sample (widened exactly from f32), from rest.
+/// input sample, from rest. Each sample is first rounded to the device's input resolution
+/// (and clipped to its range, not to a sensor's full scale), as the device's pipeline
+/// does, then widened exactly to f64: the two models then see the same input, and differ
+/// only by the device's f32 arithmetic.
 pub fn head_f64(
     params: &ModelParams,
     sample_rate_hz: f64,
@@ -50,12 +64,15 @@ pub fn head_f64(
     let mut state = ModalState::<f64>::default();
     Ok(input_m_s2
         .iter()
-        .map(|x| realization.step(&mut state, x.map(f64::from)))
+        .map(|&x| {
+            let x = quantize_m_s2(x, INPUT_RANGE_M_S2);
+            realization.step(&mut state, x.map(f64::from))
+        })
         .collect())
 }
 
 /// The ten joint outputs (m or rad, [`JointOutput::ALL`] order) of the f64 model at
-/// `sample_rate_hz` for each input sample (widened exactly from f32), from rest: the
+/// `sample_rate_hz` for each input sample (rounded to the input resolution as the device's, then widened exactly), from rest: the
 /// accuracy reference for the device's joint values.
 pub fn joints_f64(
     params: &ModelParams,
@@ -68,6 +85,9 @@ pub fn joints_f64(
     let mut state = ModalState::<f64>::default();
     Ok(input_m_s2
         .iter()
-        .map(|x| realization.step(&mut state, x.map(f64::from)))
+        .map(|&x| {
+            let x = quantize_m_s2(x, INPUT_RANGE_M_S2);
+            realization.step(&mut state, x.map(f64::from))
+        })
         .collect())
 }

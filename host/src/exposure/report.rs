@@ -1,22 +1,24 @@
-//! Exposure reports for recordings, computed by the same `supine-core` code the device runs.
+//! Exposure reports for rides, computed by the same `supine-core` code the device runs,
+//! reading the ride row by row: memory holds the evaluation's state and a chunk of
+//! samples, whatever the ride's length (`docs/architecture.md`, "Reading rides").
 //!
 //! Two evaluations, both on `supine_core::exposure::ExposureSettings`:
-//! - [`model_exposure`]: the device's whole chain ([`DeviceParams::process`]: sensor checks,
-//!   model, weighting and exposure, alerts) over a recording's platform columns, then
-//!   `ExposureSettings::values` of the final state, and the alert timeline.
-//! - [`channel_exposure`]: one recorded channel (a head accelerometer, a test signal),
+//! - [`evaluate_model`]: the device's whole chain ([`DeviceParams::process`]: sensor checks,
+//!   model, weighting and exposure, alerts) over a ride's platform columns ([`ModelRun`]),
+//!   then `ExposureSettings::values` of the final state, and the alert timeline.
+//! - [`evaluate_channel`]: one recorded channel (a head accelerometer, a test signal),
 //!   weighted with Wk, Wd or Wj, no model: an `ExposureSettings` whose x axis carries the
 //!   channel and whose other axes carry zeros, so the x axis' values are the channel's.
 //!
-//! Both need a sample rate the device supports ([`SampleRate`]); a recording at another
-//! rate is converted first by the band-limited [`crate::exposure::resample`] (zero phase), at the
-//! user's request only.
+//! Both need a sample rate the device supports ([`SampleRate`]); a ride at another
+//! rate is converted first by the band-limited [`crate::exposure::resample`] (zero phase),
+//! at the user's request only, as it is read ([`Resampler::stream`]).
 //!
-//! Recordings are read by [`crate::io::recording::read_input`], which also accepts a file
-//! with only the platform columns (what `supine ride` writes), its sensor columns filled
-//! with zeros that no evaluation here reads.
+//! Rides come from [`RideSource`] (opened by [`crate::io::ride_input`]), which also
+//! accepts a file with only the platform columns (what `supine ride` writes), its sensor
+//! columns zeros that no evaluation here reads.
 
-use crate::exposure::joints::{JointReport, joint_motion, joints_text};
+use crate::exposure::joints::{JointReport, JointTracker, joints_text};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -26,71 +28,121 @@ use supine_core::alerts::{AlertConfig, AlertEvent, Criterion, Level};
 use supine_core::blob::DeviceParams;
 use supine_core::exposure::{
     AxisMapping, AxisValues, AxisWeighting, ExposureConfig, ExposureSettings, ExposureState,
+    ExposureValues,
 };
-use supine_core::pipeline::{PipelineOutput, PipelineState};
+use supine_core::pipeline::{PipelineOutput, PipelineState, Telemetry};
 use supine_core::sample_rate::{SampleRate, SampleRateError};
 use supine_core::weighting::WeightingKind;
 
 use crate::device::device_params;
 use crate::exposure::resample::Resampler;
 use crate::io::params_file::ParamFile;
-use crate::io::recording::{COLUMNS, Layout, Recording};
+use crate::io::recording::{COLUMNS, Layout};
+use crate::io::ride_rows::RideSource;
 
-/// Samples handed to the device pipeline per call (bounds the index buffer, not the result).
+/// Samples handed to the device pipeline per call (bounds the chunk buffer).
 const CHUNK_SAMPLES: usize = 4096;
+/// Most alert events a report lists: a sensor fault that comes and goes on every sample
+/// would otherwise grow the list with the ride; the rest are counted, not kept.
+pub const MAX_LISTED_EVENTS: usize = 1000;
 
-/// Signals at the rate they will be evaluated at.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Prepared {
+/// A ride at the rate it is evaluated at, read sample by sample.
+pub struct EvaluationInput<'a> {
+    source: &'a RideSource,
     /// The evaluation's sample rate, Hz.
     pub sample_rate_hz: f64,
-    /// The recording's own rate when it was converted, Hz.
+    /// The ride's own rate when it is converted, Hz.
     pub resampled_from_hz: Option<f64>,
-    /// Time of the first sample, s (the recording's).
+    /// Time of the first sample, s (the ride's).
     pub start_s: f64,
-    /// The channels, each at `sample_rate_hz`.
-    pub channels: Vec<Vec<f64>>,
+    /// Samples at the evaluation's rate.
+    pub samples: usize,
+    resampler: Option<Resampler>,
 }
 
-/// Brings `channels` of `recording` to `fs_hz` if given (band-limited, see
-/// [`crate::exposure::resample`]), else checks that the recording's own rate is one the device supports.
-pub fn prepare(recording: &Recording, channels: &[&[f64]], fs_hz: Option<f64>) -> Result<Prepared> {
-    let own_hz = recording.sample_rate_hz();
-    let path = recording.path.display();
-    let start_s = recording.time_s.first().copied().unwrap_or(0.0);
-    if let Some(target_hz) = fs_hz.filter(|f| !SampleRate::supports_hz(*f)) {
-        bail!("--fs {target_hz}: {SampleRateError}");
-    }
-    // `--fs` at the recording's own rate (to 1 ppm) changes nothing: no conversion.
-    let fs_hz = fs_hz.filter(|f| (f - own_hz).abs() > 1e-6 * own_hz);
-    let Some(target_hz) = fs_hz else {
-        if !SampleRate::supports_hz(own_hz) {
-            bail!(
+impl<'a> EvaluationInput<'a> {
+    /// `source` at `fs_hz` if given (band-limited, see [`crate::exposure::resample`]),
+    /// else at its own rate, which must be one the device supports.
+    pub fn new(source: &'a RideSource, fs_hz: Option<f64>) -> Result<Self> {
+        let own_hz = source.sample_rate_hz();
+        let path = source.path().display();
+        if let Some(target_hz) = fs_hz.filter(|f| !SampleRate::supports_hz(*f)) {
+            bail!("--fs {target_hz}: {SampleRateError}");
+        }
+        // `--fs` at the ride's own rate (to 1 ppm) changes nothing: no conversion.
+        let fs_hz = fs_hz.filter(|f| (f - own_hz).abs() > 1e-6 * own_hz);
+        let mut input = Self {
+            source,
+            sample_rate_hz: own_hz,
+            resampled_from_hz: None,
+            start_s: source.start_s(),
+            samples: source.len(),
+            resampler: None,
+        };
+        match fs_hz {
+            None if !SampleRate::supports_hz(own_hz) => bail!(
                 "{path}: sample rate {own_hz:.6} Hz (from column time_s) is outside \
                  {}..={} Hz, the device's range; give --fs HZ to resample",
                 SampleRate::MIN_HZ,
                 SampleRate::MAX_HZ
-            );
+            ),
+            None => {}
+            Some(target_hz) => {
+                let resampler = Resampler::new(own_hz, target_hz)?;
+                input.sample_rate_hz = target_hz;
+                input.resampled_from_hz = Some(own_hz);
+                input.samples = resampler.output_len(source.len());
+                input.resampler = Some(resampler);
+            }
         }
-        return Ok(Prepared {
-            sample_rate_hz: own_hz,
-            resampled_from_hz: None,
-            start_s,
-            channels: channels.iter().map(|c| c.to_vec()).collect(),
-        });
-    };
-    let resampler = Resampler::new(own_hz, target_hz)?;
-    Ok(Prepared {
-        sample_rate_hz: target_hz,
-        resampled_from_hz: Some(own_hz),
-        start_s,
-        channels: channels.iter().map(|c| resampler.process(c)).collect(),
-    })
+        Ok(input)
+    }
+
+    /// The ride.
+    pub fn source(&self) -> &RideSource {
+        self.source
+    }
+
+    /// The values of `columns` (indices in [`COLUMNS`]) of each sample at the evaluation's
+    /// rate, read as they are taken (a resampled ride too: [`Resampler::stream`]; one too
+    /// short for it is converted whole).
+    pub fn columns<const K: usize>(
+        &self,
+        columns: [usize; K],
+    ) -> Result<Box<dyn Iterator<Item = Result<[f64; K]>> + '_>> {
+        let rows = self
+            .source
+            .rows()?
+            .map(move |r| r.map(|row| columns.map(|c| row[c])));
+        let Some(resampler) = &self.resampler else {
+            return Ok(Box::new(rows));
+        };
+        if let Ok(stream) = resampler.stream(self.source.len(), rows) {
+            return Ok(Box::new(stream));
+        }
+        let mut whole: [Vec<f64>; K] = std::array::from_fn(|_| Vec::new());
+        for row in self.source.rows()? {
+            let row = row?;
+            for (column, c) in whole.iter_mut().zip(columns) {
+                column.push(row[c]);
+            }
+        }
+        let converted = whole.map(|c| resampler.process(&c));
+        let n = converted.iter().map(Vec::len).min().unwrap_or(0);
+        Ok(Box::new((0..n).map(move |k| {
+            Ok(std::array::from_fn(|i| converted[i][k]))
+        })))
+    }
+
+    /// The platform x, y, z of each sample at the evaluation's rate.
+    pub fn platform(&self) -> Result<Box<dyn Iterator<Item = Result<[f64; 3]>> + '_>> {
+        self.columns([1, 2, 3])
+    }
 }
 
 /// Rounds an f32 to the shortest decimal that reads back as the same f32, as f64
 /// (so 0.3f32 reports as 0.3, not 0.30000001192092896).
-fn tidy(x: f32) -> f64 {
+pub fn tidy(x: f32) -> f64 {
     format!("{x}").parse().unwrap_or(x as f64)
 }
 
@@ -302,8 +354,12 @@ pub struct ModelExposure {
     pub vector: AxisReport,
     /// Thresholds of the alert stage.
     pub thresholds: ThresholdsReport,
-    /// Level changes and sensor faults, in sample order.
+    /// Level changes and sensor faults, in sample order (the first
+    /// [`MAX_LISTED_EVENTS`]).
     pub alerts: Vec<TimedEvent>,
+    /// Events after the listed ones, counted only (absent when none).
+    #[serde(skip_serializing_if = "none_omitted")]
+    pub alerts_omitted: usize,
     /// Highest exposure level reached.
     pub max_level: &'static str,
     /// Exposure level after the last sample.
@@ -313,49 +369,185 @@ pub struct ModelExposure {
     pub joints: Vec<JointReport>,
 }
 
-/// Runs the device pipeline over `platform_m_s2` (m/s^2, x, y, z at the params' rate,
-/// sample 0 at `start_s`) and reports the exposure of the predicted head acceleration.
-///
-/// Exactly what the device computes: [`DeviceParams::process`] in f32, sample indices
-/// `0, 1, ...`, and `exposure.values` of the final state.
-pub fn run_pipeline(
-    params: &DeviceParams,
-    platform_m_s2: &[[f32; 3]],
-    start_s: f64,
-) -> Result<(
-    supine_core::exposure::ExposureValues,
-    Vec<TimedEvent>,
-    Level,
-)> {
-    if platform_m_s2.len() > u32::MAX as usize {
-        bail!(
-            "{} samples: more than the device's 32-bit sample index",
-            platform_m_s2.len()
-        );
-    }
-    let fs = params.sample_rate_hz() as f64;
-    let mut state = PipelineState::new();
-    let mut events = Vec::new();
-    let mut indices = Vec::with_capacity(CHUNK_SAMPLES);
-    for (c, chunk) in platform_m_s2.chunks(CHUNK_SAMPLES).enumerate() {
-        let first = (c * CHUNK_SAMPLES) as u32;
-        indices.clear();
-        indices.extend((0..chunk.len() as u32).map(|k| first + k));
-        params.process(&mut state, &indices, chunk, |out| {
-            if let PipelineOutput::Alert(e) = out {
-                events.push(TimedEvent::new(&e, start_s, fs));
-            }
-        });
-    }
-    let values = params.exposure.values(params.sample_rate, state.exposure());
-    Ok((values, events, state.level()))
+/// No event was left out of a list (serde's test for leaving the count out).
+pub fn none_omitted(n: &usize) -> bool {
+    *n == 0
 }
 
-fn rms(x: &[f64]) -> f64 {
-    if x.is_empty() {
-        return 0.0;
+/// What [`ModelRun`] shows its observer, in the pipeline's order: an alert event, then
+/// each sample.
+pub enum Step<'a> {
+    /// An alert event (before the telemetry of its sample).
+    Alert(&'a AlertEvent),
+    /// A sample's telemetry, its input (x, y, z at the evaluation's rate) and the joint
+    /// tracker after it.
+    Sample {
+        /// The pipeline's telemetry of the sample.
+        telemetry: &'a Telemetry,
+        /// The sample's platform input, m/s^2.
+        input_m_s2: [f64; 3],
+        /// The joints after the sample, when tracked.
+        joints: Option<&'a JointTracker>,
+    },
+}
+
+/// The device pipeline over a ride, one sample at a time: [`DeviceParams::process`] in
+/// f32 on chunks of [`CHUNK_SAMPLES`] with sample indices `0, 1, ...`, exactly what the
+/// device computes, and beside it what `supine exposure` reports: the alert timeline (its
+/// first [`MAX_LISTED_EVENTS`] events), the platform's unweighted mean squares, and the
+/// joints when tracked. Memory: the pipeline state and one chunk.
+pub struct ModelRun {
+    params: DeviceParams,
+    state: PipelineState,
+    start_s: f64,
+    chunk: Vec<[f64; 3]>,
+    indices: Vec<u32>,
+    samples_f32: Vec<[f32; 3]>,
+    taken: usize,
+    events: Vec<TimedEvent>,
+    events_omitted: usize,
+    max_level: Level,
+    platform_sum2: [f64; 3],
+    joints: Option<JointTracker>,
+}
+
+/// What a [`ModelRun`] found over the whole ride.
+pub struct RunOutcome {
+    /// The exposure values of the final state.
+    pub values: ExposureValues,
+    /// The listed events.
+    pub events: Vec<TimedEvent>,
+    /// Events not listed.
+    pub events_omitted: usize,
+    /// Highest level reached.
+    pub max_level: Level,
+    /// The level after the last sample.
+    pub final_level: Level,
+    /// Samples taken.
+    pub samples: usize,
+    /// Unweighted rms of the platform x, y, z, m/s^2.
+    pub platform_rms_m_s2: [f64; 3],
+    /// The joints' statistics, when tracked.
+    pub joints: Vec<JointReport>,
+}
+
+impl ModelRun {
+    /// A run of `params` from a fresh state (the first sample at `start_s` in the ride's
+    /// time), with `joints` tracked beside it if given.
+    pub fn new(params: &DeviceParams, joints: Option<JointTracker>, start_s: f64) -> Self {
+        let mut params = *params;
+        // Every sample's telemetry for the observer; the values and events do not depend
+        // on it.
+        params.telemetry.decimation = 1;
+        Self {
+            params,
+            state: PipelineState::new(),
+            start_s,
+            chunk: Vec::with_capacity(CHUNK_SAMPLES),
+            indices: Vec::with_capacity(CHUNK_SAMPLES),
+            samples_f32: Vec::with_capacity(CHUNK_SAMPLES),
+            taken: 0,
+            events: Vec::new(),
+            events_omitted: 0,
+            max_level: Level::Normal,
+            platform_sum2: [0.0; 3],
+            joints,
+        }
     }
-    (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt()
+
+    /// Takes the next platform sample (x, y, z, m/s^2); `observe` sees the pipeline's
+    /// outputs as each chunk is run.
+    pub fn push(&mut self, input_m_s2: [f64; 3], observe: &mut impl FnMut(Step<'_>)) -> Result<()> {
+        if self.taken >= u32::MAX as usize {
+            bail!(
+                "more than {} samples: more than the device's 32-bit sample index",
+                u32::MAX
+            );
+        }
+        for (sum, v) in self.platform_sum2.iter_mut().zip(input_m_s2) {
+            *sum += v * v;
+        }
+        self.chunk.push(input_m_s2);
+        self.taken += 1;
+        if self.chunk.len() == CHUNK_SAMPLES {
+            self.flush(observe);
+        }
+        Ok(())
+    }
+
+    fn flush(&mut self, observe: &mut impl FnMut(Step<'_>)) {
+        if self.chunk.is_empty() {
+            return;
+        }
+        let first = (self.taken - self.chunk.len()) as u32;
+        self.indices.clear();
+        self.indices
+            .extend((0..self.chunk.len() as u32).map(|k| first + k));
+        self.samples_f32.clear();
+        self.samples_f32
+            .extend(self.chunk.iter().map(|u| u.map(|v| v as f32)));
+        let fs = self.params.sample_rate_hz() as f64;
+        let Self {
+            params,
+            state,
+            start_s,
+            chunk,
+            indices,
+            samples_f32,
+            events,
+            events_omitted,
+            max_level,
+            joints,
+            ..
+        } = self;
+        params.process(state, indices, samples_f32, |out| match out {
+            PipelineOutput::Alert(e) => {
+                if let AlertEvent::Level { to, .. } = e {
+                    *max_level = (*max_level).max(to);
+                }
+                if events.len() < MAX_LISTED_EVENTS {
+                    events.push(TimedEvent::new(&e, *start_s, fs));
+                } else {
+                    *events_omitted += 1;
+                }
+                observe(Step::Alert(&e));
+            }
+            PipelineOutput::Telemetry(t) => {
+                let input_m_s2 = chunk[(t.sample_index - first) as usize];
+                if let Some(j) = joints.as_mut() {
+                    j.step(input_m_s2);
+                }
+                observe(Step::Sample {
+                    telemetry: &t,
+                    input_m_s2,
+                    joints: joints.as_ref(),
+                });
+            }
+        });
+        self.chunk.clear();
+    }
+
+    /// Runs what is left and gives the values of the final state.
+    pub fn finish(mut self, observe: &mut impl FnMut(Step<'_>)) -> RunOutcome {
+        self.flush(observe);
+        let n = self.taken;
+        let values = self
+            .params
+            .exposure
+            .values(self.params.sample_rate, self.state.exposure());
+        RunOutcome {
+            values,
+            events: self.events,
+            events_omitted: self.events_omitted,
+            max_level: self.max_level,
+            final_level: self.state.level(),
+            samples: n,
+            platform_rms_m_s2: self
+                .platform_sum2
+                .map(|s| if n == 0 { 0.0 } else { (s / n as f64).sqrt() }),
+            joints: self.joints.map(|j| j.report()).unwrap_or_default(),
+        }
+    }
 }
 
 fn check_warmup(path: &str, samples: usize, fs: f64, warmup_s: f64) -> Result<()> {
@@ -369,61 +561,67 @@ fn check_warmup(path: &str, samples: usize, fs: f64, warmup_s: f64) -> Result<()
     Ok(())
 }
 
-/// The model form of `supine exposure`: `params` must be built at `prepared`'s rate, and
-/// `prepared.channels` must be the platform x, y, z columns.
-pub fn model_exposure(
-    params: &DeviceParams,
-    prepared: &Prepared,
-    input: &str,
-    layout: Layout,
+/// The model form of `supine exposure` on `input` with the parameters of `file` (built at
+/// its rate; `model` names them), in one pass; `observe` sees every pipeline output
+/// (the report's charts and spectra). Also gives the device parameters it ran.
+pub fn evaluate_model_with(
+    input: &EvaluationInput<'_>,
+    file: &ParamFile,
     model: String,
-    identity: String,
-) -> Result<ModelExposure> {
-    let [x, y, z] = match prepared.channels.as_slice() {
-        [x, y, z] => [x, y, z],
-        _ => bail!("the model form needs the three platform columns"),
-    };
-    let n = x.len();
-    let fs = prepared.sample_rate_hz;
+    mut observe: impl FnMut(Step<'_>),
+) -> Result<(ModelExposure, DeviceParams)> {
+    let fs = input.sample_rate_hz;
+    let params = device_params::build(file, fs)?;
+    let identity = device_params::identity_hex(&params.identity);
+    let name = input.source().path().display().to_string();
     let warmup_s = params.exposure.config.warmup_s as f64;
-    check_warmup(input, n, fs, warmup_s)?;
-    let platform: Vec<[f32; 3]> = (0..n)
-        .map(|k| [x[k] as f32, y[k] as f32, z[k] as f32])
-        .collect();
-    let (values, alerts, final_level) = run_pipeline(params, &platform, prepared.start_s)?;
-    let max_level = alerts
-        .iter()
-        .filter_map(|e| e.level)
-        .fold(Level::Normal, |m, name| {
-            let l = Level::RAISED
-                .into_iter()
-                .find(|l| l.name() == name)
-                .unwrap_or(Level::Normal);
-            m.max(l)
-        });
+    check_warmup(&name, input.samples, fs, warmup_s)?;
+    let joints = JointTracker::new(&file.params, fs)?;
+    let mut run = ModelRun::new(&params, Some(joints), input.start_s);
+    for sample in input.platform()? {
+        run.push(sample?, &mut observe)?;
+    }
+    let outcome = run.finish(&mut observe);
+    let n = outcome.samples;
+    let values = &outcome.values;
     let kinds = params.exposure.config.axes.axes().map(|a| a.kind.name());
-    Ok(ModelExposure {
+    let report = ModelExposure {
         form: "model",
-        input: input.to_string(),
-        layout,
+        input: name,
+        layout: input.source().layout(),
         model,
         identity,
         sample_rate_hz: fs,
-        resampled_from_hz: prepared.resampled_from_hz,
+        resampled_from_hz: input.resampled_from_hz,
         samples: n,
         duration_s: n as f64 / fs,
         warmup_s,
         evaluated_s: tidy(values.duration_s),
         valid: values.valid,
-        platform_rms_m_s2: [rms(x), rms(y), rms(z)],
+        platform_rms_m_s2: outcome.platform_rms_m_s2,
         head: [0, 1, 2].map(|i| AxisReport::new(kinds[i], &values.axes[i])),
         vector: AxisReport::new("vector", &values.vector),
         thresholds: (&params.alerts.config).into(),
-        alerts,
-        max_level: max_level.name(),
-        final_level: final_level.name(),
-        joints: Vec::new(),
-    })
+        alerts: outcome.events,
+        alerts_omitted: outcome.events_omitted,
+        max_level: outcome.max_level.name(),
+        final_level: outcome.final_level.name(),
+        joints: outcome.joints,
+    };
+    Ok((report, params))
+}
+
+/// `supine exposure`'s model form on `source`: its platform columns at `fs_hz` (else its
+/// own rate) through the device parameters of `file`, built at that rate; `model` names
+/// the parameters in the report.
+pub fn evaluate_model(
+    source: &RideSource,
+    file: &ParamFile,
+    model: String,
+    fs_hz: Option<f64>,
+) -> Result<ModelExposure> {
+    let input = EvaluationInput::new(source, fs_hz)?;
+    Ok(evaluate_model_with(&input, file, model, |_| {})?.0)
 }
 
 fn rate_line(fs: f64, from: Option<f64>) -> String {
@@ -488,6 +686,13 @@ impl ModelExposure {
             let _ = writeln!(s, "  {:>10}  event", "time_s");
             for e in &self.alerts {
                 let _ = writeln!(s, "  {:>10.3}  {} {}", e.time_s, e.kind, e.event);
+            }
+            if self.alerts_omitted > 0 {
+                let _ = writeln!(
+                    s,
+                    "  ... and {} more events (the first {MAX_LISTED_EVENTS} are listed)",
+                    self.alerts_omitted
+                );
             }
         }
         let _ = writeln!(
@@ -554,13 +759,12 @@ pub struct ChannelExposure {
     pub values: AxisReport,
 }
 
-/// Evaluates one channel `x_m_s2` at `sample_rate_hz` with weighting `kind`, through the
-/// core's [`ExposureSettings`] (default running-rms time constant and warm-up, `k = 1`).
-pub fn channel_values(
+/// The channel form's settings: `kind` on every axis at `sample_rate_hz`, the core's
+/// default running-rms time constant and warm-up, `k = 1`.
+fn channel_settings(
     kind: WeightingKind,
     sample_rate_hz: f64,
-    x_m_s2: &[f64],
-) -> Result<supine_core::exposure::ExposureValues> {
+) -> Result<(ExposureSettings, SampleRate)> {
     let axis = AxisWeighting { kind, k: 1.0 };
     let config = ExposureConfig {
         axes: AxisMapping {
@@ -574,43 +778,56 @@ pub fn channel_values(
         .map_err(|e| anyhow!("{e}, found {sample_rate_hz} Hz"))?;
     let settings = ExposureSettings::new(config, sample_rate)
         .map_err(|e| anyhow!("{e} (at {sample_rate_hz} Hz)"))?;
-    let mut state = ExposureState::new();
-    if x_m_s2.len() > u32::MAX as usize {
-        bail!("{} samples: more than a 32-bit sample index", x_m_s2.len());
-    }
-    for (k, &x) in x_m_s2.iter().enumerate() {
-        settings.step(&mut state, [x as f32, 0.0, 0.0], k as u32);
-    }
-    Ok(settings.values(sample_rate, &state))
+    Ok((settings, sample_rate))
 }
 
-/// The channel form of `supine exposure`: `prepared.channels` holds the one channel.
-pub fn channel_exposure(
-    kind: WeightingKind,
-    prepared: &Prepared,
-    input: &str,
+/// `supine exposure`'s channel form on `source`: the column named `channel`, at `fs_hz`
+/// (else its own rate), weighted with `kind`, through the core's [`ExposureSettings`]
+/// with the channel on x and zeros on y and z, in one pass.
+pub fn evaluate_channel(
+    source: &RideSource,
     channel: &str,
+    kind: WeightingKind,
+    fs_hz: Option<f64>,
 ) -> Result<ChannelExposure> {
-    let x = prepared
-        .channels
-        .first()
-        .ok_or_else(|| anyhow!("no channel to evaluate"))?;
-    let fs = prepared.sample_rate_hz;
+    let index = channel_index(channel, source.layout(), source.path())?;
+    let input = EvaluationInput::new(source, fs_hz)?;
+    let name = source.path().display().to_string();
+    let fs = input.sample_rate_hz;
     let warmup_s = ExposureConfig::DEFAULT.warmup_s as f64;
-    check_warmup(input, x.len(), fs, warmup_s)?;
-    let values = channel_values(kind, fs, x)?;
+    check_warmup(&name, input.samples, fs, warmup_s)?;
+    let (settings, sample_rate) = channel_settings(kind, fs)?;
+    let mut state = ExposureState::new();
+    let (mut n, mut sum2) = (0usize, 0.0f64);
+    for x in input.columns([index])? {
+        let [x] = x?;
+        if n >= u32::MAX as usize {
+            bail!(
+                "more than {} samples: more than a 32-bit sample index",
+                u32::MAX
+            );
+        }
+        settings.step(&mut state, [x as f32, 0.0, 0.0], n as u32);
+        sum2 += x * x;
+        n += 1;
+    }
+    let values = settings.values(sample_rate, &state);
     Ok(ChannelExposure {
         form: "channel",
-        input: input.to_string(),
+        input: name,
         channel: channel.to_string(),
         sample_rate_hz: fs,
-        resampled_from_hz: prepared.resampled_from_hz,
-        samples: x.len(),
-        duration_s: x.len() as f64 / fs,
+        resampled_from_hz: input.resampled_from_hz,
+        samples: n,
+        duration_s: n as f64 / fs,
         warmup_s,
         evaluated_s: tidy(values.duration_s),
         valid: values.valid,
-        unweighted_rms_m_s2: rms(x),
+        unweighted_rms_m_s2: if n == 0 {
+            0.0
+        } else {
+            (sum2 / n as f64).sqrt()
+        },
         values: AxisReport::new(kind.name(), &values.axes[0]),
     })
 }
@@ -641,45 +858,6 @@ impl ChannelExposure {
     }
 }
 
-/// `supine exposure`'s model form on `recording` (with the columns of `layout`): its
-/// platform columns at `fs_hz` (else its own rate) through the device parameters of
-/// `file`, built at that rate; `model` names the parameters in the report.
-pub fn evaluate_model(
-    recording: &Recording,
-    layout: Layout,
-    file: &ParamFile,
-    model: String,
-    fs_hz: Option<f64>,
-) -> Result<ModelExposure> {
-    let [x, y, z] = &recording.platform_m_s2;
-    let prepared = prepare(recording, &[x, y, z], fs_hz)?;
-    let params = device_params::build(file, prepared.sample_rate_hz)?;
-    let identity = device_params::identity_hex(&params.identity);
-    let input = recording.path.display().to_string();
-    let mut report = model_exposure(&params, &prepared, &input, layout, model, identity)?;
-    let platform: Vec<[f64; 3]> = match prepared.channels.as_slice() {
-        [x, y, z] => (0..x.len()).map(|k| [x[k], y[k], z[k]]).collect(),
-        _ => Vec::new(),
-    };
-    report.joints = joint_motion(&file.params, prepared.sample_rate_hz, &platform)?;
-    Ok(report)
-}
-
-/// `supine exposure`'s channel form on `recording` (with the columns of `layout`): the
-/// column named `channel`, at `fs_hz` (else its own rate), weighted with `kind`.
-pub fn evaluate_channel(
-    recording: &Recording,
-    layout: Layout,
-    channel: &str,
-    kind: WeightingKind,
-    fs_hz: Option<f64>,
-) -> Result<ChannelExposure> {
-    let index = channel_index(channel, layout, &recording.path)?;
-    let prepared = prepare(recording, &[column(recording, index)], fs_hz)?;
-    let input = recording.path.display().to_string();
-    channel_exposure(kind, &prepared, &input, channel)
-}
-
 /// The column index (0-based, in [`COLUMNS`]) of an acceleration column; an error that
 /// lists the columns `layout` holds otherwise.
 pub fn channel_index(name: &str, layout: Layout, path: &Path) -> Result<usize> {
@@ -694,14 +872,5 @@ pub fn channel_index(name: &str, layout: Layout, path: &Path) -> Result<usize> {
             path.display(),
             available.join(", ")
         ),
-    }
-}
-
-/// The channel at `index` in [`COLUMNS`] (1..=12) of `recording`.
-pub fn column(recording: &Recording, index: usize) -> &[f64] {
-    match index {
-        1..=3 => &recording.platform_m_s2[index - 1],
-        4..=12 => &recording.sensors_m_s2[index - 4],
-        _ => &recording.time_s,
     }
 }

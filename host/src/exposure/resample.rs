@@ -13,8 +13,11 @@
 //! rate is attenuated by at least `A` dB, so downsampling does not alias.
 //!
 //! A dedicated crate (e.g. `rubato`) would do the same with a streaming, chunked design
-//! built for audio; here whole recordings sit in memory, and a few dozen lines give a
-//! zero-delay, zero-phase converter whose every constant is tested (`exposure_resample`).
+//! built for audio, with a delay; a few dozen lines give a zero-delay, zero-phase
+//! converter whose every constant is tested (`exposure_resample`). [`Resampler::stream`]
+//! gives [`Resampler::process`]'s output bit for bit from a signal of known length read
+//! a sample at a time, holding the kernel's width of it (and its first samples, for the
+//! mirror), so a ride of any length converts in bounded memory.
 //!
 //! The kernel is tabulated at [`TABLE_PHASES`] points per input sample and interpolated
 //! linearly (relative error about `(pi / TABLE_PHASES)^2 / 8`, 2e-5). Beyond the ends, the
@@ -149,7 +152,161 @@ impl Resampler {
     }
 }
 
+/// [`Resampler::process`] of `K` signals of one known length, taken a sample (`K`
+/// values) at a time.
+pub struct ResampledStream<'a, I, const K: usize> {
+    resampler: &'a Resampler,
+    input: I,
+    n: usize,
+    taken: usize,
+    /// The signal's first samples, for the mirror about the first one.
+    head: Vec<[f64; K]>,
+    head_len: usize,
+    /// Samples from `window_start` to `taken`.
+    window: std::collections::VecDeque<[f64; K]>,
+    window_start: usize,
+    weights: Vec<f64>,
+    next_out: usize,
+    out_len: usize,
+}
+
+impl Resampler {
+    /// The conversion of the `n` samples `input` gives, each of `K` signals, in the order
+    /// of [`process`](Self::process)'s sums, so bit for bit its output. `n` must be at
+    /// least four kernel widths (a shorter signal fits in memory anyway).
+    pub fn stream<I: Iterator<Item = Result<[f64; K]>>, const K: usize>(
+        &self,
+        n: usize,
+        input: I,
+    ) -> Result<ResampledStream<'_, I, K>> {
+        let head_len = self.half_width_samples.ceil() as usize + 3;
+        if n < 4 * head_len {
+            bail!(
+                "{n} samples: too short to resample as a stream (expected at least {})",
+                4 * head_len
+            );
+        }
+        Ok(ResampledStream {
+            resampler: self,
+            input,
+            n,
+            taken: 0,
+            head: Vec::with_capacity(head_len),
+            head_len,
+            window: std::collections::VecDeque::new(),
+            window_start: 0,
+            weights: Vec::new(),
+            next_out: 0,
+            out_len: self.output_len(n),
+        })
+    }
+}
+
+impl<I, const K: usize> ResampledStream<'_, I, K> {
+    /// Sample `k` of the signal mirrored about its ends, as [`Resampler::process`] takes it.
+    fn value(&self, k: i64) -> [f64; K] {
+        let period = 2 * (self.n - 1);
+        let m = k.rem_euclid(period as i64) as usize;
+        let i = if m < self.n { m } else { period - m };
+        match i.checked_sub(self.window_start) {
+            Some(w) => self.window[w],
+            None => self.head[i],
+        }
+    }
+}
+
+impl<I: Iterator<Item = Result<[f64; K]>>, const K: usize> Iterator for ResampledStream<'_, I, K> {
+    type Item = Result<[f64; K]>;
+
+    fn next(&mut self) -> Option<Result<[f64; K]>> {
+        if self.next_out >= self.out_len {
+            return None;
+        }
+        let r = self.resampler;
+        let centre = self.next_out as f64 * (r.in_hz / r.out_hz);
+        let hw = r.half_width_samples;
+        let first = (centre - hw).ceil() as i64;
+        let last = (centre + hw).floor() as i64;
+        // Every sample up to the last one the kernel reaches (all of them near the end,
+        // where the mirror reaches back).
+        let needed = if last >= self.n as i64 - 1 {
+            self.n
+        } else {
+            last as usize + 1
+        };
+        while self.taken < needed {
+            let x = match self.input.next() {
+                Some(Ok(x)) => x,
+                Some(Err(e)) => return Some(Err(e)),
+                None => {
+                    return Some(Err(anyhow::anyhow!(
+                        "the signal ended after {} of {} samples",
+                        self.taken,
+                        self.n
+                    )));
+                }
+            };
+            if self.head.len() < self.head_len {
+                self.head.push(x);
+            }
+            self.window.push_back(x);
+            self.taken += 1;
+        }
+        // Samples before the kernel's reach (less a margin for the mirror at the end,
+        // where the output's centre may pass the last sample by rounding) are done with.
+        let keep_from = first.max(0) as usize;
+        while self.window_start + 2 < keep_from && !self.window.is_empty() {
+            self.window.pop_front();
+            self.window_start += 1;
+        }
+        self.weights.clear();
+        self.weights
+            .extend((first..=last).map(|k| r.kernel(centre - k as f64)));
+        let y = std::array::from_fn(|c| {
+            (first..=last)
+                .zip(&self.weights)
+                .map(|(k, w)| self.value(k)[c] * w)
+                .sum()
+        });
+        self.next_out += 1;
+        Some(Ok(y))
+    }
+}
+
 /// Converts `x` from `in_hz` to `out_hz` (see [`Resampler`]).
 pub fn resample(x: &[f64], in_hz: f64, out_hz: f64) -> Result<Vec<f64>> {
     Ok(Resampler::new(in_hz, out_hz)?.process(x))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_stream_converts_bit_for_bit_as_the_whole_signal() {
+        let n = 6_007;
+        let x: Vec<f64> = (0..n)
+            .map(|k| ((k * 7919 % 1013) as f64 / 1013.0 - 0.5) + (0.01 * k as f64).sin())
+            .collect();
+        let y: Vec<f64> = x.iter().map(|v| 0.5 * v * v - 1.0).collect();
+        for (from, to) in [
+            (500.0, 333.3),
+            (300.0, 500.0),
+            (1000.0, 200.0),
+            (200.0, 2000.0),
+        ] {
+            let r = Resampler::new(from, to).unwrap();
+            let whole = [r.process(&x), r.process(&y)];
+            let rows = (0..n).map(|k| Ok([x[k], y[k]]));
+            let streamed: Vec<[f64; 2]> = r.stream(n, rows).unwrap().map(Result::unwrap).collect();
+            assert_eq!(streamed.len(), whole[0].len(), "{from} -> {to}");
+            for (k, s) in streamed.iter().enumerate() {
+                assert_eq!(s[0].to_bits(), whole[0][k].to_bits(), "{from} -> {to}, {k}");
+                assert_eq!(s[1].to_bits(), whole[1][k].to_bits(), "{from} -> {to}, {k}");
+            }
+        }
+        // A signal too short for the stream is refused (and converted whole by callers).
+        let r = Resampler::new(500.0, 200.0).unwrap();
+        assert!(r.stream(10, (0..10).map(|_| Ok([0.0]))).is_err());
+    }
 }

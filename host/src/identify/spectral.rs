@@ -250,6 +250,77 @@ pub fn psd(
     Ok((freqs, density))
 }
 
+/// [`psd`] of one channel taken a sample at a time, for records of any length (the
+/// report's spectra): each segment is transformed as soon as it is complete, so memory
+/// holds one segment, and the result is [`psd`]'s bit for bit.
+pub struct WelchStream {
+    settings: WelchSettings,
+    sample_rate_hz: f64,
+    ffts: SegmentFfts,
+    buffer: Vec<f64>,
+    taken: usize,
+    segments: usize,
+    acc: Vec<f64>,
+    scratch: Vec<f64>,
+    spec: Vec<Complex<f64>>,
+}
+
+impl WelchStream {
+    /// An empty estimate with `settings` at `sample_rate_hz`.
+    pub fn new(settings: &WelchSettings, sample_rate_hz: f64) -> Result<Self, SpectralError> {
+        if settings.segment_len < 2 || settings.overlap >= settings.segment_len {
+            return Err(SpectralError::Settings {
+                segment_len: settings.segment_len,
+                overlap: settings.overlap,
+            });
+        }
+        let n = settings.segment_len;
+        Ok(Self {
+            settings: *settings,
+            sample_rate_hz,
+            ffts: SegmentFfts::new(settings, sample_rate_hz),
+            buffer: Vec::with_capacity(n),
+            taken: 0,
+            segments: 0,
+            acc: vec![0.0; n / 2 + 1],
+            scratch: Vec::with_capacity(n),
+            spec: vec![Complex::new(0.0, 0.0); n / 2 + 1],
+        })
+    }
+
+    /// Takes the next sample.
+    pub fn push(&mut self, x: f64) {
+        self.buffer.push(x);
+        self.taken += 1;
+        if self.buffer.len() == self.settings.segment_len {
+            self.ffts
+                .transform(&self.buffer, &mut self.scratch, &mut self.spec);
+            for (a, z) in self.acc.iter_mut().zip(&self.spec) {
+                *a += z.norm_sqr();
+            }
+            self.segments += 1;
+            self.buffer.drain(..self.settings.step());
+        }
+    }
+
+    /// The frequencies (Hz) and densities of every bin from 0 to Nyquist, as [`psd`]
+    /// gives them for the samples taken.
+    pub fn finish(&self) -> Result<(Vec<f64>, Vec<f64>), SpectralError> {
+        self.settings.check(self.taken)?;
+        let n = self.settings.segment_len;
+        let freqs = (0..=n / 2)
+            .map(|k| self.settings.bin_hz(k, self.sample_rate_hz))
+            .collect();
+        let density = self
+            .acc
+            .iter()
+            .enumerate()
+            .map(|(k, a)| a * self.ffts.bin_scale(k, n) / self.segments as f64)
+            .collect();
+        Ok((freqs, density))
+    }
+}
+
 /// The H1 estimate of a 3-input, 9-output system at each bin of a frequency band.
 #[derive(Clone, Debug, PartialEq)]
 pub struct H1Estimate {

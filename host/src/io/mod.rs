@@ -11,9 +11,11 @@
 //! - [`dataset`]: a dataset folder (`dataset.toml` and its recordings).
 //! - [`recording`]: the recording CSV (13 columns, or the platform columns of a ride).
 //! - [`ride_input`]: a ride from any logger (`--columns`, units, gravity), for exposure and report.
+//! - [`ride_rows`]: a checked ride read row by row, whatever its length (and other loggers' rows).
 //! - [`subject_args`]: `--height-m`, `--mass-kg`, the patient the model is scaled to.
 //! - [`h_csv`]: the transmissibility CSV of `supine model` and `supine transmissibility`.
 //! - [`telemetry_csv`]: a device's telemetry and alert events as CSV (replay, monitor, demo).
+//! - [`monitor_session`]: the input and session files beside a monitor log, for re-analysis.
 //! - [`wording`]: counts with their noun in printed summaries.
 
 pub mod csv_lines;
@@ -21,11 +23,13 @@ pub mod dataset;
 pub mod device_section;
 pub mod excerpt;
 pub mod h_csv;
+pub mod monitor_session;
 pub mod output;
 pub mod output_folder;
 pub mod params_file;
 pub mod recording;
 pub mod ride_input;
+pub mod ride_rows;
 pub mod small_file;
 pub mod subject_args;
 pub mod telemetry_csv;

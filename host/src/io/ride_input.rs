@@ -16,135 +16,25 @@
 //! ([`Mounting::to_litter_m_s2`]: the parameters' `[device.mounting]` rotation, then
 //! gravity off the vertical), in the device's f32.
 
-use std::io::{Read as _, Write as _};
+use std::io::Write as _;
 use std::path::Path;
 
 use anyhow::{Result, anyhow, bail};
-use clap::ValueEnum;
 use supine_core::mounting::{Mounting, STANDARD_GRAVITY_M_S2};
 
-use crate::io::csv_lines::{CsvLines, MAX_LINE_BYTES};
-use crate::io::excerpt::{excerpt, number, quoted_name};
+use crate::io::csv_lines::CsvLines;
+use crate::io::excerpt::quoted_name;
 use crate::io::output::write_atomically;
 use crate::io::recording::{
-    Layout, LineNumbers, MAX_ACCELERATION_M_S2, PLATFORM_HEADER_LINE, PlatformStream, Recording,
-    RecordingError,
+    Layout, LineNumbers, PLATFORM_HEADER_LINE, PlatformStream, Recording, RecordingError,
 };
+pub use crate::io::ride_rows::{AccelUnit, ColumnNames, TimeUnit};
+use crate::io::ride_rows::{ForeignFormat, ForeignRows, OpenRide, RideSource};
 
 /// A vertical mean within this of +-g means gravity was left in, m/s^2: a kinematic
 /// acceleration averages to about zero over any ride (the litter ends where it started,
 /// vertically), and 2 m/s^2 leaves room for a sensor's offset and scale error.
 pub const GRAVITY_MARGIN_M_S2: f64 = 2.0;
-
-/// Most characters of header fields an error lists (a logger's header can be long, and an
-/// error stays within about 200 characters).
-const MAX_LISTED_CHARS: usize = 40;
-
-/// Unit of the time column.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
-pub enum TimeUnit {
-    /// Seconds.
-    #[default]
-    S,
-    /// Milliseconds.
-    Ms,
-}
-
-impl TimeUnit {
-    /// Seconds per unit.
-    pub const fn to_s(self) -> f64 {
-        match self {
-            TimeUnit::S => 1.0,
-            TimeUnit::Ms => 1e-3,
-        }
-    }
-
-    fn name(self) -> &'static str {
-        match self {
-            TimeUnit::S => "s",
-            TimeUnit::Ms => "ms",
-        }
-    }
-}
-
-/// Unit of the acceleration columns.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
-pub enum AccelUnit {
-    /// Metres per second squared.
-    #[default]
-    #[value(name = "m/s2")]
-    MS2,
-    /// Standard gravity, 9.80665 m/s^2.
-    G,
-}
-
-impl AccelUnit {
-    /// m/s^2 per unit.
-    pub const fn to_m_s2(self) -> f64 {
-        match self {
-            AccelUnit::MS2 => 1.0,
-            AccelUnit::G => STANDARD_GRAVITY_M_S2,
-        }
-    }
-
-    fn name(self) -> &'static str {
-        match self {
-            AccelUnit::MS2 => "m/s^2",
-            AccelUnit::G => "g",
-        }
-    }
-}
-
-/// The four header names of another logger's file (`--columns`), in the order time, x,
-/// y, z of the litter.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct ColumnNames {
-    /// Names of time, x, y, z.
-    pub names: [String; 4],
-}
-
-/// The keys of `--columns`, in [`ColumnNames::names`] order.
-const COLUMN_KEYS: [&str; 4] = ["time", "x", "y", "z"];
-
-impl ColumnNames {
-    /// Parses `time=NAME,x=NAME,y=NAME,z=NAME` (any order; names are exact, spaces kept).
-    pub fn parse(text: &str) -> Result<Self, String> {
-        let mut names: [Option<String>; 4] = Default::default();
-        for part in text.split(',') {
-            let Some((key, name)) = part.split_once('=') else {
-                return Err(format!(
-                    "expected KEY=NAME pairs (time, x, y, z) separated by commas, found {}",
-                    excerpt(part)
-                ));
-            };
-            let Some(k) = COLUMN_KEYS.iter().position(|c| *c == key.trim()) else {
-                return Err(format!(
-                    "expected one of the keys time, x, y, z, found {}",
-                    excerpt(key)
-                ));
-            };
-            if name.is_empty() {
-                return Err(format!("{key}=: expected a column name after ="));
-            }
-            if names[k].replace(name.to_string()).is_some() {
-                return Err(format!("{key}= given twice: expected each key once"));
-            }
-        }
-        let missing: Vec<&str> = (0..4)
-            .filter(|&k| names[k].is_none())
-            .map(|k| COLUMN_KEYS[k])
-            .collect();
-        if !missing.is_empty() {
-            return Err(format!(
-                "expected all of time, x, y, z, missing {}",
-                missing.join(", ")
-            ));
-        }
-        Ok(Self {
-            names: names.map(Option::unwrap_or_default),
-        })
-    }
-}
 
 /// How to read a ride file: `--columns`, `--time-unit`, `--units`, `--remove-gravity`,
 /// shared by every command that reads a ride.
@@ -167,38 +57,84 @@ pub struct RideInputArgs {
 }
 
 impl RideInputArgs {
-    /// Reads the ride at `path`: the project's formats, or another logger's with
+    /// How another logger's file is laid out (`--columns`, `--time-unit`, `--units`).
+    fn foreign_format(&self) -> Option<ForeignFormat> {
+        self.columns.as_ref().map(|columns| ForeignFormat {
+            columns: columns.clone(),
+            time_unit: self.time_unit.unwrap_or_default(),
+            units: self.units.unwrap_or_default(),
+        })
+    }
+
+    /// The vertical column's name in the file, as the gravity check names it.
+    fn vertical(&self) -> &str {
+        match &self.columns {
+            Some(c) => c.names[3].as_str(),
+            None => "platform_z",
+        }
+    }
+
+    /// Reads the ride at `path` whole: the project's formats, or another logger's with
     /// `--columns`; then gravity removed (`mounting`, with `--remove-gravity`) and checked.
     pub fn read(&self, path: &Path, mounting: &Mounting) -> Result<(Recording, Layout)> {
-        let (mut recording, layout) = match &self.columns {
-            Some(columns) => (
-                read_foreign(
-                    path,
-                    columns,
-                    self.time_unit.unwrap_or_default(),
-                    self.units.unwrap_or_default(),
-                )?,
-                Layout::PlatformOnly,
-            ),
+        let (mut recording, layout) = match self.foreign_format() {
+            Some(format) => (read_foreign(path, &format)?, Layout::PlatformOnly),
             None => read_own(path)?,
         };
         if self.remove_gravity {
             remove_gravity(&mut recording, mounting);
         }
-        let vertical = match &self.columns {
-            Some(c) => c.names[3].as_str(),
-            None => "platform_z",
-        };
-        check_gravity(&recording, vertical, self.remove_gravity)?;
+        check_gravity(&recording, self.vertical(), self.remove_gravity)?;
         Ok((recording, layout))
+    }
+
+    /// Opens the ride at `path` to be read row by row, with the checks of
+    /// [`read`](Self::read) and the same errors: every row checked (two passes), then the
+    /// gravity check on the converted rows (one more). Memory holds a line.
+    pub fn open(&self, path: &Path, mounting: &Mounting) -> Result<RideSource> {
+        let removal = self.remove_gravity.then_some(*mounting);
+        let source = match self.foreign_format() {
+            Some(format) => RideSource::foreign(path, format, removal)?,
+            None => RideSource::own(PlatformStream::open(path).map_err(own_error)?, removal),
+        };
+        let mut sum = 0.0f64;
+        for row in source.rows()? {
+            sum += row?[3];
+        }
+        if !source.is_empty() {
+            let mean = sum / source.len() as f64;
+            gravity_verdict(path, self.vertical(), mean, self.remove_gravity)?;
+        }
+        Ok(source)
+    }
+
+    /// The rides as `report` opens them: row by row, with these options and `mounting`.
+    pub fn opener(&self, mounting: Mounting) -> RideOpener<'_> {
+        RideOpener {
+            args: self,
+            mounting,
+        }
+    }
+}
+
+/// Opens each ride of a report row by row ([`RideInputArgs::open`]).
+#[derive(Clone, Copy, Debug)]
+pub struct RideOpener<'a> {
+    args: &'a RideInputArgs,
+    mounting: Mounting,
+}
+
+impl OpenRide for RideOpener<'_> {
+    fn open_ride(&self, path: &Path) -> Result<RideSource> {
+        self.args.open(path, &self.mounting)
     }
 }
 
 /// The ride at `path` as a [`PlatformStream`] for the commands that stream it
 /// (`replay`): the file itself when it is in the project's format and needs no
 /// conversion (gravity checked in one more pass), else the converted ride written to
-/// `scratch` first (another logger's file, or `--remove-gravity`), whose samples are the
-/// converted ones bit for bit.
+/// `scratch` first, row by row (another logger's file, or `--remove-gravity`), whose
+/// samples are the converted ones bit for bit.
 pub fn open_stream(
     args: &RideInputArgs,
     path: &Path,
@@ -210,14 +146,14 @@ pub fn open_stream(
         check_gravity_streamed(&stream)?;
         return Ok(stream);
     }
-    let (recording, _) = args.read(path, mounting)?;
+    let source = args.open(path, mounting)?;
     let converted = scratch.join("ride.csv");
     write_atomically(&converted, |w| {
         writeln!(w, "{PLATFORM_HEADER_LINE}")?;
-        let [x, y, z] = &recording.platform_m_s2;
-        for k in 0..recording.len() {
+        for row in source.rows()? {
+            let [t, x, y, z, ..] = row?;
             // Shortest round-trip form: the same numbers read back.
-            writeln!(w, "{},{},{},{}", recording.time_s[k], x[k], y[k], z[k])?;
+            writeln!(w, "{t},{x},{y},{z}")?;
         }
         Ok(())
     })?;
@@ -231,43 +167,27 @@ fn read_own(path: &Path) -> Result<(Recording, Layout)> {
         path: path.to_path_buf(),
         reason: e.to_string(),
     })?;
-    Recording::from_reader(file, path, &[Layout::Full, Layout::PlatformOnly]).map_err(|e| {
-        match e {
-            // Within the 200 characters of an error: the field quoted shorter, the ride's
-            // header and the way to other loggers' files added.
-            RecordingError::Header {
-                path,
-                column,
-                expected,
-                ..
-            } => anyhow!(
-                "{}: line 1, column {column}: expected \"{expected}\" (a ride: \
-                 {PLATFORM_HEADER_LINE}; else --columns), found {}",
-                path.display(),
-                header_field(&path, column)
-            ),
-            other => other.into(),
-        }
-    })
+    Recording::from_reader(file, path, &[Layout::Full, Layout::PlatformOnly]).map_err(own_error)
 }
 
-/// The header's fields as an error lists them: quoted, within [`MAX_LISTED_CHARS`]
-/// including the `... (N fields)` that ends a list cut short.
-fn listed_fields<'a>(cells: impl Iterator<Item = &'a [u8]>, width: usize) -> Vec<String> {
-    let length = |fields: &[String]| fields.iter().map(|f| f.chars().count() + 2).sum::<usize>();
-    let mut fields: Vec<String> = Vec::new();
-    for cell in cells {
-        fields.push(quoted_name(cell));
-        if length(&fields) > MAX_LISTED_CHARS {
-            let more = format!("... ({width} fields)");
-            while !fields.is_empty() && length(&fields) + more.chars().count() > MAX_LISTED_CHARS {
-                fields.pop();
-            }
-            fields.push(more);
-            break;
-        }
+/// A recording error of a file read as a ride: a header error within the 200 characters
+/// of an error (the field quoted shorter, the ride's header and the way to other loggers'
+/// files added); others as they are.
+fn own_error(e: RecordingError) -> anyhow::Error {
+    match e {
+        RecordingError::Header {
+            path,
+            column,
+            expected,
+            ..
+        } => anyhow!(
+            "{}: line 1, column {column}: expected \"{expected}\" (a ride: \
+             {PLATFORM_HEADER_LINE}; else --columns), found {}",
+            path.display(),
+            header_field(&path, column)
+        ),
+        other => other.into(),
     }
-    fields
 }
 
 /// Header field `column` (1-based) of the file at `path`, as a name is quoted in errors.
@@ -282,67 +202,9 @@ fn header_field(path: &Path, column: usize) -> String {
     }
 }
 
-/// `b';'` when the first line holds a semicolon, else `b','`.
-fn sniff_delimiter(path: &Path) -> Result<u8> {
-    let mut head = Vec::with_capacity(MAX_LINE_BYTES);
-    std::fs::File::open(path)
-        .and_then(|f| f.take(MAX_LINE_BYTES as u64 + 4).read_to_end(&mut head))
-        .map_err(|e| anyhow!("{}: cannot read the ride: {e}", path.display()))?;
-    let first_line = head.split(|b| *b == b'\n').next().unwrap_or_default();
-    Ok(if first_line.contains(&b';') {
-        b';'
-    } else {
-        b','
-    })
-}
-
-/// Reads another logger's file: the four named columns, converted to s and m/s^2.
-fn read_foreign(
-    path: &Path,
-    columns: &ColumnNames,
-    time_unit: TimeUnit,
-    units: AccelUnit,
-) -> Result<Recording> {
-    let shown = path.display();
-    let delimiter = sniff_delimiter(path)?;
-    let file =
-        std::fs::File::open(path).map_err(|e| anyhow!("{shown}: cannot read the ride: {e}"))?;
-    let mut lines = CsvLines::with_delimiter(file, MAX_LINE_BYTES, delimiter);
-    let line_error = |e| anyhow!("{shown}: {e}");
-    let header = lines
-        .next_row()
-        .map_err(line_error)?
-        .ok_or_else(|| anyhow!("{shown}: line 1: expected a header line, found an empty file"))?;
-    let width = header.len();
-    let mut index = [0usize; 4];
-    for (k, wanted) in columns.names.iter().enumerate() {
-        index[k] = header
-            .cells()
-            .position(|c| c == wanted.as_bytes())
-            .ok_or_else(|| {
-                let fields = listed_fields(header.cells(), width);
-                anyhow!(
-                    "{shown}: line 1: --columns {}=: expected a field {}, found {} ({:?}-separated; \
-                     a ride: {PLATFORM_HEADER_LINE})",
-                    COLUMN_KEYS[k],
-                    quoted_name(wanted),
-                    fields.join(", "),
-                    delimiter as char
-                )
-            })?;
-    }
-    let scale = [
-        time_unit.to_s(),
-        units.to_m_s2(),
-        units.to_m_s2(),
-        units.to_m_s2(),
-    ];
-    let what = [
-        format!("a time in {}", time_unit.name()),
-        format!("an acceleration in {}", units.name()),
-        format!("an acceleration in {}", units.name()),
-        format!("an acceleration in {}", units.name()),
-    ];
+/// Reads another logger's file whole: the four named columns, converted to s and m/s^2.
+fn read_foreign(path: &Path, format: &ForeignFormat) -> Result<Recording> {
+    let mut rows = ForeignRows::open(path, format)?;
     let mut recording = Recording {
         path: path.to_path_buf(),
         time_s: Vec::new(),
@@ -350,49 +212,7 @@ fn read_foreign(
         sensors_m_s2: Default::default(),
     };
     let mut lines_of = LineNumbers::default();
-    let mut previous_s = f64::NEG_INFINITY;
-    while let Some(row) = lines.next_row().map_err(line_error)? {
-        let line = row.line;
-        if row.len() != width {
-            bail!(
-                "{shown}: line {line}: expected {width} {:?}-separated cells as in the header, found {}",
-                delimiter as char,
-                row.len()
-            );
-        }
-        let mut value = [0.0f64; 4];
-        for k in 0..4 {
-            let cell = row.cell(index[k]);
-            let name = &columns.names[k];
-            let parsed: f64 = std::str::from_utf8(cell)
-                .ok()
-                .and_then(|t| t.trim().parse().ok())
-                .filter(|v: &f64| v.is_finite())
-                .ok_or_else(|| {
-                    anyhow!(
-                        "{shown}: line {line}, column {name}: expected {} (a finite number), found {}",
-                        what[k],
-                        excerpt(cell)
-                    )
-                })?;
-            value[k] = parsed * scale[k];
-            if k > 0 && value[k].abs() > MAX_ACCELERATION_M_S2 {
-                bail!(
-                    "{shown}: line {line}, column {name}: expected an acceleration within the f32 \
-                     range the device computes in, found {}",
-                    excerpt(cell)
-                );
-            }
-        }
-        if value[0] <= previous_s {
-            bail!(
-                "{shown}: line {line}, column {}: expected a time after {} s (strictly increasing), found {} s",
-                columns.names[0],
-                number(previous_s),
-                number(value[0])
-            );
-        }
-        previous_s = value[0];
+    while let Some((line, value)) = rows.next_row()? {
         lines_of.push(recording.time_s.len(), line);
         recording.time_s.push(value[0]);
         for (axis, column) in recording.platform_m_s2.iter_mut().enumerate() {
@@ -544,8 +364,15 @@ mod tests {
             }
         }
         let file = ParamFile::preset(Preset::PaperLitter);
-        let ea = evaluate_model(&a, Layout::PlatformOnly, &file, "m".into(), None).unwrap();
-        let eb = evaluate_model(&b, Layout::PlatformOnly, &file, "m".into(), None).unwrap();
+        let ea = evaluate_model(
+            &foreign_args().open(&foreign, &level).unwrap(),
+            &file,
+            "m".into(),
+            None,
+        )
+        .unwrap();
+        let from_memory = RideSource::from_recording(a, Layout::PlatformOnly);
+        let eb = evaluate_model(&from_memory, &file, "m".into(), None).unwrap();
         for (va, vb) in [
             (ea.vector.rms_m_s2, eb.vector.rms_m_s2),
             (ea.vector.vdv_m_s175, eb.vector.vdv_m_s175),
@@ -740,6 +567,63 @@ mod tests {
         ));
         let read = error(RideInputArgs::default().read(&raw, &level));
         assert_eq!(streamed, read);
+    }
+
+    #[test]
+    fn a_ride_opened_row_by_row_gives_the_read_rides_rows_and_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let (own, foreign) = two_files(dir.path());
+        let level = Mounting::LEVEL;
+        let upside_down = Mounting {
+            sensor_to_litter: [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]],
+            gravity_m_s2: STANDARD_GRAVITY_M_S2 as f32,
+        };
+        let removing = RideInputArgs {
+            remove_gravity: true,
+            ..foreign_args()
+        };
+        for (args, path, mounting) in [
+            (RideInputArgs::default(), &own, &level),
+            (foreign_args(), &foreign, &level),
+            (removing, &foreign, &upside_down),
+        ] {
+            // Upside down, the level ride reads -2 g in z after the removal: refused alike.
+            let (read, layout) = match args.read(path, mounting) {
+                Ok(read) => read,
+                Err(e) => {
+                    assert_eq!(error(args.open(path, mounting)), e.to_string());
+                    continue;
+                }
+            };
+            let source = args.open(path, mounting).unwrap();
+            assert_eq!(source.layout(), layout);
+            assert_eq!(source.len(), read.len());
+            assert_eq!(source.sample_rate_hz(), read.sample_rate_hz());
+            assert_eq!(source.start_s(), read.time_s[0]);
+            let rows: Vec<[f64; 3]> = source.platform().unwrap().map(Result::unwrap).collect();
+            let whole: Vec<[f64; 3]> = (0..read.len())
+                .map(|k| read.platform_m_s2.each_ref().map(|c| c[k]))
+                .collect();
+            assert_eq!(rows, whole);
+        }
+        // Every refusal of a file in the same words.
+        let path = dir.path().join("logger.csv");
+        let args = RideInputArgs {
+            columns: Some(ColumnNames::parse("time=t,x=a x,y=a y,z=a z").unwrap()),
+            ..RideInputArgs::default()
+        };
+        for text in [
+            "t,a x,a y,a z\n0,0,0,0\n2,0,0,0\n4,0,0,0,5\n",
+            "t,a x,a y,a z\n0,0,0,0\n2,0,0\u{1b}x,0\n",
+            "t,a x,a y,a z\n0,0,0,0\n2,0,0,0\n2,0,0,0\n",
+            "t,a x,a y,a z\n0,0,0,0\n2,0,0,0\n4.1,0,0,0\n6,0,0,0\n",
+            "t,b x,a y,a z\n0,0,0,0\n",
+            "t,a x,a y,a z\n0,0,0,9.8\n1,0,0,9.8\n",
+        ] {
+            std::fs::write(&path, text).unwrap();
+            let read = error(args.read(&path, &level));
+            assert_eq!(error(args.open(&path, &level)), read, "{text}");
+        }
     }
 
     #[test]

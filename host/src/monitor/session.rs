@@ -106,6 +106,9 @@ pub fn follow<R: Read>(
             }
             let message = reader.next_before(Instant::now() + STEP);
             monitor.on_link(reader.stats);
+            if let Some(log) = log.as_deref_mut() {
+                log.on_link(reader.stats);
+            }
             let message = match message {
                 Ok(message) => message,
                 // Ctrl-C on a terminal also reaches QEMU (same process group), whose link
@@ -248,6 +251,12 @@ fn talk(
         log.on_greeting(&greeting);
     }
     let mut monitor = Monitor::new(&greeting)?;
+    // A log asks for the input stream, so that the session can be re-analysed.
+    let stream_input = log.is_some();
+    let mut log = log;
+    if let Some(log) = log.as_deref_mut() {
+        log.on_greeting(&greeting);
+    }
     monitor.set_ride_length_s(Some(run.samples.len() as f64 / run.sample_rate_hz));
     monitor.set_thresholds(Some(run.thresholds));
     // The writer stops on `stop`, at the end of the ride, or when the reader is done
@@ -259,7 +268,17 @@ fn talk(
         let samples = run.samples.clone();
         let sample_rate_hz = run.sample_rate_hz;
         let realtime = run.realtime;
-        thread::spawn(move || stream_ride(tx, &samples, sample_rate_hz, realtime, &stop, &done))
+        thread::spawn(move || {
+            stream_ride(
+                tx,
+                &samples,
+                sample_rate_hz,
+                realtime,
+                stream_input,
+                &stop,
+                &done,
+            )
+        })
     };
     let ending = follow(
         &mut reader,
@@ -285,20 +304,26 @@ fn talk(
 }
 
 /// Streams `samples` as `Samples` frames (then `GetStatus`), paced at `sample_rate_hz` if
-/// `realtime`: each frame leaves when its last sample is due.
+/// `realtime`: each frame leaves when its last sample is due. With `stream_input`, asks
+/// for the device's input stream first.
 fn stream_ride(
     tx: std::os::unix::net::UnixStream,
     samples: &[[f32; 3]],
     sample_rate_hz: f64,
     realtime: bool,
+    stream_input: bool,
     stop: &AtomicBool,
     done: &AtomicBool,
 ) -> Result<()> {
     let mut writer = FrameWriter::new(std::io::BufWriter::with_capacity(4096, tx));
     let start = Instant::now();
     let mut sent = 0usize;
-    for item in sample_messages(0, samples)
+    let ask = stream_input.then_some(Outgoing::Message(HostToDevice::StreamInput {
+        enabled: true,
+    }));
+    for item in ask
         .into_iter()
+        .chain(sample_messages(0, samples))
         .chain([Outgoing::Message(HostToDevice::GetStatus)])
     {
         if let Outgoing::Message(HostToDevice::Samples(batch)) = &item {
@@ -335,7 +360,7 @@ pub fn run_serial(
     mut log: Option<&mut MonitorLog>,
     stop: &AtomicBool,
 ) -> Result<(Monitor, Ending)> {
-    let serial = open_serial(port, baud)?;
+    let serial = open_serial(port, baud, log.is_some())?;
     let mut reader = FrameReader::new(serial);
     let greeting = wait_greeting(&mut reader, greeting_timeout, stop)
         .with_context(|| format!("{port} at {baud} baud"))?;
@@ -344,19 +369,31 @@ pub fn run_serial(
         log.on_greeting(&greeting);
     }
     let mut monitor = Monitor::new(&greeting)?;
+    let mut log = log;
+    if let Some(log) = log.as_deref_mut() {
+        log.on_greeting(&greeting);
+    }
     let ending = follow(&mut reader, &mut monitor, view, log, stop, false, None)?;
     Ok((monitor, ending))
 }
 
-/// Opens a real device on `port` at `baud` and asks it to greet (`Hello`); the returned
-/// port reads with a short timeout, as [`FrameReader`] expects.
-pub fn open_serial(port: &str, baud: u32) -> Result<Box<dyn serialport::SerialPort>> {
+/// Opens a real device on `port` at `baud` and asks it to greet (`Hello`), and with
+/// `stream_input` to stream its input; the returned port reads with a short timeout, as
+/// [`FrameReader`] expects.
+pub fn open_serial(
+    port: &str,
+    baud: u32,
+    stream_input: bool,
+) -> Result<Box<dyn serialport::SerialPort>> {
     let mut serial = serialport::new(port, baud)
         .timeout(STEP)
         .open()
         .map_err(|e| anyhow!("cannot open serial port {port}: {e}"))?;
     let mut writer = FrameWriter::new(&mut serial);
     writer.send(&HostToDevice::Hello)?;
+    if stream_input {
+        writer.send(&HostToDevice::StreamInput { enabled: true })?;
+    }
     writer.flush()?;
     Ok(serial)
 }

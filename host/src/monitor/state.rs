@@ -124,6 +124,8 @@ pub struct Counters {
     pub statuses: u64,
     /// Other messages (parameter acks and nacks).
     pub other: u64,
+    /// Input-stream frames received (the log writes their samples).
+    pub input_frames: u64,
     /// The link's frame counters (decoded, bad, lost, reordered), as last reported.
     pub link: LinkStats,
 }
@@ -266,6 +268,10 @@ impl Monitor {
             }
             DeviceToHost::ParamAck(_) | DeviceToHost::ParamNack(_) => {
                 self.counters.other += 1;
+                Ok(None)
+            }
+            DeviceToHost::Input(_) => {
+                self.counters.input_frames += 1;
                 Ok(None)
             }
         }

@@ -1,14 +1,18 @@
 //! `supine report --band N`: the head exposure's prediction band. N parameter sets are
-//! drawn from the fit's uncertainty (`identify::fit::band`: the same draws, parallel
-//! evaluation and quantiles as `supine predict --band`), every leg goes through the
-//! device's pipeline once per set (the evaluation the report's own values come from), and
-//! each draw's legs are combined into a mission as the report combines them. The band of
-//! each value is its 2.5 %, 50 % and 97.5 % quantile over the draws.
+//! drawn from the fit's uncertainty (`identify::fit::band`: the same draws and quantiles
+//! as `supine predict --band`), every leg goes through the device's pipeline once per set
+//! (the evaluation the report's own values come from, [`ModelRun`]), and each draw's legs
+//! are combined into a mission as the report combines them. The band of each value is
+//! its 2.5 %, 50 % and 97.5 % quantile over the draws.
+//!
+//! A leg is read once for all the draws: the N pipelines run side by side over each
+//! batch of [`BATCH_SAMPLES`] rows, spread over the threads, so memory holds N pipeline
+//! states and one batch whatever the leg's length.
 //!
 //! What it covers and what it does not: docs/model.md#uncertainty-of-a-fit.
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{Result, anyhow};
 use serde::Serialize;
@@ -19,13 +23,14 @@ use super::html::escape;
 use super::mission::{Leg, MissionTotals};
 use crate::device::device_params;
 use crate::exposure::report::{
-    Prepared, combined_rms_m_s2, combined_vdv_m_s175, model_exposure, prepare,
+    AxisReport, EvaluationInput, ModelRun, combined_rms_m_s2, combined_vdv_m_s175, tidy,
 };
-use crate::identify::fit::band::{
-    BAND_MEDIAN, BAND_QUANTILES, BandRequest, Spread, draw_params, evaluate_draws,
-};
+use crate::identify::fit::band::{BAND_MEDIAN, BAND_QUANTILES, BandRequest, Spread, draw_params};
 use crate::io::params_file::ParamFile;
-use crate::io::recording::{Layout, Recording};
+use crate::io::ride_rows::{OpenRide, RideSource};
+
+/// Rows read before the draws' pipelines take them (1.5 MB of f64 triples).
+pub const BATCH_SAMPLES: usize = 1 << 16;
 
 /// One value: the report's own (the fitted parameters') and its band over the draws.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -76,28 +81,73 @@ pub struct ReportBand {
     pub mission: VectorBand,
 }
 
-/// The head vector values of one leg for one parameter set: (rms m/s^2, VDV m/s^1.75,
-/// evaluated s), from the same pipeline run as the report's leg values.
-fn leg_vector(
-    params: &ModelParams,
+/// The head vector values of one leg for each parameter set of `sets`: (rms m/s^2, VDV
+/// m/s^1.75, evaluated s), each from the same pipeline run as the report's leg values,
+/// all in one pass over the ride on `threads` threads (the result does not depend on it).
+fn leg_vectors(
+    sets: &[ModelParams],
     file: &ParamFile,
-    prepared: &Prepared,
-    layout: Layout,
-) -> Result<(f64, f64, f64)> {
-    let drawn = ParamFile {
-        params: *params,
-        ..file.clone()
-    };
-    let device = device_params::build(&drawn, prepared.sample_rate_hz)?;
-    let e = model_exposure(&device, prepared, "", layout, String::new(), String::new())?;
-    Ok((e.vector.rms_m_s2, e.vector.vdv_m_s175, e.evaluated_s))
+    source: &RideSource,
+    threads: usize,
+) -> Result<Vec<(f64, f64, f64)>> {
+    let input = EvaluationInput::new(source, None)?;
+    let mut runs = sets
+        .iter()
+        .map(|params| {
+            let drawn = ParamFile {
+                params: *params,
+                ..file.clone()
+            };
+            let device = device_params::build(&drawn, input.sample_rate_hz)?;
+            Ok(ModelRun::new(&device, None, input.start_s))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let group = runs.len().div_ceil(threads.max(1)).max(1);
+    let mut rows = input.platform()?;
+    let mut batch = Vec::with_capacity(BATCH_SAMPLES);
+    loop {
+        batch.clear();
+        for row in rows.by_ref().take(BATCH_SAMPLES) {
+            batch.push(row?);
+        }
+        if batch.is_empty() {
+            break;
+        }
+        let batch = &batch;
+        std::thread::scope(|scope| {
+            let workers: Vec<_> = runs
+                .chunks_mut(group)
+                .map(|runs| {
+                    scope.spawn(move || -> Result<()> {
+                        for run in runs {
+                            for &u in batch {
+                                run.push(u, &mut |_| {})?;
+                            }
+                        }
+                        Ok(())
+                    })
+                })
+                .collect();
+            workers
+                .into_iter()
+                .try_for_each(|w| w.join().map_err(|_| anyhow!("a band worker panicked"))?)
+        })?;
+    }
+    Ok(runs
+        .into_iter()
+        .map(|run| {
+            let values = run.finish(&mut |_| {}).values;
+            let vector = AxisReport::new("vector", &values.vector);
+            (vector.rms_m_s2, vector.vdv_m_s175, tidy(values.duration_s))
+        })
+        .collect())
 }
 
 /// The band of the report whose `legs` and `mission` came from the rides at `inputs`
-/// (read again one at a time by `read`, as the report reads them) and `file`.
+/// (opened again one at a time by `rides`, as the report opens them) and `file`.
 pub fn build(
     inputs: &[PathBuf],
-    read: impl Fn(&Path) -> Result<(Recording, Layout)>,
+    rides: impl OpenRide,
     file: &ParamFile,
     legs: &[Leg],
     mission: &MissionTotals,
@@ -113,10 +163,8 @@ pub fn build(
     // Per leg, per draw: (rms, VDV, evaluated s).
     let mut per_leg = Vec::with_capacity(inputs.len());
     for path in inputs {
-        let (recording, layout) = read(path)?;
-        let [x, y, z] = &recording.platform_m_s2;
-        let prepared = prepare(&recording, &[x, y, z], None)?;
-        let values = evaluate_draws(&sets, threads, |p| leg_vector(p, file, &prepared, layout))
+        let ride = rides.open_ride(path)?;
+        let values = leg_vectors(&sets, file, &ride, threads)
             .map_err(|e| anyhow!("{}: --band: {e}", path.display()))?;
         per_leg.push(values);
     }

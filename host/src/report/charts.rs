@@ -120,21 +120,41 @@ fn per_leg(
         .collect()
 }
 
-/// The litter's vertical acceleration (the input), min and max per chart step.
+/// The buckets of the legs' series as a legend says them: `0.1 s` (a chart step), or a
+/// range when a long leg has longer ones.
+fn bucket_s(legs: &[Leg]) -> String {
+    let (shortest, longest) = legs
+        .iter()
+        .filter_map(|l| match l.series.t_s.as_slice() {
+            [a, b, _, ..] => Some(b - a),
+            _ => None,
+        })
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), w| {
+            (lo.min(w), hi.max(w))
+        });
+    if shortest >= longest {
+        format!("{longest:.1} s")
+    } else {
+        format!("{shortest:.1}-{longest:.1} s")
+    }
+}
+
+/// The litter's vertical acceleration (the input), min and max per bucket of the series.
 pub fn input(legs: &[Leg], layout: Layout) -> Chart {
+    let bucket_s = bucket_s(legs);
     let mut lines = per_leg(
         legs,
         layout,
         |l| l.series.platform_z_m_s2.iter().map(|p| p.1).collect(),
         Rgb(214, 39, 40),
-        "litter z (vertical), max per 0.1 s",
+        &format!("litter z (vertical), max per {bucket_s}"),
     );
     lines.extend(per_leg(
         legs,
         layout,
         |l| l.series.platform_z_m_s2.iter().map(|p| p.0).collect(),
         Rgb(240, 140, 140),
-        "min per 0.1 s",
+        &format!("min per {bucket_s}"),
     ));
     let all = legs
         .iter()

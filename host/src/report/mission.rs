@@ -6,30 +6,37 @@
 //! the leg's beginning would: the legs are separate files, and the patient's dose across
 //! them is the ISO combination ([`combined_vdv_m_s175`], [`combined_rms_m_s2`]), not one
 //! long filter run over files with gaps between them.
+//!
+//! A leg is read in one pass, row by row ([`crate::io::ride_rows`]), and everything the
+//! report keeps of it is bounded whatever its length: the values and events of
+//! [`evaluate_model_with`] (the first [`MAX_LISTED_EVENTS`] events), the spectra's segment
+//! sums, the chart series in at most [`MAX_CHART_POINTS`] buckets, and the two VDV values
+//! the projection needs (its window is known before the pass: the leg's length is).
 
-use anyhow::{Result, bail};
+use anyhow::Result;
 use serde::Serialize;
 use supine_core::alerts::{AlertConfig, Criterion, Level};
-use supine_core::blob::DeviceParams;
 use supine_core::model::JOINT_OUTPUT_COUNT;
-use supine_core::pipeline::{PipelineOutput, PipelineState};
 
 use crate::device::device_params;
-use crate::exposure::joints::{JointReport, JointTracker};
+use crate::exposure::joints::JointReport;
 use crate::exposure::report::{
-    AxisReport, ModelExposure, Prepared, combined_rms_m_s2, combined_vdv_m_s175, model_exposure,
-    prepare,
+    AxisReport, EvaluationInput, MAX_LISTED_EVENTS, ModelExposure, Step, TimedEvent,
+    combined_rms_m_s2, combined_vdv_m_s175, evaluate_model_with,
 };
 use crate::io::params_file::ParamFile;
-use crate::io::recording::{Layout, Recording};
+use crate::io::ride_rows::RideSource;
 use crate::report::joints::{MissionJoint, mission_joints};
-use crate::report::spectrum::{AxisSpectrum, spectra};
+use crate::report::spectrum::{AxisSpectrum, LegSpectra};
 
-/// Samples handed to the pipeline per call.
-const CHUNK_SAMPLES: usize = 4096;
 /// Rate of the time series kept for the charts, Hz: the running rms has a 1 s time
 /// constant and the VDV only grows, so 10 points a second draw them exactly enough.
 pub const CHART_RATE_HZ: f64 = 10.0;
+/// Most buckets of a leg's chart series: a leg longer than this many chart steps (27 min
+/// at [`CHART_RATE_HZ`]) gets buckets of twice, four times, ... the step, so the series
+/// stays within about 2 MB however long the leg; each bucket keeps its largest running
+/// rms and its extreme inputs, so no peak is lost (a chart has about a thousand columns).
+pub const MAX_CHART_POINTS: usize = 1 << 14;
 /// The projection's window: the dose rate of the last this many seconds of the mission
 /// (or of the last leg's evaluated time, if shorter), s.
 pub const PROJECTION_WINDOW_S: f64 = 300.0;
@@ -90,21 +97,23 @@ pub struct AlertRow {
     pub vdv_m_s175: f64,
 }
 
-/// A leg's time series for the charts, at about [`CHART_RATE_HZ`].
+/// A leg's time series for the charts: one point per bucket of [`CHART_RATE_HZ`]'s step
+/// (or a power-of-two multiple of it, for a leg of more than [`MAX_CHART_POINTS`] steps),
+/// at the bucket's start, and one at the leg's end.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct LegSeries {
     /// Time from the leg's start, s.
     pub t_s: Vec<f64>,
-    /// Vector running rms, m/s^2.
+    /// Vector running rms, the largest in the bucket, m/s^2.
     pub vector_rms_m_s2: Vec<f64>,
-    /// The leg's vector VDV so far, m/s^1.75.
+    /// The leg's vector VDV at the bucket's start, m/s^1.75.
     pub vdv_m_s175: Vec<f64>,
-    /// Alert level (0-3).
+    /// Alert level (0-3), the highest in the bucket.
     pub level: Vec<u8>,
-    /// Litter-frame vertical acceleration (min and max over each chart step), m/s^2.
+    /// Litter-frame vertical acceleration (min and max over the bucket), m/s^2.
     pub platform_z_m_s2: Vec<(f64, f64)>,
     /// The joint outputs' running rms (1 s), in mm or degrees, in `JointOutput::ALL`'s
-    /// order, at the same times.
+    /// order, the largest in the bucket.
     pub joint_running_rms: Vec<[f64; JOINT_OUTPUT_COUNT]>,
 }
 
@@ -121,8 +130,11 @@ pub struct Leg {
     pub axes: [AxisReport; 3],
     /// The vector sum.
     pub vector: AxisReport,
-    /// Alert events with their criteria.
+    /// Alert events with their criteria (the first [`MAX_LISTED_EVENTS`]).
     pub alerts: Vec<AlertRow>,
+    /// Events after the listed ones, counted only (absent when none).
+    #[serde(skip_serializing_if = "crate::exposure::report::none_omitted")]
+    pub alerts_omitted: usize,
     /// Seconds at each level.
     pub time_at_level_s: TimeAtLevel,
     /// Highest level reached.
@@ -138,6 +150,20 @@ pub struct Leg {
     /// Spectra of input and predicted head per axis.
     #[serde(skip)]
     pub spectra: Vec<AxisSpectrum>,
+    /// The dose rate at the leg's end, for the projection.
+    #[serde(skip)]
+    pub recent_dose: RecentDose,
+}
+
+/// The rate of VDV^4 over the end of a leg: the last [`PROJECTION_WINDOW_S`] of its
+/// evaluated time, from the chart step's grid (the VDV at the first step at or after the
+/// window's start, and at the last sample).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RecentDose {
+    /// The window, s (0 when the leg has no evaluated time).
+    pub window_s: f64,
+    /// VDV^4 per s, m^4 s^-7 per s.
+    pub vdv4_rate_per_s: f64,
 }
 
 /// When the mission's VDV would reach each threshold at the recent dose rate.
@@ -191,102 +217,94 @@ pub struct MissionTotals {
     pub joints: Vec<MissionJoint>,
 }
 
-/// Evaluates one leg (`recording`, starting at `start_s` in the mission) with `file`.
+/// Evaluates one leg (`source`, starting at `start_s` in the mission) with `file`, in
+/// one pass over its rows.
 pub fn evaluate_leg(
-    recording: &Recording,
-    layout: Layout,
+    source: &RideSource,
     file: &ParamFile,
     model: &str,
     start_s: f64,
 ) -> Result<Leg> {
-    let [x, y, z] = &recording.platform_m_s2;
-    let prepared = prepare(recording, &[x, y, z], None)?;
-    let mut params = device_params::build(file, prepared.sample_rate_hz)?;
-    let identity = device_params::identity_hex(&params.identity);
-    let input = recording.path.display().to_string();
-    let mut exposure = model_exposure(
-        &params,
-        &prepared,
-        &input,
-        layout,
-        model.to_string(),
-        identity,
-    )?;
-    // Every sample's telemetry: the head for the spectra, the values at each event.
-    params.telemetry.decimation = 1;
-    let mut run = run_leg(&params, &prepared)?;
-    let (joints, joint_series) = joint_run(file, &prepared)?;
-    exposure.joints = joints.clone();
-    run.series.joint_running_rms = joint_series;
-    let fs = prepared.sample_rate_hz;
-    let n = prepared.channels[0].len();
-    let alerts = exposure
-        .alerts
-        .iter()
-        .map(|e| {
-            let k = (e.sample as usize).min(n.saturating_sub(1));
-            let (rms, vdv) = (run.vector_rms[k], run.vdv[k]);
-            let (criterion, value) = match e.criterion {
-                Some(c @ Criterion::RunningRms { .. }) => ("running rms", f64::from(c.value())),
-                Some(c @ Criterion::Vdv { .. }) => ("VDV", f64::from(c.value())),
-                None => ("sensor fault", rms),
-            };
-            AlertRow {
-                leg_time_s: e.sample as f64 / fs,
-                mission_time_s: start_s + e.sample as f64 / fs,
-                kind: e.kind,
-                event: e.event.clone(),
-                raise: e.raise,
-                criterion,
-                value,
-                running_rms_m_s2: rms,
-                vdv_m_s175: vdv,
+    let input = EvaluationInput::new(source, None)?;
+    let fs = input.sample_rate_hz;
+    let n = input.samples;
+    let mut spectra = LegSpectra::new(n, fs)?;
+    let mut series = SeriesBuilder::new(n, fs);
+    let warmup_s = f64::from(device_params::build(file, fs)?.exposure.config.warmup_s);
+    let mut dose = DoseWindow::new(n, fs, warmup_s);
+    let mut at_level = [0usize; 4];
+    let mut alerts: Vec<AlertRow> = Vec::new();
+    // Rows of the events of the sample whose telemetry comes next.
+    let mut awaiting = 0usize;
+    let (exposure, params) =
+        evaluate_model_with(&input, file, model.to_string(), |step| match step {
+            Step::Alert(e) => {
+                if alerts.len() < MAX_LISTED_EVENTS {
+                    let sample = e.at_sample();
+                    let (criterion, value) = match e.criterion() {
+                        Some(c @ Criterion::RunningRms { .. }) => {
+                            ("running rms", f64::from(c.value()))
+                        }
+                        Some(c @ Criterion::Vdv { .. }) => ("VDV", f64::from(c.value())),
+                        None => ("sensor fault", 0.0),
+                    };
+                    let timed = TimedEvent::new(e, 0.0, fs);
+                    alerts.push(AlertRow {
+                        leg_time_s: sample as f64 / fs,
+                        mission_time_s: start_s + sample as f64 / fs,
+                        kind: timed.kind,
+                        event: timed.event,
+                        raise: timed.raise,
+                        criterion,
+                        value,
+                        running_rms_m_s2: 0.0,
+                        vdv_m_s175: 0.0,
+                    });
+                    awaiting += 1;
+                }
             }
-        })
-        .collect();
-    let spectra = spectra(&prepared.channels, &run.head, fs, &params)?;
+            Step::Sample {
+                telemetry: t,
+                input_m_s2,
+                joints,
+            } => {
+                let k = t.sample_index as usize;
+                let rms = f64::from(t.vector_running_rms_m_s2);
+                let vdv = f64::from(t.vdv_m_s175);
+                let level = t.alert_level as u8;
+                let listed = alerts.len();
+                for row in &mut alerts[listed - awaiting..] {
+                    row.running_rms_m_s2 = rms;
+                    row.vdv_m_s175 = vdv;
+                    if row.criterion == "sensor fault" {
+                        // A fault's value: the running rms then.
+                        row.value = rms;
+                    }
+                }
+                awaiting = 0;
+                at_level[usize::from(level.min(3))] += 1;
+                spectra.push(input_m_s2, t.head_acc_m_s2.map(f64::from));
+                dose.push(k, vdv);
+                let joints = joints.map(|j| j.running_rms_display()).unwrap_or_default();
+                series.push(k, rms, vdv, level, input_m_s2[2], joints);
+            }
+        })?;
     Ok(Leg {
-        input,
+        input: exposure.input.clone(),
         duration_s: exposure.duration_s,
         start_s,
         axes: exposure.head,
         vector: exposure.vector,
         alerts,
-        time_at_level_s: TimeAtLevel::from_array(time_at_level(&run.level, fs)),
+        alerts_omitted: exposure.alerts_omitted,
+        time_at_level_s: TimeAtLevel::from_array(at_level.map(|c| c as f64 / fs)),
         max_level: exposure.max_level,
-        joints,
-        series: run.series,
-        spectra,
+        joints: exposure.joints.clone(),
+        series: series.finish(),
+        spectra: spectra.finish(&params)?,
+        recent_dose: dose.finish(),
         exposure,
     })
-}
-
-/// The leg's neck and lower-back motion (the values `supine exposure` gives) and the
-/// joints' running rms at the chart series' times (every chart step, and the last sample).
-fn joint_run(
-    file: &ParamFile,
-    prepared: &Prepared,
-) -> Result<(Vec<JointReport>, Vec<[f64; JOINT_OUTPUT_COUNT]>)> {
-    let [x, y, z] = match prepared.channels.as_slice() {
-        [x, y, z] => [x, y, z],
-        _ => bail!("a leg needs the three platform columns"),
-    };
-    let fs = prepared.sample_rate_hz;
-    let step = chart_step(fs);
-    let n = x.len();
-    let mut tracker = JointTracker::new(&file.params, fs)?;
-    let mut series = Vec::with_capacity(n / step + 2);
-    for k in 0..n {
-        tracker.step([x[k], y[k], z[k]]);
-        // As the head's series: the value after each step's first sample, and the last.
-        if k % step == 0 {
-            series.push(tracker.running_rms_display());
-        }
-        if k + 1 == n {
-            series.push(tracker.running_rms_display());
-        }
-    }
-    Ok((tracker.report(), series))
 }
 
 /// Samples per chart step at `fs_hz`.
@@ -294,91 +312,127 @@ fn chart_step(fs_hz: f64) -> usize {
     ((fs_hz / CHART_RATE_HZ).round() as usize).max(1)
 }
 
-/// Seconds at each level from a per-sample level trace.
-fn time_at_level(level: &[u8], fs_hz: f64) -> [f64; 4] {
-    let mut counts = [0usize; 4];
-    for &l in level {
-        counts[usize::from(l.min(3))] += 1;
-    }
-    counts.map(|c| c as f64 / fs_hz)
-}
-
-/// The per-sample outputs of one run.
-struct LegRun {
-    head: [Vec<f64>; 3],
-    vector_rms: Vec<f64>,
-    vdv: Vec<f64>,
-    level: Vec<u8>,
+/// The chart series of a leg of known length, built bucket by bucket.
+struct SeriesBuilder {
+    fs_hz: f64,
+    samples: usize,
+    bucket: usize,
     series: LegSeries,
 }
 
-/// Runs the device pipeline over the leg, keeping every sample's telemetry.
-fn run_leg(params: &DeviceParams, prepared: &Prepared) -> Result<LegRun> {
-    let [x, y, z] = match prepared.channels.as_slice() {
-        [x, y, z] => [x, y, z],
-        _ => bail!("a leg needs the three platform columns"),
-    };
-    let n = x.len();
-    let fs = prepared.sample_rate_hz;
-    let mut run = LegRun {
-        head: Default::default(),
-        vector_rms: Vec::with_capacity(n),
-        vdv: Vec::with_capacity(n),
-        level: Vec::with_capacity(n),
-        series: LegSeries::default(),
-    };
-    let step = chart_step(fs);
-    let mut state = PipelineState::new();
-    let mut indices = Vec::with_capacity(CHUNK_SAMPLES);
-    let mut samples = Vec::with_capacity(CHUNK_SAMPLES);
-    for first in (0..n).step_by(CHUNK_SAMPLES) {
-        let last = (first + CHUNK_SAMPLES).min(n);
-        indices.clear();
-        indices.extend(first as u32..last as u32);
-        samples.clear();
-        samples.extend((first..last).map(|k| [x[k] as f32, y[k] as f32, z[k] as f32]));
-        params.process(&mut state, &indices, &samples, |out| {
-            if let PipelineOutput::Telemetry(t) = out {
-                for (axis, v) in run.head.iter_mut().zip(t.head_acc_m_s2) {
-                    axis.push(f64::from(v));
-                }
-                run.vector_rms.push(f64::from(t.vector_running_rms_m_s2));
-                run.vdv.push(f64::from(t.vdv_m_s175));
-                run.level.push(t.alert_level as u8);
+impl SeriesBuilder {
+    /// For `samples` at `fs_hz`: buckets of the chart step, doubled until at most
+    /// [`MAX_CHART_POINTS`] cover the leg.
+    fn new(samples: usize, fs_hz: f64) -> Self {
+        let mut bucket = chart_step(fs_hz);
+        while samples.div_ceil(bucket) > MAX_CHART_POINTS {
+            bucket *= 2;
+        }
+        let points = samples.div_ceil(bucket) + 1;
+        let series = LegSeries {
+            t_s: Vec::with_capacity(points),
+            vector_rms_m_s2: Vec::with_capacity(points),
+            vdv_m_s175: Vec::with_capacity(points),
+            level: Vec::with_capacity(points),
+            platform_z_m_s2: Vec::with_capacity(points),
+            joint_running_rms: Vec::with_capacity(points),
+        };
+        Self {
+            fs_hz,
+            samples,
+            bucket,
+            series,
+        }
+    }
+
+    /// Sample `k`'s values (sample 0 first, in order).
+    fn push(
+        &mut self,
+        k: usize,
+        rms: f64,
+        vdv: f64,
+        level: u8,
+        z: f64,
+        joints: [f64; JOINT_OUTPUT_COUNT],
+    ) {
+        let s = &mut self.series;
+        if k % self.bucket == 0 {
+            s.t_s.push(k as f64 / self.fs_hz);
+            s.vector_rms_m_s2.push(rms);
+            s.vdv_m_s175.push(vdv);
+            s.level.push(level);
+            s.platform_z_m_s2.push((z, z));
+            s.joint_running_rms.push(joints);
+        } else if let Some(i) = s.t_s.len().checked_sub(1) {
+            s.vector_rms_m_s2[i] = s.vector_rms_m_s2[i].max(rms);
+            s.level[i] = s.level[i].max(level);
+            let (lo, hi) = &mut s.platform_z_m_s2[i];
+            *lo = lo.min(z);
+            *hi = hi.max(z);
+            for (m, v) in s.joint_running_rms[i].iter_mut().zip(joints) {
+                *m = m.max(v);
             }
-        });
+        }
+        // The last sample, so the charts end where the leg ends.
+        if k + 1 == self.samples {
+            s.t_s.push(self.samples as f64 / self.fs_hz);
+            s.vector_rms_m_s2.push(rms);
+            s.vdv_m_s175.push(vdv);
+            s.level.push(level);
+            s.platform_z_m_s2.push((z, z));
+            s.joint_running_rms.push(joints);
+        }
     }
-    if run.level.len() != n {
-        bail!(
-            "the pipeline reported {} of {n} samples (telemetry decimation must be 1)",
-            run.level.len()
-        );
+
+    fn finish(self) -> LegSeries {
+        self.series
     }
-    for start in (0..n).step_by(step) {
-        let end = (start + step).min(n);
-        let s = &mut run.series;
-        s.t_s.push(start as f64 / fs);
-        s.vector_rms_m_s2.push(run.vector_rms[start]);
-        s.vdv_m_s175.push(run.vdv[start]);
-        s.level
-            .push(run.level[start..end].iter().copied().max().unwrap_or(0));
-        let (lo, hi) = z[start..end]
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
-                (lo.min(v), hi.max(v))
-            });
-        s.platform_z_m_s2.push((lo, hi));
+}
+
+/// The two VDV values of a leg's [`RecentDose`], caught as the leg goes by: the window
+/// is known before the pass, since the leg's length is.
+struct DoseWindow {
+    fs_hz: f64,
+    step: usize,
+    from_s: f64,
+    window_s: f64,
+    from_vdv: Option<f64>,
+    last_vdv: f64,
+}
+
+impl DoseWindow {
+    fn new(samples: usize, fs_hz: f64, warmup_s: f64) -> Self {
+        let end_s = samples as f64 / fs_hz;
+        // Only evaluated time counts: the VDV is zero through the warm-up.
+        let from_s = (end_s - PROJECTION_WINDOW_S).max(warmup_s);
+        Self {
+            fs_hz,
+            step: chart_step(fs_hz),
+            from_s,
+            window_s: end_s - from_s,
+            from_vdv: None,
+            last_vdv: 0.0,
+        }
     }
-    // The last sample, so the charts end where the leg ends.
-    if n > 0 {
-        let s = &mut run.series;
-        s.t_s.push(n as f64 / fs);
-        s.vector_rms_m_s2.push(run.vector_rms[n - 1]);
-        s.vdv_m_s175.push(run.vdv[n - 1]);
-        s.level.push(run.level[n - 1]);
-        s.platform_z_m_s2.push((z[n - 1], z[n - 1]));
+
+    fn push(&mut self, k: usize, vdv: f64) {
+        if self.from_vdv.is_none() && k % self.step == 0 && k as f64 / self.fs_hz >= self.from_s {
+            self.from_vdv = Some(vdv);
+        }
+        self.last_vdv = vdv;
     }
-    Ok(run)
+
+    fn finish(&self) -> RecentDose {
+        if self.window_s <= 0.0 {
+            return RecentDose::default();
+        }
+        // No step at or after the window's start: the window begins at the last sample.
+        let from = self.from_vdv.unwrap_or(self.last_vdv);
+        RecentDose {
+            window_s: self.window_s,
+            vdv4_rate_per_s: (self.last_vdv.powi(4) - from.powi(4)).max(0.0) / self.window_s,
+        }
+    }
 }
 
 /// The mission's totals over `legs` (in order), with the alert thresholds of `config`.
@@ -416,23 +470,10 @@ pub fn totals(legs: &[Leg], config: &AlertConfig) -> MissionTotals {
 
 /// The projection from the last leg's recent dose rate.
 fn projection(last: Option<&Leg>, mission_vdv: f64, config: &AlertConfig) -> Projection {
-    let (window_s, rate) = last.map_or((0.0, 0.0), |leg| {
-        let s = &leg.series;
-        let end_s = s.t_s.last().copied().unwrap_or(0.0);
-        // Only evaluated time counts: the VDV is zero through the warm-up.
-        let from_s = (end_s - PROJECTION_WINDOW_S).max(leg.exposure.warmup_s);
-        let window_s = end_s - from_s;
-        if window_s <= 0.0 {
-            return (0.0, 0.0);
-        }
-        let k = s.t_s.partition_point(|&t| t < from_s).min(s.t_s.len() - 1);
-        let v_end = s.vdv_m_s175.last().copied().unwrap_or(0.0);
-        let v_from = s.vdv_m_s175[k];
-        (
-            window_s,
-            (v_end.powi(4) - v_from.powi(4)).max(0.0) / window_s,
-        )
-    });
+    let RecentDose {
+        window_s,
+        vdv4_rate_per_s: rate,
+    } = last.map(|leg| leg.recent_dose).unwrap_or_default();
     let dose = mission_vdv.powi(4);
     let thresholds = LEVEL_NAMES[1..]
         .iter()
@@ -471,4 +512,41 @@ pub fn level_of(name: &str) -> Level {
         .into_iter()
         .find(|l| l.name() == name)
         .unwrap_or(Level::Normal)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_long_legs_series_stays_bounded_and_keeps_its_peaks() {
+        let fs = 500.0;
+        // Three times the points at 10 Hz: buckets of four chart steps.
+        let n = 3 * MAX_CHART_POINTS * chart_step(fs) + 7;
+        let mut series = SeriesBuilder::new(n, fs);
+        assert_eq!(series.bucket, 4 * chart_step(fs));
+        let spike = 1_234_567;
+        for k in 0..n {
+            let rms = if k == spike { 9.0 } else { 0.5 };
+            let z = if k == spike + 1 { -30.0 } else { 0.1 };
+            let level = u8::from(k == spike + 2) * 3;
+            series.push(k, rms, k as f64, level, z, [rms; JOINT_OUTPUT_COUNT]);
+        }
+        let s = series.finish();
+        assert!(s.t_s.len() <= MAX_CHART_POINTS + 1, "{}", s.t_s.len());
+        assert_eq!(s.t_s.len(), n.div_ceil(4 * chart_step(fs)) + 1);
+        assert_eq!(s.vector_rms_m_s2.iter().copied().fold(0.0, f64::max), 9.0);
+        assert_eq!(
+            s.joint_running_rms.iter().map(|j| j[3]).fold(0.0, f64::max),
+            9.0
+        );
+        assert_eq!(
+            s.platform_z_m_s2.iter().map(|p| p.0).fold(0.0, f64::min),
+            -30.0
+        );
+        assert_eq!(s.level.iter().copied().max(), Some(3));
+        // The VDV at each bucket's start, and the leg's end last.
+        assert_eq!(s.vdv_m_s175[1], (4 * chart_step(fs)) as f64);
+        assert_eq!(s.t_s.last().copied(), Some(n as f64 / fs));
+    }
 }

@@ -12,6 +12,8 @@
 //! - [`device_check`], [`device_charts`], [`device_section`], [`trace`]: with a device
 //!   log (what a device sent for the ride, as `supine demo` has it), the device's own
 //!   account beside the host's: the largest difference of each output, identical events.
+//! - [`monitor_log`]: a session logged by `supine monitor --log` as the input: its input
+//!   stream is the ride, its telemetry and events the device log.
 //!
 //! The JSON's key names are the contract of `--json` (`docs/exposure.md#mission-report`).
 
@@ -23,10 +25,11 @@ pub mod device_section;
 pub mod html;
 pub mod joints;
 pub mod mission;
+pub mod monitor_log;
 pub mod spectrum;
 pub mod trace;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{Result, bail};
 use serde::Serialize;
@@ -35,7 +38,7 @@ use supine_core::alerts::AlertConfig;
 use crate::device::device_params;
 use crate::exposure::report::ThresholdsReport;
 use crate::io::params_file::ParamFile;
-use crate::io::recording::{Layout, Recording};
+use crate::io::ride_rows::OpenRide;
 use mission::{Leg, MissionTotals, evaluate_leg, totals};
 
 /// The patient the model was scaled to.
@@ -102,12 +105,12 @@ pub struct MissionReport {
     pub thresholds: AlertConfig,
 }
 
-/// Evaluates the rides at `inputs` (each read by `read`) as the legs of a mission, or as
-/// two rides compared. One ride is in memory at a time: a leg keeps only its values, its
-/// chart series and its spectra.
+/// Evaluates the rides at `inputs` (each opened by `rides`) as the legs of a mission, or
+/// as two rides compared. Each ride is read row by row; a leg keeps only its values, its
+/// bounded chart series and its spectra.
 pub fn build(
     inputs: &[PathBuf],
-    read: impl Fn(&Path) -> Result<(Recording, Layout)>,
+    rides: impl OpenRide,
     file: &ParamFile,
     model: &str,
     compare: bool,
@@ -121,15 +124,9 @@ pub fn build(
     let mut legs = Vec::with_capacity(inputs.len());
     let mut start_s = 0.0;
     for path in inputs {
-        let (recording, layout) = read(path)?;
+        let ride = rides.open_ride(path)?;
         // Compared rides share one time axis from zero; legs follow each other.
-        let leg = evaluate_leg(
-            &recording,
-            layout,
-            file,
-            model,
-            if compare { 0.0 } else { start_s },
-        )?;
+        let leg = evaluate_leg(&ride, file, model, if compare { 0.0 } else { start_s })?;
         start_s += leg.duration_s;
         legs.push(leg);
     }

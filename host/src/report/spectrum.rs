@@ -4,13 +4,15 @@
 //!
 //! Welch's method of [`crate::identify::spectral::psd`] (Hann, 50 % overlap, one-sided
 //! density), with the segment chosen here: the resolution [`TARGET_RESOLUTION_HZ`] when
-//! the leg holds [`MIN_SEGMENTS`] such segments, coarser for a short leg.
+//! the leg holds [`MIN_SEGMENTS`] such segments, coarser for a short leg. A leg's spectra
+//! are taken sample by sample ([`LegSpectra`], one [`WelchStream`] per signal), so memory
+//! holds a segment per signal whatever the leg's length.
 
 use anyhow::{Result, anyhow};
 use supine_core::blob::DeviceParams;
 use supine_core::weighting::analog_response;
 
-use crate::identify::spectral::{WelchSettings, psd};
+use crate::identify::spectral::{WelchSettings, WelchStream, psd};
 
 /// The finest resolution asked for, Hz: a quarter hertz separates a rotor's lines.
 pub const TARGET_RESOLUTION_HZ: f64 = 0.25;
@@ -56,35 +58,59 @@ pub fn density(x: &[f64], fs_hz: f64) -> Result<(Vec<f64>, Vec<f64>)> {
     psd(x, fs_hz, &settings).map_err(|e| anyhow!("spectrum: {e}"))
 }
 
-/// The spectra of each axis: `input` (litter x, y, z) and `head` (predicted head x, y, z)
-/// at `fs_hz`, weighted with the weighting `params` maps to each head axis.
-pub fn spectra(
-    input: &[Vec<f64>],
-    head: &[Vec<f64>; 3],
-    fs_hz: f64,
-    params: &DeviceParams,
-) -> Result<Vec<AxisSpectrum>> {
-    let kinds = params.exposure.config.axes.axes().map(|a| a.kind);
-    (0..3)
-        .map(|axis| {
-            let (freqs, input_psd) = density(&input[axis], fs_hz)?;
-            let (_, head_psd) = density(&head[axis], fs_hz)?;
-            let top = freqs.partition_point(|&f| f <= MAX_CHART_HZ);
-            let kind = kinds[axis];
-            let head_weighted = freqs[..top]
-                .iter()
-                .zip(&head_psd)
-                .map(|(&f, p)| analog_response(kind, f).abs().powi(2) * p)
-                .collect();
-            Ok(AxisSpectrum {
-                freqs_hz: freqs[..top].to_vec(),
-                input: input_psd[..top].to_vec(),
-                head: head_psd[..top].to_vec(),
-                head_weighted,
-                weighting: kind.name(),
-            })
+/// The spectra of one leg, taken sample by sample: the litter input and the predicted
+/// head on each axis.
+pub struct LegSpectra {
+    input: [WelchStream; 3],
+    head: [WelchStream; 3],
+}
+
+impl LegSpectra {
+    /// The spectra of a leg of `samples` at `fs_hz`, with [`density`]'s settings.
+    pub fn new(samples: usize, fs_hz: f64) -> Result<Self> {
+        let mut settings = settings_for(samples, fs_hz);
+        // A leg too short for eight segments still gets what it holds.
+        settings.min_segments = settings.segment_count(samples).clamp(1, MIN_SEGMENTS);
+        let stream = || WelchStream::new(&settings, fs_hz).map_err(|e| anyhow!("spectrum: {e}"));
+        Ok(Self {
+            input: [stream()?, stream()?, stream()?],
+            head: [stream()?, stream()?, stream()?],
         })
-        .collect()
+    }
+
+    /// Takes one sample's input and predicted head (x, y, z, m/s^2).
+    pub fn push(&mut self, input_m_s2: [f64; 3], head_m_s2: [f64; 3]) {
+        for axis in 0..3 {
+            self.input[axis].push(input_m_s2[axis]);
+            self.head[axis].push(head_m_s2[axis]);
+        }
+    }
+
+    /// Each axis' spectra, the head weighted with the weighting `params` maps to it.
+    pub fn finish(&self, params: &DeviceParams) -> Result<Vec<AxisSpectrum>> {
+        let kinds = params.exposure.config.axes.axes().map(|a| a.kind);
+        (0..3)
+            .map(|axis| {
+                let spectrum = |s: &WelchStream| s.finish().map_err(|e| anyhow!("spectrum: {e}"));
+                let (freqs, input_psd) = spectrum(&self.input[axis])?;
+                let (_, head_psd) = spectrum(&self.head[axis])?;
+                let top = freqs.partition_point(|&f| f <= MAX_CHART_HZ);
+                let kind = kinds[axis];
+                let head_weighted = freqs[..top]
+                    .iter()
+                    .zip(&head_psd)
+                    .map(|(&f, p)| analog_response(kind, f).abs().powi(2) * p)
+                    .collect();
+                Ok(AxisSpectrum {
+                    freqs_hz: freqs[..top].to_vec(),
+                    input: input_psd[..top].to_vec(),
+                    head: head_psd[..top].to_vec(),
+                    head_weighted,
+                    weighting: kind.name(),
+                })
+            })
+            .collect()
+    }
 }
 
 #[cfg(test)]
@@ -138,5 +164,25 @@ mod tests {
         assert!(s.segment_count(5_000) >= MIN_SEGMENTS);
         assert_eq!(s.segment_len, 1024);
         assert_eq!(settings_for(1_000_000, 500.0).segment_len, 2048);
+    }
+
+    #[test]
+    fn a_spectrum_taken_sample_by_sample_is_the_whole_records_bit_for_bit() {
+        // Deterministic noise, a length that leaves a partial segment at the end.
+        let fs = 500.0;
+        let n = 37_777;
+        let x: Vec<f64> = (0..n)
+            .map(|k| ((k * 7919 % 1013) as f64 / 1013.0 - 0.5) + (0.03 * k as f64).sin())
+            .collect();
+        for samples in [n, 5_000, 700] {
+            let whole = density(&x[..samples], fs).unwrap();
+            let mut settings = settings_for(samples, fs);
+            settings.min_segments = settings.segment_count(samples).clamp(1, MIN_SEGMENTS);
+            let mut stream = WelchStream::new(&settings, fs).unwrap();
+            for &v in &x[..samples] {
+                stream.push(v);
+            }
+            assert_eq!(stream.finish().unwrap(), whole, "{samples} samples");
+        }
     }
 }

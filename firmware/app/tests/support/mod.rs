@@ -518,11 +518,9 @@ pub fn pipeline_messages_from(
     samples: &[[f32; 3]],
 ) -> Vec<DeviceToHost> {
     let mut out = Vec::new();
-    params.process(state, indices, samples, |o| {
-        out.push(match o {
-            PipelineOutput::Telemetry(t) => DeviceToHost::Telemetry(t),
-            PipelineOutput::Alert(e) => DeviceToHost::Alert(e),
-        })
+    params.process(state, indices, samples, |o| match o {
+        PipelineOutput::Telemetry(t) => out.push(DeviceToHost::Telemetry(t)),
+        PipelineOutput::Alert(e) => out.push(DeviceToHost::Alert(e)),
     });
     out
 }

@@ -51,27 +51,42 @@ pub struct Objective {
     pub target: Target,
     /// The distinct shape vectors of the free parameters (a stiffness and the damping of
     /// the same element and axis share one), with the block each lies in.
-    shapes: Vec<(Shape, usize)>,
+    shapes: Vec<LocalShape>,
     /// Per free parameter: its index in `shapes`.
     param_shape: Vec<usize>,
     blocks: Vec<Block>,
     /// Per free parameter: the block its shape vector lies in.
     param_block: Vec<usize>,
-    /// The non-zero (DOF, weight) entries of each row of R (the sensors are not fitted).
-    output_rows: Vec<Vec<(usize, f64)>>,
 }
 
 /// One uncoupled block of A and what it touches.
 #[derive(Clone, Debug)]
 struct Block {
-    /// Its DOFs.
+    /// Its DOFs, ascending.
     dofs: Vec<usize>,
     /// Input axes whose forcing (K + j w C) G reaches it.
     inputs: Vec<usize>,
-    /// Outputs whose row of R sees it.
-    outputs: Vec<usize>,
     /// The fitted components (indices into `COUPLED_COMPONENTS`) it contributes to.
     components: Vec<usize>,
+    /// The outputs its fitted components read, ascending: the only rows of R A^-1 the
+    /// Jacobian needs (the other outputs that see the block are not fitted).
+    read_outputs: Vec<usize>,
+    /// Per read output: the non-zero (local DOF, weight) entries of its row of R within
+    /// the block, in DOF order (R's entries on other blocks meet a zero column of X).
+    read_rows: Vec<Vec<(usize, f64)>>,
+    /// Per fitted component: (its index into `inputs`, its index into `read_outputs`).
+    component_at: Vec<(usize, usize)>,
+}
+
+/// A distinct shape vector of the free parameters, in its block's local DOFs.
+#[derive(Clone, Debug)]
+struct LocalShape {
+    /// The shape as the model gives it (over all DOFs).
+    shape: Shape,
+    /// The block it lies in.
+    block: usize,
+    /// Its (local DOF, global DOF, weight) entries, in the shape's order.
+    entries: Vec<(usize, usize, f64)>,
 }
 
 /// One independent part of the fit ([`Objective::subsystems`]).
@@ -111,6 +126,58 @@ struct Layout {
 /// The largest uncoupled block of A this solver handles (the geometry gives 3, 6, 6, 3).
 const MAX_BLOCK: usize = 6;
 
+/// Outputs (rows of R): the most a block's components can read.
+const MAX_OUTPUTS: usize = 9;
+
+/// Right-hand sides of one block's solve: X's input columns and W's output columns.
+const MAX_RHS: usize = 3 + MAX_OUTPUTS;
+
+/// One block's part of the system's matrices in its local DOFs, for one evaluation.
+struct LocalMatrices {
+    stiffness: [[f64; MAX_BLOCK]; MAX_BLOCK],
+    mass: [[f64; MAX_BLOCK]; MAX_BLOCK],
+    damping: [[f64; MAX_BLOCK]; MAX_BLOCK],
+    /// K G and C G, per local DOF and input of the block.
+    kg: [[f64; 3]; MAX_BLOCK],
+    cg: [[f64; 3]; MAX_BLOCK],
+    /// The read outputs' rows of R, per read output and local DOF.
+    output: [[f64; MAX_BLOCK]; MAX_OUTPUTS],
+}
+
+impl LocalMatrices {
+    fn of_block(
+        block: &Block,
+        matrices: &SystemMatrices,
+        kg: &SMatrix<f64, DOF_COUNT, 3>,
+        cg: &SMatrix<f64, DOF_COUNT, 3>,
+        r_out: &SMatrix<f64, 9, DOF_COUNT>,
+    ) -> Self {
+        let mut out = Self {
+            stiffness: [[0.0; MAX_BLOCK]; MAX_BLOCK],
+            mass: [[0.0; MAX_BLOCK]; MAX_BLOCK],
+            damping: [[0.0; MAX_BLOCK]; MAX_BLOCK],
+            kg: [[0.0; 3]; MAX_BLOCK],
+            cg: [[0.0; 3]; MAX_BLOCK],
+            output: [[0.0; MAX_BLOCK]; MAX_OUTPUTS],
+        };
+        for (i, &di) in block.dofs.iter().enumerate() {
+            for (j, &dj) in block.dofs.iter().enumerate() {
+                out.stiffness[i][j] = matrices.stiffness[(di, dj)];
+                out.mass[i][j] = matrices.mass[(di, dj)];
+                out.damping[i][j] = matrices.damping[(di, dj)];
+            }
+            for (col, &k) in block.inputs.iter().enumerate() {
+                out.kg[i][col] = kg[(di, k)];
+                out.cg[i][col] = cg[(di, k)];
+            }
+            for (o, &j) in block.read_outputs.iter().enumerate() {
+                out.output[o][i] = r_out[(j, di)];
+            }
+        }
+        out
+    }
+}
+
 /// Solves A X = B in place for a small complex system (n <= 6) by Gaussian elimination
 /// with partial pivoting; `rhs` holds B's first `nrhs` columns and receives X. Returns
 /// false if A is singular.
@@ -119,21 +186,35 @@ const MAX_BLOCK: usize = 6;
 fn solve_small(
     n: usize,
     a: &mut [[Cplx; MAX_BLOCK]; MAX_BLOCK],
-    rhs: &mut [[Cplx; 12]; MAX_BLOCK],
+    rhs: &mut [[Cplx; MAX_RHS]; MAX_BLOCK],
     nrhs: usize,
 ) -> bool {
+    // 1 / the pivot of each column, used again by the back substitution (row `col` of A
+    // no longer changes once its column is eliminated).
+    let mut inverse = [Cplx::new(0.0, 0.0); MAX_BLOCK];
     for col in 0..n {
-        let pivot = (col..n)
-            .max_by(|&i, &j| a[i][col].norm_sqr().total_cmp(&a[j][col].norm_sqr()))
-            .unwrap_or(col);
-        if a[pivot][col].norm_sqr() == 0.0 {
+        // The largest |a|^2 in the column, the last one on a tie.
+        let (mut pivot, mut largest) = (col, a[col][col].norm_sqr());
+        for i in col + 1..n {
+            let v = a[i][col].norm_sqr();
+            if v.total_cmp(&largest).is_ge() {
+                (pivot, largest) = (i, v);
+            }
+        }
+        if largest == 0.0 {
             return false;
         }
         if pivot != col {
-            a.swap(col, pivot);
-            rhs.swap(col, pivot);
+            // Only what is read later: A's columns from `col` on, B's first `nrhs`.
+            for k in col..n {
+                (a[col][k], a[pivot][k]) = (a[pivot][k], a[col][k]);
+            }
+            for k in 0..nrhs {
+                (rhs[col][k], rhs[pivot][k]) = (rhs[pivot][k], rhs[col][k]);
+            }
         }
         let inv = Cplx::new(1.0, 0.0) / a[col][col];
+        inverse[col] = inv;
         for row in col + 1..n {
             let factor = a[row][col] * inv;
             if factor == Cplx::new(0.0, 0.0) {
@@ -150,7 +231,7 @@ fn solve_small(
         }
     }
     for col in (0..n).rev() {
-        let inv = Cplx::new(1.0, 0.0) / a[col][col];
+        let inv = inverse[col];
         for k in 0..nrhs {
             let mut acc = rhs[col][k];
             for j in col + 1..n {
@@ -210,26 +291,58 @@ impl Objective {
                 let inputs: Vec<usize> = (0..3)
                     .filter(|&k| dofs.iter().any(|&d| matrices.input[(d, k)] != 0.0))
                     .collect();
-                let outputs: Vec<usize> = (0..9)
-                    .filter(|&j| dofs.iter().any(|&d| matrices.output[(j, d)] != 0.0))
-                    .collect();
-                let components = (0..COMPONENTS)
+                let components: Vec<usize> = (0..COMPONENTS)
                     .filter(|&c| {
                         let (o, i) = COUPLED_COMPONENTS[c];
-                        inputs.contains(&i.index()) && outputs.contains(&o.index())
+                        inputs.contains(&i.index())
+                            && dofs.iter().any(|&d| matrices.output[(o.index(), d)] != 0.0)
+                    })
+                    .collect();
+                let mut read_outputs: Vec<usize> = components
+                    .iter()
+                    .map(|&c| COUPLED_COMPONENTS[c].0.index())
+                    .collect();
+                read_outputs.sort_unstable();
+                read_outputs.dedup();
+                let read_rows = read_outputs
+                    .iter()
+                    .map(|&j| {
+                        dofs.iter()
+                            .enumerate()
+                            .filter(|&(_, &d)| matrices.output[(j, d)] != 0.0)
+                            .map(|(i, &d)| (i, matrices.output[(j, d)]))
+                            .collect()
+                    })
+                    .collect();
+                let component_at = components
+                    .iter()
+                    .map(|&c| {
+                        let (o, i) = COUPLED_COMPONENTS[c];
+                        let at = |list: &[usize], x: usize| list.iter().position(|&v| v == x);
+                        (
+                            at(&inputs, i.index()).unwrap_or(0),
+                            at(&read_outputs, o.index()).unwrap_or(0),
+                        )
                     })
                     .collect();
                 Block {
                     dofs,
                     inputs,
-                    outputs,
                     components,
+                    read_outputs,
+                    read_rows,
+                    component_at,
                 }
             })
             .collect();
         assert!(
             blocks.iter().all(|b| b.dofs.len() <= MAX_BLOCK),
             "the model's geometry couples more than {MAX_BLOCK} DOFs"
+        );
+        // A component's H sums R X over its input's block only: X is zero elsewhere.
+        assert!(
+            (0..3).all(|k| blocks.iter().filter(|b| b.inputs.contains(&k)).count() <= 1),
+            "the model's geometry drives two blocks from one input axis"
         );
         let param_block: Vec<usize> = param_shapes
             .iter()
@@ -241,26 +354,30 @@ impl Objective {
                     .unwrap_or(0)
             })
             .collect();
-        let mut shapes: Vec<(Shape, usize)> = Vec::new();
+        let mut shapes: Vec<LocalShape> = Vec::new();
         let param_shape = param_shapes
             .iter()
             .zip(&param_block)
             .map(|(shape, &block)| {
                 let known = shapes
                     .iter()
-                    .position(|(s, _)| s.entries() == shape.entries());
+                    .position(|s| s.shape.entries() == shape.entries());
                 known.unwrap_or_else(|| {
-                    shapes.push((*shape, block));
+                    let dofs = &blocks[block].dofs;
+                    let entries = shape
+                        .entries()
+                        .iter()
+                        .map(|&(d, weight)| {
+                            (dofs.iter().position(|&x| x == d).unwrap_or(0), d, weight)
+                        })
+                        .collect();
+                    shapes.push(LocalShape {
+                        shape: *shape,
+                        block,
+                        entries,
+                    });
                     shapes.len() - 1
                 })
-            })
-            .collect();
-        let output_rows = (0..9)
-            .map(|j| {
-                (0..DOF_COUNT)
-                    .filter(|&d| matrices.output[(j, d)] != 0.0)
-                    .map(|d| (d, matrices.output[(j, d)]))
-                    .collect()
             })
             .collect();
         Self {
@@ -271,7 +388,6 @@ impl Objective {
             param_shape,
             blocks,
             param_block,
-            output_rows,
         }
     }
 
@@ -404,6 +520,9 @@ impl Objective {
         }
     }
 
+    // The block's system is filled entry by entry from several arrays at once: index
+    // loops say that most plainly.
+    #[allow(clippy::needless_range_loop)]
     fn evaluate_scope(
         &self,
         theta: &[f64],
@@ -423,140 +542,138 @@ impl Objective {
             cols,
             per_freq,
         } = self.layout(scope);
-        // The distinct shapes of the scope's blocks, and their u and v (below), set per
-        // frequency.
-        let shape_ids: Vec<usize> = (0..self.shapes.len())
-            .filter(|&i| blocks.contains(&self.shapes[i].1))
-            .collect();
-        let mut uv = vec![([Cplx::new(0.0, 0.0); 9], [Cplx::new(0.0, 0.0); 3]); self.shapes.len()];
+        let mut slot_of = [usize::MAX; COMPONENTS];
+        for &(c, slot) in &comps {
+            slot_of[c] = slot;
+        }
         let zero = Cplx::new(0.0, 0.0);
-        let mut projected = vec![[(zero, zero); COMPONENTS]; self.shapes.len()];
-        let mut x = SMatrix::<Cplx, DOF_COUNT, 3>::zeros();
-        let mut w = SMatrix::<Cplx, DOF_COUNT, 9>::zeros();
         let want_w = jacobian.is_some();
-        for (f, &freq_hz) in self.target.freqs_hz.iter().enumerate() {
-            let omega = 2.0 * PI * freq_hz;
-            // A is block diagonal over the uncoupled subsystems: solve each block alone
-            // for X = A^-1 F (F = (K + j w C) G) and W = A^-1 R^T.
-            for block in blocks.iter().map(|&b| &self.blocks[b]) {
-                let n = block.dofs.len();
-                let mut a = [[Cplx::new(0.0, 0.0); MAX_BLOCK]; MAX_BLOCK];
-                let mut rhs = [[Cplx::new(0.0, 0.0); 12]; MAX_BLOCK];
-                let nk = block.inputs.len();
-                let nrhs = nk + if want_w { block.outputs.len() } else { 0 };
-                for (i, &di) in block.dofs.iter().enumerate() {
-                    for (j, &dj) in block.dofs.iter().enumerate() {
+        // Block by block (they are uncoupled), each with its matrices copied to local DOFs
+        // once per evaluation, so the frequency loop reads small arrays only.
+        for b in blocks {
+            let block = &self.blocks[b];
+            let (n, nk) = (block.dofs.len(), block.inputs.len());
+            let no = if want_w { block.read_outputs.len() } else { 0 };
+            let local = LocalMatrices::of_block(block, &matrices, &kg, &cg, r_out);
+            let shape_ids: Vec<usize> = (0..self.shapes.len())
+                .filter(|&i| self.shapes[i].block == b)
+                .collect();
+            // (free parameter, its Jacobian column, its shape's index in `shape_ids`).
+            let block_cols: Vec<(usize, usize, usize)> = cols
+                .iter()
+                .filter(|&&(p, _)| self.param_block[p] == b)
+                .map(|&(p, col)| {
+                    let s = shape_ids.iter().position(|&i| i == self.param_shape[p]);
+                    (p, col, s.unwrap_or(0))
+                })
+                .collect();
+            let mut uv = vec![([zero; MAX_OUTPUTS], [zero; 3]); shape_ids.len()];
+            let mut projected = vec![[(zero, zero); COMPONENTS]; shape_ids.len()];
+            // Every frequency overwrites the n x n and n x (nk + no) entries the solve reads.
+            let mut a = [[zero; MAX_BLOCK]; MAX_BLOCK];
+            let mut rhs = [[zero; MAX_RHS]; MAX_BLOCK];
+            for (f, &freq_hz) in self.target.freqs_hz.iter().enumerate() {
+                let omega = 2.0 * PI * freq_hz;
+                // X = A^-1 F (F = (K + j w C) G) in the first nk columns, W = A^-1 R^T
+                // (the read outputs' rows of R) in the next no.
+                for i in 0..n {
+                    for j in 0..n {
                         a[i][j] = Cplx::new(
-                            matrices.stiffness[(di, dj)] - omega * omega * matrices.mass[(di, dj)],
-                            omega * matrices.damping[(di, dj)],
+                            local.stiffness[i][j] - omega * omega * local.mass[i][j],
+                            omega * local.damping[i][j],
                         );
                     }
-                    for (col, &k) in block.inputs.iter().enumerate() {
-                        rhs[i][col] = Cplx::new(kg[(di, k)], omega * cg[(di, k)]);
+                    for col in 0..nk {
+                        rhs[i][col] = Cplx::new(local.kg[i][col], omega * local.cg[i][col]);
                     }
-                    if want_w {
-                        for (col, &j) in block.outputs.iter().enumerate() {
-                            rhs[i][nk + col] = Cplx::new(r_out[(j, di)], 0.0);
-                        }
+                    for col in 0..no {
+                        rhs[i][nk + col] = Cplx::new(local.output[col][i], 0.0);
                     }
                 }
-                if !solve_small(n, &mut a, &mut rhs, nrhs) {
+                if !solve_small(n, &mut a, &mut rhs, nk + no) {
                     return Err(format!("the model is singular at {freq_hz} Hz"));
                 }
-                for (i, &di) in block.dofs.iter().enumerate() {
-                    for (col, &k) in block.inputs.iter().enumerate() {
-                        x[(di, k)] = rhs[i][col];
+                let x = |i: usize, col: usize| rhs[i][col];
+                let w = |i: usize, o: usize| rhs[i][nk + o];
+                // Only the fitted components of H = R X.
+                let measured = &self.target.h[f];
+                let base = f * per_freq;
+                let mut h = [zero; COMPONENTS];
+                for (&c, &(kl, ol)) in block.components.iter().zip(&block.component_at) {
+                    let (output, input) = COUPLED_COMPONENTS[c];
+                    let mut sum = zero;
+                    for &(i, weight) in &block.read_rows[ol] {
+                        sum += x(i, kl) * weight;
                     }
-                    if want_w {
-                        for (col, &j) in block.outputs.iter().enumerate() {
-                            w[(di, j)] = rhs[i][nk + col];
+                    h[c] = sum;
+                    let gv = measured[(output.index(), input.index())];
+                    let r = base + slot_of[c];
+                    let g_abs = gv.norm_sqr().sqrt();
+                    residuals[r] = (sum.norm_sqr().sqrt() - g_abs) / g_abs;
+                    // wrap(arg h - arg g) = arg(h conj(g)), in (-pi, pi].
+                    residuals[r + 1] = wrap_pi((sum * gv.conj()).arg()) / PI;
+                }
+                let Some(jac) = jacobian.as_deref_mut() else {
+                    continue;
+                };
+                // d r_mag = Re(dh conj(h) / (|h| |g|)), d r_phase = Im(dh / (pi h)): the
+                // factors once per component, so the inner loop only multiplies.
+                let mut mag_factor = [zero; COMPONENTS];
+                let mut phase_factor = [zero; COMPONENTS];
+                for &c in &block.components {
+                    let (output, input) = COUPLED_COMPONENTS[c];
+                    let (hv, gv) = (h[c], measured[(output.index(), input.index())]);
+                    mag_factor[c] = hv.conj() / (hv.norm_sqr() * gv.norm_sqr()).sqrt();
+                    phase_factor[c] = Cplx::new(1.0, 0.0) / (hv * PI);
+                }
+                // W = A^-1 R^T, so (R A^-1)_(j, d) = W_(d, j) by symmetry of A. Per distinct
+                // shape b: u = R A^-1 b (the read outputs) and v = b^T (G - X) (the
+                // inputs), shared by the stiffness and the damping of its element and axis.
+                for (s, &i) in shape_ids.iter().enumerate() {
+                    let (u, v) = &mut uv[s];
+                    *u = [zero; MAX_OUTPUTS];
+                    *v = [zero; 3];
+                    for &(d, global, wt) in &self.shapes[i].entries {
+                        for (o, u) in u.iter_mut().enumerate().take(no) {
+                            *u += w(d, o) * wt;
+                        }
+                        for (kl, &k) in block.inputs.iter().enumerate() {
+                            v[kl] += (Cplx::new(g_real[(global, k)], 0.0) - x(d, kl)) * wt;
                         }
                     }
                 }
-            }
-            // Only the fitted components of H = R X.
-            let measured = &self.target.h[f];
-            let base = f * per_freq;
-            let mut h = [Cplx::new(0.0, 0.0); COMPONENTS];
-            for &(c, slot) in &comps {
-                let (output, input) = COUPLED_COMPONENTS[c];
-                let (j, k) = (output.index(), input.index());
-                h[c] = self.output_rows[j]
-                    .iter()
-                    .map(|&(d, weight)| x[(d, k)] * weight)
-                    .sum();
-                let (hv, gv) = (h[c], measured[(j, k)]);
-                let r = base + slot;
-                let g_abs = gv.norm_sqr().sqrt();
-                residuals[r] = (hv.norm_sqr().sqrt() - g_abs) / g_abs;
-                // wrap(arg h - arg g) = arg(h conj(g)), in (-pi, pi].
-                residuals[r + 1] = wrap_pi((hv * gv.conj()).arg()) / PI;
-            }
-            let Some(jac) = jacobian.as_deref_mut() else {
-                continue;
-            };
-            // d r_mag = Re(dh conj(h) / (|h| |g|)), d r_phase = Im(dh / (pi h)): the factors
-            // once per component, so the inner loop only multiplies.
-            let mut mag_factor = [Cplx::new(0.0, 0.0); COMPONENTS];
-            let mut phase_factor = [Cplx::new(0.0, 0.0); COMPONENTS];
-            let mut slot_of = [0; COMPONENTS];
-            for &(c, slot) in &comps {
-                let (output, input) = COUPLED_COMPONENTS[c];
-                let (hv, gv) = (h[c], measured[(output.index(), input.index())]);
-                mag_factor[c] = hv.conj() / (hv.norm_sqr() * gv.norm_sqr()).sqrt();
-                phase_factor[c] = Cplx::new(1.0, 0.0) / (hv * PI);
-                slot_of[c] = slot;
-            }
-            // W = A^-1 R^T, so (R A^-1)_(j, d) = W_(d, j) by symmetry of A. Per distinct
-            // shape b: u = R A^-1 b (9) and v = b^T (G - X) (3), shared by the stiffness
-            // and the damping of its element and axis.
-            for &i in &shape_ids {
-                let (shape, b) = &self.shapes[i];
-                let (u, v) = &mut uv[i];
-                *u = [Cplx::new(0.0, 0.0); 9];
-                *v = [Cplx::new(0.0, 0.0); 3];
-                let block = &self.blocks[*b];
-                for &(d, wt) in shape.entries() {
-                    for &j in &block.outputs {
-                        u[j] += w[(d, j)] * wt;
-                    }
-                    for &k in &block.inputs {
-                        v[k] += (Cplx::new(g_real[(d, k)], 0.0) - x[(d, k)]) * wt;
+                // Per shape and component, dh/dp / s projected on both residuals:
+                // t = u_o v_i, (t m_c, t p_c) with the factors above. A stiffness (s = p)
+                // then gives (p Re(t m), p Im(t p)); a damping (s = j w p) gives
+                // (-w p Im(t m), w p Re(t p)): one complex product per shape, not per
+                // parameter.
+                for (s, (u, v)) in uv.iter().enumerate() {
+                    for (&c, &(kl, ol)) in block.components.iter().zip(&block.component_at) {
+                        let t = u[ol] * v[kl];
+                        projected[s][c] = (t * mag_factor[c], t * phase_factor[c]);
                     }
                 }
-            }
-            // Per shape and component, dh/dp / s projected on both residuals:
-            // t = u_o v_i, (t m_c, t p_c) with the factors above. A stiffness (s = p)
-            // then gives (p Re(t m), p Im(t p)); a damping (s = j w p) gives
-            // (-w p Im(t m), w p Re(t p)): one complex product per shape, not per parameter.
-            for &i in &shape_ids {
-                let (u, v) = &uv[i];
-                let block = &self.blocks[self.shapes[i].1];
-                for &c in &block.components {
-                    let (output, input) = COUPLED_COMPONENTS[c];
-                    let t = u[output.index()] * v[input.index()];
-                    projected[i][c] = (t * mag_factor[c], t * phase_factor[c]);
-                }
-            }
-            for &(p, col) in &cols {
-                let block = &self.blocks[self.param_block[p]];
-                let projected = &projected[self.param_shape[p]];
-                let column = &mut jac.column_mut(col);
-                if self.free[p].is_stiffness() {
-                    let value = values[p];
-                    for &c in &block.components {
-                        let (tm, tp) = projected[c];
-                        let r = base + slot_of[c];
-                        column[r] = value * tm.re;
-                        column[r + 1] = value * tp.im;
-                    }
-                } else {
-                    let value = omega * values[p];
-                    for &c in &block.components {
-                        let (tm, tp) = projected[c];
-                        let r = base + slot_of[c];
-                        column[r] = -value * tm.im;
-                        column[r + 1] = value * tp.re;
+                let rows = jac.nrows();
+                let entries = jac.as_mut_slice();
+                for &(p, col, s) in &block_cols {
+                    let projected = &projected[s];
+                    let column = &mut entries[col * rows..(col + 1) * rows];
+                    if self.free[p].is_stiffness() {
+                        let value = values[p];
+                        for &c in &block.components {
+                            let (tm, tp) = projected[c];
+                            let r = base + slot_of[c];
+                            column[r] = value * tm.re;
+                            column[r + 1] = value * tp.im;
+                        }
+                    } else {
+                        let value = omega * values[p];
+                        for &c in &block.components {
+                            let (tm, tp) = projected[c];
+                            let r = base + slot_of[c];
+                            column[r] = -value * tm.im;
+                            column[r + 1] = value * tp.re;
+                        }
                     }
                 }
             }

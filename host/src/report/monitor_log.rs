@@ -1,0 +1,212 @@
+//! A device session logged by `supine monitor --log FILE.csv` as the report's input: the
+//! ride is the input the device's model got (`<stem>.input.csv`), recomputed on the host,
+//! and the device's own telemetry and events (`FILE.csv`, `<stem>.events.csv`) are set
+//! beside the host's as a [`DeviceLog`], which the report's device section checks
+//! (largest difference, identical events), as for the demo.
+//!
+//! The host's run is only comparable when it is the device's: the same parameters and
+//! patient (the identity in `<stem>.session.json` must be the one `--preset`/`--params`
+//! and the patient build), the same rate, and every sample of the input stream. Anything
+//! else is refused with one line saying which file and what was expected.
+
+use std::io::BufRead as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Result, anyhow, bail};
+use supine_core::blob::DeviceParams;
+
+use crate::device::device_params::{self, identity_hex};
+use crate::device::link::LinkStats;
+use crate::exposure::reference;
+use crate::io::monitor_session::{SessionInfo, input_path, session_path};
+use crate::io::params_file::ParamFile;
+use crate::io::telemetry_csv::{
+    EventRow, TELEMETRY_HEADER, events_path, read_events, read_telemetry,
+};
+use crate::report::device_check::{DeviceLog, DeviceRun};
+use crate::report::trace::Trace;
+
+/// Longest first line read to recognize a monitor log, bytes.
+const MAX_HEADER_BYTES: u64 = 4096;
+
+/// Whether `path` is a telemetry log (its first line is [`TELEMETRY_HEADER`]); a file
+/// that cannot be read is not one (the ride reader then says why).
+pub fn is_monitor_log(path: &Path) -> bool {
+    let Ok(file) = std::fs::File::open(path) else {
+        return false;
+    };
+    let mut line = String::new();
+    let mut reader = std::io::BufReader::new(std::io::Read::take(file, MAX_HEADER_BYTES));
+    if reader.read_line(&mut line).is_err() {
+        return false;
+    }
+    let line = line.trim_start_matches('\u{feff}').trim_end();
+    line == TELEMETRY_HEADER
+}
+
+/// A monitor log, checked against the parameters given, and its ride.
+pub struct LoggedSession {
+    /// The input the device's model got, as a ride file: the report's one leg.
+    pub ride: PathBuf,
+    /// What the session file says.
+    pub session: SessionInfo,
+    /// The parameters the device ran (rebuilt from the ones given, identity checked).
+    pub params: DeviceParams,
+}
+
+/// Checks the log at `log` against `file` (the parameters and patient given): the input
+/// stream is there and complete, the parameters are the device's.
+pub fn open(log: &Path, file: &ParamFile) -> Result<LoggedSession> {
+    let ride = input_path(log);
+    let session_file = session_path(log);
+    if !ride.exists() || !session_file.exists() {
+        bail!(
+            "{}: a monitor log without {}: the session was logged without the input stream \
+             (supine monitor --log from protocol 5 on writes it), so it cannot be re-analysed",
+            log.display(),
+            if ride.exists() {
+                session_file.display()
+            } else {
+                ride.display()
+            }
+        );
+    }
+    let session = SessionInfo::read(&session_file)?;
+    let params = device_params::build(file, session.sample_rate_hz)
+        .map_err(|e| anyhow!("{}: {e}", session_file.display()))?;
+    let ours = identity_hex(&params.identity);
+    if ours != session.params_identity {
+        bail!(
+            "{}: params_identity {} (patient {} m, {} kg), but the parameters and patient \
+             given build {ours} (patient {} m, {} kg): give the --preset or --params and \
+             --height-m/--mass-kg the device ran",
+            session_file.display(),
+            session.params_identity,
+            session.height_m,
+            session.mass_kg,
+            params.patient.height_m,
+            params.patient.mass_kg,
+        );
+    }
+    if session.params_changed {
+        bail!(
+            "{}: params_changed is true: the device switched parameters during the session, \
+             expected one parameter set",
+            session_file.display()
+        );
+    }
+    if session.input_samples_lost > 0 || session.input_frames_bad > 0 {
+        bail!(
+            "{}: input_samples_lost {} (bad frames {}): the input stream has gaps, expected \
+             every sample to re-analyse {}",
+            session_file.display(),
+            session.input_samples_lost,
+            session.input_frames_bad,
+            ride.display()
+        );
+    }
+    if session.input_samples < 2 {
+        bail!(
+            "{}: input_samples {}: expected at least 2 samples in {}",
+            session_file.display(),
+            session.input_samples,
+            ride.display()
+        );
+    }
+    Ok(LoggedSession {
+        ride,
+        session,
+        params,
+    })
+}
+
+/// The device's account and the host's for the logged session: the host runs the
+/// device's pipeline (f32) and the f64 model on `samples`, the ride as read back from the
+/// input file.
+pub fn device_log(
+    log: &Path,
+    logged: &LoggedSession,
+    file: &ParamFile,
+    samples: &[[f32; 3]],
+) -> Result<DeviceLog> {
+    let s = &logged.session;
+    let fs = s.sample_rate_hz;
+    if samples.len() as u64 != s.input_samples {
+        bail!(
+            "{}: {} samples, expected input_samples {} from {}",
+            logged.ride.display(),
+            samples.len(),
+            s.input_samples,
+            session_path(log).display()
+        );
+    }
+    let first = s.first_input_sample.unwrap_or(0);
+    let indices: Vec<u32> = (0..samples.len() as u32)
+        .map(|k| first.wrapping_add(k))
+        .collect();
+    let host = reference::pipeline(&logged.params, &indices, samples);
+    let head_f64 = reference::head_f64(&file.params, fs, samples)?;
+    let telemetry = read_telemetry(log)?;
+    let events = read_events(&events_path(log), fs)?;
+    let rows = |events: &[supine_core::alerts::AlertEvent]| -> Vec<EventRow> {
+        events.iter().map(|e| EventRow::from_event(e, fs)).collect()
+    };
+    let name = |p: &Path| {
+        p.file_name()
+            .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
+    };
+    Ok(DeviceLog {
+        run: DeviceRun {
+            account: format!(
+                "The device's session as supine monitor logged it ({}): its telemetry and alert \
+                 events, and the input its model got ({}), which the host ran through the same \
+                 f32 pipeline with the same parameters and through the f64 model.",
+                log.display(),
+                logged.ride.display()
+            ),
+            device_line: format!(
+                "firmware {}, protocol {}, parameters {}, {} Hz, patient {} m, {} kg",
+                s.firmware_version,
+                s.protocol_version,
+                s.params_identity,
+                s.sample_rate_hz,
+                s.height_m,
+                s.mass_kg
+            ),
+            firmware_version: s.firmware_version.clone(),
+            status: s.status,
+            link: LinkStats {
+                frames: s.link_frames,
+                bad_frames: s.link_bad_frames,
+                lost_frames: s.link_lost_frames,
+                reordered_frames: s.link_reordered_frames,
+            },
+            step_times: Vec::new(),
+            notes: vec![(
+                "input stream".to_string(),
+                format!(
+                    "{} samples from sample {first}, {} frames, none lost",
+                    s.input_samples, s.input_frames
+                ),
+            )],
+            files: [
+                (name(log), "the device's telemetry"),
+                (name(&events_path(log)), "the device's alert events"),
+                (name(&logged.ride), "the input the device's model got"),
+                (name(&session_path(log)), "the session's facts"),
+            ]
+            .map(|(f, what)| (f, what.to_string()))
+            .to_vec(),
+        },
+        sample_rate_hz: fs,
+        samples: samples.len(),
+        input_m_s2: [0, 1, 2].map(|a| samples.iter().map(|x| f64::from(x[a])).collect()),
+        bands: Vec::new(),
+        moments: Vec::new(),
+        device: Trace::from_telemetry(&telemetry, fs),
+        device_events: events,
+        host: Trace::from_telemetry(&host.telemetry, fs),
+        host_events: rows(&host.events),
+        host_head_f64_m_s2: [0, 1, 2].map(|a| head_f64.iter().map(|h| h[a]).collect()),
+    })
+}
