@@ -186,12 +186,40 @@ impl DeviceParams {
         let mut in_blocks = input_m_s2.chunks_exact(BLOCK_LEN);
         for (idx, inp) in (&mut idx_blocks).zip(&mut in_blocks) {
             if let (Ok(idx), Ok(inp)) = (idx.try_into(), inp.try_into()) {
-                self.process_block::<BLOCK_LEN>(state, idx, inp, &mut emit);
+                self.process_full_block(state, idx, inp, &mut emit);
             }
         }
         for (&i, &x) in idx_blocks.remainder().iter().zip(in_blocks.remainder()) {
-            self.process_block::<1>(state, &[i], &[x], &mut emit);
+            self.process_one(state, i, x, &mut emit);
         }
+    }
+
+    /// [`process_block`](Self::process_block) of [`BLOCK_LEN`] samples, compiled once, in
+    /// this crate, whatever the caller's `emit`: the device builds this crate for speed and
+    /// the rest of its image for size (the workspace's `Cargo.toml`), and the per-sample
+    /// path must not take the caller's level. An output costs one indirect call.
+    #[inline(never)]
+    fn process_full_block(
+        &self,
+        state: &mut PipelineState,
+        indices: &[u32; BLOCK_LEN],
+        input_m_s2: &[[f32; 3]; BLOCK_LEN],
+        emit: &mut dyn FnMut(PipelineOutput),
+    ) {
+        self.process_block::<BLOCK_LEN>(state, indices, input_m_s2, &mut |o| emit(o));
+    }
+
+    /// [`process_block`](Self::process_block) of one sample (the end of a partial block),
+    /// compiled once here, as [`process_full_block`](Self::process_full_block).
+    #[inline(never)]
+    fn process_one(
+        &self,
+        state: &mut PipelineState,
+        index: u32,
+        input_m_s2: [f32; 3],
+        emit: &mut dyn FnMut(PipelineOutput),
+    ) {
+        self.process_block::<1>(state, &[index], &[input_m_s2], &mut |o| emit(o));
     }
 
     /// One block of exactly `N` samples (`N` at most [`BLOCK_LEN`]).

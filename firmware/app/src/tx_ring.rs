@@ -73,10 +73,10 @@ impl TxRing {
             .get_mut(tail..tail + telemetry_frame::MAX_FRAME)
             .and_then(|s| <&mut [u8; telemetry_frame::MAX_FRAME]>::try_from(s).ok());
         if let Some(frame) = contiguous {
-            self.len += encode_telemetry(seq, t, frame);
+            self.len += telemetry_frame::encode(seq, t, frame);
         } else {
             let mut frame = [0u8; telemetry_frame::MAX_FRAME];
-            let len = encode_telemetry(seq, t, &mut frame);
+            let len = telemetry_frame::encode(seq, t, &mut frame);
             self.push(frame.get(..len).unwrap_or(&[]), link);
         }
     }
@@ -103,16 +103,4 @@ impl TxRing {
             self.len -= 1;
         }
     }
-}
-
-/// [`telemetry_frame::encode`], once: inlined at both of its places in
-/// [`TxRing::push_telemetry`] its ten joint values' encoding cost about 700 B of flash
-/// twice, for a call's few instructions per frame.
-#[inline(never)]
-fn encode_telemetry(
-    seq: u32,
-    t: &Telemetry,
-    frame: &mut [u8; telemetry_frame::MAX_FRAME],
-) -> usize {
-    telemetry_frame::encode(seq, t, frame)
 }

@@ -97,8 +97,9 @@ impl Cobs<'_> {
 }
 
 /// Encodes the frame into `frame` (offsets `0..len`); returns its length, terminating zero
-/// included (at most [`MAX_FRAME`]).
-#[inline(always)]
+/// included (at most [`MAX_FRAME`]). Out of line, so compiled in this crate (built for
+/// speed on the device) and once.
+#[inline(never)]
 pub fn encode(seq: u32, t: &Telemetry, frame: &mut [u8; MAX_FRAME]) -> usize {
     let mut c = Cobs {
         frame,
