@@ -129,12 +129,15 @@ impl JointExposureState {
     /// square's update gain over the step since the last reading ([`running_gain`]).
     #[inline(never)]
     pub fn step(&mut self, gain: f32, y: &[f32]) {
-        for ((ms, peak), &v) in self.ms.iter_mut().zip(&mut self.peak).zip(y) {
+        let n = y.len().min(JOINT_OUTPUT_COUNT);
+        for ((ms, peak), &v) in self.ms[..n]
+            .iter_mut()
+            .zip(&mut self.peak[..n])
+            .zip(&y[..n])
+        {
             *ms += gain * (v * v - *ms);
-            let a = if v < 0.0 { -v } else { v };
-            if a > *peak {
-                *peak = a;
-            }
+            let a = v.abs();
+            *peak = if a > *peak { a } else { *peak };
         }
     }
 

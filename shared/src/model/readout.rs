@@ -308,15 +308,24 @@ impl JointReadout {
         for ((group, head_group), u) in self.groups.iter().zip(&head.groups).zip(input_m_s2) {
             let end = (first + usize::from(head_group.block_count)).min(MAX_BLOCKS);
             let rows = usize::from(group.row_count).min(MAX_JOINT_ROWS);
-            let Some(acc) = out.get_mut(count..count + rows) else {
+            let (Some(block_rows), Some(states), Some(out)) = (
+                self.rows.get(first..end),
+                state.blocks.get(first..end),
+                out.get_mut(count..count + rows),
+            ) else {
                 break;
             };
-            for (a, d) in acc.iter_mut().zip(&group.feedthrough) {
-                *a = d * u;
-            }
-            for (block_rows, x) in self.rows[first..end].iter().zip(&state.blocks[first..end]) {
-                for (a, c) in acc.iter_mut().zip(block_rows) {
-                    *a += c[0] * x[0] + c[1] * x[1];
+            // One copy of the loop per row count: its accumulators then stay in registers
+            // and it is loads and multiply-adds only; a group read by none costs nothing.
+            let d = &group.feedthrough;
+            match out {
+                [] => {}
+                [a] => *a = accumulate::<1>(d, u, block_rows, states)[0],
+                [a, b] => [*a, *b] = accumulate::<2>(d, u, block_rows, states),
+                [a, b, c] => [*a, *b, *c] = accumulate::<3>(d, u, block_rows, states),
+                _ => {
+                    let acc = accumulate::<MAX_JOINT_ROWS>(d, u, block_rows, states);
+                    out.iter_mut().zip(acc).for_each(|(o, a)| *o = a);
                 }
             }
             count += rows;
@@ -364,4 +373,22 @@ impl JointReadout {
         }
         h
     }
+}
+
+/// The first `R` rows of one axis group at a sample: the direct term times the input `u`
+/// plus each block's rows (`block_rows`) times its state (`states`).
+#[inline(always)]
+fn accumulate<const R: usize>(
+    feedthrough: &[f32; MAX_JOINT_ROWS],
+    u: f32,
+    block_rows: &[[[f32; 2]; MAX_JOINT_ROWS]],
+    states: &[[f32; 2]],
+) -> [f32; R] {
+    let mut acc: [f32; R] = core::array::from_fn(|r| feedthrough[r % MAX_JOINT_ROWS] * u);
+    for (c, x) in block_rows.iter().zip(states) {
+        for (a, c) in acc.iter_mut().zip(c) {
+            *a += c[0] * x[0] + c[1] * x[1];
+        }
+    }
+    acc
 }
