@@ -194,6 +194,24 @@ impl DeviceParams {
         }
     }
 
+    /// The exposure stage of a block of head accelerations (`head_m_s2`, the first at sample
+    /// `first`): the exposure's and the alerts' `step_block`, as the pipeline runs them,
+    /// compiled in this crate at its opt-level, for the self-test to time.
+    #[inline(never)]
+    pub fn exposure_stage(
+        &self,
+        exposure: &mut ExposureState,
+        alerts: &mut AlertState,
+        head_m_s2: &[[f32; 3]; BLOCK_LEN],
+        first: u32,
+        samples: &mut [ExposureSample; BLOCK_LEN],
+        emit: &mut dyn FnMut(AlertEvent),
+    ) {
+        self.exposure
+            .step_block(exposure, head_m_s2, first, samples);
+        self.alerts.step_block(alerts, samples, first, emit);
+    }
+
     /// [`process_block`](Self::process_block) of [`BLOCK_LEN`] samples, compiled once, in
     /// this crate, whatever the caller's `emit`: the device builds this crate for speed and
     /// the rest of its image for size (the workspace's `Cargo.toml`), and the per-sample

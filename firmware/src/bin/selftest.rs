@@ -252,7 +252,8 @@ fn time_steps(realization: &DeviceRealization, counter: &InstructionCounter) -> 
     let (step_ticks, ()) = counter.ticks(|| {
         for _ in 0..TIMING_ROUNDS {
             for input in &inputs {
-                let y = black_box(realization).step(black_box(&mut state), black_box(*input));
+                let y =
+                    black_box(realization).step_device(black_box(&mut state), black_box(*input));
                 black_box(y);
             }
         }
@@ -308,26 +309,27 @@ fn time_stages(counter: &InstructionCounter, out: &mut Console) -> Result<(), Fa
         }
         let first = round * BLOCK_LEN as u32;
         if round < warmup_rounds {
-            device
-                .exposure
-                .step_block(&mut exposure_state, &inputs, first, &mut samples);
-            device
-                .alerts
-                .step_block(&mut alert_state, &samples, first, |_| {});
+            device.exposure_stage(
+                &mut exposure_state,
+                &mut alert_state,
+                &inputs,
+                first,
+                &mut samples,
+                &mut |_| {},
+            );
             continue;
         }
         let (t, ()) = counter.ticks(|| {
-            device.exposure.step_block(
+            device.exposure_stage(
                 black_box(&mut exposure_state),
+                black_box(&mut alert_state),
                 black_box(&inputs),
                 first,
                 &mut samples,
-            );
-            device
-                .alerts
-                .step_block(&mut alert_state, black_box(&samples), first, |e| {
+                &mut |e| {
                     black_box(e);
-                });
+                },
+            );
         });
         ticks = ticks.wrapping_add(t);
         timed_valid &= samples.iter().all(|s| s.valid);

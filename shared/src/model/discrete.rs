@@ -204,6 +204,16 @@ impl core::fmt::Display for RealizationError {
 
 impl core::error::Error for RealizationError {}
 
+impl DeviceRealization {
+    /// [`step`](DiscreteModal::step), compiled in this crate: the copy the device's
+    /// pipeline runs, at this crate's opt-level (the rest of the image is built for size,
+    /// the workspace's `Cargo.toml`), for the self-test to time.
+    #[inline(never)]
+    pub fn step_device(&self, state: &mut ModalState<f32>, input_m_s2: [f32; 3]) -> [f32; 3] {
+        self.step(state, input_m_s2)
+    }
+}
+
 impl<T: Scalar, const NY: usize> DiscreteModal<T, NY> {
     /// Advances one sample: returns the outputs at this sample (m/s^2) from the support
     /// acceleration at this sample (m/s^2, x, y, z) and moves the state on.
