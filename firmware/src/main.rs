@@ -10,9 +10,10 @@
 #![no_main]
 
 use cortex_m_rt::entry;
+use heapless::String;
 use supine_app::{App, Boot};
-use supine_core::blob::BlobError;
-use supine_core::protocol::ResetCause;
+use supine_core::blob::{BlobError, DeviceParams};
+use supine_core::protocol::{PANIC_MESSAGE_LEN, ParamsSource, ResetCause};
 use supine_firmware::boards::mps2_an386::{Board, SsramFlash, Uart};
 use supine_firmware::cycles::InstructionCounter;
 use supine_firmware::host_file::{self, HostFile};
@@ -51,7 +52,24 @@ fn monitor(
     let flash = SsramFlash::new(region);
     let mut loaded = Err(BlobError::Empty);
     let source = params::load_to(&flash, &mut loaded);
-    let Ok(params) = loaded else {
+    let counter = InstructionCounter::new(board.syst);
+    let link = ReplayLink::new(board.uart0, replay_input);
+    start(link, counter, flash, &mut loaded, source, last_panic)
+}
+
+/// The monitor on the loaded parameters (`loaded`, from `source`), which it takes out of
+/// their place. Out of line: the `Boot` that holds them then lives in this frame, not in
+/// the boot's beside them while they are decoded (the stack's peak).
+#[inline(never)]
+fn start(
+    link: ReplayLink<Uart>,
+    counter: InstructionCounter,
+    flash: SsramFlash,
+    loaded: &mut Result<DeviceParams, BlobError>,
+    source: ParamsSource,
+    last_panic: Option<String<PANIC_MESSAGE_LEN>>,
+) -> App<ReplayLink<Uart>, InstructionCounter, PaintedStack, SsramFlash> {
+    let Ok(params) = core::mem::replace(loaded, Err(BlobError::Empty)) else {
         // The built-in default was validated when it was built: a broken build.
         exit::exit(exit::FAILURE)
     };
@@ -66,8 +84,6 @@ fn monitor(
         },
         last_panic: last_panic.unwrap_or_default(),
     };
-    let counter = InstructionCounter::new(board.syst);
-    let link = ReplayLink::new(board.uart0, replay_input);
     App::with_updates(
         link,
         counter,
