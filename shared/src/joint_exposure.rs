@@ -4,7 +4,7 @@
 //! telemetry and status carry.
 //!
 //! The joint outputs are read on the samples telemetry reports (every `decimation`-th),
-//! not on every sample: all ten cost about 1,400 instructions per reading, which on every
+//! not on every sample: all ten cost about 1,000 instructions per reading, which on every
 //! sample would more than double the pipeline's cost (BENCHMARKS.md). Their motion lies below about 20 Hz, so the
 //! running mean square of those samples is the same average with the gain of the longer
 //! step, `1 - alpha^D`; the excursion misses the true peak by at most
