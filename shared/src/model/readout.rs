@@ -323,10 +323,11 @@ impl JointReadout {
                 [a] => *a = accumulate::<1>(d, u, block_rows, states)[0],
                 [a, b] => [*a, *b] = accumulate::<2>(d, u, block_rows, states),
                 [a, b, c] => [*a, *b, *c] = accumulate::<3>(d, u, block_rows, states),
-                _ => {
-                    let acc = accumulate::<MAX_JOINT_ROWS>(d, u, block_rows, states);
-                    out.iter_mut().zip(acc).for_each(|(o, a)| *o = a);
+                [a, b, c, e] => {
+                    [*a, *b, *c, *e] = accumulate::<MAX_JOINT_ROWS>(d, u, block_rows, states);
                 }
+                // `rows` is at most MAX_JOINT_ROWS.
+                _ => {}
             }
             count += rows;
             first = end;
