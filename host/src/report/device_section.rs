@@ -110,11 +110,11 @@ fn events_table(h: &mut String, log: &DeviceLog) {
             e.time_s
         );
     }
-    if log.device_events.len() > MAX_DEVICE_EVENT_ROWS {
+    if log.device_event_count > MAX_DEVICE_EVENT_ROWS {
         let _ = writeln!(
             h,
             "<tr><td colspan=\"2\" class=\"text\">... {} more in the events file</td></tr>",
-            log.device_events.len() - MAX_DEVICE_EVENT_ROWS
+            log.device_event_count - MAX_DEVICE_EVENT_ROWS
         );
     }
     h.push_str("</table>\n");
