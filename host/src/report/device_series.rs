@@ -23,7 +23,8 @@ pub struct TraceSeries {
     pub vector_rms_m_s2: Points,
     /// VDV of the vector sum so far, m/s^1.75.
     pub vdv_m_s175: Points,
-    /// The alert level as steps: a point at the start, two at every change, one at the end.
+    /// The alert level (0-3) of every record and held to the end, per column its lowest
+    /// and highest: a change is a vertical step within its pixel column.
     pub level_steps: Points,
 }
 
@@ -34,7 +35,7 @@ pub struct TraceSeriesBuilder {
     running_rms_m_s2: [MinMax; 3],
     vector_rms_m_s2: MinMax,
     vdv_m_s175: MinMax,
-    level_steps: Points,
+    level_steps: MinMax,
     last_level: Option<Level>,
 }
 
@@ -47,7 +48,8 @@ impl TraceSeriesBuilder {
             running_rms_m_s2: [column(), column(), column()],
             vector_rms_m_s2: column(),
             vdv_m_s175: column(),
-            level_steps: Vec::new(),
+            // One more point: the level held to the end.
+            level_steps: MinMax::new(records + 1, PLOT_COLUMNS),
             last_level: None,
         }
     }
@@ -62,30 +64,23 @@ impl TraceSeriesBuilder {
         self.vector_rms_m_s2
             .push(time_s, f64::from(t.vector_running_rms_m_s2));
         self.vdv_m_s175.push(time_s, f64::from(t.vdv_m_s175));
-        let level = t.alert_level;
-        match self.last_level {
-            None => self.level_steps.push((time_s, level as u8 as f64)),
-            Some(prev) if prev != level => {
-                self.level_steps.push((time_s, prev as u8 as f64));
-                self.level_steps.push((time_s, level as u8 as f64));
-            }
-            _ => {}
-        }
-        self.last_level = Some(level);
+        self.level_steps
+            .push(time_s, f64::from(t.alert_level as u8));
+        self.last_level = Some(t.alert_level);
     }
 
     /// The series, the level held to `end_s`.
     pub fn finish(self, end_s: f64) -> TraceSeries {
         let mut level_steps = self.level_steps;
         if let Some(l) = self.last_level {
-            level_steps.push((end_s, l as u8 as f64));
+            level_steps.push(end_s, f64::from(l as u8));
         }
         TraceSeries {
             head_m_s2: self.head_m_s2.map(MinMax::finish),
             running_rms_m_s2: self.running_rms_m_s2.map(MinMax::finish),
             vector_rms_m_s2: self.vector_rms_m_s2.finish(),
             vdv_m_s175: self.vdv_m_s175.finish(),
-            level_steps,
+            level_steps: level_steps.finish(),
         }
     }
 }
@@ -125,7 +120,7 @@ mod tests {
     use supine_core::alerts::FaultFlags;
 
     #[test]
-    fn level_steps_change_where_the_level_does() {
+    fn levels_are_drawn_record_by_record_and_held_to_the_end() {
         let levels = [Level::Normal, Level::Normal, Level::Warning, Level::Normal];
         let mut b = TraceSeriesBuilder::new(levels.len());
         for (k, level) in levels.into_iter().enumerate() {
@@ -143,14 +138,34 @@ mod tests {
         }
         assert_eq!(
             b.finish(4.0).level_steps,
-            vec![
-                (0.0, 0.0),
-                (2.0, 0.0),
-                (2.0, 2.0),
-                (3.0, 2.0),
-                (3.0, 0.0),
-                (4.0, 0.0)
-            ]
+            vec![(0.0, 0.0), (1.0, 0.0), (2.0, 2.0), (3.0, 0.0), (4.0, 0.0)]
         );
+    }
+
+    #[test]
+    fn a_level_that_changes_all_session_long_stays_bounded() {
+        let n = 200_000;
+        let mut b = TraceSeriesBuilder::new(n);
+        for k in 0..n {
+            let level = if (k / 50) % 2 == 0 {
+                Level::Normal
+            } else {
+                Level::Alarm
+            };
+            let t = Telemetry {
+                sample_index: k as u32,
+                head_acc_m_s2: [0.0; 3],
+                running_rms_m_s2: [0.0; 3],
+                vector_running_rms_m_s2: 0.0,
+                vdv_m_s175: 0.0,
+                alert_level: level,
+                fault_flags: FaultFlags::empty(),
+                valid: true,
+            };
+            b.push(&t, 100.0);
+        }
+        let steps = b.finish(n as f64 / 100.0).level_steps;
+        assert!(steps.len() <= 2 * PLOT_COLUMNS, "{} points", steps.len());
+        assert!(steps.iter().any(|p| p.1 == 3.0) && steps.iter().any(|p| p.1 == 0.0));
     }
 }
