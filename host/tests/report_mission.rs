@@ -19,9 +19,10 @@ use supine_host::io::ride_input::RideInputArgs;
 use supine_host::io::subject_args::SubjectArgs;
 use supine_host::io::telemetry_csv::EventRow;
 use supine_host::report::build;
+use supine_host::report::device_check::CheckBuilder;
 use supine_host::report::device_check::{DeviceLog, DeviceRun};
+use supine_host::report::device_series::{DeviceSeries, TraceSeriesBuilder};
 use supine_host::report::html::render;
-use supine_host::report::trace::Trace;
 
 fn ride(dir: &Path, profile: Profile, duration_s: f64, seed: u64) -> PathBuf {
     let path = dir.join(format!("{}-{seed}.csv", profile.name()));
@@ -323,6 +324,12 @@ fn a_ride_with_gravity_is_refused_by_the_report_too() {
 /// running-rms threshold and back, one warning raised at 3 s and cleared at 9 s; the
 /// firmware's version carries markup (it comes from the device, so it must be escaped).
 fn device_log(n: u32, fs: f64) -> DeviceLog {
+    let (telemetry, events) = device_records(n, fs);
+    log_of(&telemetry, &telemetry, &events, fs)
+}
+
+/// The records and events of [`device_log`].
+fn device_records(n: u32, fs: f64) -> (Vec<Telemetry>, Vec<EventRow>) {
     let telemetry: Vec<Telemetry> = (0..n)
         .map(|k| {
             let t = f64::from(k) / fs;
@@ -361,7 +368,26 @@ fn device_log(n: u32, fs: f64) -> DeviceLog {
         )
     })
     .collect();
-    let trace = Trace::from_telemetry(&telemetry, fs);
+    (telemetry, events)
+}
+
+/// The device log of `device` against `host` (the f64 head taken as the host's), with
+/// `events` on both sides, built record by record as the report's pass builds it.
+fn log_of(device: &[Telemetry], host: &[Telemetry], events: &[EventRow], fs: f64) -> DeviceLog {
+    let mut check = CheckBuilder::default();
+    let mut device_series = TraceSeriesBuilder::new(device.len());
+    let mut host_series = TraceSeriesBuilder::new(host.len());
+    for (d, h) in device.iter().zip(host) {
+        check.host_record(h, Some(d));
+        check.device_record(d, Some(h.head_acc_m_s2.map(f64::from)));
+        device_series.push(d, fs);
+        host_series.push(h, fs);
+    }
+    for e in events {
+        check.events(Some(e), Some(e));
+    }
+    let n = host.len();
+    let end_s = n as f64 / fs;
     DeviceLog {
         run: DeviceRun {
             account: "A lab ride <i>streamed</i>.".into(),
@@ -371,15 +397,20 @@ fn device_log(n: u32, fs: f64) -> DeviceLog {
             ..DeviceRun::default()
         },
         sample_rate_hz: fs,
-        samples: n as usize,
-        input_m_s2: Default::default(),
+        samples: n,
         bands: Vec::new(),
         moments: Vec::new(),
-        host_head_f64_m_s2: trace.head_m_s2.clone(),
-        host: trace.clone(),
-        device: trace,
-        host_events: events.clone(),
-        device_events: events,
+        check: check.finish(true),
+        device_events: events.to_vec(),
+        device_event_count: events.len(),
+        host_event_count: events.len(),
+        device_records: device.len(),
+        host_records: n,
+        series: DeviceSeries {
+            device: device_series.finish(end_s),
+            host: host_series.finish(end_s),
+            ..DeviceSeries::default()
+        },
     }
 }
 
@@ -396,7 +427,7 @@ fn a_device_log_adds_the_devices_check_and_charts_to_the_one_leg_report() {
         false,
     )
     .unwrap();
-    let mut log = device_log(6000, 500.0);
+    let log = device_log(6000, 500.0);
     let page = render(&report, Some(&log)).unwrap();
     assert!(!page.to_lowercase().contains("<script"));
     for (at, _) in page.match_indices("href=\"") {
@@ -431,8 +462,11 @@ fn a_device_log_adds_the_devices_check_and_charts_to_the_one_leg_report() {
     assert!(!plain.contains("The device versus the host"));
 
     // One f32 step of difference in one record is reported, with its size.
-    let z = &mut log.device.head_m_s2[2][700];
-    *z = f64::from(f32::from_bits((*z as f32).to_bits() + 1));
+    let (host, events) = device_records(6000, 500.0);
+    let mut device = host.clone();
+    let z = &mut device[700].head_acc_m_s2[2];
+    *z = f32::from_bits(z.to_bits() + 1);
+    let log = log_of(&device, &host, &events, 500.0);
     let page = render(&report, Some(&log)).unwrap();
     assert!(page.contains("the device and the host DIFFER"));
     assert!(!page.contains("largest |device &minus; host| 0 (bit for bit)"));

@@ -6,7 +6,7 @@
 //! input resolution in f64, independently of the core's code; and a log without its input
 //! stream, or re-analysed with another patient, is refused with one line.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use supine_host::io::recording::read_input;
@@ -29,13 +29,9 @@ fn s(p: &Path) -> String {
     p.to_str().expect("utf-8 path").to_owned()
 }
 
-#[test]
-fn a_monitor_log_re_analysed_by_report_matches_the_device_bit_for_bit() {
-    firmware(supine_host::device::firmware::PRODUCT_BINARY);
-    let dir = tempfile::tempdir().expect("temp dir");
-    let ride = dir.path().join("ride.csv");
-    let log = dir.path().join("log.csv");
-    // 20 s of rough road with a shock: alert events to compare.
+/// 20 s of rough road with a shock (alert events to compare), written into `dir`.
+fn rough_ride(dir: &Path) -> PathBuf {
+    let ride = dir.join("ride.csv");
     let (ok, _, stderr) = supine(&[
         "ride",
         "--profile",
@@ -48,6 +44,15 @@ fn a_monitor_log_re_analysed_by_report_matches_the_device_bit_for_bit() {
         &s(&ride),
     ]);
     assert!(ok, "{stderr}");
+    ride
+}
+
+#[test]
+fn a_monitor_log_re_analysed_by_report_matches_the_device_bit_for_bit() {
+    firmware(supine_host::device::firmware::PRODUCT_BINARY);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let ride = rough_ride(dir.path());
+    let log = dir.path().join("log.csv");
     let (ok, stdout, stderr) = supine(&[
         "monitor",
         "--qemu",
@@ -183,19 +188,7 @@ fn the_input_stream_costs_on_the_device_and_the_link_at_500_hz() {
     use supine_host::io::params_file::ParamFile;
 
     let dir = tempfile::tempdir().expect("temp dir");
-    let ride = dir.path().join("ride.csv");
-    let (ok, _, stderr) = supine(&[
-        "ride",
-        "--profile",
-        "rough-road",
-        "--duration-s",
-        "20",
-        "--seed",
-        "3",
-        "--out",
-        &s(&ride),
-    ]);
-    assert!(ok, "{stderr}");
+    let ride = rough_ride(dir.path());
     let (recording, _) = read_input(&ride).expect("ride reads");
     let samples = recording.platform_samples();
     let fs = recording.sample_rate_hz();

@@ -13,7 +13,7 @@ use crate::io::output::write_atomically;
 use crate::io::params_file::ModelSource;
 use crate::io::ride_input::RideInputArgs;
 use crate::io::subject_args::SubjectArgs;
-use crate::report::device_check::{Check, DeviceLog};
+use crate::report::device_check::DeviceLog;
 use crate::report::{self, html, monitor_log};
 
 /// Arguments of `supine report`.
@@ -91,13 +91,8 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
     )?;
     let device = match &logged {
         Some((log, session)) => {
-            let (recording, _) = args.ride.read(&session.ride, &mounting)?;
-            Some(monitor_log::device_log(
-                log,
-                session,
-                &file,
-                &recording.platform_samples(),
-            )?)
+            let ride = args.ride.open(&session.ride, &mounting)?;
+            Some(monitor_log::device_log(log, session, &file, &ride)?)
         }
         None => None,
     };
@@ -146,7 +141,7 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
 /// (0 when bit for bit; null when a series is missing a record) and whether the events
 /// agree.
 fn device_check_json(log: &DeviceLog) -> serde_json::Value {
-    let c = Check::new(log);
+    let c = &log.check;
     let finite = |v: f64| v.is_finite().then_some(v);
     serde_json::json!({
         "agree": c.agree(),
@@ -155,10 +150,10 @@ fn device_check_json(log: &DeviceLog) -> serde_json::Value {
         "rms_diff_m_s2": finite(c.rms_diff_m_s2),
         "events_agree": c.events_agree,
         "records_complete": c.records_complete,
-        "device_records": log.device.len(),
-        "host_records": log.host.len(),
-        "device_events": log.device_events.len(),
-        "host_events": log.host_events.len(),
+        "device_records": log.device_records,
+        "host_records": log.host_records,
+        "device_events": log.device_event_count,
+        "host_events": log.host_event_count,
         "samples": log.samples,
         "device_mtvv_m_s2": c.device_mtvv_m_s2,
         "device_vdv_m_s175": c.device_vdv_m_s175,

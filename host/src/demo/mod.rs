@@ -41,9 +41,7 @@ use crate::io::output_folder::{self, OutputFolder};
 use crate::io::params_file::{self, DeviceSection, ParamFile};
 use crate::io::recording::read_input;
 use crate::io::subject_args::SubjectArgs;
-use crate::io::telemetry_csv::{
-    EventRow, read_events, read_telemetry, write_events, write_telemetry,
-};
+use crate::io::telemetry_csv::{event_records, telemetry_records, write_events, write_telemetry};
 use crate::monitor::log::MonitorLog;
 use crate::monitor::session::{Ending, QemuRun, run_qemu};
 use crate::monitor::view::View;
@@ -51,7 +49,7 @@ use crate::monitor::{Monitor, device_line};
 use crate::plot::Rgb;
 use crate::plot::time_chart::{Band, Moment};
 use crate::report::device_check::{DeviceLog, DeviceRun};
-use crate::report::trace::Trace;
+use crate::report::device_pass::{self, PassResult, Session};
 use crate::report::{self, MissionReport, html};
 use data::{DemoData, RunInfo};
 use ride::{DemoProfile, DemoRide};
@@ -268,7 +266,7 @@ pub fn run(
         greeting_timeout: Duration::from_secs(20),
         thresholds: params.alerts.config,
     };
-    let (monitor, device) = run_device(&qemu_run, &files, view, stop)?;
+    let monitor = run_device(&qemu_run, &files, view, stop)?;
 
     steps.start(
         "host reference",
@@ -277,7 +275,8 @@ pub fn run(
             files.host.display()
         ),
     );
-    let host = host_reference(&params, &file, &qemu_run.samples, &files)?;
+    host_reference(&params, &qemu_run.samples, &files)?;
+    let (pass, session) = device_pass(&params, &file, &qemu_run.samples, &files)?;
 
     steps.start("report", &format!("report: {}", files.report.display()));
     let report = report::build(
@@ -296,19 +295,7 @@ pub fn run(
         params_name: params_name(config),
     };
     let run = device_run(config, &info, &params, &monitor, &steps.times);
-    let log = DeviceLog {
-        run,
-        sample_rate_hz: SAMPLE_RATE_HZ,
-        samples: qemu_run.samples.len(),
-        bands: road_bands(&ride),
-        moments: shocks(&ride),
-        input_m_s2: ride.ride.platform_m_s2,
-        device: device.trace,
-        device_events: device.events,
-        host: host.trace,
-        host_events: host.events,
-        host_head_f64_m_s2: host.head_f64_m_s2,
-    };
+    let log = pass.into_log(run, &session, road_bands(&ride), shocks(&ride));
     write_report(&files.report, &report, &log)?;
     let data = DemoData { info, report, log };
     let summary = Summary::new(&data);
@@ -375,12 +362,6 @@ fn param_file(model: &ParamFile, subject: &SubjectArgs) -> Result<ParamFile> {
     Ok(file)
 }
 
-/// What the device sent, read back from the files the monitor logged.
-struct DeviceRecord {
-    trace: Trace,
-    events: Vec<EventRow>,
-}
-
 /// Runs the device in QEMU, followed by the monitor, which logs to device.csv and
 /// device.events.csv; then reads them back (the report shows what a user can open).
 fn run_device(
@@ -388,7 +369,7 @@ fn run_device(
     files: &DemoFiles,
     view: &mut dyn View,
     stop: &Arc<AtomicBool>,
-) -> Result<(Monitor, DeviceRecord)> {
+) -> Result<Monitor> {
     let mut log = MonitorLog::create(&files.device)?;
     let (monitor, ending) = match run_qemu(qemu_run, view, Some(&mut log), stop) {
         Ok(done) => done,
@@ -406,28 +387,12 @@ fn run_device(
         );
     }
     log.finish()?;
-    let record = DeviceRecord {
-        trace: Trace::from_telemetry(&read_telemetry(&files.device)?, SAMPLE_RATE_HZ),
-        events: read_events(&files.device_events, SAMPLE_RATE_HZ)?,
-    };
-    Ok((monitor, record))
+    Ok(monitor)
 }
 
-/// The host's computation on the samples the device got.
-struct HostReference {
-    trace: Trace,
-    events: Vec<EventRow>,
-    head_f64_m_s2: [Vec<f64>; 3],
-}
-
-/// Runs the device's own pipeline (f32) on the host, writes host.csv and
-/// host.events.csv, and adds the f64 model's head acceleration.
-fn host_reference(
-    params: &DeviceParams,
-    file: &ParamFile,
-    samples: &[[f32; 3]],
-    files: &DemoFiles,
-) -> Result<HostReference> {
+/// Runs the device's own pipeline (f32) on the host and writes host.csv and
+/// host.events.csv, the reference a user can open beside the device's files.
+fn host_reference(params: &DeviceParams, samples: &[[f32; 3]], files: &DemoFiles) -> Result<()> {
     let indices: Vec<u32> = (0..samples.len() as u32).collect();
     let run = reference::pipeline(params, &indices, samples);
     write_telemetry(
@@ -436,17 +401,38 @@ fn host_reference(
         SAMPLE_RATE_HZ,
         params.joints.mask(),
     )?;
-    write_events(&files.host_events, &run.events, SAMPLE_RATE_HZ)?;
-    let head_f64 = reference::head_f64(&file.params, SAMPLE_RATE_HZ, samples)?;
-    Ok(HostReference {
-        trace: Trace::from_telemetry(&run.telemetry, SAMPLE_RATE_HZ),
-        events: run
-            .events
-            .iter()
-            .map(|e| EventRow::from_event(e, SAMPLE_RATE_HZ))
-            .collect(),
-        head_f64_m_s2: [0, 1, 2].map(|a| head_f64.iter().map(|h| h[a]).collect()),
-    })
+    write_events(&files.host_events, &run.events, SAMPLE_RATE_HZ)
+}
+
+/// The device's account (read back from the files the monitor logged, so the report
+/// shows what a user can open) set against the host's, in one pass
+/// ([`device_pass::run`]).
+fn device_pass<'a>(
+    params: &'a DeviceParams,
+    file: &'a ParamFile,
+    samples: &[[f32; 3]],
+    files: &DemoFiles,
+) -> Result<(PassResult, Session<'a>)> {
+    let mut device_records = 0;
+    for record in telemetry_records(&files.device)? {
+        record?;
+        device_records += 1;
+    }
+    let session = Session {
+        params,
+        model: &file.params,
+        sample_rate_hz: SAMPLE_RATE_HZ,
+        first_sample: 0,
+        samples: samples.len(),
+        device_records,
+    };
+    let pass = device_pass::run(
+        &session,
+        samples.iter().map(|&x| Ok(x)),
+        telemetry_records(&files.device)?,
+        event_records(&files.device_events, SAMPLE_RATE_HZ)?,
+    )?;
+    Ok((pass, session))
 }
 
 /// The parameters' name, with the patient when one was given.

@@ -13,7 +13,9 @@ use anyhow::{Result, anyhow};
 use supine_core::alerts::AlertEvent;
 use supine_core::blob::DeviceParams;
 use supine_core::input_resolution::{INPUT_RANGE_M_S2, quantize_m_s2};
-use supine_core::model::{JOINT_OUTPUT_COUNT, JointOutput, ModalState, Model, ModelParams, Output};
+use supine_core::model::{
+    DiscreteModal, JOINT_OUTPUT_COUNT, JointOutput, ModalState, Model, ModelParams, Output,
+};
 use supine_core::pipeline::{BLOCK_LEN, PipelineOutput, PipelineState};
 use supine_core::protocol::Telemetry;
 
@@ -49,26 +51,42 @@ pub fn pipeline(params: &DeviceParams, indices: &[u32], input_m_s2: &[[f32; 3]])
 }
 
 /// The head acceleration (x, y, z, m/s^2) of the f64 model at `sample_rate_hz` for each
-/// input sample, from rest. Each sample is first rounded to the device's input resolution
-/// (and clipped to its range, not to a sensor's full scale), as the device's pipeline
-/// does, then widened exactly to f64: the two models then see the same input, and differ
-/// only by the device's f32 arithmetic.
+/// input sample, from rest ([`HeadF64`]).
 pub fn head_f64(
     params: &ModelParams,
     sample_rate_hz: f64,
     input_m_s2: &[[f32; 3]],
 ) -> Result<Vec<[f64; 3]>> {
-    let realization = Model::new(params)
-        .and_then(|model| model.realization(sample_rate_hz, &Output::HEAD))
-        .map_err(|e| anyhow!("the model does not discretize at {sample_rate_hz} Hz: {e}"))?;
-    let mut state = ModalState::<f64>::default();
-    Ok(input_m_s2
-        .iter()
-        .map(|&x| {
-            let x = quantize_m_s2(x, INPUT_RANGE_M_S2);
-            realization.step(&mut state, x.map(f64::from))
+    let mut model = HeadF64::new(params, sample_rate_hz)?;
+    Ok(input_m_s2.iter().map(|&x| model.step(x)).collect())
+}
+
+/// The f64 model's head, one sample at a time from rest. Each sample is first rounded to
+/// the device's input resolution (and clipped to its range, not to a sensor's full
+/// scale), as the device's pipeline does, then widened exactly to f64: the two models
+/// then see the same input, and differ only by the device's f32 arithmetic.
+pub struct HeadF64 {
+    realization: DiscreteModal<f64, 3>,
+    state: ModalState<f64>,
+}
+
+impl HeadF64 {
+    /// The model of `params` at `sample_rate_hz`, at rest.
+    pub fn new(params: &ModelParams, sample_rate_hz: f64) -> Result<Self> {
+        let realization = Model::new(params)
+            .and_then(|model| model.realization(sample_rate_hz, &Output::HEAD))
+            .map_err(|e| anyhow!("the model does not discretize at {sample_rate_hz} Hz: {e}"))?;
+        Ok(Self {
+            realization,
+            state: ModalState::default(),
         })
-        .collect())
+    }
+
+    /// The head acceleration after input sample `x` (litter axes, m/s^2).
+    pub fn step(&mut self, x: [f32; 3]) -> [f64; 3] {
+        let x = quantize_m_s2(x, INPUT_RANGE_M_S2);
+        self.realization.step(&mut self.state, x.map(f64::from))
+    }
 }
 
 /// The ten joint outputs (m or rad, [`JointOutput::ALL`] order) of the f64 model at

@@ -141,56 +141,94 @@ pub fn write_events(path: &Path, events: &[AlertEvent], sample_rate_hz: f64) -> 
 
 /// The data rows of the CSV at `path`, whose first line must be one `accepts` takes
 /// (`header` describes it in errors), each turned into a record by `parse` (given the
-/// row's cells and its position, `FILE: line N`). The file is read line by line
-/// ([`CsvLines`]), so memory holds the records, not the text.
-fn read_rows<T>(
-    path: &Path,
-    header: &str,
-    mut accepts: impl FnMut(&[&str]) -> bool,
-    mut parse: impl FnMut(&[&str], &str) -> Result<T>,
-) -> Result<Vec<T>> {
-    let mut lines =
-        CsvLines::open(path).map_err(|e| anyhow!("{}: cannot read: {e}", path.display()))?;
-    let mut records = Vec::new();
-    let mut first = true;
-    loop {
-        let row = match lines.next_row() {
-            Ok(Some(row)) => row,
-            Ok(None) if first => bail!(
-                "{}: line 1: expected the header \"{header}\", found an empty file",
-                path.display()
-            ),
-            Ok(None) => return Ok(records),
-            Err(e) => bail!("{}: {e}", path.display()),
-        };
-        let at = format!("{}: line {}", path.display(), row.line);
-        let mut cells: Vec<&str> = Vec::with_capacity(TELEMETRY_CELLS);
-        for (i, cell) in row.cells().enumerate() {
-            cells.push(std::str::from_utf8(cell).map_err(|_| {
-                anyhow!(
-                    "{at}, cell {}: expected text, found {}",
-                    i + 1,
-                    excerpt(cell)
-                )
-            })?);
-        }
-        if first {
-            if !accepts(&cells) {
-                bail!(
-                    "{at}: expected the header \"{header}\", found {}",
-                    excerpt(cells.join(","))
-                );
+/// row's cells and its position, `FILE: line N`), one at a time: memory holds one line,
+/// whatever the file's length ([`CsvLines`]).
+pub struct CsvRecords<T> {
+    path: PathBuf,
+    header: String,
+    lines: CsvLines<std::fs::File>,
+    first: bool,
+    accepts: Box<HeaderCheck>,
+    parse: Box<RowParser<T>>,
+}
+
+/// Whether a header row's cells are one the file may start with.
+type HeaderCheck = dyn FnMut(&[&str]) -> bool;
+
+/// Turns a row's cells (and where it is, `FILE: line N`) into a record.
+type RowParser<T> = dyn FnMut(&[&str], &str) -> Result<T>;
+
+impl<T> CsvRecords<T> {
+    fn open(
+        path: &Path,
+        header: String,
+        accepts: impl FnMut(&[&str]) -> bool + 'static,
+        parse: impl FnMut(&[&str], &str) -> Result<T> + 'static,
+    ) -> Result<Self> {
+        let lines =
+            CsvLines::open(path).map_err(|e| anyhow!("{}: cannot read: {e}", path.display()))?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            header,
+            lines,
+            first: true,
+            accepts: Box::new(accepts),
+            parse: Box::new(parse),
+        })
+    }
+
+    /// The next record, `None` after the last.
+    pub fn next_record(&mut self) -> Result<Option<T>> {
+        let path = self.path.display();
+        loop {
+            let row = match self.lines.next_row() {
+                Ok(Some(row)) => row,
+                Ok(None) if self.first => bail!(
+                    "{path}: line 1: expected the header \"{}\", found an empty file",
+                    self.header
+                ),
+                Ok(None) => return Ok(None),
+                Err(e) => bail!("{path}: {e}"),
+            };
+            let at = format!("{path}: line {}", row.line);
+            let mut cells: Vec<&str> = Vec::with_capacity(TELEMETRY_CELLS);
+            for (i, cell) in row.cells().enumerate() {
+                cells.push(std::str::from_utf8(cell).map_err(|_| {
+                    anyhow!(
+                        "{at}, cell {}: expected text, found {}",
+                        i + 1,
+                        excerpt(cell)
+                    )
+                })?);
             }
-            first = false;
-            continue;
+            if self.first {
+                if !(self.accepts)(&cells) {
+                    bail!(
+                        "{at}: expected the header \"{}\", found {}",
+                        self.header,
+                        excerpt(cells.join(","))
+                    );
+                }
+                self.first = false;
+                continue;
+            }
+            return (self.parse)(&cells, &at).map(Some);
         }
-        records.push(parse(&cells, &at)?);
+    }
+}
+
+impl<T> Iterator for CsvRecords<T> {
+    type Item = Result<T>;
+
+    fn next(&mut self) -> Option<Result<T>> {
+        self.next_record().transpose()
     }
 }
 
 /// The joint outputs a telemetry header names after [`TELEMETRY_HEADER`], as a mask, if
-/// they are joint columns in the device's order ([`telemetry_header`] of that mask).
-fn joint_mask_of(header: &[&str]) -> Option<u16> {
+/// they are joint columns in the device's order ([`telemetry_header`] of that mask); `None`
+/// for any other header.
+pub fn joint_mask_of(header: &[&str]) -> Option<u16> {
     let base = TELEMETRY_HEADER.split(',').count();
     if header.get(..base)?.join(",") != TELEMETRY_HEADER {
         return None;
@@ -208,20 +246,27 @@ fn joint_mask_of(header: &[&str]) -> Option<u16> {
 /// Reads a telemetry CSV ([`telemetry_header`]) back into the records it was written
 /// from (the `time_s` column is derived, so it is not read).
 pub fn read_telemetry(path: &Path) -> Result<Vec<Telemetry>> {
+    telemetry_records(path)?.collect()
+}
+
+/// The records of a telemetry CSV ([`telemetry_header`]: joint columns as its header
+/// names them), read one at a time.
+pub fn telemetry_records(path: &Path) -> Result<CsvRecords<Telemetry>> {
     // Set by the header, read by every row.
-    let joint_count = std::cell::Cell::new(0);
+    let joint_count = std::rc::Rc::new(std::cell::Cell::new(0));
     let described = format!(
         "{TELEMETRY_HEADER}[,joint columns of {}]",
         joint_columns((1 << JOINT_OUTPUT_COUNT) - 1).join(",")
     );
-    let accepts = |h: &[&str]| match joint_mask_of(h) {
+    let header_count = std::rc::Rc::clone(&joint_count);
+    let accepts = move |h: &[&str]| match joint_mask_of(h) {
         Some(mask) => {
-            joint_count.set(mask.count_ones() as usize);
+            header_count.set(mask.count_ones() as usize);
             true
         }
         None => false,
     };
-    read_rows(path, &described, accepts, |cells, at| {
+    CsvRecords::open(path, described, accepts, move |cells, at| {
         telemetry_record(cells, at, joint_count.get())
     })
 }
@@ -375,11 +420,17 @@ impl EventRow {
 
 /// Reads an events CSV ([`EVENTS_HEADER`]) written at `sample_rate_hz`.
 pub fn read_events(path: &Path, sample_rate_hz: f64) -> Result<Vec<EventRow>> {
-    read_rows(
+    event_records(path, sample_rate_hz)?.collect()
+}
+
+/// The rows of an events CSV ([`EVENTS_HEADER`]) written at `sample_rate_hz`, read one at
+/// a time.
+pub fn event_records(path: &Path, sample_rate_hz: f64) -> Result<CsvRecords<EventRow>> {
+    CsvRecords::open(
         path,
-        EVENTS_HEADER,
-        |h| h.join(",") == EVENTS_HEADER,
-        |cells, at| {
+        EVENTS_HEADER.to_string(),
+        |h: &[&str]| h.join(",") == EVENTS_HEADER,
+        move |cells, at| {
             let [sample, _time, kind, name, raised, criterion, value, unit] = cells[..] else {
                 bail!("{at}: expected 8 cells, found {}", cells.len());
             };

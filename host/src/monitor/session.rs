@@ -144,6 +144,11 @@ pub fn follow<R: Read>(
     Ok(ending)
 }
 
+/// The slowest the image in QEMU takes samples and still counts as running: a 20 s ride
+/// with the input stream on took over 70 s (about 130 samples/s) while two test suites and
+/// two builds shared the 2 cores; the same run takes a few seconds on an idle machine.
+pub const SLOWEST_QEMU_SAMPLES_PER_S: f64 = 100.0;
+
 /// A ride to stream through the image in QEMU.
 #[derive(Clone, Debug)]
 pub struct QemuRun {
@@ -192,11 +197,13 @@ impl QemuRun {
     }
 
     /// Longest the whole run may take: the ride's duration if paced, plus a margin for a
-    /// device that runs tens of thousands of samples per second.
+    /// device that takes at least [`SLOWEST_QEMU_SAMPLES_PER_S`].
     pub fn timeout(&self) -> Duration {
         let ride_s = self.samples.len() as f64 / self.sample_rate_hz;
         let paced_s = if self.realtime { ride_s } else { 0.0 };
-        Duration::from_secs_f64(60.0 + paced_s + self.samples.len() as f64 / 1000.0)
+        Duration::from_secs_f64(
+            60.0 + paced_s + self.samples.len() as f64 / SLOWEST_QEMU_SAMPLES_PER_S,
+        )
     }
 }
 

@@ -7,40 +7,89 @@
 /// already short enough are returned whole. Non-finite values are skipped.
 pub fn min_max(t: &[f64], y: &[f64], columns: usize) -> Vec<(f64, f64)> {
     let n = t.len().min(y.len());
-    if columns == 0 || n <= 2 * columns {
-        return (0..n)
-            .filter(|&k| y[k].is_finite())
-            .map(|k| (t[k], y[k]))
-            .collect();
+    let mut d = MinMax::new(n, columns);
+    for k in 0..n {
+        d.push(t[k], y[k]);
     }
-    let mut out = Vec::with_capacity(2 * columns);
-    for c in 0..columns {
-        let start = c * n / columns;
-        let end = (c + 1) * n / columns;
-        let mut lo: Option<usize> = None;
-        let mut hi: Option<usize> = None;
-        for k in start..end {
-            if !y[k].is_finite() {
-                continue;
-            }
-            if lo.is_none_or(|i| y[k] < y[i]) {
-                lo = Some(k);
-            }
-            if hi.is_none_or(|i| y[k] > y[i]) {
-                hi = Some(k);
-            }
+    d.finish()
+}
+
+/// [`min_max`] of a series given one point at a time, whose length `n` is known before:
+/// memory holds the points kept, whatever `n`. Points past the `n`-th join the last run.
+#[derive(Clone, Debug)]
+pub struct MinMax {
+    n: usize,
+    columns: usize,
+    whole: bool,
+    k: usize,
+    column: usize,
+    column_end: usize,
+    lo: Option<(f64, f64)>,
+    hi: Option<(f64, f64)>,
+    out: Vec<(f64, f64)>,
+}
+
+impl MinMax {
+    /// For a series of `n` points drawn in `columns` columns.
+    pub fn new(n: usize, columns: usize) -> Self {
+        let whole = columns == 0 || n <= 2 * columns;
+        Self {
+            n,
+            columns,
+            whole,
+            k: 0,
+            column: 0,
+            column_end: if whole { usize::MAX } else { n / columns },
+            lo: None,
+            hi: None,
+            out: Vec::new(),
         }
-        match (lo, hi) {
-            (Some(a), Some(b)) if a == b => out.push((t[a], y[a])),
+    }
+
+    /// The next point.
+    pub fn push(&mut self, t: f64, y: f64) {
+        if self.whole {
+            if y.is_finite() {
+                self.out.push((t, y));
+            }
+            return;
+        }
+        while self.k >= self.column_end && self.column + 1 < self.columns {
+            self.flush();
+            self.column += 1;
+            self.column_end = (self.column + 1) * self.n / self.columns;
+        }
+        self.k += 1;
+        if !y.is_finite() {
+            return;
+        }
+        // Strict comparisons: the first of equal extremes is kept, as a scan would.
+        if self.lo.is_none_or(|(_, v)| y < v) {
+            self.lo = Some((t, y));
+        }
+        if self.hi.is_none_or(|(_, v)| y > v) {
+            self.hi = Some((t, y));
+        }
+    }
+
+    fn flush(&mut self) {
+        match (self.lo.take(), self.hi.take()) {
+            (Some(a), Some(b)) if a == b => self.out.push(a),
             (Some(a), Some(b)) => {
-                let (first, second) = if a < b { (a, b) } else { (b, a) };
-                out.push((t[first], y[first]));
-                out.push((t[second], y[second]));
+                // In time order; points are given in time order.
+                let (first, second) = if a.0 <= b.0 { (a, b) } else { (b, a) };
+                self.out.push(first);
+                self.out.push(second);
             }
             _ => {}
         }
     }
-    out
+
+    /// The points kept.
+    pub fn finish(mut self) -> Vec<(f64, f64)> {
+        self.flush();
+        self.out
+    }
 }
 
 #[cfg(test)]

@@ -1,16 +1,12 @@
 //! The device section's charts: the device's telemetry over the host's on the same
 //! samples. What each shows is decided here, how it is drawn in [`crate::plot::time_chart`].
 
-use supine_core::alerts::{AlertConfig, Level};
+use supine_core::alerts::AlertConfig;
 
-use crate::io::telemetry_csv::level_from_name;
 use crate::plot::Rgb;
-use crate::plot::downsample::min_max;
-use crate::plot::time_chart::{
-    Band, Chart, LEVEL_COLORS, Line, Marker, PLOT_COLUMNS, alert_thresholds, y_range,
-};
+use crate::plot::time_chart::{Band, Chart, LEVEL_COLORS, Line, Marker, alert_thresholds, y_range};
 use crate::report::device_check::DeviceLog;
-use crate::report::trace::Trace;
+use crate::report::device_series::{LevelMark, Points};
 
 /// Axis colours: x, y, z.
 pub const AXIS_COLORS: [Rgb; 3] = [Rgb(31, 119, 180), Rgb(44, 160, 44), Rgb(214, 39, 40)];
@@ -23,11 +19,13 @@ pub const WARMUP_COLOR: Rgb = Rgb(120, 120, 120);
 
 const AXES: [&str; 3] = ["x (along the body)", "y (lateral)", "z (vertical)"];
 
-fn series(t: &[f64], y: &[f64]) -> Vec<(f64, f64)> {
-    min_max(t, y, PLOT_COLUMNS)
+/// The y values of lines' points: each column's minimum and maximum are kept, so the
+/// range is the whole series'.
+fn ys<'a>(lines: impl IntoIterator<Item = &'a Points>) -> impl Iterator<Item = &'a f64> {
+    lines.into_iter().flatten().map(|(_, y)| y)
 }
 
-fn line(points: Vec<(f64, f64)>, color: Rgb, width: u32, dashed: bool, label: &str) -> Line {
+fn line(points: Points, color: Rgb, width: u32, dashed: bool, label: &str) -> Line {
     Line {
         points,
         color,
@@ -55,15 +53,12 @@ fn x_range(log: &DeviceLog) -> (f64, f64) {
 
 /// The litter frame's acceleration on every axis: the ride the device was given.
 pub fn input(log: &DeviceLog) -> Chart {
-    let fs = log.sample_rate_hz;
-    let t: Vec<f64> = (0..log.input_m_s2[0].len())
-        .map(|k| k as f64 / fs)
-        .collect();
+    let input = &log.series.input_m_s2;
     let lines: Vec<Line> = [2, 0, 1]
         .into_iter()
         .map(|a| {
             line(
-                series(&t, &log.input_m_s2[a]),
+                input[a].clone(),
                 AXIS_COLORS[a],
                 1,
                 false,
@@ -71,7 +66,7 @@ pub fn input(log: &DeviceLog) -> Chart {
             )
         })
         .collect();
-    let y = y_range(log.input_m_s2.iter().flatten(), &[], false);
+    let y = y_range(ys(input), &[], false);
     Chart {
         title: "Litter-frame acceleration (the device's input)".into(),
         y_label: "acceleration, m/s^2".into(),
@@ -87,17 +82,9 @@ pub fn input(log: &DeviceLog) -> Chart {
 
 /// Predicted head acceleration on one axis: the device, and the f64 model over it.
 pub fn head(log: &DeviceLog, axis: usize) -> Chart {
-    let d = &log.device;
-    let host_t: Vec<f64> = (0..log.host_head_f64_m_s2[axis].len())
-        .map(|k| k as f64 / log.sample_rate_hz)
-        .collect();
-    let y = y_range(
-        d.head_m_s2[axis]
-            .iter()
-            .chain(&log.host_head_f64_m_s2[axis]),
-        &[],
-        false,
-    );
+    let d = &log.series.device;
+    let f64_head = &log.series.head_f64_m_s2[axis];
+    let y = y_range(ys([&d.head_m_s2[axis], f64_head]), &[], false);
     Chart {
         title: format!("Predicted head acceleration, {} (unweighted)", AXES[axis]),
         y_label: "m/s^2".into(),
@@ -107,49 +94,39 @@ pub fn head(log: &DeviceLog, axis: usize) -> Chart {
         bands: log.bands.clone(),
         lines: vec![
             line(
-                series(&d.time_s, &d.head_m_s2[axis]),
+                d.head_m_s2[axis].clone(),
                 AXIS_COLORS[axis],
                 2,
                 false,
                 "device",
             ),
-            line(
-                series(&host_t, &log.host_head_f64_m_s2[axis]),
-                HOST_COLOR,
-                1,
-                true,
-                "host, f64 model",
-            ),
+            line(f64_head.clone(), HOST_COLOR, 1, true, "host, f64 model"),
         ],
         ..Chart::default()
     }
 }
 
-/// Where the vector running rms was when each level event happened, for markers.
-fn level_markers(log: &DeviceLog, trace: &Trace, y_of: impl Fn(usize) -> f64) -> Vec<Marker> {
-    log.device_events
+/// A marker at each device level event, at height `y_of` it.
+fn level_markers(log: &DeviceLog, y_of: impl Fn(&LevelMark) -> f64) -> Vec<Marker> {
+    log.series
+        .level_marks
         .iter()
-        .filter(|e| e.kind == "level")
-        .filter_map(|e| {
-            let k = trace.sample.binary_search(&e.sample).ok()?;
-            let level = level_from_name(&e.name)?;
-            Some(Marker {
-                t_s: e.time_s,
-                y: y_of(k),
-                up: e.raised,
-                color: LEVEL_COLORS[level as usize],
-            })
+        .map(|m| Marker {
+            t_s: m.t_s,
+            y: y_of(m),
+            up: m.raised,
+            color: LEVEL_COLORS[m.level as usize],
         })
         .collect()
 }
 
 /// The vector sum's running rms against the running-rms thresholds, with level events.
 pub fn vector_rms(log: &DeviceLog, alerts: &AlertConfig, warmup_s: f64) -> Chart {
-    let d = &log.device;
-    let h = &log.host;
+    let d = &log.series.device;
+    let h = &log.series.host;
     let th = alerts.running_rms_m_s2;
     let y = y_range(
-        d.vector_rms_m_s2.iter(),
+        ys([&d.vector_rms_m_s2]),
         &th.map(|v| f64::from(v) * 1.05),
         true,
     );
@@ -163,33 +140,33 @@ pub fn vector_rms(log: &DeviceLog, alerts: &AlertConfig, warmup_s: f64) -> Chart
         thresholds: alert_thresholds(th, "m/s^2"),
         lines: vec![
             line(
-                series(&d.time_s, &d.vector_rms_m_s2),
+                d.vector_rms_m_s2.clone(),
                 VECTOR_COLOR,
                 2,
                 false,
                 "device, vector sum",
             ),
             line(
-                series(&h.time_s, &h.vector_rms_m_s2),
+                h.vector_rms_m_s2.clone(),
                 HOST_COLOR,
                 1,
                 true,
                 "host, vector sum",
             ),
         ],
-        markers: level_markers(log, d, |k| d.vector_rms_m_s2[k]),
+        markers: level_markers(log, |m| m.vector_rms_m_s2),
         ..Chart::default()
     }
 }
 
 /// The running rms of each weighted head axis, device and host.
 pub fn axis_rms(log: &DeviceLog, warmup_s: f64) -> Chart {
-    let d = &log.device;
-    let h = &log.host;
+    let d = &log.series.device;
+    let h = &log.series.host;
     let mut lines = Vec::new();
     for a in 0..3 {
         lines.push(line(
-            series(&d.time_s, &d.running_rms_m_s2[a]),
+            d.running_rms_m_s2[a].clone(),
             AXIS_COLORS[a],
             2,
             false,
@@ -198,14 +175,14 @@ pub fn axis_rms(log: &DeviceLog, warmup_s: f64) -> Chart {
     }
     for a in 0..3 {
         lines.push(line(
-            series(&h.time_s, &h.running_rms_m_s2[a]),
+            h.running_rms_m_s2[a].clone(),
             HOST_COLOR,
             1,
             true,
             if a == 0 { "host (each axis)" } else { "" },
         ));
     }
-    let y = y_range(d.running_rms_m_s2.iter().flatten(), &[], true);
+    let y = y_range(ys(&d.running_rms_m_s2), &[], true);
     Chart {
         title: "Weighted running rms (1 s) per head axis".into(),
         y_label: "m/s^2".into(),
@@ -220,12 +197,12 @@ pub fn axis_rms(log: &DeviceLog, warmup_s: f64) -> Chart {
 
 /// The vibration dose value against its thresholds (those in view).
 pub fn vdv(log: &DeviceLog, alerts: &AlertConfig, warmup_s: f64) -> Chart {
-    let d = &log.device;
-    let h = &log.host;
+    let d = &log.series.device;
+    let h = &log.series.host;
     let th = alerts.vdv_m_s175;
     // Keep the first threshold in view; higher ones far above the data would flatten the
     // curve, and the caption lists them.
-    let y = y_range(d.vdv_m_s175.iter(), &[f64::from(th[0]) * 1.05], true);
+    let y = y_range(ys([&d.vdv_m_s175]), &[f64::from(th[0]) * 1.05], true);
     Chart {
         title: "Vibration dose value (VDV) of the vector sum, since the start".into(),
         y_label: "m/s^1.75".into(),
@@ -235,50 +212,15 @@ pub fn vdv(log: &DeviceLog, alerts: &AlertConfig, warmup_s: f64) -> Chart {
         bands: bands_with_warmup(log, warmup_s),
         thresholds: alert_thresholds(th, "m/s^1.75"),
         lines: vec![
-            line(
-                series(&d.time_s, &d.vdv_m_s175),
-                VECTOR_COLOR,
-                2,
-                false,
-                "device",
-            ),
-            line(
-                series(&h.time_s, &h.vdv_m_s175),
-                HOST_COLOR,
-                1,
-                true,
-                "host",
-            ),
+            line(d.vdv_m_s175.clone(), VECTOR_COLOR, 2, false, "device"),
+            line(h.vdv_m_s175.clone(), HOST_COLOR, 1, true, "host"),
         ],
         ..Chart::default()
     }
 }
 
-/// Steps of a level trace: a point at the start, then two at every change.
-fn level_steps(trace: &Trace, end_s: f64) -> Vec<(f64, f64)> {
-    let mut points = Vec::new();
-    let mut last: Option<Level> = None;
-    for (k, &level) in trace.level.iter().enumerate() {
-        let t = trace.time_s[k];
-        match last {
-            None => points.push((t, level as u8 as f64)),
-            Some(prev) if prev != level => {
-                points.push((t, prev as u8 as f64));
-                points.push((t, level as u8 as f64));
-            }
-            _ => {}
-        }
-        last = Some(level);
-    }
-    if let Some(l) = last {
-        points.push((end_s, l as u8 as f64));
-    }
-    points
-}
-
 /// The alert level over time, with a marker at each raise and clear.
 pub fn levels(log: &DeviceLog, warmup_s: f64) -> Chart {
-    let end = log.duration_s();
     Chart {
         title: "Alert level (raised: up triangle, lowered: down triangle)".into(),
         y_label: "level".into(),
@@ -288,15 +230,21 @@ pub fn levels(log: &DeviceLog, warmup_s: f64) -> Chart {
         bands: bands_with_warmup(log, warmup_s),
         lines: vec![
             line(
-                level_steps(&log.device, end),
+                log.series.device.level_steps.clone(),
                 VECTOR_COLOR,
                 2,
                 false,
                 "device",
             ),
-            line(level_steps(&log.host, end), HOST_COLOR, 1, true, "host"),
+            line(
+                log.series.host.level_steps.clone(),
+                HOST_COLOR,
+                1,
+                true,
+                "host",
+            ),
         ],
-        markers: level_markers(log, &log.device, |k| log.device.level[k] as u8 as f64),
+        markers: level_markers(log, |m| m.level as u8 as f64),
         y_tick_names: Some(
             ["normal", "advisory", "warning", "alarm"]
                 .iter()
@@ -304,31 +252,5 @@ pub fn levels(log: &DeviceLog, warmup_s: f64) -> Chart {
                 .collect(),
         ),
         ..Chart::default()
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn level_steps_change_where_the_level_does() {
-        let trace = Trace {
-            sample: vec![0, 1, 2, 3],
-            time_s: vec![0.0, 1.0, 2.0, 3.0],
-            level: vec![Level::Normal, Level::Normal, Level::Warning, Level::Normal],
-            ..Trace::default()
-        };
-        assert_eq!(
-            level_steps(&trace, 4.0),
-            vec![
-                (0.0, 0.0),
-                (2.0, 0.0),
-                (2.0, 2.0),
-                (3.0, 2.0),
-                (3.0, 0.0),
-                (4.0, 0.0)
-            ]
-        );
     }
 }

@@ -12,7 +12,8 @@ use supine_core::protocol::Status;
 use crate::device::link::LinkStats;
 use crate::io::telemetry_csv::{EventRow, level_from_name};
 use crate::plot::time_chart::{Band, Moment};
-use crate::report::trace::Trace;
+use crate::report::device_series::DeviceSeries;
+use supine_core::protocol::Telemetry;
 
 /// How the device run was made, in the device's own words and the host's counters.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -35,7 +36,9 @@ pub struct DeviceRun {
     pub files: Vec<(String, String)>,
 }
 
-/// What the device sent for one ride and what the host computed on the same samples.
+/// What the device sent for one ride and what the host computed on the same samples, as
+/// the report keeps it: the check's figures, the first events, and chart series of a
+/// bounded size ([`crate::report::device_pass`] builds it in one pass over the files).
 #[derive(Clone, Debug, PartialEq)]
 pub struct DeviceLog {
     /// How the run was made.
@@ -44,25 +47,28 @@ pub struct DeviceLog {
     pub sample_rate_hz: f64,
     /// Samples streamed to the device.
     pub samples: usize,
-    /// The litter-frame input streamed, x, y, z, m/s^2.
-    pub input_m_s2: [Vec<f64>; 3],
     /// Stretches of the ride worth marking on the charts (road surfaces).
     pub bands: Vec<Band>,
     /// Instants worth marking (shocks).
     pub moments: Vec<Moment>,
-    /// What the device sent (read back from its telemetry CSV).
-    pub device: Trace,
-    /// The device's alert events (read back from its events CSV).
+    /// How the device's account compares with the host's.
+    pub check: Check,
+    /// The device's first [`MAX_LISTED_EVENTS`] alert events (all are in its events CSV).
     pub device_events: Vec<EventRow>,
-    /// The host's run of the device pipeline (f32, the same code) on the same samples,
-    /// with the device's telemetry decimation.
-    pub host: Trace,
+    /// The device's alert events, all of them.
+    pub device_event_count: usize,
     /// The host pipeline's alert events.
-    pub host_events: Vec<EventRow>,
-    /// The f64 model's head acceleration for every sample, m/s^2 (the first is the
-    /// sample the host's run starts at, `host.sample[0]`).
-    pub host_head_f64_m_s2: [Vec<f64>; 3],
+    pub host_event_count: usize,
+    /// Telemetry records the device sent.
+    pub device_records: usize,
+    /// Telemetry records the host's run made.
+    pub host_records: usize,
+    /// What the charts draw.
+    pub series: DeviceSeries,
 }
+
+/// Most device alert events kept for the report (the rest are counted).
+pub const MAX_LISTED_EVENTS: usize = 1000;
 
 impl DeviceLog {
     /// Duration of the ride streamed, s.
@@ -88,7 +94,8 @@ pub struct Check {
     pub cleared_at_s: Option<f64>,
     /// Level events (raises and clears) the device sent.
     pub level_events: usize,
-    /// Sensor faults the device raised, in order (name and time, s).
+    /// Sensor faults the device raised, in order (name and time, s); the first
+    /// [`MAX_LISTED_EVENTS`].
     pub faults: Vec<(String, f64)>,
     /// Largest |device head - host head| with the host running the same f32 pipeline,
     /// m/s^2 (0 expected: the same code on the same inputs).
@@ -99,106 +106,172 @@ pub struct Check {
     pub rms_diff_m_s2: f64,
     /// The device's and the host's alert events are the same (sample, kind, name).
     pub events_agree: bool,
+    /// Position (from 0) of the first event where the device and the host differ, one
+    /// missing on either side included.
+    pub first_event_difference: Option<usize>,
     /// The device sent a record for every sample the host computed one for (every
     /// `decimation`-th), and the host's run covers every sample.
     pub records_complete: bool,
 }
 
-/// Largest |a - b|; infinite when the series differ in length (a record is missing).
-fn max_abs_diff(a: &[f64], b: &[f64]) -> f64 {
-    if a.len() != b.len() {
-        return f64::INFINITY;
-    }
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
-}
-
-fn same_events(a: &[EventRow], b: &[EventRow]) -> bool {
-    a.len() == b.len()
-        && a.iter().zip(b).all(|(x, y)| {
-            x.sample == y.sample && x.kind == y.kind && x.name == y.name && x.raised == y.raised
-        })
-}
-
 impl Check {
-    /// Compares the device's account in `log` with the host's.
-    pub fn new(log: &DeviceLog) -> Self {
-        let d = &log.device;
-        let device_mtvv_m_s2 = d
-            .vector_rms_m_s2
-            .iter()
-            .zip(&d.valid)
-            .filter(|(_, v)| **v)
-            .map(|(x, _)| *x)
-            .fold(0.0, f64::max);
-        let highest_level = d.level.iter().copied().max().unwrap_or(Level::Normal);
-        let highest_at_s = log
-            .device_events
-            .iter()
-            .find(|e| {
-                e.kind == "level" && e.raised && level_from_name(&e.name) == Some(highest_level)
-            })
-            .map(|e| e.time_s);
-        let cleared_at_s = log
-            .device_events
-            .iter()
-            .rev()
-            .find(|e| e.kind == "level" && e.name == "normal")
-            .map(|e| e.time_s);
-        let head_diff = |host: &[Vec<f64>; 3]| {
-            (0..3)
-                .map(|a| max_abs_diff(&d.head_m_s2[a], &host[a]))
-                .fold(0.0, f64::max)
-        };
-        // The f64 model has a value for every sample: the device's records pick theirs.
-        let first = log.host.sample.first().copied().unwrap_or(0);
-        let f64_at_records: [Vec<f64>; 3] = log.host_head_f64_m_s2.each_ref().map(|axis| {
-            d.sample
-                .iter()
-                .map(|&k| {
-                    k.checked_sub(first)
-                        .and_then(|i| axis.get(i as usize))
-                        .copied()
-                        .unwrap_or(f64::INFINITY)
-                })
-                .collect()
-        });
-        Self {
-            device_mtvv_m_s2,
-            device_vdv_m_s175: d.vdv_m_s175.last().copied().unwrap_or(0.0),
-            highest_level,
-            highest_at_s,
-            final_level: d.level.last().copied().unwrap_or(Level::Normal),
-            cleared_at_s,
-            level_events: log
-                .device_events
-                .iter()
-                .filter(|e| e.kind == "level")
-                .count(),
-            faults: log
-                .device_events
-                .iter()
-                .filter(|e| e.kind == "fault" && e.raised)
-                .map(|e| (e.name.clone(), e.time_s))
-                .collect(),
-            head_diff_f32_m_s2: head_diff(&log.host.head_m_s2),
-            head_diff_f64_m_s2: head_diff(&f64_at_records),
-            rms_diff_m_s2: max_abs_diff(&d.vector_rms_m_s2, &log.host.vector_rms_m_s2),
-            events_agree: same_events(&log.device_events, &log.host_events),
-            records_complete: d.sample == log.host.sample
-                && log
-                    .host_head_f64_m_s2
-                    .iter()
-                    .all(|a| a.len() == log.samples),
-        }
-    }
-
     /// The device and the host agree: the same head bit for bit, the same events, every
     /// record there.
     pub fn agree(&self) -> bool {
         self.events_agree && self.head_diff_f32_m_s2 == 0.0 && self.records_complete
+    }
+}
+
+fn same_event(x: &EventRow, y: &EventRow) -> bool {
+    x.sample == y.sample && x.kind == y.kind && x.name == y.name && x.raised == y.raised
+}
+
+/// A [`Check`] built as the records and events go by, in order: memory holds the
+/// figures, not the series.
+#[derive(Clone, Debug)]
+pub struct CheckBuilder {
+    device_mtvv_m_s2: f64,
+    device_last: Option<(f64, Level)>,
+    highest_level: Level,
+    first_raise_s: [Option<f64>; 4],
+    cleared_at_s: Option<f64>,
+    level_events: usize,
+    faults: Vec<(String, f64)>,
+    head_diff_f32_m_s2: f64,
+    head_diff_f64_m_s2: f64,
+    rms_diff_m_s2: f64,
+    first_event_difference: Option<usize>,
+    records_complete: bool,
+    device_records: usize,
+    host_records: usize,
+    device_events: usize,
+    host_events: usize,
+}
+
+impl Default for CheckBuilder {
+    fn default() -> Self {
+        Self {
+            device_mtvv_m_s2: 0.0,
+            device_last: None,
+            highest_level: Level::Normal,
+            first_raise_s: [None; 4],
+            cleared_at_s: None,
+            level_events: 0,
+            faults: Vec::new(),
+            head_diff_f32_m_s2: 0.0,
+            head_diff_f64_m_s2: 0.0,
+            rms_diff_m_s2: 0.0,
+            first_event_difference: None,
+            records_complete: true,
+            device_records: 0,
+            host_records: 0,
+            device_events: 0,
+            host_events: 0,
+        }
+    }
+}
+
+impl CheckBuilder {
+    /// The next device record; `f64_head` is the f64 model's head at its sample, `None`
+    /// when the host has no sample there.
+    pub fn device_record(&mut self, d: &Telemetry, f64_head: Option<[f64; 3]>) {
+        self.device_records += 1;
+        if d.valid {
+            self.device_mtvv_m_s2 = self
+                .device_mtvv_m_s2
+                .max(f64::from(d.vector_running_rms_m_s2));
+        }
+        self.highest_level = self.highest_level.max(d.alert_level);
+        self.device_last = Some((f64::from(d.vdv_m_s175), d.alert_level));
+        let diff = match f64_head {
+            Some(h) => (0..3)
+                .map(|a| (f64::from(d.head_acc_m_s2[a]) - h[a]).abs())
+                .fold(0.0, f64::max),
+            None => f64::INFINITY,
+        };
+        self.head_diff_f64_m_s2 = self.head_diff_f64_m_s2.max(diff);
+    }
+
+    /// The next host record, and the device's in the same position.
+    pub fn host_record(&mut self, h: &Telemetry, d: Option<&Telemetry>) {
+        self.host_records += 1;
+        let Some(d) = d else {
+            self.records_complete = false;
+            return;
+        };
+        if d.sample_index != h.sample_index {
+            self.records_complete = false;
+        }
+        let head = (0..3)
+            .map(|a| (f64::from(d.head_acc_m_s2[a]) - f64::from(h.head_acc_m_s2[a])).abs())
+            .fold(0.0, f64::max);
+        self.head_diff_f32_m_s2 = self.head_diff_f32_m_s2.max(head);
+        let rms =
+            (f64::from(d.vector_running_rms_m_s2) - f64::from(h.vector_running_rms_m_s2)).abs();
+        self.rms_diff_m_s2 = self.rms_diff_m_s2.max(rms);
+    }
+
+    /// The next device event and the host's in the same position (either may be missing).
+    pub fn events(&mut self, d: Option<&EventRow>, h: Option<&EventRow>) {
+        let position = self.device_events.max(self.host_events);
+        if h.is_some() {
+            self.host_events += 1;
+        }
+        if let Some(e) = d {
+            self.device_events += 1;
+            if e.kind == "level" {
+                self.level_events += 1;
+                match level_from_name(&e.name) {
+                    Some(level) if e.raised => {
+                        self.first_raise_s[level as usize].get_or_insert(e.time_s);
+                    }
+                    _ => {}
+                }
+                if e.name == "normal" {
+                    self.cleared_at_s = Some(e.time_s);
+                }
+            }
+            if e.kind == "fault" && e.raised && self.faults.len() < MAX_LISTED_EVENTS {
+                self.faults.push((e.name.clone(), e.time_s));
+            }
+        }
+        let same = matches!((d, h), (Some(x), Some(y)) if same_event(x, y));
+        if !same && self.first_event_difference.is_none() {
+            self.first_event_difference = Some(position);
+        }
+    }
+
+    /// Records seen: the device's and the host's.
+    pub fn records(&self) -> (usize, usize) {
+        (self.device_records, self.host_records)
+    }
+
+    /// Events seen: the device's and the host's.
+    pub fn event_counts(&self) -> (usize, usize) {
+        (self.device_events, self.host_events)
+    }
+
+    /// The check; `samples_covered` is whether the host's run covered every sample.
+    pub fn finish(self, samples_covered: bool) -> Check {
+        let counts_differ = self.device_records != self.host_records;
+        let (vdv, final_level) = self.device_last.unwrap_or((0.0, Level::Normal));
+        let when_differ = |v: f64| if counts_differ { f64::INFINITY } else { v };
+        Check {
+            device_mtvv_m_s2: self.device_mtvv_m_s2,
+            device_vdv_m_s175: vdv,
+            highest_level: self.highest_level,
+            highest_at_s: self.first_raise_s[self.highest_level as usize],
+            final_level,
+            cleared_at_s: self.cleared_at_s,
+            level_events: self.level_events,
+            faults: self.faults,
+            head_diff_f32_m_s2: when_differ(self.head_diff_f32_m_s2),
+            head_diff_f64_m_s2: self.head_diff_f64_m_s2,
+            rms_diff_m_s2: when_differ(self.rms_diff_m_s2),
+            events_agree: self.first_event_difference.is_none(),
+            first_event_difference: self.first_event_difference,
+            records_complete: self.records_complete && !counts_differ && samples_covered,
+        }
     }
 }
 
@@ -214,90 +287,6 @@ pub fn difference(v: f64, unit: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use supine_core::alerts::{AlertEvent, Criterion, FaultFlags};
-    use supine_core::protocol::Telemetry;
-
-    fn record(k: u32, head_z: f32, level: Level) -> Telemetry {
-        Telemetry {
-            sample_index: k,
-            head_acc_m_s2: [0.0, 0.0, head_z],
-            running_rms_m_s2: [0.0, 0.0, 0.5],
-            vector_running_rms_m_s2: 0.5 + k as f32 * 0.01,
-            vdv_m_s175: k as f32,
-            alert_level: level,
-            fault_flags: FaultFlags::empty(),
-            valid: k >= 2,
-            joints: supine_core::joint_exposure::JointValues::EMPTY,
-        }
-    }
-
-    fn log(device: &[Telemetry], host: &[Telemetry], events: &[AlertEvent]) -> DeviceLog {
-        let rows: Vec<EventRow> = events
-            .iter()
-            .map(|e| EventRow::from_event(e, 10.0))
-            .collect();
-        let host = Trace::from_telemetry(host, 10.0);
-        DeviceLog {
-            run: DeviceRun::default(),
-            sample_rate_hz: 10.0,
-            samples: 5,
-            input_m_s2: Default::default(),
-            bands: Vec::new(),
-            moments: Vec::new(),
-            device: Trace::from_telemetry(device, 10.0),
-            device_events: rows.clone(),
-            host_head_f64_m_s2: host.head_m_s2.clone(),
-            host,
-            host_events: rows,
-        }
-    }
-
-    #[test]
-    fn a_device_head_that_differs_by_one_f32_step_is_reported_and_levels_are_timed() {
-        let levels = [
-            Level::Normal,
-            Level::Warning,
-            Level::Warning,
-            Level::Normal,
-            Level::Normal,
-        ];
-        let host: Vec<Telemetry> = (0..5).map(|k| record(k, 1.0, levels[k as usize])).collect();
-        let mut device = host.clone();
-        device[3].head_acc_m_s2[2] = f32::from_bits(1.0f32.to_bits() + 1);
-        let events = [
-            AlertEvent::Level {
-                from: Level::Normal,
-                to: Level::Warning,
-                criterion: Criterion::RunningRms { value_m_s2: 1.0 },
-                at_sample: 1,
-            },
-            AlertEvent::Level {
-                from: Level::Warning,
-                to: Level::Normal,
-                criterion: Criterion::RunningRms { value_m_s2: 1.0 },
-                at_sample: 3,
-            },
-        ];
-        let check = Check::new(&log(&device, &host, &events));
-        assert_eq!(
-            check.head_diff_f32_m_s2,
-            f64::from(f32::EPSILON),
-            "one ulp at 1.0"
-        );
-        assert!(!check.agree());
-        assert_eq!(check.highest_level, Level::Warning);
-        assert_eq!(check.highest_at_s, Some(0.1));
-        assert_eq!(check.cleared_at_s, Some(0.3));
-        assert_eq!(check.final_level, Level::Normal);
-        assert_eq!(check.level_events, 2);
-        // MTVV from the valid records (2..5) only: 0.5 + 4 * 0.01.
-        assert!((check.device_mtvv_m_s2 - 0.54).abs() < 1e-6);
-        assert_eq!(check.device_vdv_m_s175, 4.0);
-        let same = Check::new(&log(&host, &host, &events));
-        assert!(same.agree(), "{same:?}");
-        let missing = Check::new(&log(&host[..4], &host, &events));
-        assert!(!missing.records_complete && missing.head_diff_f32_m_s2.is_infinite());
-    }
 
     #[test]
     fn differences_say_bit_for_bit_only_when_exact() {

@@ -59,10 +59,13 @@ pub fn check(h: &mut String, log: &DeviceLog, check: &Check) {
         difference(check.head_diff_f32_m_s2, "m/s&sup2;"),
         difference(check.head_diff_f64_m_s2, "m/s&sup2;"),
         difference(check.rms_diff_m_s2, "m/s&sup2;"),
-        if check.events_agree {
-            "identical"
-        } else {
-            "<span class=\"bad\">different</span>"
+        match (check.events_agree, check.first_event_difference) {
+            (true, _) => "identical".to_string(),
+            (false, Some(i)) => format!(
+                "<span class=\"bad\">different from the {} event on</span>",
+                ordinal(i + 1)
+            ),
+            (false, None) => "<span class=\"bad\">different</span>".to_string(),
         },
         link.frames,
         link.lost_frames,
@@ -83,6 +86,18 @@ pub fn check(h: &mut String, log: &DeviceLog, check: &Check) {
         check.device_vdv_m_s175
     );
     events_table(h, log);
+}
+
+/// `1st`, `2nd`, `3rd`, `4th`, ... `11th`, `21st`.
+fn ordinal(n: usize) -> String {
+    let suffix = match (n % 10, n % 100) {
+        (_, 11..=13) => "th",
+        (1, _) => "st",
+        (2, _) => "nd",
+        (3, _) => "rd",
+        _ => "th",
+    };
+    format!("{n}{suffix}")
 }
 
 /// The device's alert events, at most [`MAX_DEVICE_EVENT_ROWS`].
@@ -110,11 +125,11 @@ fn events_table(h: &mut String, log: &DeviceLog) {
             e.time_s
         );
     }
-    if log.device_events.len() > MAX_DEVICE_EVENT_ROWS {
+    if log.device_event_count > MAX_DEVICE_EVENT_ROWS {
         let _ = writeln!(
             h,
             "<tr><td colspan=\"2\" class=\"text\">... {} more in the events file</td></tr>",
-            log.device_events.len() - MAX_DEVICE_EVENT_ROWS
+            log.device_event_count - MAX_DEVICE_EVENT_ROWS
         );
     }
     h.push_str("</table>\n");
@@ -240,4 +255,20 @@ fn how_made(h: &mut String, log: &DeviceLog) {
         let _ = writeln!(h, "<dt>files</dt><dd>{files}</dd>");
     }
     h.push_str("</dl>\n");
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ordinals_read_as_words_do() {
+        let got: Vec<String> = [1, 2, 3, 4, 11, 12, 13, 21, 102].map(ordinal).to_vec();
+        assert_eq!(
+            got,
+            [
+                "1st", "2nd", "3rd", "4th", "11th", "12th", "13th", "21st", "102nd"
+            ]
+        );
+    }
 }

@@ -10,7 +10,7 @@ use supine_core::alerts::AlertConfig;
 
 use crate::exposure::report::AxisReport;
 use crate::plot::time_chart::Chart;
-use crate::report::device_check::{Check, DeviceLog};
+use crate::report::device_check::DeviceLog;
 use crate::report::mission::{LEVEL_NAMES, Leg, level_index};
 use crate::report::{Comparison, MissionReport};
 use crate::report::{band, charts, device_section, joints};
@@ -157,7 +157,7 @@ pub fn render(report: &MissionReport, device: Option<&DeviceLog>) -> Result<Stri
         h.push_str(&band::html(b, legs, total));
     }
     if let Some(log) = device {
-        device_section::check(&mut h, log, &Check::new(log));
+        device_section::check(&mut h, log, &log.check);
     }
     h.push_str("<h2>Charts</h2>\n");
     let config = &report.thresholds;

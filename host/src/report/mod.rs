@@ -21,13 +21,14 @@ pub mod band;
 pub mod charts;
 pub mod device_charts;
 pub mod device_check;
+pub mod device_pass;
 pub mod device_section;
+pub mod device_series;
 pub mod html;
 pub mod joints;
 pub mod mission;
 pub mod monitor_log;
 pub mod spectrum;
-pub mod trace;
 
 use std::path::PathBuf;
 

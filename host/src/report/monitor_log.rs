@@ -17,20 +17,19 @@ use supine_core::blob::DeviceParams;
 
 use crate::device::device_params::{self, identity_hex};
 use crate::device::link::LinkStats;
-use crate::exposure::reference;
 use crate::io::monitor_session::{SessionInfo, input_path, session_path};
 use crate::io::params_file::ParamFile;
-use crate::io::telemetry_csv::{
-    EventRow, TELEMETRY_HEADER, events_path, read_events, read_telemetry,
-};
+use crate::io::ride_rows::RideSource;
+use crate::io::telemetry_csv::{event_records, events_path, joint_mask_of, telemetry_records};
 use crate::report::device_check::{DeviceLog, DeviceRun};
-use crate::report::trace::Trace;
+use crate::report::device_pass::{self, Session};
 
 /// Longest first line read to recognize a monitor log, bytes.
 const MAX_HEADER_BYTES: u64 = 4096;
 
-/// Whether `path` is a telemetry log (its first line is [`TELEMETRY_HEADER`]); a file
-/// that cannot be read is not one (the ride reader then says why).
+/// Whether `path` is a telemetry log (its first line a telemetry header, with any joint
+/// columns: [`joint_mask_of`]); a file that cannot be read is not one (the ride reader
+/// then says why).
 pub fn is_monitor_log(path: &Path) -> bool {
     let Ok(file) = std::fs::File::open(path) else {
         return false;
@@ -41,7 +40,8 @@ pub fn is_monitor_log(path: &Path) -> bool {
         return false;
     }
     let line = line.trim_start_matches('\u{feff}').trim_end();
-    line == TELEMETRY_HEADER
+    let cells: Vec<&str> = line.split(',').collect();
+    joint_mask_of(&cells).is_some()
 }
 
 /// A monitor log, checked against the parameters given, and its ride.
@@ -120,93 +120,92 @@ pub fn open(log: &Path, file: &ParamFile) -> Result<LoggedSession> {
     })
 }
 
-/// The device's account and the host's for the logged session: the host runs the
-/// device's pipeline (f32) and the f64 model on `samples`, the ride as read back from the
-/// input file.
+/// The device's account and the host's for the logged session, in one pass
+/// ([`device_pass`]): the host runs the device's pipeline (f32) and the f64 model on the
+/// ride as read back from the input file, row by row.
 pub fn device_log(
     log: &Path,
     logged: &LoggedSession,
     file: &ParamFile,
-    samples: &[[f32; 3]],
+    ride: &RideSource,
 ) -> Result<DeviceLog> {
     let s = &logged.session;
     let fs = s.sample_rate_hz;
-    if samples.len() as u64 != s.input_samples {
+    if ride.len() as u64 != s.input_samples {
         bail!(
             "{}: {} samples, expected input_samples {} from {}",
             logged.ride.display(),
-            samples.len(),
+            ride.len(),
             s.input_samples,
             session_path(log).display()
         );
     }
     let first = s.first_input_sample.unwrap_or(0);
-    let indices: Vec<u32> = (0..samples.len() as u32)
-        .map(|k| first.wrapping_add(k))
-        .collect();
-    let host = reference::pipeline(&logged.params, &indices, samples);
-    let head_f64 = reference::head_f64(&file.params, fs, samples)?;
-    let telemetry = read_telemetry(log)?;
-    let events = read_events(&events_path(log), fs)?;
-    let rows = |events: &[supine_core::alerts::AlertEvent]| -> Vec<EventRow> {
-        events.iter().map(|e| EventRow::from_event(e, fs)).collect()
+    let mut device_records = 0;
+    for record in telemetry_records(log)? {
+        record?;
+        device_records += 1;
+    }
+    let session = Session {
+        params: &logged.params,
+        model: &file.params,
+        sample_rate_hz: fs,
+        first_sample: first,
+        samples: ride.len(),
+        device_records,
     };
+    let input = ride.platform()?.map(|r| r.map(|x| x.map(|v| v as f32)));
+    let pass = device_pass::run(
+        &session,
+        input,
+        telemetry_records(log)?,
+        event_records(&events_path(log), fs)?,
+    )?;
     let name = |p: &Path| {
         p.file_name()
             .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
     };
-    Ok(DeviceLog {
-        run: DeviceRun {
-            account: format!(
-                "The device's session as supine monitor logged it ({}): its telemetry and alert \
+    let run = DeviceRun {
+        account: format!(
+            "The device's session as supine monitor logged it ({}): its telemetry and alert \
                  events, and the input its model got ({}), which the host ran through the same \
                  f32 pipeline with the same parameters and through the f64 model.",
-                log.display(),
-                logged.ride.display()
-            ),
-            device_line: format!(
-                "firmware {}, protocol {}, parameters {}, {} Hz, patient {} m, {} kg",
-                s.firmware_version,
-                s.protocol_version,
-                s.params_identity,
-                s.sample_rate_hz,
-                s.height_m,
-                s.mass_kg
-            ),
-            firmware_version: s.firmware_version.clone(),
-            status: s.status,
-            link: LinkStats {
-                frames: s.link_frames,
-                bad_frames: s.link_bad_frames,
-                lost_frames: s.link_lost_frames,
-                reordered_frames: s.link_reordered_frames,
-            },
-            step_times: Vec::new(),
-            notes: vec![(
-                "input stream".to_string(),
-                format!(
-                    "{} samples from sample {first}, {} frames, none lost",
-                    s.input_samples, s.input_frames
-                ),
-            )],
-            files: [
-                (name(log), "the device's telemetry"),
-                (name(&events_path(log)), "the device's alert events"),
-                (name(&logged.ride), "the input the device's model got"),
-                (name(&session_path(log)), "the session's facts"),
-            ]
-            .map(|(f, what)| (f, what.to_string()))
-            .to_vec(),
+            log.display(),
+            logged.ride.display()
+        ),
+        device_line: format!(
+            "firmware {}, protocol {}, parameters {}, {} Hz, patient {} m, {} kg",
+            s.firmware_version,
+            s.protocol_version,
+            s.params_identity,
+            s.sample_rate_hz,
+            s.height_m,
+            s.mass_kg
+        ),
+        firmware_version: s.firmware_version.clone(),
+        status: s.status,
+        link: LinkStats {
+            frames: s.link_frames,
+            bad_frames: s.link_bad_frames,
+            lost_frames: s.link_lost_frames,
+            reordered_frames: s.link_reordered_frames,
         },
-        sample_rate_hz: fs,
-        samples: samples.len(),
-        input_m_s2: [0, 1, 2].map(|a| samples.iter().map(|x| f64::from(x[a])).collect()),
-        bands: Vec::new(),
-        moments: Vec::new(),
-        device: Trace::from_telemetry(&telemetry, fs),
-        device_events: events,
-        host: Trace::from_telemetry(&host.telemetry, fs),
-        host_events: rows(&host.events),
-        host_head_f64_m_s2: [0, 1, 2].map(|a| head_f64.iter().map(|h| h[a]).collect()),
-    })
+        step_times: Vec::new(),
+        notes: vec![(
+            "input stream".to_string(),
+            format!(
+                "{} samples from sample {first}, {} frames, none lost",
+                s.input_samples, s.input_frames
+            ),
+        )],
+        files: [
+            (name(log), "the device's telemetry"),
+            (name(&events_path(log)), "the device's alert events"),
+            (name(&logged.ride), "the input the device's model got"),
+            (name(&session_path(log)), "the session's facts"),
+        ]
+        .map(|(f, what)| (f, what.to_string()))
+        .to_vec(),
+    };
+    Ok(pass.into_log(run, &session, Vec::new(), Vec::new()))
 }
