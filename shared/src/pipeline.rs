@@ -283,7 +283,7 @@ impl DeviceParams {
                 }
             }
             countdown -= 1;
-            *h = self.realization.step(&mut state.model, *h);
+            *h = self.realization.step_device(&mut state.model, *h);
         }
         let mut reported = joints.iter();
         let mut exposure = [ExposureSample::default(); N];

@@ -77,6 +77,10 @@ impl Scalar for f64 {
 }
 
 /// One 2-state block of the realization.
+///
+/// `repr(C)`: the device's step loads a block's coefficients in one instruction
+/// (`step_kernel`), so their order in memory is part of the type.
+#[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(bound(
     serialize = "T: Serialize, [[T; 2]; NY]: Serialize",
@@ -205,12 +209,29 @@ impl core::fmt::Display for RealizationError {
 impl core::error::Error for RealizationError {}
 
 impl DeviceRealization {
-    /// [`step`](DiscreteModal::step), compiled in this crate: the copy the device's
-    /// pipeline runs, at this crate's opt-level (the rest of the image is built for size,
-    /// the workspace's `Cargo.toml`), for the self-test to time.
+    /// [`step`](DiscreteModal::step) as the device runs it: on the Cortex-M4F the groups
+    /// of one or two rows (all of them in this model) go through `step_kernel`, the same
+    /// operations in the same order, so the same bits; elsewhere `step` itself. Compiled in
+    /// this crate at its opt-level (the rest of the image is built for size, the
+    /// workspace's `Cargo.toml`), for the pipeline and for the self-test to time.
     #[inline(never)]
     pub fn step_device(&self, state: &mut ModalState<f32>, input_m_s2: [f32; 3]) -> [f32; 3] {
-        self.step(state, input_m_s2)
+        #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+        {
+            use super::step_kernel::advance;
+            self.step_groups(state, input_m_s2, |group, blocks, states, u, y| match group
+                .output_count
+            {
+                0 => {}
+                1 => group.add_rows(advance::<1>(group, blocks, states, u), y),
+                2 => group.add_rows(advance::<2>(group, blocks, states, u), y),
+                _ => group.run::<3>(blocks, states, u, y),
+            })
+        }
+        #[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
+        {
+            self.step(state, input_m_s2)
+        }
     }
 }
 
@@ -221,6 +242,27 @@ impl<T: Scalar, const NY: usize> DiscreteModal<T, NY> {
     /// Cannot fail: the realization was checked when it was built or loaded.
     #[inline]
     pub fn step(&self, state: &mut ModalState<T>, input_m_s2: [T; 3]) -> [T; NY] {
+        self.step_groups(state, input_m_s2, |group, blocks, states, u, y| {
+            // The accumulators live in registers when their count is known at compile
+            // time: one row (x and y groups) or two (z: vertical and pitch) on the device.
+            match group.output_count {
+                0 => {}
+                1 => group.run::<1>(blocks, states, u, y),
+                2 => group.run::<2>(blocks, states, u, y),
+                _ => group.run::<NY>(blocks, states, u, y),
+            }
+        })
+    }
+
+    /// One sample: each group's blocks and states (sliced alike) go to `run` with the
+    /// group's input and the outputs to add to.
+    #[inline(always)]
+    fn step_groups(
+        &self,
+        state: &mut ModalState<T>,
+        input_m_s2: [T; 3],
+        mut run: impl FnMut(&ModalGroup<T, NY>, &[ModalBlock<T, NY>], &mut [[T; 2]], T, &mut [T; NY]),
+    ) -> [T; NY] {
         let mut y = [T::ZERO; NY];
         let mut first = 0;
         for (group, u) in self.groups.iter().zip(input_m_s2) {
@@ -228,14 +270,7 @@ impl<T: Scalar, const NY: usize> DiscreteModal<T, NY> {
             let blocks = self.blocks.get(first..end).unwrap_or(&[]);
             let states = state.blocks.get_mut(first..end).unwrap_or(&mut []);
             first = end;
-            // The accumulators live in registers when their count is known at compile
-            // time: one row (x and y groups) or two (z: vertical and pitch) on the device.
-            match group.output_count {
-                0 => {}
-                1 => group.run::<1>(blocks, states, u, &mut y),
-                2 => group.run::<2>(blocks, states, u, &mut y),
-                _ => group.run::<NY>(blocks, states, u, &mut y),
-            }
+            run(group, blocks, states, u, &mut y);
         }
         y
     }
@@ -447,6 +482,12 @@ impl<T: Scalar, const NY: usize> ModalGroup<T, NY> {
                 x1 + (d[1][0] * x0 + d[1][1] * x1),
             ];
         }
+        self.add_rows(acc, y);
+    }
+
+    /// Adds the K packed rows' sums `acc` to the outputs they feed.
+    #[inline(always)]
+    fn add_rows<const K: usize>(&self, acc: [T; K], y: &mut [T; NY]) {
         for (&o, a) in self.outputs().iter().zip(acc) {
             if let Some(out) = y.get_mut(usize::from(o)) {
                 *out = *out + a;

@@ -16,6 +16,8 @@ pub mod params;
 pub mod readout;
 pub mod response;
 pub mod state_space;
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+mod step_kernel;
 
 use core::fmt;
 
