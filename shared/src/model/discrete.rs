@@ -79,7 +79,7 @@ impl Scalar for f64 {
 /// One 2-state block of the realization.
 ///
 /// `repr(C)`: the device's step loads a block's coefficients in one instruction
-/// (`step_kernel`), so their order in memory is part of the type.
+/// (`fpu_loops`), so their order in memory is part of the type.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(bound(
@@ -210,7 +210,7 @@ impl core::error::Error for RealizationError {}
 
 impl DeviceRealization {
     /// [`step`](DiscreteModal::step) as the device runs it: on the Cortex-M4F the groups
-    /// of one or two rows (all of them in this model) go through `step_kernel`, the same
+    /// of one or two rows (all of them in this model) go through `fpu_loops`, the same
     /// operations in the same order, so the same bits; elsewhere `step` itself. Compiled in
     /// this crate at its opt-level (the rest of the image is built for size, the
     /// workspace's `Cargo.toml`), for the pipeline and for the self-test to time.
@@ -218,7 +218,7 @@ impl DeviceRealization {
     pub fn step_device(&self, state: &mut ModalState<f32>, input_m_s2: [f32; 3]) -> [f32; 3] {
         #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
         {
-            use super::step_kernel::advance;
+            use super::fpu_loops::advance;
             self.step_groups(state, input_m_s2, |group, blocks, states, u, y| match group
                 .output_count
             {

@@ -9,6 +9,8 @@
 pub mod assembly;
 pub mod channel;
 pub mod discrete;
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+mod fpu_loops;
 pub mod geometry;
 pub mod joints;
 pub mod modal;
@@ -16,8 +18,6 @@ pub mod params;
 pub mod readout;
 pub mod response;
 pub mod state_space;
-#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
-mod step_kernel;
 
 use core::fmt;
 

@@ -377,7 +377,8 @@ impl JointReadout {
 }
 
 /// The first `R` rows of one axis group at a sample: the direct term times the input `u`
-/// plus each block's rows (`block_rows`) times its state (`states`).
+/// plus each block's rows (`block_rows`) times its state (`states`). On the Cortex-M4F
+/// `fpu_loops::accumulate` runs the same operations in the same order.
 #[inline(always)]
 fn accumulate<const R: usize>(
     feedthrough: &[f32; MAX_JOINT_ROWS],
@@ -385,11 +386,18 @@ fn accumulate<const R: usize>(
     block_rows: &[[[f32; 2]; MAX_JOINT_ROWS]],
     states: &[[f32; 2]],
 ) -> [f32; R] {
-    let mut acc: [f32; R] = core::array::from_fn(|r| feedthrough[r % MAX_JOINT_ROWS] * u);
-    for (c, x) in block_rows.iter().zip(states) {
-        for (a, c) in acc.iter_mut().zip(c) {
-            *a += c[0] * x[0] + c[1] * x[1];
-        }
+    #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+    {
+        super::fpu_loops::accumulate(feedthrough, u, block_rows, states)
     }
-    acc
+    #[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
+    {
+        let mut acc: [f32; R] = core::array::from_fn(|r| feedthrough[r % MAX_JOINT_ROWS] * u);
+        for (c, x) in block_rows.iter().zip(states) {
+            for (a, c) in acc.iter_mut().zip(c) {
+                *a += c[0] * x[0] + c[1] * x[1];
+            }
+        }
+        acc
+    }
 }
