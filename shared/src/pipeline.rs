@@ -283,7 +283,13 @@ impl DeviceParams {
                 }
             }
             countdown -= 1;
-            *h = self.realization.step_device(&mut state.model, *h);
+            // Inlined in the full block's loop (the per-sample path); a call from the
+            // one-sample copy, which runs only at the end of a stream, to spare flash.
+            *h = if N == BLOCK_LEN {
+                self.realization.step_inline(&mut state.model, *h)
+            } else {
+                self.realization.step_device(&mut state.model, *h)
+            };
         }
         let mut reported = joints.iter();
         let mut exposure = [ExposureSample::default(); N];

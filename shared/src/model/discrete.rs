@@ -216,6 +216,13 @@ impl DeviceRealization {
     /// workspace's `Cargo.toml`), for the pipeline and for the self-test to time.
     #[inline(never)]
     pub fn step_device(&self, state: &mut ModalState<f32>, input_m_s2: [f32; 3]) -> [f32; 3] {
+        self.step_inline(state, input_m_s2)
+    }
+
+    /// [`step_device`](Self::step_device), inlined where it is called: the pipeline's
+    /// per-sample loop, which then keeps the outputs in registers and pays no call.
+    #[inline(always)]
+    pub fn step_inline(&self, state: &mut ModalState<f32>, input_m_s2: [f32; 3]) -> [f32; 3] {
         #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
         {
             use super::fpu_loops::advance;

@@ -83,8 +83,15 @@ impl Cobs<'_> {
                 dst.copy_from_slice(&bytes);
                 self.out += 4;
             }
-            _ => bytes.into_iter().for_each(|b| self.byte(b)),
+            _ => self.float_bytes(bytes),
         }
+    }
+
+    /// A float with a zero byte (or, never, past the frame's end), byte by byte. Out of
+    /// line: it is rare, and inlined at each of the straight-line floats it costs flash.
+    #[inline(never)]
+    fn float_bytes(&mut self, bytes: [u8; 4]) {
+        bytes.into_iter().for_each(|b| self.byte(b));
     }
 
     /// Closes the last run and writes the terminating zero; returns the frame length.
