@@ -4,10 +4,11 @@
 //! telemetry and status carry.
 //!
 //! The joint outputs are read on the samples telemetry reports (every `decimation`-th),
-//! not on every sample: all ten cost about 1,000 instructions per reading, which on every
-//! sample would more than double the pipeline's cost (BENCHMARKS.md). Their motion lies below about 20 Hz, so the
-//! running mean square of those samples is the same average with the gain of the longer
-//! step, `1 - alpha^D`; the excursion misses the true peak by at most
+//! not on every sample: all ten cost about 790 instructions per reading, more than the
+//! model step itself, which on every sample would add about 80 % to the pipeline's cost
+//! (BENCHMARKS.md). Their motion lies below about 20 Hz, so the running mean square of
+//! those samples is the same average with the gain of the longer step, `1 - alpha^D`;
+//! the excursion misses the true peak by at most
 //! `1 - cos(pi f D / fs)` of a sine at `f` (`docs/exposure.md`, "Joint motion").
 
 use core::fmt;

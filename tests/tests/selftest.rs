@@ -18,8 +18,9 @@ use supine_qemu_tests::{
 };
 
 /// Most instructions one model step may take on the device: a regression guard over the
-/// 622 measured in BENCHMARKS.md (the project budget was 800).
-const MAX_INSTRUCTIONS_PER_STEP: u64 = 700;
+/// 489 measured in BENCHMARKS.md (the block loop in FPU assembly, issue 16's third pass;
+/// 622 before), with about 15 % margin (the project budget was 800).
+const MAX_INSTRUCTIONS_PER_STEP: u64 = 560;
 /// Largest stack decoding the realization and running the model may use.
 const MAX_MODEL_STACK_BYTES: usize = 8 * 1024;
 /// Largest stack the whole self-test may use (the golden blob check holds a 4 KiB buffer
