@@ -20,7 +20,7 @@
 use super::discrete::{ModalBlock, ModalGroup};
 use super::readout::MAX_JOINT_ROWS;
 
-/// Words from one block's first coefficient to the next block's: the device realization
+/// Bytes from one block's first coefficient to the next block's: the device realization
 /// stores three output rows per block (`ModalBlock<f32, 3>`, `repr(C)`), of which a group
 /// uses its first `output_count`.
 const BLOCK_BYTES: usize = core::mem::size_of::<ModalBlock<f32, 3>>();
