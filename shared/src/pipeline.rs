@@ -10,7 +10,9 @@
 use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
-use crate::alerts::{AlertEvent, AlertState, FaultFlags, Level, SensorCheckState};
+use crate::alerts::{
+    AlertEvent, AlertState, FaultFlags, JointAlertState, Level, SensorCheckState,
+};
 use crate::blob::DeviceParams;
 use crate::exposure::{ExposureSample, ExposureState};
 use crate::fpu::sqrt_f32;
@@ -66,6 +68,7 @@ pub struct PipelineState {
     exposure: ExposureState,
     joints: JointExposureState,
     alerts: AlertState,
+    joint_alerts: JointAlertState,
     sensors: SensorCheckState,
     /// Last finite input as the model got it (whole input-resolution counts, as f32),
     /// held in place of a non-finite one so NaN never enters a filter.
@@ -99,6 +102,7 @@ impl PipelineState {
             exposure: ExposureState::new(),
             joints: JointExposureState::new(),
             alerts: AlertState::new(),
+            joint_alerts: JointAlertState::new(),
             sensors: SensorCheckState::new(),
             last_input_counts: [0.0; 3],
             recent_inputs: [[0; 3]; BLOCK_LEN],
@@ -167,6 +171,11 @@ impl PipelineState {
     /// The joint outputs' running mean square and largest excursion.
     pub const fn joints(&self) -> &JointExposureState {
         &self.joints
+    }
+
+    /// Which joint-motion alerts are raised.
+    pub const fn joint_alerts(&self) -> &JointAlertState {
+        &self.joint_alerts
     }
 }
 
@@ -267,7 +276,9 @@ impl DeviceParams {
             &mut head,
         );
         // The joint outputs are read on the samples telemetry reports (module
-        // `joint_exposure`): their values, in sample order, for the records below.
+        // `joint_exposure`): their values, in sample order, for the records below, where
+        // their exposure and alerts are stepped (so that a joint alert is sent in sample
+        // order with the others, with no buffer of its own).
         let decimation = self.telemetry.decimation.max(1);
         let joint_gain = running_gain(self.exposure.running_gain, decimation);
         let mut countdown = state.telemetry_countdown;
@@ -279,7 +290,7 @@ impl DeviceParams {
                 if joints.push([0.0; JOINT_OUTPUT_COUNT]).is_ok()
                     && let Some(y) = joints.last_mut()
                 {
-                    joint_count = self.read_joints(state, joint_gain, *h, y);
+                    joint_count = self.read_joints(state, *h, y);
                 }
             }
             countdown -= 1;
@@ -338,9 +349,12 @@ impl DeviceParams {
             state.processed = state.processed.wrapping_add(1);
             if state.telemetry_countdown == 0 {
                 state.telemetry_countdown = decimation;
-                let joints = reported
-                    .next()
-                    .map_or(JointValues::EMPTY, |y| JointValues::packed(joint_count, *y));
+                let joints = reported.next().map_or(JointValues::EMPTY, |y| {
+                    self.step_joints(state, joint_gain, &y[..joint_count], index, &mut |e| {
+                        emit(PipelineOutput::Alert(e))
+                    });
+                    JointValues::packed(joint_count, *y)
+                });
                 emit(PipelineOutput::Telemetry(self.telemetry_of(
                     index,
                     head[n],
@@ -354,21 +368,49 @@ impl DeviceParams {
     }
 
     /// The joint outputs read (packed into `y`; returns how many) at the sample about to
-    /// be stepped, taken into their exposure with `gain`. Out of line: the pipeline is
-    /// compiled for two block lengths, and this need not be twice in flash.
+    /// be stepped. Out of line: the pipeline is compiled for two block lengths, and this
+    /// need not be twice in flash.
     #[inline(never)]
     fn read_joints(
         &self,
         state: &mut PipelineState,
-        gain: f32,
         input_m_s2: [f32; 3],
         y: &mut [f32; JOINT_OUTPUT_COUNT],
     ) -> usize {
-        let count = self
-            .joints
-            .read_packed(&self.realization, &state.model, input_m_s2, y);
-        state.joints.step(gain, &y[..count]);
-        count
+        self.joints
+            .read_packed(&self.realization, &state.model, input_m_s2, y)
+    }
+
+    /// One reading `y` (packed) of the joint outputs, at sample `index`, taken into their
+    /// exposure with `gain`, then, if any threshold is set, into their alerts, whose
+    /// events go to `emit`. Out of line, as [`read_joints`](Self::read_joints).
+    #[inline(never)]
+    fn step_joints(
+        &self,
+        state: &mut PipelineState,
+        gain: f32,
+        y: &[f32],
+        index: u32,
+        emit: &mut dyn FnMut(AlertEvent),
+    ) {
+        state.joints.step(gain, y);
+        if self.joint_alerts.watches_any() {
+            let count = y.len();
+            self.joint_alerts.step(
+                &mut state.joint_alerts,
+                state.joints.mean_square(count),
+                state.joints.peaks(count),
+                |k, criterion, raised| {
+                    let output = self.joints.packed_outputs().nth(k).unwrap_or(u8::MAX);
+                    emit(AlertEvent::Joint {
+                        output,
+                        criterion,
+                        raised,
+                        at_sample: index,
+                    });
+                },
+            );
+        }
     }
 
     fn telemetry_of(

@@ -258,6 +258,11 @@ impl JointReadout {
         direct * input + rows * state
     }
 
+    /// How many outputs it reads.
+    pub fn output_count(&self) -> usize {
+        self.groups.iter().map(|g| g.outputs().len()).sum()
+    }
+
     /// Whether it reads joint output `output`.
     pub fn reads(&self, output: JointOutput) -> bool {
         self.groups
