@@ -10,9 +10,7 @@
 use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
-use crate::alerts::{
-    AlertEvent, AlertState, FaultFlags, JointAlertState, Level, SensorCheckState,
-};
+use crate::alerts::{AlertEvent, AlertState, FaultFlags, JointAlertState, Level, SensorCheckState};
 use crate::blob::DeviceParams;
 use crate::exposure::{ExposureSample, ExposureState};
 use crate::fpu::sqrt_f32;

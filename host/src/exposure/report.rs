@@ -39,6 +39,7 @@ use crate::exposure::resample::Resampler;
 use crate::io::params_file::ParamFile;
 use crate::io::recording::{COLUMNS, Layout};
 use crate::io::ride_rows::RideSource;
+use crate::io::wording::joint_alert_text;
 
 /// Samples handed to the device pipeline per call (bounds the chunk buffer).
 const CHUNK_SAMPLES: usize = 4096;
@@ -295,6 +296,17 @@ impl TimedEvent {
                 event: format!("{fault} {}", if active { "raised" } else { "cleared" }),
                 level: None,
                 raise: active,
+                criterion: None,
+            },
+            AlertEvent::Joint { raised, .. } => Self {
+                time_s,
+                sample,
+                kind: "joint",
+                event: e
+                    .joint_criterion()
+                    .map_or_else(String::new, |(o, c)| joint_alert_text(o, &c, raised)),
+                level: None,
+                raise: raised,
                 criterion: None,
             },
         }

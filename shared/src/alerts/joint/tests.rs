@@ -77,7 +77,9 @@ fn a_dip_restarts_the_raise_dwell() {
     c.raise_dwell_s = 0.05; // 5 readings at 100 Hz
     let s = JointAlertSettings::new(c, rate(500.0), 5, 10).unwrap();
     assert_eq!(s.raise_dwell_readings, 5);
-    let rms = [0.004, 0.004, 0.004, 0.004, 0.001, 0.004, 0.004, 0.004, 0.004, 0.004];
+    let rms = [
+        0.004, 0.004, 0.004, 0.004, 0.001, 0.004, 0.004, 0.004, 0.004, 0.004,
+    ];
     let events = run(&s, &rms);
     assert_eq!(events.iter().map(|e| e.0).collect::<Vec<_>>(), [9]);
 }
@@ -138,11 +140,15 @@ fn each_output_is_watched_on_its_own() {
     ms[0] = 1.0;
     peak[0] = 1.0;
     let mut events = Vec::new();
-    s.step(&mut state, &ms, &peak, |k, c, r| events.push((k, c.name(), r)));
+    s.step(&mut state, &ms, &peak, |k, c, r| {
+        events.push((k, c.name(), r))
+    });
     assert!(events.is_empty());
     peak[3] = 0.011;
     ms[7] = 0.0004; // exactly at 0.02^2: raised
-    s.step(&mut state, &ms, &peak, |k, c, r| events.push((k, c.name(), r)));
+    s.step(&mut state, &ms, &peak, |k, c, r| {
+        events.push((k, c.name(), r))
+    });
     assert_eq!(events, [(7, "running-rms", true), (3, "excursion", true)]);
     assert_eq!(state.rms_raised(), 1 << 7);
     assert_eq!(state.excursion_raised(), 1 << 3);
@@ -153,8 +159,14 @@ fn bad_thresholds_hysteresis_and_times_are_refused() {
     let fs = rate(500.0);
     let refused = |c: JointAlertConfig, read: usize| JointAlertSettings::new(c, fs, 5, read);
     for t in [-0.001, f32::NAN, f32::INFINITY] {
-        assert_eq!(refused(config(t, 0.0), 10), Err(AlertError::JointThresholds));
-        assert_eq!(refused(config(0.0, t), 10), Err(AlertError::JointThresholds));
+        assert_eq!(
+            refused(config(t, 0.0), 10),
+            Err(AlertError::JointThresholds)
+        );
+        assert_eq!(
+            refused(config(0.0, t), 10),
+            Err(AlertError::JointThresholds)
+        );
     }
     // A threshold past the outputs read.
     let mut c = JointAlertConfig::NONE;
