@@ -346,7 +346,8 @@ impl Default for AlertConfig {
     }
 }
 
-fn samples_of(t_s: f32, fs: f64) -> Result<u32, AlertError> {
+/// Samples in `t_s` at `fs`, at least one (`t_s` finite, within 0..=[`MAX_DWELL_S`]).
+pub(crate) fn samples_of(t_s: f32, fs: f64) -> Result<u32, AlertError> {
     if t_s.is_finite() && (0.0..=MAX_DWELL_S).contains(&t_s) {
         Ok((libm::round(t_s as f64 * fs) as u32).max(1))
     } else {

@@ -340,7 +340,7 @@ impl DeviceParams {
             .chain(self.alerts.raise_ms_m2_s4)
             .chain(self.alerts.clear_ms_m2_s4)
             .chain(self.alerts.vdv4_m4_s7)
-            .chain(self.joint_alerts.numbers())
+            .chain(self.joint_alerts.scalars())
     }
 
     /// Writes header and payload into `buf`; returns the blob's length.

@@ -399,7 +399,7 @@ impl DeviceParams {
                 state.joints.mean_square(count),
                 state.joints.peaks(count),
                 |k, criterion, raised| {
-                    let output = self.joints.packed_outputs().nth(k).unwrap_or(u8::MAX);
+                    let output = self.joints.packed_output(k).unwrap_or(u8::MAX);
                     emit(AlertEvent::Joint {
                         output,
                         criterion,

@@ -21,14 +21,14 @@
 //!
 //! # Cost
 //! With no threshold set, one test of two masks per reading. Per watched output, a reading
-//! costs one or two f32 comparisons against precomputed squared thresholds; a square root
+//! costs a multiplication or two (the squared threshold) and a comparison; a square root
 //! only when an event is sent.
 
 use core::fmt;
 
 use serde::{Deserialize, Serialize};
 
-use super::{AlertConfig, AlertError, MAX_DWELL_S};
+use super::{AlertConfig, AlertError, samples_of};
 use crate::fpu::sqrt_f32;
 use crate::model::JOINT_OUTPUT_COUNT;
 use crate::sample_rate::SampleRate;
@@ -83,8 +83,10 @@ impl fmt::Display for JointCriterion {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct JointAlertConfig {
     /// Running-rms threshold per output read, m or rad (0: none).
+    #[serde(with = "thresholds_serde")]
     pub running_rms_m_or_rad: [f32; JOINT_OUTPUT_COUNT],
     /// Largest-excursion threshold per output read, m or rad (0: none).
+    #[serde(with = "thresholds_serde")]
     pub excursion_m_or_rad: [f32; JOINT_OUTPUT_COUNT],
     /// A running-rms alert clears below `(1 - hysteresis)` times its threshold (0..=0.9).
     pub hysteresis: f32,
@@ -112,15 +114,18 @@ impl Default for JointAlertConfig {
     }
 }
 
-/// The joint alerts' precomputed thresholds, for one sample rate and reading interval.
+/// The joint alerts' settings for one sample rate and reading interval: the thresholds
+/// as configured (the squares the running mean square is compared with are taken per
+/// reading, one multiplication each: storing them would add 80 bytes to the blob and to
+/// each copy of the parameters in the device's RAM), dwells in readings, and which
+/// outputs are watched.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct JointAlertSettings {
     /// The configuration these settings were built from.
     pub config: JointAlertConfig,
-    /// Squared running-rms raise thresholds, m^2 or rad^2 (0 where none).
-    pub raise_ms: [f32; JOINT_OUTPUT_COUNT],
-    /// Squared clear thresholds `((1 - h) threshold)^2`, m^2 or rad^2 (0 where none).
-    pub clear_ms: [f32; JOINT_OUTPUT_COUNT],
+    /// `(1 - hysteresis)^2`: a squared running-rms threshold times this is where the alert
+    /// clears, m^2 or rad^2.
+    pub clear_factor: f32,
     /// Raise dwell, readings of the joint outputs (at least 1).
     pub raise_dwell_readings: u32,
     /// Clear dwell, readings (at least 1).
@@ -163,23 +168,13 @@ impl JointAlertState {
     }
 }
 
-/// Readings in `t_s` when the joints are read every `decimation`-th sample at `fs`, at
-/// least one.
+/// Readings in `t_s` when the joints are read every `decimation`-th sample at `fs`: the
+/// samples in it, rounded to whole readings, at least one. In integers: an f64 division
+/// would add a kilobyte of soft-float code to the device.
 fn readings_of(t_s: f32, fs: f64, decimation: u16) -> Result<u32, AlertError> {
-    if t_s.is_finite() && (0.0..=MAX_DWELL_S).contains(&t_s) {
-        let per_s = fs / f64::from(decimation.max(1));
-        Ok((libm::round(t_s as f64 * per_s) as u32).max(1))
-    } else {
-        Err(AlertError::Time)
-    }
-}
-
-/// Bit `k` set where `thresholds[k]` is set (not 0).
-fn set_mask(thresholds: &[f32; JOINT_OUTPUT_COUNT]) -> u16 {
-    thresholds
-        .iter()
-        .enumerate()
-        .fold(0, |m, (k, &t)| if t != 0.0 { m | (1 << k) } else { m })
+    let samples = samples_of(t_s, fs)?;
+    let d = u32::from(decimation.max(1));
+    Ok(((samples + d / 2) / d).max(1))
 }
 
 impl JointAlertSettings {
@@ -192,28 +187,36 @@ impl JointAlertSettings {
         outputs_read: usize,
     ) -> Result<Self, AlertError> {
         let fs = sample_rate.hz_f64();
-        let thresholds = config
-            .running_rms_m_or_rad
-            .iter()
-            .chain(&config.excursion_m_or_rad);
-        let fine = thresholds.clone().all(|t| t.is_finite() && *t >= 0.0);
-        let set = set_mask(&config.running_rms_m_or_rad) | set_mask(&config.excursion_m_or_rad);
-        if !fine || set >> outputs_read.min(JOINT_OUTPUT_COUNT) != 0 {
-            return Err(AlertError::JointThresholds);
+        // Loops bounded by the outputs read, not by a constant: the device validates every
+        // blob it loads, and a loop of ten unrolled costs it a kilobyte of flash. A
+        // comparison with infinity refuses NaN (every comparison with it is false).
+        let (rms, excursion) = (&config.running_rms_m_or_rad, &config.excursion_m_or_rad);
+        let read = outputs_read.min(JOINT_OUTPUT_COUNT);
+        let (mut rms_watched, mut excursion_watched) = (0u16, 0u16);
+        for k in 0..read {
+            let (t, e) = (rms[k], excursion[k]);
+            if !((0.0..f32::INFINITY).contains(&t) && (0.0..f32::INFINITY).contains(&e)) {
+                return Err(AlertError::JointThresholds);
+            }
+            rms_watched |= u16::from(t != 0.0) << k;
+            excursion_watched |= u16::from(e != 0.0) << k;
+        }
+        for k in read..JOINT_OUTPUT_COUNT {
+            if rms[k] != 0.0 || excursion[k] != 0.0 {
+                return Err(AlertError::JointThresholds);
+            }
         }
         if !(config.hysteresis.is_finite() && (0.0..=0.9).contains(&config.hysteresis)) {
             return Err(AlertError::Hysteresis);
         }
-        let h = 1.0 - config.hysteresis as f64;
-        let rms = config.running_rms_m_or_rad.map(|t| t as f64);
+        let c = 1.0 - config.hysteresis;
         Ok(Self {
             config,
-            raise_ms: rms.map(|t| (t * t) as f32),
-            clear_ms: rms.map(|t| (h * h * t * t) as f32),
+            clear_factor: c * c,
             raise_dwell_readings: readings_of(config.raise_dwell_s, fs, decimation)?,
             clear_dwell_readings: readings_of(config.clear_dwell_s, fs, decimation)?,
-            rms_watched: set_mask(&config.running_rms_m_or_rad),
-            excursion_watched: set_mask(&config.excursion_m_or_rad),
+            rms_watched,
+            excursion_watched,
         })
     }
 
@@ -224,7 +227,18 @@ impl JointAlertSettings {
         decimation: u16,
         outputs_read: usize,
     ) -> Result<(), AlertError> {
-        if Self::new(self.config, sample_rate, decimation, outputs_read)? == *self {
+        // The config is checked by `new`; only what it derives can differ.
+        let rebuilt = Self::new(self.config, sample_rate, decimation, outputs_read)?;
+        let derived = |s: &Self| {
+            (
+                s.clear_factor.to_bits(),
+                s.raise_dwell_readings,
+                s.clear_dwell_readings,
+                s.rms_watched,
+                s.excursion_watched,
+            )
+        };
+        if derived(&rebuilt) == derived(self) {
             Ok(())
         } else {
             Err(AlertError::JointThresholds)
@@ -259,10 +273,12 @@ impl JointAlertSettings {
             };
             let bit = 1 << k;
             let raised = state.rms_raised & bit != 0;
+            let t = self.config.running_rms_m_or_rad[k];
+            let raise_ms = t * t;
             let called = if raised {
-                ms < self.clear_ms[k]
+                ms < raise_ms * self.clear_factor
             } else {
-                ms >= self.raise_ms[k]
+                ms >= raise_ms
             };
             if !called {
                 *pending = 0;
@@ -298,17 +314,63 @@ impl JointAlertSettings {
         }
     }
 
-    /// Every number of the configuration and the tables derived from it (for the blob's
-    /// check that all are finite).
-    pub fn numbers(&self) -> impl Iterator<Item = f32> + '_ {
+    /// The numbers of the configuration besides its thresholds (which
+    /// [`new`](Self::new) checks), for the blob's check that all are finite.
+    pub fn scalars(&self) -> [f32; 4] {
         let c = &self.config;
-        c.running_rms_m_or_rad
-            .iter()
-            .chain(&c.excursion_m_or_rad)
-            .chain(&self.raise_ms)
-            .chain(&self.clear_ms)
-            .copied()
-            .chain([c.hysteresis, c.raise_dwell_s, c.clear_dwell_s])
+        [
+            c.hysteresis,
+            c.raise_dwell_s,
+            c.clear_dwell_s,
+            self.clear_factor,
+        ]
+    }
+}
+
+/// A table of thresholds encoded exactly as serde encodes `[f32; 10]` (a tuple of ten),
+/// decoded in a loop: serde's own array decoder repeats its code per element, which cost
+/// the device a kilobyte of flash for the two tables.
+mod thresholds_serde {
+    use core::fmt;
+
+    use serde::de::{Error, SeqAccess, Visitor};
+    use serde::ser::SerializeTuple;
+    use serde::{Deserializer, Serializer};
+
+    use crate::model::JOINT_OUTPUT_COUNT;
+
+    type Table = [f32; JOINT_OUTPUT_COUNT];
+
+    pub fn serialize<S: Serializer>(table: &Table, serializer: S) -> Result<S::Ok, S::Error> {
+        let mut tuple = serializer.serialize_tuple(JOINT_OUTPUT_COUNT)?;
+        for v in table {
+            tuple.serialize_element(v)?;
+        }
+        tuple.end()
+    }
+
+    struct TableVisitor;
+
+    impl<'de> Visitor<'de> for TableVisitor {
+        type Value = Table;
+
+        fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            f.write_str("ten joint thresholds")
+        }
+
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Table, A::Error> {
+            let mut table = [0.0; JOINT_OUTPUT_COUNT];
+            for (k, slot) in table.iter_mut().enumerate() {
+                *slot = seq
+                    .next_element()?
+                    .ok_or_else(|| A::Error::invalid_length(k, &self))?;
+            }
+            Ok(table)
+        }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(deserializer: D) -> Result<Table, D::Error> {
+        deserializer.deserialize_tuple(JOINT_OUTPUT_COUNT, TableVisitor)
     }
 }
 

@@ -189,7 +189,7 @@ fn stored_settings_that_do_not_match_their_config_are_refused() {
     // Built for another reading interval.
     assert_eq!(s.validate(fs, 1, 10), Err(AlertError::JointThresholds));
     let mut t = s;
-    t.raise_ms[0] *= 2.0;
+    t.clear_factor *= 0.5;
     assert_eq!(t.validate(fs, 5, 10), Err(AlertError::JointThresholds));
     let mut t = s;
     t.rms_watched = 0;
