@@ -247,6 +247,13 @@ impl DeviceParams {
         Ok(params)
     }
 
+    /// These parameters reporting at `telemetry`'s rate: the joint outputs are read on the
+    /// samples telemetry reports, so the joint alerts' dwells (in readings) are rebuilt
+    /// for it; setting the field alone leaves a blob the device refuses.
+    pub fn with_telemetry(self, telemetry: TelemetryConfig) -> Result<Self, BlobError> {
+        Self { telemetry, ..self }.with_joint_alerts(self.joint_alerts.config)
+    }
+
     /// The sample rate every stage was built for, Hz.
     pub fn sample_rate_hz(&self) -> f32 {
         self.sample_rate.hz()
