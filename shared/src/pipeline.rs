@@ -274,9 +274,10 @@ impl DeviceParams {
             &mut head,
         );
         // The joint outputs are read on the samples telemetry reports (module
-        // `joint_exposure`): their values, in sample order, for the records below, where
-        // their exposure and alerts are stepped (so that a joint alert is sent in sample
-        // order with the others, with no buffer of its own).
+        // `joint_exposure`): their values, in sample order, for the records below. Their
+        // exposure is stepped at once, unless joint alerts are set: then it is stepped
+        // with the alerts at the records below, so that a joint alert is sent in sample
+        // order with the others, with no buffer of its own.
         let decimation = self.telemetry.decimation.max(1);
         let joint_gain = running_gain(self.exposure.running_gain, decimation);
         let mut countdown = state.telemetry_countdown;
@@ -288,7 +289,7 @@ impl DeviceParams {
                 if joints.push([0.0; JOINT_OUTPUT_COUNT]).is_ok()
                     && let Some(y) = joints.last_mut()
                 {
-                    joint_count = self.read_joints(state, *h, y);
+                    joint_count = self.read_joints(state, joint_gain, *h, y);
                 }
             }
             countdown -= 1;
@@ -348,9 +349,15 @@ impl DeviceParams {
             if state.telemetry_countdown == 0 {
                 state.telemetry_countdown = decimation;
                 let joints = reported.next().map_or(JointValues::EMPTY, |y| {
-                    self.step_joints(state, joint_gain, &y[..joint_count], index, &mut |e| {
-                        emit(PipelineOutput::Alert(e))
-                    });
+                    if self.joint_alerts.watches_any() {
+                        self.step_joint_alerts(
+                            state,
+                            joint_gain,
+                            &y[..joint_count],
+                            index,
+                            &mut |e| emit(PipelineOutput::Alert(e)),
+                        );
+                    }
                     JointValues::packed(joint_count, *y)
                 });
                 emit(PipelineOutput::Telemetry(self.telemetry_of(
@@ -366,24 +373,31 @@ impl DeviceParams {
     }
 
     /// The joint outputs read (packed into `y`; returns how many) at the sample about to
-    /// be stepped. Out of line: the pipeline is compiled for two block lengths, and this
-    /// need not be twice in flash.
+    /// be stepped, taken into their exposure with `gain` unless joint alerts are set
+    /// ([`step_joint_alerts`](Self::step_joint_alerts) does it then). Out of line: the
+    /// pipeline is compiled for two block lengths, and this need not be twice in flash.
     #[inline(never)]
     fn read_joints(
         &self,
         state: &mut PipelineState,
+        gain: f32,
         input_m_s2: [f32; 3],
         y: &mut [f32; JOINT_OUTPUT_COUNT],
     ) -> usize {
-        self.joints
-            .read_packed(&self.realization, &state.model, input_m_s2, y)
+        let count = self
+            .joints
+            .read_packed(&self.realization, &state.model, input_m_s2, y);
+        if !self.joint_alerts.watches_any() {
+            state.joints.step(gain, &y[..count]);
+        }
+        count
     }
 
-    /// One reading `y` (packed) of the joint outputs, at sample `index`, taken into their
-    /// exposure with `gain`, then, if any threshold is set, into their alerts, whose
+    /// With joint alerts set: one reading `y` (packed) of the joint outputs, at sample
+    /// `index`, taken into their exposure with `gain`, then into their alerts, whose
     /// events go to `emit`. Out of line, as [`read_joints`](Self::read_joints).
     #[inline(never)]
-    fn step_joints(
+    fn step_joint_alerts(
         &self,
         state: &mut PipelineState,
         gain: f32,
@@ -392,23 +406,21 @@ impl DeviceParams {
         emit: &mut dyn FnMut(AlertEvent),
     ) {
         state.joints.step(gain, y);
-        if self.joint_alerts.watches_any() {
-            let count = y.len();
-            self.joint_alerts.step(
-                &mut state.joint_alerts,
-                state.joints.mean_square(count),
-                state.joints.peaks(count),
-                |k, criterion, raised| {
-                    let output = self.joints.packed_output(k).unwrap_or(u8::MAX);
-                    emit(AlertEvent::Joint {
-                        output,
-                        criterion,
-                        raised,
-                        at_sample: index,
-                    });
-                },
-            );
-        }
+        let count = y.len();
+        self.joint_alerts.step(
+            &mut state.joint_alerts,
+            state.joints.mean_square(count),
+            state.joints.peaks(count),
+            |k, criterion, raised| {
+                let output = self.joints.packed_output(k).unwrap_or(u8::MAX);
+                emit(AlertEvent::Joint {
+                    output,
+                    criterion,
+                    raised,
+                    at_sample: index,
+                });
+            },
+        );
     }
 
     fn telemetry_of(
