@@ -398,7 +398,8 @@ fn attacks(start: Start) -> Vec<Attack> {
     ));
     // Signed, well formed, but with joint-motion thresholds the device refuses: the
     // validation on decode, as the head's alerts' (issue 16).
-    let bad_joint_alerts: [(&str, fn(&mut supine_core::alerts::JointAlertSettings)); 4] = [
+    type Spoil = fn(&mut supine_core::alerts::JointAlertSettings);
+    let bad_joint_alerts: [(&str, Spoil); 4] = [
         ("a negative joint threshold", |s| {
             s.config.excursion_m_or_rad[0] = -0.001
         }),
