@@ -34,6 +34,20 @@ pub enum PipelineOutput {
     Telemetry(Telemetry),
 }
 
+/// What a block hands to its report ([`DeviceParams::report`]): its samples' indices,
+/// head accelerations, exposure and joint readings, and its events by kind.
+struct Records<'a, const N: usize> {
+    indices: &'a [u32; N],
+    head: &'a [[f32; 3]; N],
+    exposure: &'a [ExposureSample; N],
+    faults: &'a [AlertEvent],
+    levels: &'a [AlertEvent],
+    joints: &'a [[f32; JOINT_OUTPUT_COUNT]],
+    joint_count: usize,
+    joint_gain: f32,
+    decimation: u16,
+}
+
 /// One telemetry record: what the device reports about one sample (the protocol sends it
 /// as [`DeviceToHost::Telemetry`](crate::protocol::DeviceToHost::Telemetry)).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -295,7 +309,6 @@ impl DeviceParams {
             countdown -= 1;
             *h = self.realization.step(&mut state.model, *h);
         }
-        let mut reported = joints.iter();
         let mut exposure = [ExposureSample::default(); N];
         let first = indices[0];
         self.exposure
@@ -325,9 +338,42 @@ impl DeviceParams {
             });
         // Fault edges and level changes each come in sample order; merge them by sample.
         let (faults, levels) = events.split_at(fault_events);
+        let records = Records {
+            indices,
+            head: &head,
+            exposure: &exposure,
+            faults,
+            levels,
+            joints: &joints,
+            joint_count,
+            joint_gain,
+            decimation,
+        };
+        // Two copies of the loop below for full blocks, the device's path: with no joint
+        // threshold set, its copy has no trace of the joint alerts (a call in it, even
+        // never taken, cost every sample about 20 instructions of registers saved and
+        // reloaded). A partial block (the end of a batch) takes the one copy with them.
+        if N == BLOCK_LEN && !self.joint_alerts.watches_any() {
+            self.report::<N, false>(state, &records, emit);
+        } else {
+            self.report::<N, true>(state, &records, emit);
+        }
+    }
+
+    /// The block's events and telemetry records, in sample order: per sample its fault
+    /// edges, its level change, then (on a joint reading, with `JOINT_ALERTS`) the joint
+    /// alerts it raises or clears, then its record.
+    #[inline(always)]
+    fn report<const N: usize, const JOINT_ALERTS: bool>(
+        &self,
+        state: &mut PipelineState,
+        r: &Records<'_, N>,
+        emit: &mut impl FnMut(PipelineOutput),
+    ) {
+        let mut reported = r.joints.iter();
         let (mut fi, mut li) = (0, 0);
-        for (n, &index) in indices.iter().enumerate() {
-            while let Some(e) = faults.get(fi).filter(|e| e.at_sample() == index) {
+        for (n, &index) in r.indices.iter().enumerate() {
+            while let Some(e) = r.faults.get(fi).filter(|e| e.at_sample() == index) {
                 if let AlertEvent::Fault { fault, active, .. } = *e {
                     if active {
                         state.faults.insert(fault);
@@ -338,7 +384,7 @@ impl DeviceParams {
                 emit(PipelineOutput::Alert(*e));
                 fi += 1;
             }
-            while let Some(e) = levels.get(li).filter(|e| e.at_sample() == index) {
+            while let Some(e) = r.levels.get(li).filter(|e| e.at_sample() == index) {
                 if let AlertEvent::Level { to, .. } = e {
                     state.level = *to;
                 }
@@ -347,23 +393,19 @@ impl DeviceParams {
             }
             state.processed = state.processed.wrapping_add(1);
             if state.telemetry_countdown == 0 {
-                state.telemetry_countdown = decimation;
+                state.telemetry_countdown = r.decimation;
                 let joints = reported.next().map_or(JointValues::EMPTY, |y| {
-                    if self.joint_alerts.watches_any() {
-                        self.step_joint_alerts(
-                            state,
-                            joint_gain,
-                            &y[..joint_count],
-                            index,
-                            &mut |e| emit(PipelineOutput::Alert(e)),
-                        );
+                    let y_read = &y[..r.joint_count.min(JOINT_OUTPUT_COUNT)];
+                    if JOINT_ALERTS {
+                        let emit: &mut dyn FnMut(PipelineOutput) = &mut *emit;
+                        self.step_joint_alerts(state, r.joint_gain, y_read, index, emit);
                     }
-                    JointValues::packed(joint_count, *y)
+                    JointValues::packed(r.joint_count, *y)
                 });
                 emit(PipelineOutput::Telemetry(self.telemetry_of(
                     index,
-                    head[n],
-                    &exposure[n],
+                    r.head[n],
+                    &r.exposure[n],
                     joints,
                     state,
                 )));
@@ -403,7 +445,7 @@ impl DeviceParams {
         gain: f32,
         y: &[f32],
         index: u32,
-        emit: &mut dyn FnMut(AlertEvent),
+        emit: &mut dyn FnMut(PipelineOutput),
     ) {
         state.joints.step(gain, y);
         let count = y.len();
@@ -413,12 +455,12 @@ impl DeviceParams {
             state.joints.peaks(count),
             |k, criterion, raised| {
                 let output = self.joints.packed_output(k).unwrap_or(u8::MAX);
-                emit(AlertEvent::Joint {
+                emit(PipelineOutput::Alert(AlertEvent::Joint {
                     output,
                     criterion,
                     raised,
                     at_sample: index,
-                });
+                }));
             },
         );
     }
