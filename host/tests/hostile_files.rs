@@ -711,7 +711,7 @@ fn parameter_files(valid: &str) -> Vec<(String, Content, Expectation)> {
 
 /// `[device]` values the device refuses, appended to a valid file: (name, table, the key
 /// the error must name).
-const DEVICE_CASES: [(&str, &str, &str); 7] = [
+const DEVICE_CASES: [(&str, &str, &str); 11] = [
     (
         "telemetry_decimation 0",
         "[device]\ntelemetry_decimation = 0\n",
@@ -750,6 +750,27 @@ const DEVICE_CASES: [(&str, &str, &str); 7] = [
         "1e300 full scale (beyond f32)",
         "[device.sensor_checks]\nfull_scale_m_s2 = 1e300\nstuck_after_s = 1\nclear_after_s = 1\n",
         "device.sensor_checks.full_scale_m_s2",
+    ),
+    (
+        "a joint threshold in the other unit",
+        "[device.joint_alerts.neck_x]\nexcursion_rad = 0.1\n",
+        "device.joint_alerts.neck_x.excursion_rad",
+    ),
+    (
+        "a negative joint threshold",
+        "[device.joint_alerts.neck_ry]\nexcursion_rad = -0.05\n",
+        "device.joint_alerts.neck_ry.excursion_rad",
+    ),
+    (
+        "a joint threshold for an output not read",
+        "[device]\njoint_outputs = [\"neck_x\"]\n[device.joint_alerts.low_back_z]\n\
+         running_rms_m = 0.002\n",
+        "device.joint_alerts.low_back_z.running_rms_m",
+    ),
+    (
+        "joint alert hysteresis 2",
+        "[device.joint_alerts]\nhysteresis = 2\n[device.joint_alerts.neck_x]\nexcursion_m = 0.005\n",
+        "device.joint_alerts.hysteresis",
     ),
 ];
 

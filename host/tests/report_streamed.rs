@@ -41,8 +41,10 @@ struct Whole {
 
 fn whole(path: &Path, file: &ParamFile) -> Whole {
     let (recording, _) = read_input(path).unwrap();
-    let mut params = device_params::build(file, FS_HZ).unwrap();
-    params.telemetry.decimation = 1;
+    let params = device_params::build(file, FS_HZ)
+        .unwrap()
+        .with_telemetry(supine_core::blob::TelemetryConfig::EVERY_SAMPLE)
+        .unwrap();
     let samples = recording.platform_samples();
     let indices: Vec<u32> = (0..samples.len() as u32).collect();
     let mut state = PipelineState::new();

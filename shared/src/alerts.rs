@@ -34,6 +34,10 @@ use crate::fpu::sqrt_f32;
 use crate::input_resolution::INPUT_RANGE_M_S2;
 use crate::sample_rate::SampleRate;
 
+pub mod joint;
+
+pub use joint::{JointAlertConfig, JointAlertSettings, JointAlertState, JointCriterion};
+
 /// Standard gravity, m/s^2 (for full scales quoted in g).
 pub const STANDARD_GRAVITY_M_S2: f32 = 9.806_65;
 /// Longest accepted dwell or stuck time, s.
@@ -213,21 +217,48 @@ pub enum AlertEvent {
         /// Sample index at which the fault was detected (raise) or cleared.
         at_sample: u32,
     },
+    /// A joint-motion alert was raised or cleared (module [`joint`]).
+    Joint {
+        /// Which joint output: its index in
+        /// [`JointOutput::ALL`](crate::model::JointOutput::ALL).
+        output: u8,
+        /// What crossed its threshold, and its value then (m or rad).
+        criterion: JointCriterion,
+        /// `true` when raised, `false` when cleared.
+        raised: bool,
+        /// Sample index of the joint reading that changed it.
+        at_sample: u32,
+    },
 }
 
 impl AlertEvent {
     /// The sample index the event is stamped with.
     pub const fn at_sample(&self) -> u32 {
         match *self {
-            AlertEvent::Level { at_sample, .. } | AlertEvent::Fault { at_sample, .. } => at_sample,
+            AlertEvent::Level { at_sample, .. }
+            | AlertEvent::Fault { at_sample, .. }
+            | AlertEvent::Joint { at_sample, .. } => at_sample,
         }
     }
 
-    /// What changed the level (`None` for a sensor fault, which is its own cause).
+    /// What changed the level (`None` for a sensor fault, which is its own cause, and for
+    /// a joint alert: [`joint_criterion`](Self::joint_criterion)).
     pub const fn criterion(&self) -> Option<Criterion> {
         match *self {
             AlertEvent::Level { criterion, .. } => Some(criterion),
-            AlertEvent::Fault { .. } => None,
+            AlertEvent::Fault { .. } | AlertEvent::Joint { .. } => None,
+        }
+    }
+
+    /// A joint alert's output and criterion (`None` for the other events).
+    pub fn joint_criterion(&self) -> Option<(crate::model::JointOutput, JointCriterion)> {
+        match *self {
+            AlertEvent::Joint {
+                output, criterion, ..
+            } => crate::model::JointOutput::ALL
+                .get(usize::from(output))
+                .map(|o| (*o, criterion)),
+            _ => None,
         }
     }
 
@@ -236,6 +267,7 @@ impl AlertEvent {
         match *self {
             AlertEvent::Level { from, to, .. } => to > from,
             AlertEvent::Fault { active, .. } => active,
+            AlertEvent::Joint { raised, .. } => raised,
         }
     }
 
@@ -258,6 +290,9 @@ pub enum AlertError {
     /// The full scale is not finite, positive and at most
     /// [`SensorCheckConfig::MAX_FULL_SCALE_M_S2`].
     FullScale,
+    /// A joint-motion threshold is negative or not finite, or set for an output the
+    /// device does not read.
+    JointThresholds,
 }
 
 impl fmt::Display for AlertError {
@@ -269,6 +304,9 @@ impl fmt::Display for AlertError {
             AlertError::Hysteresis => "alert hysteresis must be within 0..=0.9",
             AlertError::Time => "alert dwell and sensor times must be within 0..=600 s",
             AlertError::FullScale => "sensor full scale must be positive and at most 400 g",
+            AlertError::JointThresholds => {
+                "joint alert thresholds must be finite and positive, for outputs the device reads"
+            }
         })
     }
 }
@@ -308,7 +346,8 @@ impl Default for AlertConfig {
     }
 }
 
-fn samples_of(t_s: f32, fs: f64) -> Result<u32, AlertError> {
+/// Samples in `t_s` at `fs`, at least one (`t_s` finite, within 0..=[`MAX_DWELL_S`]).
+pub(crate) fn samples_of(t_s: f32, fs: f64) -> Result<u32, AlertError> {
     if t_s.is_finite() && (0.0..=MAX_DWELL_S).contains(&t_s) {
         Ok((libm::round(t_s as f64 * fs) as u32).max(1))
     } else {

@@ -15,7 +15,10 @@ use core::fmt;
 use crc::{CRC_32_ISO_HDLC, Crc, NoTable};
 use serde::{Deserialize, Serialize};
 
-use crate::alerts::{AlertConfig, AlertSettings, SensorCheckConfig, SensorCheckSettings};
+use crate::alerts::{
+    AlertConfig, AlertSettings, JointAlertConfig, JointAlertSettings, SensorCheckConfig,
+    SensorCheckSettings,
+};
 use crate::exposure::{ExposureConfig, ExposureError, ExposureSettings};
 use crate::model::params::{HEIGHT_RANGE_M, MASS_RANGE_KG};
 use crate::model::{DeviceRealization, JointReadout, RealizationError, Subject};
@@ -148,6 +151,9 @@ pub struct DeviceParams {
     pub exposure: ExposureSettings,
     /// Exposure alert thresholds, hysteresis and dwell.
     pub alerts: AlertSettings,
+    /// Joint-motion alert thresholds (none by default), hysteresis and dwell, for the
+    /// outputs `joints` reads.
+    pub joint_alerts: JointAlertSettings,
     /// Sensor fault checks.
     pub sensor_checks: SensorCheckSettings,
     /// Sensor-to-litter rotation and gravity.
@@ -183,6 +189,13 @@ impl DeviceParams {
             exposure: ExposureSettings::new(exposure, sample_rate)
                 .map_err(BlobError::from_exposure)?,
             alerts: AlertSettings::new(alerts, sample_rate).map_err(|_| BlobError::BadConfig)?,
+            joint_alerts: JointAlertSettings::new(
+                JointAlertConfig::NONE,
+                sample_rate,
+                telemetry.decimation,
+                joints.output_count(),
+            )
+            .map_err(|_| BlobError::BadConfig)?,
             sensor_checks: SensorCheckSettings::new(sensor_checks, sample_rate)
                 .map_err(|_| BlobError::BadConfig)?,
             mounting,
@@ -217,6 +230,30 @@ impl DeviceParams {
         )
     }
 
+    /// These parameters with the joint-motion alerts of `config` (thresholds in the order
+    /// of the outputs `joints` reads), validated as the device will.
+    pub fn with_joint_alerts(self, config: JointAlertConfig) -> Result<Self, BlobError> {
+        let params = Self {
+            joint_alerts: JointAlertSettings::new(
+                config,
+                self.sample_rate,
+                self.telemetry.decimation,
+                self.joints.output_count(),
+            )
+            .map_err(|_| BlobError::BadConfig)?,
+            ..self
+        };
+        params.validate()?;
+        Ok(params)
+    }
+
+    /// These parameters reporting at `telemetry`'s rate: the joint outputs are read on the
+    /// samples telemetry reports, so the joint alerts' dwells (in readings) are rebuilt
+    /// for it; setting the field alone leaves a blob the device refuses.
+    pub fn with_telemetry(self, telemetry: TelemetryConfig) -> Result<Self, BlobError> {
+        Self { telemetry, ..self }.with_joint_alerts(self.joint_alerts.config)
+    }
+
     /// The sample rate every stage was built for, Hz.
     pub fn sample_rate_hz(&self) -> f32 {
         self.sample_rate.hz()
@@ -246,6 +283,9 @@ impl DeviceParams {
             .validate(fs)
             .map_err(BlobError::from_exposure)?;
         self.alerts.validate(fs).map_err(|_| BlobError::BadConfig)?;
+        self.joint_alerts
+            .validate(fs, self.telemetry.decimation, self.joints.output_count())
+            .map_err(|_| BlobError::BadConfig)?;
         self.sensor_checks
             .validate(fs)
             .map_err(|_| BlobError::BadConfig)?;
@@ -307,6 +347,7 @@ impl DeviceParams {
             .chain(self.alerts.raise_ms_m2_s4)
             .chain(self.alerts.clear_ms_m2_s4)
             .chain(self.alerts.vdv4_m4_s7)
+            .chain(self.joint_alerts.scalars())
     }
 
     /// Writes header and payload into `buf`; returns the blob's length.

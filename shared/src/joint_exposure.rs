@@ -156,6 +156,11 @@ impl JointExposureState {
         out
     }
 
+    /// Largest absolute value of the first `count` outputs so far, m or rad, as a slice.
+    pub fn peaks(&self, count: usize) -> &[f32] {
+        &self.peak[..count.min(JOINT_OUTPUT_COUNT)]
+    }
+
     /// Largest absolute value of the first `count` outputs so far, m or rad.
     pub fn largest_excursion(&self, count: usize) -> JointValues {
         JointValues::packed(count, self.peak)

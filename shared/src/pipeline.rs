@@ -10,7 +10,7 @@
 use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
-use crate::alerts::{AlertEvent, AlertState, FaultFlags, Level, SensorCheckState};
+use crate::alerts::{AlertEvent, AlertState, FaultFlags, JointAlertState, Level, SensorCheckState};
 use crate::blob::DeviceParams;
 use crate::exposure::{ExposureSample, ExposureState};
 use crate::fpu::sqrt_f32;
@@ -32,6 +32,20 @@ pub enum PipelineOutput {
     Alert(AlertEvent),
     /// The telemetry of one sample (every `decimation`-th sample).
     Telemetry(Telemetry),
+}
+
+/// What a block hands to its report ([`DeviceParams::report`]): its samples' indices,
+/// head accelerations, exposure and joint readings, and its events by kind.
+struct Records<'a, const N: usize> {
+    indices: &'a [u32; N],
+    head: &'a [[f32; 3]; N],
+    exposure: &'a [ExposureSample; N],
+    faults: &'a [AlertEvent],
+    levels: &'a [AlertEvent],
+    joints: &'a [[f32; JOINT_OUTPUT_COUNT]],
+    joint_count: usize,
+    joint_gain: f32,
+    decimation: u16,
 }
 
 /// One telemetry record: what the device reports about one sample (the protocol sends it
@@ -66,6 +80,7 @@ pub struct PipelineState {
     exposure: ExposureState,
     joints: JointExposureState,
     alerts: AlertState,
+    joint_alerts: JointAlertState,
     sensors: SensorCheckState,
     /// Last finite input as the model got it (whole input-resolution counts, as f32),
     /// held in place of a non-finite one so NaN never enters a filter.
@@ -99,6 +114,7 @@ impl PipelineState {
             exposure: ExposureState::new(),
             joints: JointExposureState::new(),
             alerts: AlertState::new(),
+            joint_alerts: JointAlertState::new(),
             sensors: SensorCheckState::new(),
             last_input_counts: [0.0; 3],
             recent_inputs: [[0; 3]; BLOCK_LEN],
@@ -167,6 +183,11 @@ impl PipelineState {
     /// The joint outputs' running mean square and largest excursion.
     pub const fn joints(&self) -> &JointExposureState {
         &self.joints
+    }
+
+    /// Which joint-motion alerts are raised.
+    pub const fn joint_alerts(&self) -> &JointAlertState {
+        &self.joint_alerts
     }
 }
 
@@ -267,7 +288,10 @@ impl DeviceParams {
             &mut head,
         );
         // The joint outputs are read on the samples telemetry reports (module
-        // `joint_exposure`): their values, in sample order, for the records below.
+        // `joint_exposure`): their values, in sample order, for the records below. Their
+        // exposure is stepped at once, unless joint alerts are set: then it is stepped
+        // with the alerts at the records below, so that a joint alert is sent in sample
+        // order with the others, with no buffer of its own.
         let decimation = self.telemetry.decimation.max(1);
         let joint_gain = running_gain(self.exposure.running_gain, decimation);
         let mut countdown = state.telemetry_countdown;
@@ -291,7 +315,6 @@ impl DeviceParams {
                 self.realization.step_device(&mut state.model, *h)
             };
         }
-        let mut reported = joints.iter();
         let mut exposure = [ExposureSample::default(); N];
         let first = indices[0];
         self.exposure
@@ -321,9 +344,42 @@ impl DeviceParams {
             });
         // Fault edges and level changes each come in sample order; merge them by sample.
         let (faults, levels) = events.split_at(fault_events);
+        let records = Records {
+            indices,
+            head: &head,
+            exposure: &exposure,
+            faults,
+            levels,
+            joints: &joints,
+            joint_count,
+            joint_gain,
+            decimation,
+        };
+        // Two copies of the loop below for full blocks, the device's path: with no joint
+        // threshold set, its copy has no trace of the joint alerts (a call in it, even
+        // never taken, cost every sample about 20 instructions of registers saved and
+        // reloaded). A partial block (the end of a batch) takes the one copy with them.
+        if N == BLOCK_LEN && !self.joint_alerts.watches_any() {
+            self.report::<N, false>(state, &records, emit);
+        } else {
+            self.report::<N, true>(state, &records, emit);
+        }
+    }
+
+    /// The block's events and telemetry records, in sample order: per sample its fault
+    /// edges, its level change, then (on a joint reading, with `JOINT_ALERTS`) the joint
+    /// alerts it raises or clears, then its record.
+    #[inline(always)]
+    fn report<const N: usize, const JOINT_ALERTS: bool>(
+        &self,
+        state: &mut PipelineState,
+        r: &Records<'_, N>,
+        emit: &mut impl FnMut(PipelineOutput),
+    ) {
+        let mut reported = r.joints.iter();
         let (mut fi, mut li) = (0, 0);
-        for (n, &index) in indices.iter().enumerate() {
-            while let Some(e) = faults.get(fi).filter(|e| e.at_sample() == index) {
+        for (n, &index) in r.indices.iter().enumerate() {
+            while let Some(e) = r.faults.get(fi).filter(|e| e.at_sample() == index) {
                 if let AlertEvent::Fault { fault, active, .. } = *e {
                     if active {
                         state.faults.insert(fault);
@@ -334,7 +390,7 @@ impl DeviceParams {
                 emit(PipelineOutput::Alert(*e));
                 fi += 1;
             }
-            while let Some(e) = levels.get(li).filter(|e| e.at_sample() == index) {
+            while let Some(e) = r.levels.get(li).filter(|e| e.at_sample() == index) {
                 if let AlertEvent::Level { to, .. } = e {
                     state.level = *to;
                 }
@@ -343,14 +399,19 @@ impl DeviceParams {
             }
             state.processed = state.processed.wrapping_add(1);
             if state.telemetry_countdown == 0 {
-                state.telemetry_countdown = decimation;
-                let joints = reported
-                    .next()
-                    .map_or(JointValues::EMPTY, |y| JointValues::packed(joint_count, *y));
+                state.telemetry_countdown = r.decimation;
+                let joints = reported.next().map_or(JointValues::EMPTY, |y| {
+                    let y_read = &y[..r.joint_count.min(JOINT_OUTPUT_COUNT)];
+                    if JOINT_ALERTS {
+                        let emit: &mut dyn FnMut(PipelineOutput) = &mut *emit;
+                        self.step_joint_alerts(state, r.joint_gain, y_read, index, emit);
+                    }
+                    JointValues::packed(r.joint_count, *y)
+                });
                 emit(PipelineOutput::Telemetry(self.telemetry_of(
                     index,
-                    head[n],
-                    &exposure[n],
+                    r.head[n],
+                    &r.exposure[n],
                     joints,
                     state,
                 )));
@@ -360,8 +421,9 @@ impl DeviceParams {
     }
 
     /// The joint outputs read (packed into `y`; returns how many) at the sample about to
-    /// be stepped, taken into their exposure with `gain`. Out of line: the pipeline is
-    /// compiled for two block lengths, and this need not be twice in flash.
+    /// be stepped, taken into their exposure with `gain` unless joint alerts are set
+    /// ([`step_joint_alerts`](Self::step_joint_alerts) does it then). Out of line: the
+    /// pipeline is compiled for two block lengths, and this need not be twice in flash.
     #[inline(never)]
     fn read_joints(
         &self,
@@ -373,8 +435,40 @@ impl DeviceParams {
         let count = self
             .joints
             .read_packed(&self.realization, &state.model, input_m_s2, y);
-        state.joints.step(gain, &y[..count]);
+        if !self.joint_alerts.watches_any() {
+            state.joints.step(gain, &y[..count]);
+        }
         count
+    }
+
+    /// With joint alerts set: one reading `y` (packed) of the joint outputs, at sample
+    /// `index`, taken into their exposure with `gain`, then into their alerts, whose
+    /// events go to `emit`. Out of line, as [`read_joints`](Self::read_joints).
+    #[inline(never)]
+    fn step_joint_alerts(
+        &self,
+        state: &mut PipelineState,
+        gain: f32,
+        y: &[f32],
+        index: u32,
+        emit: &mut dyn FnMut(PipelineOutput),
+    ) {
+        state.joints.step(gain, y);
+        let count = y.len();
+        self.joint_alerts.step(
+            &mut state.joint_alerts,
+            state.joints.mean_square(count),
+            state.joints.peaks(count),
+            |k, criterion, raised| {
+                let output = self.joints.packed_output(k).unwrap_or(u8::MAX);
+                emit(PipelineOutput::Alert(AlertEvent::Joint {
+                    output,
+                    criterion,
+                    raised,
+                    at_sample: index,
+                }));
+            },
+        );
     }
 
     fn telemetry_of(

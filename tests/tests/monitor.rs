@@ -52,6 +52,7 @@ fn test_params_file() -> ParamFile {
             sensor_checks: SensorCheckConfig::DEFAULT,
             mounting: Mounting::LEVEL,
             joint_outputs: supine_host::io::device_section::JointSelection::ALL,
+            joint_alerts: Default::default(),
             telemetry_decimation: Some(1),
         }),
     }
@@ -556,24 +557,46 @@ fn a_panic_resets_the_device_and_the_next_greeting_names_it() {
 /// Issue 16: a minute of a rough ride (`supine ride --profile rough-road`'s generator) by
 /// the replay's file route at the shipping telemetry rate (every 5th sample): every
 /// joint value the device reports is the host's f32 pipeline's, bit for bit, and within
-/// 1e-6 of that output's peak of the f64 model at the same sample.
+/// 1e-6 of that output's peak of the f64 model at the same sample; with a joint-motion
+/// threshold on every output (`[device.joint_alerts]`), the device's joint alerts are the
+/// host pipeline's, bit for bit.
 #[test]
 fn the_devices_joint_outputs_match_the_f64_model_over_a_minute_of_a_rough_ride() {
     use supine_core::joint_exposure::packed_order;
+    use supine_core::model::{JointOutput, JointUnit};
     use supine_host::demo::ride::{DemoProfile, make};
     let fs = 500.0;
-    let mut file = test_params_file();
-    if let Some(device) = &mut file.device {
-        device.telemetry_decimation = Some(5);
-    }
-    let params = device_params::build(&file, fs).expect("params build");
-    let blob = device_params::encode(&params).expect("blob encodes");
     let input = make(DemoProfile::RoughRoad, 60.0, fs, 7)
         .expect("a rough ride")
         .samples();
+    let joints = reference::joints_f64(&ModelParams::preset(Preset::PaperLitter), fs, &input)
+        .expect("f64 model");
+    let mut peak = [0.0f64; 10];
+    for y in &joints {
+        for (p, v) in peak.iter_mut().zip(y) {
+            *p = p.max(v.abs());
+        }
+    }
+    // Thresholds every output passes at some time: its excursion at half its peak, its
+    // running rms at a fifth of it.
+    let mut file = test_params_file();
+    if let Some(device) = &mut file.device {
+        device.telemetry_decimation = Some(5);
+        for (keys, output) in device.joint_alerts.outputs.iter_mut().zip(JointOutput::ALL) {
+            let (rms, excursion) = (
+                Some((0.2 * peak[output.index()]) as f32),
+                Some((0.5 * peak[output.index()]) as f32),
+            );
+            match output.unit() {
+                JointUnit::Metre => (keys.running_rms_m, keys.excursion_m) = (rms, excursion),
+                JointUnit::Radian => (keys.running_rms_rad, keys.excursion_rad) = (rms, excursion),
+            }
+        }
+    }
+    let params = device_params::build(&file, fs).expect("params build");
+    let blob = device_params::encode(&params).expect("blob encodes");
     let indices: Vec<u32> = (0..input.len() as u32).collect();
     let host = reference::pipeline(&params, &indices, &input);
-    let joints = reference::joints_f64(&file.params, fs, &input).expect("f64 model");
     let s = run_via(
         Route::File,
         Some(blob),
@@ -585,14 +608,22 @@ fn the_devices_joint_outputs_match_the_f64_model_over_a_minute_of_a_rough_ride()
         s.telemetry, host.telemetry,
         "the device is the host's pipeline"
     );
+    assert_eq!(s.events, host.events, "the device's alerts are the host's");
+    let joint_alerts = |raised: bool| {
+        s.events
+            .iter()
+            .filter(|e| matches!(e, AlertEvent::Joint { .. }) && e.is_raise() == raised)
+            .count()
+    };
+    println!(
+        "joint alerts: {} raised, {} cleared",
+        joint_alerts(true),
+        joint_alerts(false)
+    );
+    // Every output's excursion alert, once, and running-rms alerts besides.
+    assert!(joint_alerts(true) > 10, "{:?}", s.events);
     let order: Vec<_> = packed_order(params.joints.mask()).collect();
     assert_eq!(order.len(), 10, "all ten by default");
-    let mut peak = [0.0f64; 10];
-    for y in &joints {
-        for (p, v) in peak.iter_mut().zip(y) {
-            *p = p.max(v.abs());
-        }
-    }
     let mut worst = [0.0f64; 10];
     for t in &s.telemetry {
         let reference = joints[t.sample_index as usize];

@@ -144,6 +144,9 @@ fn monitor_logs_what_the_host_pipeline_predicts_for_a_scripted_ride() {
             let (kind, name) = match *e {
                 AlertEvent::Level { to, .. } => ("level", to.name()),
                 AlertEvent::Fault { fault, .. } => ("fault", fault.name()),
+                AlertEvent::Joint { .. } => {
+                    ("joint", e.joint_criterion().map_or("", |(o, _)| o.name()))
+                }
             };
             (e.at_sample(), kind.into(), name.into(), e.is_raise())
         })

@@ -396,6 +396,32 @@ fn attacks(start: Start) -> Vec<Attack> {
         &key,
         UploadError::Blob(BlobError::BadCrc),
     ));
+    // Signed, well formed, but with joint-motion thresholds the device refuses: the
+    // validation on decode, as the head's alerts' (issue 16).
+    type Spoil = fn(&mut supine_core::alerts::JointAlertSettings);
+    let bad_joint_alerts: [(&str, Spoil); 4] = [
+        ("a negative joint threshold", |s| {
+            s.config.excursion_m_or_rad[0] = -0.001
+        }),
+        ("a NaN joint threshold", |s| {
+            s.config.running_rms_m_or_rad[1] = f32::NAN
+        }),
+        ("a joint threshold without its watch bit", |s| {
+            s.config.running_rms_m_or_rad[2] = 0.002
+        }),
+        ("a joint hysteresis of 2", |s| s.config.hysteresis = 2.0),
+    ];
+    for (name, spoil) in bad_joint_alerts {
+        let mut params = upload_params();
+        spoil(&mut params.joint_alerts);
+        out.push(refused_at_commit(
+            format!("{name}, signed"),
+            &encode(&params),
+            FRESH,
+            &key,
+            UploadError::Blob(BlobError::BadConfig),
+        ));
+    }
     out
 }
 

@@ -450,8 +450,9 @@ pub fn replay(
     let sample_rate_hz = ride.sample_rate_hz();
     // The telemetry rate is the replay's (a transport setting), not the file's: the
     // identity stays the parameter file's, as `supine flash` would report it.
-    let mut params = device_params::build(file, sample_rate_hz)?;
-    params.telemetry = telemetry;
+    let params = device_params::build(file, sample_rate_hz)?
+        .with_telemetry(telemetry)
+        .map_err(|e| anyhow!("telemetry every {} samples: {e}", telemetry.decimation))?;
     let blob = device_params::encode(&params)?;
     // Generous: the device runs at tens of thousands of samples per second.
     let timeout = Duration::from_secs(60 + ride.len() as u64 / 1000);

@@ -8,7 +8,7 @@
 use anyhow::{Result, anyhow};
 use serde::Serialize;
 use supine_core::model::{
-    DiscreteModal, JOINT_OUTPUT_COUNT, JointOutput, JointUnit, ModalState, Model, ModelParams,
+    DiscreteModal, JOINT_OUTPUT_COUNT, JointOutput, ModalState, Model, ModelParams,
 };
 
 /// Time constant of the running rms, s: the one ISO 2631-1 uses for the head's (MTVV).
@@ -31,13 +31,7 @@ pub struct JointReport {
     pub largest_excursion_at_s: f64,
 }
 
-/// Display unit and the factor from the model's SI value to it.
-pub fn display_unit(output: JointOutput) -> (&'static str, f64) {
-    match output.unit() {
-        JointUnit::Metre => ("mm", 1e3),
-        JointUnit::Radian => ("deg", 180.0 / core::f64::consts::PI),
-    }
-}
+pub use crate::io::wording::display_unit;
 
 /// The ten joint outputs followed sample by sample: the model in f64 from rest, each
 /// output's running rms, its overall rms and its largest excursion. One pass, so a report

@@ -25,7 +25,7 @@ use std::path::Path;
 use anyhow::{Result, anyhow, bail};
 use serde::Serialize;
 use supine_core::alerts::{AlertConfig, AlertEvent, Criterion, Level};
-use supine_core::blob::DeviceParams;
+use supine_core::blob::{DeviceParams, TelemetryConfig};
 use supine_core::exposure::{
     AxisMapping, AxisValues, AxisWeighting, ExposureConfig, ExposureSettings, ExposureState,
     ExposureValues,
@@ -39,6 +39,7 @@ use crate::exposure::resample::Resampler;
 use crate::io::params_file::ParamFile;
 use crate::io::recording::{COLUMNS, Layout};
 use crate::io::ride_rows::RideSource;
+use crate::io::wording::joint_alert_text;
 
 /// Samples handed to the device pipeline per call (bounds the chunk buffer).
 const CHUNK_SAMPLES: usize = 4096;
@@ -297,6 +298,17 @@ impl TimedEvent {
                 raise: active,
                 criterion: None,
             },
+            AlertEvent::Joint { raised, .. } => Self {
+                time_s,
+                sample,
+                kind: "joint",
+                event: e
+                    .joint_criterion()
+                    .map_or_else(String::new, |(o, c)| joint_alert_text(o, &c, raised)),
+                level: None,
+                raise: raised,
+                criterion: None,
+            },
         }
     }
 }
@@ -435,10 +447,12 @@ impl ModelRun {
     /// A run of `params` from a fresh state (the first sample at `start_s` in the ride's
     /// time), with `joints` tracked beside it if given.
     pub fn new(params: &DeviceParams, joints: Option<JointTracker>, start_s: f64) -> Self {
-        let mut params = *params;
-        // Every sample's telemetry for the observer; the values and events do not depend
-        // on it.
-        params.telemetry.decimation = 1;
+        // Every sample's telemetry for the observer. The head's values and events do not
+        // depend on it; the joint outputs are then read on every sample, their alerts'
+        // dwells rebuilt for that (the same parameters with every sample are valid).
+        let params = params
+            .with_telemetry(TelemetryConfig::EVERY_SAMPLE)
+            .unwrap_or(*params);
         Self {
             params,
             state: PipelineState::new(),

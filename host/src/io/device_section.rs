@@ -15,7 +15,9 @@
 //! defaults are the core's own constants; a test checks that they have the same keys.
 
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
-use supine_core::alerts::{AlertConfig, AlertSettings, SensorCheckConfig, SensorCheckSettings};
+use supine_core::alerts::{
+    AlertConfig, AlertSettings, JointAlertSettings, SensorCheckConfig, SensorCheckSettings,
+};
 use supine_core::blob::{DeviceParams, Patient, TelemetryConfig};
 use supine_core::exposure::{AxisMapping, AxisWeighting, ExposureConfig, ExposureSettings};
 use supine_core::model::{
@@ -26,6 +28,7 @@ use supine_core::sample_rate::SampleRate;
 use supine_core::weighting::WeightingKind;
 
 use crate::io::excerpt::value;
+use crate::io::joint_alerts_section::JointAlertsSection;
 use crate::io::text_position::line_column;
 
 /// The optional `[device]` table: what goes into the parameter blob besides the model.
@@ -47,6 +50,8 @@ pub struct DeviceSection {
     /// The joint outputs the device reads and reports (`joint_outputs = ["neck_x", ...]`;
     /// all ten by default, `[]` for none).
     pub joint_outputs: JointSelection,
+    /// Thresholds on the joint outputs (`[device.joint_alerts]`): none by default.
+    pub joint_alerts: JointAlertsSection,
 }
 
 /// A set of joint outputs, written in the file as a list of their names.
@@ -125,6 +130,8 @@ struct DeviceTable {
     telemetry_decimation: Option<u16>,
     #[serde(skip_serializing_if = "JointSelection::is_all")]
     joint_outputs: JointSelection,
+    #[serde(skip_serializing_if = "JointAlertsSection::is_default")]
+    joint_alerts: JointAlertsSection,
 }
 
 /// `[device.exposure]`: the core's [`ExposureConfig`], every key optional.
@@ -275,6 +282,7 @@ impl From<DeviceTable> for DeviceSection {
             mounting: t.mounting,
             telemetry_decimation: t.telemetry_decimation,
             joint_outputs: t.joint_outputs,
+            joint_alerts: t.joint_alerts,
         }
     }
 }
@@ -288,6 +296,7 @@ impl From<DeviceSection> for DeviceTable {
             mounting: s.mounting,
             telemetry_decimation: s.telemetry_decimation,
             joint_outputs: s.joint_outputs,
+            joint_alerts: s.joint_alerts,
         }
     }
 }
@@ -375,6 +384,7 @@ impl Default for DeviceSection {
             mounting: Mounting::LEVEL,
             telemetry_decimation: None,
             joint_outputs: JointSelection::ALL,
+            joint_alerts: JointAlertsSection::default(),
         }
     }
 }
@@ -409,6 +419,17 @@ pub fn core_check(
     AlertSettings::new(section.alerts, sample_rate).map_err(|e| e.to_string())?;
     SensorCheckSettings::new(section.sensor_checks, sample_rate).map_err(|e| e.to_string())?;
     section.mounting.validate().map_err(|e| e.to_string())?;
+    let read_mask = section.joint_outputs.mask;
+    if let Some(r) = section.joint_alerts.refusals(read_mask).first() {
+        return Err(r.reason.clone());
+    }
+    JointAlertSettings::new(
+        section.joint_alerts.config(read_mask),
+        sample_rate,
+        section.telemetry(sample_rate.hz()).decimation,
+        read_mask.count_ones() as usize,
+    )
+    .map_err(|e| e.to_string())?;
     if let Some(realization) = realization {
         // The patient is the model's, checked with the model (`ModelParams::validate`, the
         // same range): any valid one does here, where only `[device]` keys are judged.
@@ -443,6 +464,11 @@ pub fn check(
     sample_rate: SampleRate,
     realization: Option<&DeviceRealization>,
 ) -> Result<(), Vec<Refusal>> {
+    // A joint threshold's refusal depends on the outputs read (another key): named here.
+    let joint = section.joint_alerts.refusals(section.joint_outputs.mask);
+    if !joint.is_empty() {
+        return Err(joint);
+    }
     let defaults = DeviceSection::default();
     let realization = realization.filter(|r| core_check(&defaults, sample_rate, Some(r)).is_ok());
     let Err(whole) = core_check(section, sample_rate, realization) else {

@@ -9,7 +9,7 @@ use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Result, anyhow, bail};
-use supine_core::alerts::{AlertEvent, Criterion, FaultFlags, Level};
+use supine_core::alerts::{AlertEvent, Criterion, FaultFlags, JointCriterion, Level};
 use supine_core::joint_exposure::{JointValues, packed_order};
 use supine_core::model::{JOINT_OUTPUT_COUNT, JointOutput, JointUnit};
 use supine_core::protocol::Telemetry;
@@ -17,6 +17,7 @@ use supine_core::protocol::Telemetry;
 use super::csv_lines::CsvLines;
 use super::excerpt::excerpt;
 use super::output::write_atomically;
+use super::wording::joint_alert_text;
 
 /// Header of the telemetry CSV. The first five columns are named as issue 5 and the
 /// recording format name them (`head_x`: predicted head acceleration, m/s^2, litter axes);
@@ -30,11 +31,15 @@ pub fn joint_columns(joint_mask: u16) -> Vec<String> {
 }
 
 fn joint_column(output: JointOutput) -> String {
-    let unit = match output.unit() {
+    format!("{}_{}", output.name(), si_unit(output))
+}
+
+/// A joint output's SI unit as the CSVs name it: `m` or `rad`.
+fn si_unit(output: JointOutput) -> &'static str {
+    match output.unit() {
         JointUnit::Metre => "m",
         JointUnit::Radian => "rad",
-    };
-    format!("{}_{unit}", output.name())
+    }
 }
 
 /// The telemetry CSV's header for a device reporting the joint outputs of `joint_mask`:
@@ -50,7 +55,9 @@ pub fn telemetry_header(joint_mask: u16) -> String {
 
 /// Header of the alert events CSV. `criterion` is what changed a level (`running-rms` or
 /// `vdv`, [`Criterion::name`]) with its `value` then, in `unit` (`m/s^2` or `m/s^1.75`); a
-/// fault is its own cause, so those three cells are empty on a fault's row.
+/// fault is its own cause, so those three cells are empty on a fault's row. A joint alert
+/// (`kind` joint, `name` the output, e.g. `neck_x`) has `running-rms` or `excursion` with
+/// the value in the output's SI unit (`m` or `rad`), as the telemetry CSV's joint columns.
 pub const EVENTS_HEADER: &str = "sample,time_s,kind,name,raised,criterion,value,unit";
 
 /// Cells of a telemetry row.
@@ -359,14 +366,16 @@ pub struct EventRow {
     pub sample: u32,
     /// Its time from sample 0, s.
     pub time_s: f64,
-    /// `level` or `fault`.
+    /// `level`, `fault` or `joint`.
     pub kind: String,
-    /// The level reached (`kind` level) or the fault's name.
+    /// The level reached (`kind` level), the fault's name, or the joint output's.
     pub name: String,
     /// Raised (rather than cleared).
     pub raised: bool,
-    /// What changed the level and its value then (`None` for a fault).
+    /// What changed the level and its value then (`None` for a fault or a joint alert).
     pub criterion: Option<Criterion>,
+    /// A joint alert's criterion and value (`None` for the other kinds).
+    pub joint: Option<JointCriterion>,
 }
 
 impl EventRow {
@@ -375,6 +384,10 @@ impl EventRow {
         let (kind, name) = match *e {
             AlertEvent::Level { to, .. } => ("level", to.name()),
             AlertEvent::Fault { fault, .. } => ("fault", fault.name()),
+            AlertEvent::Joint { .. } => (
+                "joint",
+                e.joint_criterion().map_or("unknown", |(o, _)| o.name()),
+            ),
         };
         Self {
             sample: e.at_sample(),
@@ -383,14 +396,21 @@ impl EventRow {
             name: name.to_string(),
             raised: e.is_raise(),
             criterion: e.criterion(),
+            joint: e.joint_criterion().map(|(_, c)| c),
         }
+    }
+
+    /// The joint output of a joint alert's row.
+    pub fn joint_output(&self) -> Option<JointOutput> {
+        self.joint.and(JointOutput::from_name(&self.name))
     }
 
     /// The row as a line of the file, newline included.
     pub fn to_line(&self) -> String {
-        let (criterion, value, unit) = match &self.criterion {
-            Some(c) => (c.name(), c.value().to_string(), c.unit()),
-            None => ("", String::new(), ""),
+        let (criterion, value, unit) = match (&self.criterion, &self.joint, self.joint_output()) {
+            (Some(c), ..) => (c.name(), c.value().to_string(), c.unit()),
+            (_, Some(c), Some(o)) => (c.name(), c.value_m_or_rad().to_string(), si_unit(o)),
+            _ => ("", String::new(), ""),
         };
         format!(
             "{},{},{},{},{},{criterion},{value},{unit}\n",
@@ -403,8 +423,11 @@ impl EventRow {
     }
 
     /// What happened, in words (`level raised to warning by vdv 17.2 m/s^1.75`,
-    /// `sensor fault stuck cleared`).
+    /// `sensor fault stuck cleared`, `joint alert neck_x running-rms 3.100 mm raised`).
     pub fn text(&self) -> String {
+        if let (Some(c), Some(o)) = (&self.joint, self.joint_output()) {
+            return format!("joint alert {}", joint_alert_text(o, c, self.raised));
+        }
         let by = self
             .criterion
             .map(|c| format!(" by {c}"))
@@ -440,9 +463,9 @@ pub fn event_records(path: &Path, sample_rate_hz: f64) -> Result<CsvRecords<Even
                     excerpt(sample)
                 )
             })?;
-            if kind != "level" && kind != "fault" {
+            if !["level", "fault", "joint"].contains(&kind) {
                 bail!(
-                    "{at}, column kind: expected level or fault, found {}",
+                    "{at}, column kind: expected level, fault or joint, found {}",
                     excerpt(kind)
                 );
             }
@@ -460,7 +483,14 @@ pub fn event_records(path: &Path, sample_rate_hz: f64) -> Result<CsvRecords<Even
                 kind: kind.to_string(),
                 name: name.to_string(),
                 raised,
-                criterion: criterion_from_cells(kind, criterion, value, unit, at)?,
+                criterion: match kind {
+                    "joint" => None,
+                    _ => criterion_from_cells(kind, criterion, value, unit, at)?,
+                },
+                joint: match kind {
+                    "joint" => Some(joint_from_cells(name, criterion, value, unit, at)?),
+                    _ => None,
+                },
             })
         },
     )
@@ -506,6 +536,45 @@ fn criterion_from_cells(
         );
     }
     Ok(Some(criterion))
+}
+
+/// The criterion of a joint alert's row: its output's name, `running-rms` or `excursion`,
+/// a number, and the output's SI unit.
+fn joint_from_cells(
+    name: &str,
+    criterion: &str,
+    value: &str,
+    unit: &str,
+    at: &str,
+) -> Result<JointCriterion> {
+    let Some(output) = JointOutput::from_name(name) else {
+        bail!(
+            "{at}, column name: expected a joint output (neck_x ... low_back_rz), found {}",
+            excerpt(name)
+        );
+    };
+    let value_m_or_rad = value.parse::<f32>().map_err(|_| {
+        anyhow!(
+            "{at}, column value: expected a number, found {}",
+            excerpt(value)
+        )
+    })?;
+    let joint = match criterion {
+        "running-rms" => JointCriterion::RunningRms { value_m_or_rad },
+        "excursion" => JointCriterion::Excursion { value_m_or_rad },
+        other => bail!(
+            "{at}, column criterion: expected running-rms or excursion, found {}",
+            excerpt(other)
+        ),
+    };
+    if unit != si_unit(output) {
+        bail!(
+            "{at}, column unit: expected {} for {output}, found {}",
+            si_unit(output),
+            excerpt(unit)
+        );
+    }
+    Ok(joint)
 }
 
 #[cfg(test)]
@@ -620,6 +689,38 @@ mod tests {
         let err = read_events(&path, 500.0).expect_err("bad unit").to_string();
         assert!(
             err.ends_with("line 2, column unit: expected m/s^1.75 for vdv, found \"m/s^2\""),
+            "{err}"
+        );
+
+        // A joint alert: the output's name, its value in m or rad; read back exactly.
+        let joint = AlertEvent::Joint {
+            output: 3,
+            criterion: JointCriterion::Excursion {
+                value_m_or_rad: 0.034_906_585,
+            },
+            raised: true,
+            at_sample: 2000,
+        };
+        write_events(&path, &[joint], 500.0).expect("write");
+        assert_eq!(
+            std::fs::read_to_string(&path).expect("read"),
+            format!("{EVENTS_HEADER}\n2000,4,joint,neck_ry,1,excursion,0.034906585,rad\n")
+        );
+        let events = read_events(&path, 500.0).expect("read");
+        assert_eq!(events, [EventRow::from_event(&joint, 500.0)]);
+        assert_eq!(
+            events[0].text(),
+            "joint alert neck_ry excursion 2.000 deg raised"
+        );
+        // The unit must be the output's own.
+        std::fs::write(
+            &path,
+            format!("{EVENTS_HEADER}\n2000,4,joint,neck_x,1,running-rms,0.003,rad\n"),
+        )
+        .expect("write");
+        let err = read_events(&path, 500.0).expect_err("bad unit").to_string();
+        assert!(
+            err.ends_with("line 2, column unit: expected m for neck_x, found \"rad\""),
             "{err}"
         );
     }

@@ -1,5 +1,28 @@
-//! Counts with their noun in what the tools print (`1 shock`, `3 shocks`), for commands
+//! Counts with their noun in what the tools print (`1 shock`, `3 shocks`), and joint
+//! motion in the units people read (mm, degrees), for commands, the monitor, the report
 //! and the demo alike.
+
+use supine_core::alerts::JointCriterion;
+use supine_core::model::{JointOutput, JointUnit};
+
+/// Display unit of a joint output and the factor from its SI value (m, rad) to it.
+pub fn display_unit(output: JointOutput) -> (&'static str, f64) {
+    match output.unit() {
+        JointUnit::Metre => ("mm", 1e3),
+        JointUnit::Radian => ("deg", 180.0 / core::f64::consts::PI),
+    }
+}
+
+/// A joint alert in words: `neck_x running-rms 3.100 mm raised`.
+pub fn joint_alert_text(output: JointOutput, criterion: &JointCriterion, raised: bool) -> String {
+    let (unit, scale) = display_unit(output);
+    format!(
+        "{output} {} {:.3} {unit} {}",
+        criterion.name(),
+        scale * f64::from(criterion.value_m_or_rad()),
+        if raised { "raised" } else { "cleared" }
+    )
+}
 
 /// `n` and the noun, plural unless `n` is 1: `1 shock`, `3 shocks`, `0 shocks`.
 pub fn count(n: usize, noun: &str) -> String {
@@ -12,7 +35,27 @@ pub fn count(n: usize, noun: &str) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::count;
+    use super::*;
+
+    #[test]
+    fn joint_alerts_read_in_mm_and_degrees() {
+        let neck_x = JointOutput::from_name("neck_x").unwrap();
+        let c = JointCriterion::RunningRms {
+            value_m_or_rad: 0.0031,
+        };
+        assert_eq!(
+            joint_alert_text(neck_x, &c, true),
+            "neck_x running-rms 3.100 mm raised"
+        );
+        let ry = JointOutput::from_name("low_back_ry").unwrap();
+        let c = JointCriterion::Excursion {
+            value_m_or_rad: core::f32::consts::PI / 180.0,
+        };
+        assert_eq!(
+            joint_alert_text(ry, &c, false),
+            "low_back_ry excursion 1.000 deg cleared"
+        );
+    }
 
     #[test]
     fn counts_are_singular_for_one_only() {

@@ -8,6 +8,7 @@ use std::io::Write;
 use anyhow::{Result, anyhow};
 use serde_json::{Value, json};
 use supine_core::alerts::{AlertEvent, Criterion};
+use supine_core::model::JointUnit;
 use supine_core::pipeline::Telemetry;
 
 use super::state::{Monitor, Notice, fault_names};
@@ -59,6 +60,22 @@ pub fn event_json(e: &AlertEvent, sample_rate_hz: f64) -> Value {
             "type": "event", "kind": "fault", "sample": sample, "time_s": time_s,
             "fault": fault.name(), "raised": active,
         }),
+        AlertEvent::Joint { raised, .. } => {
+            let mut event = json!({
+                "type": "event", "kind": "joint", "sample": sample, "time_s": time_s,
+                "raised": raised,
+            });
+            if let Some((output, criterion)) = e.joint_criterion() {
+                event["output"] = json!(output.name());
+                event["criterion"] = json!(criterion.name());
+                let key = match output.unit() {
+                    JointUnit::Metre => "value_m",
+                    JointUnit::Radian => "value_rad",
+                };
+                event[key] = json!(shortest(criterion.value_m_or_rad()));
+            }
+            event
+        }
     }
 }
 

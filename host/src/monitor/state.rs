@@ -10,6 +10,7 @@ use supine_core::protocol::{DeviceToHost, Greeting, ParamsSource, Status, Teleme
 
 use crate::device::device_params::identity_hex;
 use crate::device::link::{LinkStats, check_protocol};
+use crate::io::wording::joint_alert_text;
 
 /// Alert events kept for the view (the log keeps all of them).
 pub const HISTORY_LEN: usize = 8;
@@ -56,6 +57,8 @@ impl Severity {
         match *event {
             AlertEvent::Level { from, to, .. } if to > from => Severity::of_level(to),
             AlertEvent::Fault { active: true, .. } => Severity::Fault,
+            // A threshold a medical director set for the patient's spine was passed.
+            AlertEvent::Joint { raised: true, .. } => Severity::Warning,
             _ => Severity::Info,
         }
     }
@@ -96,6 +99,13 @@ pub fn describe_event(event: &AlertEvent, sample_rate_hz: f64) -> String {
             let verb = if active { "raised" } else { "cleared" };
             format!("{when}: sensor fault {fault} {verb}")
         }
+        AlertEvent::Joint { raised, .. } => match event.joint_criterion() {
+            Some((output, criterion)) => format!(
+                "{when}: joint alert {}",
+                joint_alert_text(output, &criterion, raised)
+            ),
+            None => format!("{when}: joint alert on an unknown output"),
+        },
     }
 }
 
@@ -232,6 +242,8 @@ impl Monitor {
                             self.faults.remove(fault);
                         }
                     }
+                    // Shown and logged as they come; the panel's history keeps them.
+                    AlertEvent::Joint { .. } => {}
                 }
                 if self.history.len() == HISTORY_LEN {
                     self.history.pop_front();

@@ -26,6 +26,7 @@ use crate::exposure::report::{
 };
 use crate::io::params_file::ParamFile;
 use crate::io::ride_rows::RideSource;
+use crate::io::wording::display_unit;
 use crate::report::joints::{MissionJoint, mission_joints};
 use crate::report::spectrum::{AxisSpectrum, LegSpectra};
 
@@ -246,7 +247,13 @@ pub fn evaluate_leg(
                             ("running rms", f64::from(c.value()))
                         }
                         Some(c @ Criterion::Vdv { .. }) => ("VDV", f64::from(c.value())),
-                        None => ("sensor fault", 0.0),
+                        None => match e.joint_criterion() {
+                            Some((output, c)) => (
+                                "joint motion",
+                                display_unit(output).1 * f64::from(c.value_m_or_rad()),
+                            ),
+                            None => ("sensor fault", 0.0),
+                        },
                     };
                     let timed = TimedEvent::new(e, 0.0, fs);
                     alerts.push(AlertRow {

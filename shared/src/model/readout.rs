@@ -258,6 +258,25 @@ impl JointReadout {
         direct * input + rows * state
     }
 
+    /// The output (its index in [`JointOutput::ALL`]) read `k`th, in
+    /// [`packed_outputs`](Self::packed_outputs) order.
+    pub fn packed_output(&self, k: usize) -> Option<u8> {
+        let mut k = k;
+        for group in &self.groups {
+            let outputs = group.outputs();
+            match outputs.get(k) {
+                Some(&o) => return Some(o),
+                None => k -= outputs.len(),
+            }
+        }
+        None
+    }
+
+    /// How many outputs it reads.
+    pub fn output_count(&self) -> usize {
+        self.groups.iter().map(|g| g.outputs().len()).sum()
+    }
+
     /// Whether it reads joint output `output`.
     pub fn reads(&self, output: JointOutput) -> bool {
         self.groups

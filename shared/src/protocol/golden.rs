@@ -8,7 +8,7 @@ use super::{
     DeviceFrame, DeviceToHost, Greeting, HostToDevice, InputBatch, PROTOCOL_VERSION, ParamAck,
     ParamBegin, ParamChunk, ParamsSource, ResetCause, SampleBatch, Status, Telemetry, UploadError,
 };
-use crate::alerts::{AlertEvent, Criterion, Level, SensorFault};
+use crate::alerts::{AlertEvent, Criterion, JointAlertConfig, JointCriterion, Level, SensorFault};
 use crate::blob::{BlobError, DeviceParams, Patient};
 use crate::joint_exposure::JointValues;
 use crate::model::{DiscreteModal, JointReadout, ModalBlock, ModalGroup};
@@ -43,7 +43,7 @@ pub fn host_to_device_examples() -> [HostToDevice; 7] {
 }
 
 /// Example device-to-host frames, in [`DEVICE_TO_HOST`] order.
-pub fn device_to_host_examples() -> [DeviceFrame; 13] {
+pub fn device_to_host_examples() -> [DeviceFrame; 15] {
     let mut firmware_version = String::new();
     let _ = firmware_version.push_str("0.1.0");
     let mut last_panic = String::new();
@@ -120,6 +120,22 @@ pub fn device_to_host_examples() -> [DeviceFrame; 13] {
             1000,
             &[[1, -1, 64], [-3, 2, -8192], [32767, -32767, 0]],
         )),
+        DeviceToHost::Alert(AlertEvent::Joint {
+            output: 3,
+            criterion: JointCriterion::RunningRms {
+                value_m_or_rad: 0.015625,
+            },
+            raised: true,
+            at_sample: 1500,
+        }),
+        DeviceToHost::Alert(AlertEvent::Joint {
+            output: 7,
+            criterion: JointCriterion::Excursion {
+                value_m_or_rad: 0.0078125,
+            },
+            raised: true,
+            at_sample: 2505,
+        }),
     ];
     let mut seq = 0;
     messages.map(|message| {
@@ -145,7 +161,7 @@ pub const HOST_TO_DEVICE: [&[u8]; 7] = [
 
 #[rustfmt::skip]
 /// COBS frames of [`device_to_host_examples`].
-pub const DEVICE_TO_HOST: [&[u8]; 13] = [
+pub const DEVICE_TO_HOST: [&[u8]; 15] = [
     &[0x01, 0x01, 0x1a, 0x06, 0x05, 0x30, 0x2e, 0x31, 0x2e, 0x30, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x01, 0x05, 0x01, 0x03, 0xfa, 0x43, 0x01, 0x03, 0xe0, 0x3f, 0x01, 0x0b, 0x8d, 0x42, 0x01, 0x04, 0x6f, 0x6f, 0x70, 0x73, 0xff, 0x07, 0x00],
     &[0x06, 0x01, 0x01, 0xc0, 0xc4, 0x07, 0x01, 0x01, 0x02, 0x3f, 0x01, 0x03, 0x80, 0xbf, 0x01, 0x01, 0x02, 0x40, 0x01, 0x03, 0x80, 0x3e, 0x01, 0x01, 0x02, 0x3e, 0x01, 0x03, 0xc0, 0x3f, 0x01, 0x03, 0xe0, 0x3f, 0x01, 0x0f, 0x60, 0x40, 0x02, 0x05, 0x01, 0x03, 0x6f, 0x12, 0x83, 0x3a, 0x0a, 0xd7, 0x23, 0xbb, 0x01, 0x03, 0x80, 0x3d, 0x00],
     &[0x03, 0x02, 0x02, 0x01, 0x02, 0x01, 0x01, 0x01, 0x01, 0x04, 0x3f, 0xbc, 0x05, 0x00],
@@ -159,6 +175,8 @@ pub const DEVICE_TO_HOST: [&[u8]; 13] = [
     &[0x04, 0x0a, 0x05, 0x04, 0x00],
     &[0x04, 0x0b, 0x05, 0x08, 0x00],
     &[0x18, 0x0c, 0x06, 0xe8, 0x07, 0x12, 0x02, 0x01, 0x80, 0x01, 0x07, 0x06, 0xff, 0x80, 0x01, 0xfb, 0xff, 0x03, 0xfe, 0xff, 0x03, 0x80, 0x80, 0x01, 0x00],
+    &[0x05, 0x0d, 0x02, 0x02, 0x03, 0x01, 0x01, 0x06, 0x80, 0x3c, 0x01, 0xdc, 0x0b, 0x00],
+    &[0x06, 0x0e, 0x02, 0x02, 0x07, 0x01, 0x01, 0x01, 0x05, 0x3c, 0x01, 0xc9, 0x13, 0x00],
 ];
 
 /// A blob built from fixed numbers only (no eigen-solver in the loop), so its bytes
@@ -202,7 +220,18 @@ pub fn blob_example() -> Result<DeviceParams, BlobError> {
     joints.groups[2].outputs[0] = 2;
     joints.groups[2].feedthrough[0] = 0.001;
     joints.rows[0][0] = [0.25, -0.125];
-    DeviceParams::with_defaults([0x5A; 16], patient, sample_rate, realization, joints)
+    // Its joint-motion alerts: a running-rms and an excursion threshold, m; no dwell, so
+    // that a test may change the telemetry rate (the dwell is counted in readings, at
+    // least one) and the blob stay valid.
+    let joint_alerts = JointAlertConfig {
+        running_rms_m_or_rad: [0.001, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        excursion_m_or_rad: [0.004, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        hysteresis: 0.25,
+        raise_dwell_s: 0.0,
+        clear_dwell_s: 0.0,
+    };
+    DeviceParams::with_defaults([0x5A; 16], patient, sample_rate, realization, joints)?
+        .with_joint_alerts(joint_alerts)
 }
 
 /// The bytes of [`blob_example`]: header and payload (recorded with `cargo test -p supine-core

@@ -427,12 +427,9 @@ pub fn preset_params(
         device_model(&model, SAMPLE_RATE_HZ).expect("the preset discretizes");
     let sample_rate = SampleRate::from_hz_f64(SAMPLE_RATE_HZ).expect("a supported rate");
     let patient = Patient::of(&subject);
-    let mut params =
-        DeviceParams::with_defaults(identity, patient, sample_rate, realization, joints)
-            .expect("valid defaults");
-    params.telemetry = telemetry;
-    params.validate().expect("valid parameters");
-    params
+    DeviceParams::with_defaults(identity, patient, sample_rate, realization, joints)
+        .and_then(|p| p.with_telemetry(telemetry))
+        .expect("valid parameters")
 }
 
 pub fn encode(params: &DeviceParams) -> Vec<u8> {
