@@ -123,9 +123,28 @@ impl LaneCplx {
         self.im[l] = value.im;
     }
 
+    /// self += v * weight (a real weight), lane by lane, as num-complex computes it.
+    #[inline(always)]
+    pub fn add_scaled(&mut self, v: &Self, weight: f64) {
+        for l in 0..LANES {
+            self.re[l] += v.re[l] * weight;
+            self.im[l] += v.im[l] * weight;
+        }
+    }
+
+    /// self += (real - v) * weight, lane by lane, as num-complex computes
+    /// `(Complex::new(real, 0.0) - v) * weight`.
+    #[inline(always)]
+    pub fn add_real_minus_scaled(&mut self, real: f64, v: &Self, weight: f64) {
+        for l in 0..LANES {
+            self.re[l] += (real - v.re[l]) * weight;
+            self.im[l] += (0.0 - v.im[l]) * weight;
+        }
+    }
+
     /// self * other, lane by lane, as num-complex computes it.
     #[inline(always)]
-    fn mul(&self, other: &Self) -> Self {
+    pub fn mul(&self, other: &Self) -> Self {
         let mut out = Self::ZERO;
         for l in 0..LANES {
             out.re[l] = self.re[l] * other.re[l] - self.im[l] * other.im[l];

@@ -27,7 +27,8 @@ use supine_core::model::response::COUPLED_COMPONENTS;
 use supine_core::model::{ModelParams, ParamId, SystemMatrices, Transmissibility};
 
 use super::block_solve::{
-    Cplx, LANES, LaneSystem, MAX_BLOCK, MAX_OUTPUTS, MAX_RHS, solve_lanes, solve_small,
+    Cplx, LANES, Lane, LaneCplx, LaneSystem, MAX_BLOCK, MAX_OUTPUTS, MAX_RHS, solve_lanes,
+    solve_small,
 };
 use crate::identify::geomean::wrap_pi;
 
@@ -494,8 +495,8 @@ impl Objective {
                     (p, col, s.unwrap_or(0))
                 })
                 .collect();
-            let mut uv = vec![([zero; MAX_OUTPUTS], [zero; 3]); shape_ids.len()];
-            let mut projected = vec![[(zero, zero); COMPONENTS]; shape_ids.len()];
+            let mut projected =
+                vec![[(LaneCplx::ZERO, LaneCplx::ZERO); COMPONENTS]; shape_ids.len()];
             // X = A^-1 F (F = (K + j w C) G) in the first nk columns, W = A^-1 R^T (the
             // read outputs' rows of R) in the next no. Every frequency overwrites the n x n
             // and n x (nk + no) entries the solve reads.
@@ -520,120 +521,115 @@ impl Objective {
             // LANES frequencies solved at once (the last group's spare lanes repeat its
             // last frequency), one at a time where the lanes' pivots part ways.
             for first in (0..nf).step_by(LANES) {
+                let count = (first + LANES).min(nf) - first;
+                let omega: Lane = std::array::from_fn(|l| omega_at((first + l).min(nf - 1)));
                 for l in 0..LANES {
-                    let omega = omega_at((first + l).min(nf - 1));
                     for i in 0..n {
                         for j in 0..n {
-                            lanes.a[i][j].set(l, a_at(omega, i, j));
+                            lanes.a[i][j].set(l, a_at(omega[l], i, j));
                         }
                         for col in 0..nk + no {
-                            lanes.rhs[i][col].set(l, rhs_at(omega, i, col));
+                            lanes.rhs[i][col].set(l, rhs_at(omega[l], i, col));
                         }
                     }
                 }
-                let together = solve_lanes(n, &mut lanes, nk + no);
-                for f in first..(first + LANES).min(nf) {
-                    let omega = omega_at(f);
-                    if together {
-                        for i in 0..n {
-                            for col in 0..nk + no {
-                                rhs[i][col] = lanes.rhs[i][col].get(f - first);
-                            }
-                        }
-                    } else {
+                if !solve_lanes(n, &mut lanes, nk + no) {
+                    for l in 0..count {
                         for i in 0..n {
                             for j in 0..n {
-                                a[i][j] = a_at(omega, i, j);
+                                a[i][j] = a_at(omega[l], i, j);
                             }
                             for col in 0..nk + no {
-                                rhs[i][col] = rhs_at(omega, i, col);
+                                rhs[i][col] = rhs_at(omega[l], i, col);
                             }
                         }
                         if !solve_small(n, &mut a, &mut rhs, nk + no) {
-                            let freq_hz = self.target.freqs_hz[f];
+                            let freq_hz = self.target.freqs_hz[first + l];
                             return Err(format!("the model is singular at {freq_hz} Hz"));
                         }
-                    }
-                    let x = |i: usize, col: usize| rhs[i][col];
-                    let w = |i: usize, o: usize| rhs[i][nk + o];
-                    // Only the fitted components of H = R X.
-                    let measured = &self.target.h[f];
-                    let base = f * per_freq;
-                    let mut h = [zero; COMPONENTS];
-                    for (&c, &(kl, ol)) in block.components.iter().zip(&block.component_at) {
-                        let (output, input) = COUPLED_COMPONENTS[c];
-                        let mut sum = zero;
-                        for &(i, weight) in &block.read_rows[ol] {
-                            sum += x(i, kl) * weight;
+                        for i in 0..n {
+                            for col in 0..nk + no {
+                                lanes.rhs[i][col].set(l, rhs[i][col]);
+                            }
                         }
-                        h[c] = sum;
-                        let gv = measured[(output.index(), input.index())];
-                        let r = base + slot_of[c];
+                    }
+                }
+                // From here on every lane goes through the same arithmetic the scalar
+                // evaluation did, one lane per frequency (spare lanes computed, not written).
+                let x = |i: usize, col: usize| &lanes.rhs[i][col];
+                let w = |i: usize, o: usize| &lanes.rhs[i][nk + o];
+                // Only the fitted components of H = R X, per component of the block.
+                let mut mag_factor = [LaneCplx::ZERO; COMPONENTS];
+                let mut phase_factor = [LaneCplx::ZERO; COMPONENTS];
+                for (at, (&c, &(kl, ol))) in
+                    block.components.iter().zip(&block.component_at).enumerate()
+                {
+                    let (output, input) = COUPLED_COMPONENTS[c];
+                    let mut sum = LaneCplx::ZERO;
+                    for &(i, weight) in &block.read_rows[ol] {
+                        sum.add_scaled(x(i, kl), weight);
+                    }
+                    for l in 0..count {
+                        let f = first + l;
+                        let (hv, gv) = (
+                            sum.get(l),
+                            self.target.h[f][(output.index(), input.index())],
+                        );
+                        let r = f * per_freq + slot_of[c];
                         let g_abs = gv.norm_sqr().sqrt();
-                        residuals[r] = (sum.norm_sqr().sqrt() - g_abs) / g_abs;
+                        residuals[r] = (hv.norm_sqr().sqrt() - g_abs) / g_abs;
                         // wrap(arg h - arg g) = arg(h conj(g)), in (-pi, pi].
-                        residuals[r + 1] = wrap_pi((sum * gv.conj()).arg()) / PI;
+                        residuals[r + 1] = wrap_pi((hv * gv.conj()).arg()) / PI;
+                        // d r_mag = Re(dh conj(h) / (|h| |g|)), d r_phase = Im(dh / (pi h)):
+                        // the factors once per component, so the inner loop only multiplies.
+                        mag_factor[at].set(l, hv.conj() / (hv.norm_sqr() * gv.norm_sqr()).sqrt());
+                        phase_factor[at].set(l, Cplx::new(1.0, 0.0) / (hv * PI));
                     }
-                    let Some(jac) = jacobian.as_deref_mut() else {
-                        continue;
-                    };
-                    // d r_mag = Re(dh conj(h) / (|h| |g|)), d r_phase = Im(dh / (pi h)): the
-                    // factors once per component, so the inner loop only multiplies.
-                    let mut mag_factor = [zero; COMPONENTS];
-                    let mut phase_factor = [zero; COMPONENTS];
-                    for &c in &block.components {
-                        let (output, input) = COUPLED_COMPONENTS[c];
-                        let (hv, gv) = (h[c], measured[(output.index(), input.index())]);
-                        mag_factor[c] = hv.conj() / (hv.norm_sqr() * gv.norm_sqr()).sqrt();
-                        phase_factor[c] = Cplx::new(1.0, 0.0) / (hv * PI);
-                    }
-                    // W = A^-1 R^T, so (R A^-1)_(j, d) = W_(d, j) by symmetry of A. Per distinct
-                    // shape b: u = R A^-1 b (the read outputs) and v = b^T (G - X) (the
-                    // inputs), shared by the stiffness and the damping of its element and axis.
-                    for (s, &i) in shape_ids.iter().enumerate() {
-                        let (u, v) = &mut uv[s];
-                        *u = [zero; MAX_OUTPUTS];
-                        *v = [zero; 3];
-                        for &(d, global, wt) in &self.shapes[i].entries {
-                            for (o, u) in u.iter_mut().enumerate().take(no) {
-                                *u += w(d, o) * wt;
-                            }
-                            for (kl, &k) in block.inputs.iter().enumerate() {
-                                v[kl] += (Cplx::new(g_real[(global, k)], 0.0) - x(d, kl)) * wt;
-                            }
+                }
+                let Some(jac) = jacobian.as_deref_mut() else {
+                    continue;
+                };
+                // W = A^-1 R^T, so (R A^-1)_(j, d) = W_(d, j) by symmetry of A. Per distinct
+                // shape b: u = R A^-1 b (the read outputs) and v = b^T (G - X) (the
+                // inputs), shared by the stiffness and the damping of its element and axis.
+                // Then per component, dh/dp / s projected on both residuals: t = u_o v_i,
+                // (t m_c, t p_c) with the factors above. A stiffness (s = p) gives
+                // (p Re(t m), p Im(t p)); a damping (s = j w p) gives (-w p Im(t m),
+                // w p Re(t p)): one complex product per shape, not per parameter.
+                for (s, &i) in shape_ids.iter().enumerate() {
+                    let mut u = [LaneCplx::ZERO; MAX_OUTPUTS];
+                    let mut v = [LaneCplx::ZERO; 3];
+                    for &(d, global, wt) in &self.shapes[i].entries {
+                        for (o, u) in u.iter_mut().enumerate().take(no) {
+                            u.add_scaled(w(d, o), wt);
+                        }
+                        for (kl, &k) in block.inputs.iter().enumerate() {
+                            v[kl].add_real_minus_scaled(g_real[(global, k)], x(d, kl), wt);
                         }
                     }
-                    // Per shape and component, dh/dp / s projected on both residuals:
-                    // t = u_o v_i, (t m_c, t p_c) with the factors above. A stiffness (s = p)
-                    // then gives (p Re(t m), p Im(t p)); a damping (s = j w p) gives
-                    // (-w p Im(t m), w p Re(t p)): one complex product per shape, not per
-                    // parameter.
-                    for (s, (u, v)) in uv.iter().enumerate() {
-                        for (&c, &(kl, ol)) in block.components.iter().zip(&block.component_at) {
-                            let t = u[ol] * v[kl];
-                            projected[s][c] = (t * mag_factor[c], t * phase_factor[c]);
-                        }
+                    for (at, &(kl, ol)) in block.component_at.iter().enumerate() {
+                        let t = u[ol].mul(&v[kl]);
+                        projected[s][at] = (t.mul(&mag_factor[at]), t.mul(&phase_factor[at]));
                     }
-                    let rows = jac.nrows();
-                    let entries = jac.as_mut_slice();
-                    for &(p, col, s) in &block_cols {
-                        let projected = &projected[s];
-                        let column = &mut entries[col * rows..(col + 1) * rows];
-                        if self.free[p].is_stiffness() {
-                            let value = values[p];
-                            for &c in &block.components {
-                                let (tm, tp) = projected[c];
-                                let r = base + slot_of[c];
-                                column[r] = value * tm.re;
-                                column[r + 1] = value * tp.im;
-                            }
-                        } else {
-                            let value = omega * values[p];
-                            for &c in &block.components {
-                                let (tm, tp) = projected[c];
-                                let r = base + slot_of[c];
-                                column[r] = -value * tm.im;
-                                column[r + 1] = value * tp.re;
+                }
+                let rows = jac.nrows();
+                let entries = jac.as_mut_slice();
+                for &(p, col, s) in &block_cols {
+                    let projected = &projected[s];
+                    let column = &mut entries[col * rows..(col + 1) * rows];
+                    let stiffness = self.free[p].is_stiffness();
+                    for (at, &c) in block.components.iter().enumerate() {
+                        let (tm, tp) = &projected[at];
+                        for l in 0..count {
+                            let r = (first + l) * per_freq + slot_of[c];
+                            if stiffness {
+                                let value = values[p];
+                                column[r] = value * tm.re[l];
+                                column[r + 1] = value * tp.im[l];
+                            } else {
+                                let value = omega[l] * values[p];
+                                column[r] = -value * tm.im[l];
+                                column[r + 1] = value * tp.re[l];
                             }
                         }
                     }
