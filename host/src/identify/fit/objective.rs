@@ -516,6 +516,10 @@ impl Objective {
             let nf = self.target.freqs_hz.len();
             let omega_at = |f: usize| 2.0 * PI * self.target.freqs_hz[f];
             let mut lanes = LaneSystem::new();
+            // Per component of the block, every group overwrites them (so zeroed once).
+            let mut mag_factor = [LaneCplx::ZERO; COMPONENTS];
+            let mut phase_factor = [LaneCplx::ZERO; COMPONENTS];
+            let (mut u, mut v) = ([LaneCplx::ZERO; MAX_OUTPUTS], [LaneCplx::ZERO; 3]);
             let mut a = [[zero; MAX_BLOCK]; MAX_BLOCK];
             let mut rhs = [[zero; MAX_RHS]; MAX_BLOCK];
             // LANES frequencies solved at once (the last group's spare lanes repeat its
@@ -523,14 +527,30 @@ impl Objective {
             for first in (0..nf).step_by(LANES) {
                 let count = (first + LANES).min(nf) - first;
                 let omega: Lane = std::array::from_fn(|l| omega_at((first + l).min(nf - 1)));
-                for l in 0..LANES {
-                    for i in 0..n {
-                        for j in 0..n {
-                            lanes.a[i][j].set(l, a_at(omega[l], i, j));
+                // a_at and rhs_at in every lane at once.
+                for i in 0..n {
+                    for j in 0..n {
+                        let (k, m, c) =
+                            (local.stiffness[i][j], local.mass[i][j], local.damping[i][j]);
+                        let entry = &mut lanes.a[i][j];
+                        for l in 0..LANES {
+                            entry.re[l] = k - omega[l] * omega[l] * m;
+                            entry.im[l] = omega[l] * c;
                         }
-                        for col in 0..nk + no {
-                            lanes.rhs[i][col].set(l, rhs_at(omega[l], i, col));
+                    }
+                    for col in 0..nk {
+                        let (kg, cg) = (local.kg[i][col], local.cg[i][col]);
+                        let entry = &mut lanes.rhs[i][col];
+                        for l in 0..LANES {
+                            entry.re[l] = kg;
+                            entry.im[l] = omega[l] * cg;
                         }
+                    }
+                    for col in 0..no {
+                        lanes.rhs[i][nk + col] = LaneCplx {
+                            re: [local.output[col][i]; LANES],
+                            im: [0.0; LANES],
+                        };
                     }
                 }
                 if !solve_lanes(n, &mut lanes, nk + no) {
@@ -559,8 +579,6 @@ impl Objective {
                 let x = |i: usize, col: usize| &lanes.rhs[i][col];
                 let w = |i: usize, o: usize| &lanes.rhs[i][nk + o];
                 // Only the fitted components of H = R X, per component of the block.
-                let mut mag_factor = [LaneCplx::ZERO; COMPONENTS];
-                let mut phase_factor = [LaneCplx::ZERO; COMPONENTS];
                 for (at, (&c, &(kl, ol))) in
                     block.components.iter().zip(&block.component_at).enumerate()
                 {
@@ -597,8 +615,8 @@ impl Objective {
                 // (p Re(t m), p Im(t p)); a damping (s = j w p) gives (-w p Im(t m),
                 // w p Re(t p)): one complex product per shape, not per parameter.
                 for (s, &i) in shape_ids.iter().enumerate() {
-                    let mut u = [LaneCplx::ZERO; MAX_OUTPUTS];
-                    let mut v = [LaneCplx::ZERO; 3];
+                    u[..no].fill(LaneCplx::ZERO);
+                    v[..nk].fill(LaneCplx::ZERO);
                     for &(d, global, wt) in &self.shapes[i].entries {
                         for (o, u) in u.iter_mut().enumerate().take(no) {
                             u.add_scaled(w(d, o), wt);
@@ -614,22 +632,29 @@ impl Objective {
                 }
                 let rows = jac.nrows();
                 let entries = jac.as_mut_slice();
+                let row_of: [usize; LANES] = std::array::from_fn(|l| (first + l) * per_freq);
                 for &(p, col, s) in &block_cols {
                     let projected = &projected[s];
                     let column = &mut entries[col * rows..(col + 1) * rows];
-                    let stiffness = self.free[p].is_stiffness();
-                    for (at, &c) in block.components.iter().enumerate() {
-                        let (tm, tp) = &projected[at];
-                        for l in 0..count {
-                            let r = (first + l) * per_freq + slot_of[c];
-                            if stiffness {
-                                let value = values[p];
+                    // Lane l's rows of component c: row_of[l] + slot_of[c] and the next.
+                    if self.free[p].is_stiffness() {
+                        let value = values[p];
+                        for (at, &c) in block.components.iter().enumerate() {
+                            let (tm, tp) = &projected[at];
+                            for l in 0..count {
+                                let r = row_of[l] + slot_of[c];
                                 column[r] = value * tm.re[l];
                                 column[r + 1] = value * tp.im[l];
-                            } else {
-                                let value = omega[l] * values[p];
-                                column[r] = -value * tm.im[l];
-                                column[r + 1] = value * tp.re[l];
+                            }
+                        }
+                    } else {
+                        let value: Lane = std::array::from_fn(|l| omega[l] * values[p]);
+                        for (at, &c) in block.components.iter().enumerate() {
+                            let (tm, tp) = &projected[at];
+                            for l in 0..count {
+                                let r = row_of[l] + slot_of[c];
+                                column[r] = -value[l] * tm.im[l];
+                                column[r + 1] = value[l] * tp.re[l];
                             }
                         }
                     }
