@@ -7,9 +7,10 @@
 //! into SIMD instructions of the x86-64 baseline (SSE2), with no target-specific flags.
 //! Every lane does exactly the operations [`solve_small`] does on its own frequency, in
 //! the same order (num-complex's product, quotient and norm written out), so the results
-//! are bit for bit the same. The pivots must agree across the lanes for that: when they do
-//! not (or a lane is singular, or an elimination factor is zero in some lanes only),
-//! [`solve_lanes`] says so and the caller solves those frequencies one at a time.
+//! are bit for bit the same: each lane picks its own pivot (near a frequency where the
+//! pivot changes, the lanes swap different rows) and skips the rows whose elimination
+//! factor is zero in it. Only when a lane is singular does [`solve_lanes`] refuse, and the
+//! caller solves those frequencies one at a time (to report the singular one).
 
 use nalgebra::Complex;
 
@@ -202,9 +203,7 @@ impl Default for LaneSystem {
 }
 
 /// [`solve_small`] on every lane of `system` at once, bit for bit what it gives each lane.
-/// Returns false, leaving `system` spoiled, when the lanes would part ways: their pivots
-/// differ, some lane is singular, or an elimination factor is zero (the row skipped) in
-/// some lanes only. The caller then solves those frequencies one at a time.
+/// Returns false, leaving `system` spoiled, when some lane is singular.
 // Row operations read one row and write another: index loops say that most plainly.
 #[allow(clippy::needless_range_loop)]
 pub fn solve_lanes(n: usize, system: &mut LaneSystem, nrhs: usize) -> bool {
@@ -223,28 +222,40 @@ pub fn solve_lanes(n: usize, system: &mut LaneSystem, nrhs: usize) -> bool {
                 }
             }
         }
-        if pivot.iter().any(|&p| p != pivot[0]) || largest.contains(&0.0) {
+        if largest.contains(&0.0) {
             return false;
         }
-        let pivot = pivot[0];
-        if pivot != col {
-            for k in col..n {
-                (a[col][k], a[pivot][k]) = (a[pivot][k], a[col][k]);
+        if pivot.iter().all(|&p| p == pivot[0]) {
+            let pivot = pivot[0];
+            if pivot != col {
+                for k in col..n {
+                    (a[col][k], a[pivot][k]) = (a[pivot][k], a[col][k]);
+                }
+                for k in 0..nrhs {
+                    (rhs[col][k], rhs[pivot][k]) = (rhs[pivot][k], rhs[col][k]);
+                }
             }
-            for k in 0..nrhs {
-                (rhs[col][k], rhs[pivot][k]) = (rhs[pivot][k], rhs[col][k]);
+        } else {
+            // Near a frequency where the pivot changes: each lane swaps its own rows.
+            for (l, &p) in pivot.iter().enumerate() {
+                if p != col {
+                    swap_lane(&mut a[..], col, p, col..n, l);
+                    swap_lane(&mut rhs[..], col, p, 0..nrhs, l);
+                }
             }
         }
         let inv = a[col][col].recip();
         inverse[col] = inv;
         for row in col + 1..n {
             let factor = a[row][col].mul(&inv);
-            let zero = (0..LANES).filter(|&l| factor.re[l] == 0.0 && factor.im[l] == 0.0);
-            match zero.count() {
-                0 => {}
-                LANES => continue,
-                _ => return false,
+            // solve_small skips a row whose factor is zero: so do the lanes where it is.
+            let skip: [bool; LANES] =
+                std::array::from_fn(|l| factor.re[l] == 0.0 && factor.im[l] == 0.0);
+            if skip == [true; LANES] {
+                continue;
             }
+            // (Rare: near a pivot change the lanes' zeros can sit in different rows.)
+            let kept = skip.contains(&true).then(|| (a[row], rhs[row]));
             let (above, below) = a.split_at_mut(row);
             for k in col..n {
                 below[0][k].sub_mul(&factor, &above[col][k]);
@@ -252,6 +263,12 @@ pub fn solve_lanes(n: usize, system: &mut LaneSystem, nrhs: usize) -> bool {
             let (above, below) = rhs.split_at_mut(row);
             for k in 0..nrhs {
                 below[0][k].sub_mul(&factor, &above[col][k]);
+            }
+            if let Some((kept_a, kept_rhs)) = kept {
+                for (l, _) in skip.iter().enumerate().filter(|(_, skipped)| **skipped) {
+                    restore_lane(&mut a[row], &kept_a, l);
+                    restore_lane(&mut rhs[row], &kept_rhs, l);
+                }
             }
         }
     }
@@ -266,6 +283,29 @@ pub fn solve_lanes(n: usize, system: &mut LaneSystem, nrhs: usize) -> bool {
         }
     }
     true
+}
+
+/// Puts lane `l` of `kept` back into `row`.
+fn restore_lane<const C: usize>(row: &mut [LaneCplx; C], kept: &[LaneCplx; C], l: usize) {
+    for (v, k) in row.iter_mut().zip(kept) {
+        (v.re[l], v.im[l]) = (k.re[l], k.im[l]);
+    }
+}
+
+/// Swaps lane `l` of rows `i` and `j` (`i < j`) over `columns`.
+fn swap_lane<const C: usize>(
+    rows: &mut [[LaneCplx; C]],
+    i: usize,
+    j: usize,
+    columns: std::ops::Range<usize>,
+    l: usize,
+) {
+    let (upper, lower) = rows.split_at_mut(j);
+    let (first, second) = (&mut upper[i], &mut lower[0]);
+    for k in columns {
+        std::mem::swap(&mut first[k].re[l], &mut second[k].re[l]);
+        std::mem::swap(&mut first[k].im[l], &mut second[k].im[l]);
+    }
 }
 
 #[cfg(test)]
@@ -300,16 +340,16 @@ mod tests {
     }
 
     #[test]
-    fn lanes_give_the_single_solves_bits_or_refuse() {
+    fn lanes_give_the_single_solves_bits_whatever_their_pivots() {
         let mut rng = ChaCha8Rng::seed_from_u64(18);
-        let (mut solved, mut refused) = (0, 0);
         for trial in 0..400 {
             let n = [3, 6][trial % 2];
             let nrhs = 1 + trial % MAX_RHS;
             let mut system = LaneSystem::new();
             let mut singles = Vec::new();
             // Half the trials: the lanes are one system scaled slightly (the same pivots,
-            // as neighbouring frequencies mostly are); the others: unrelated systems.
+            // as neighbouring frequencies mostly are); the others: unrelated systems (each
+            // lane its own pivots, its own rows skipped).
             let (a0, b0) = random_system(&mut rng, n, nrhs);
             for l in 0..LANES {
                 let (mut a, b) = if trial % 4 < 2 {
@@ -335,11 +375,7 @@ mod tests {
                 }
                 singles.push((a, b));
             }
-            if !solve_lanes(n, &mut system, nrhs) {
-                refused += 1;
-                continue;
-            }
-            solved += 1;
+            assert!(solve_lanes(n, &mut system, nrhs), "trial {trial}");
             for (l, (mut a, mut b)) in singles.into_iter().enumerate() {
                 assert!(solve_small(n, &mut a, &mut b, nrhs));
                 for i in 0..n {
@@ -353,10 +389,6 @@ mod tests {
                 }
             }
         }
-        assert!(
-            solved >= 150 && refused >= 50,
-            "{solved} solved, {refused} refused"
-        );
     }
 
     #[test]

@@ -523,7 +523,7 @@ impl Objective {
             let mut a = [[zero; MAX_BLOCK]; MAX_BLOCK];
             let mut rhs = [[zero; MAX_RHS]; MAX_BLOCK];
             // LANES frequencies solved at once (the last group's spare lanes repeat its
-            // last frequency), one at a time where the lanes' pivots part ways.
+            // last frequency); one at a time only where a lane is singular (to name it).
             for first in (0..nf).step_by(LANES) {
                 let count = (first + LANES).min(nf) - first;
                 let omega: Lane = std::array::from_fn(|l| omega_at((first + l).min(nf - 1)));
