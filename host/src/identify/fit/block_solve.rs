@@ -309,6 +309,8 @@ fn swap_lane<const C: usize>(
 }
 
 #[cfg(test)]
+// Systems are built and compared entry by entry across several arrays.
+#[allow(clippy::needless_range_loop)]
 mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
