@@ -13,6 +13,7 @@ use crate::io::output::write_atomically;
 use crate::io::params_file::ModelSource;
 use crate::io::ride_input::RideInputArgs;
 use crate::io::subject_args::SubjectArgs;
+use crate::io::wording::count;
 use crate::report::device_check::DeviceLog;
 use crate::report::{self, html, monitor_log};
 
@@ -122,13 +123,12 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
             .map_err(|e| anyhow!("writing the JSON: {e}"))?;
     }
     eprintln!(
-        "wrote {}: {} {}, {:.1} s, mission VDV {:.3} m/s^1.75, highest level {}",
+        "wrote {}: {}, {:.1} s, mission VDV {:.3} m/s^1.75, highest level {}",
         path.display(),
-        report.legs.len(),
         if args.compare {
-            "rides compared"
+            format!("{} compared", count(report.legs.len(), "ride"))
         } else {
-            "legs"
+            count(report.legs.len(), "leg")
         },
         report.mission.duration_s,
         report.mission.vector.vdv_m_s175,

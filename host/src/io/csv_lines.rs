@@ -2,14 +2,16 @@
 //! recording format, telemetry): the file may be as large as the data, but no line may
 //! grow a buffer without bound.
 //!
-//! The `csv` crate's streaming reader splits the cells, over a reader that refuses a line
-//! longer than a limit (a file of NUL bytes without a line end, a megabyte-long field)
-//! before the `csv` buffer can grow past it. Quoting is off: the host's CSV holds numbers
-//! and names, and a stray quote would otherwise make the rest of the file one field.
-//! A UTF-8 byte order mark at the start and CR before LF (CRLF line ends) are accepted
-//! and dropped; blank lines (empty or only whitespace) are skipped.
+//! Lines are found and split with `memchr` in a buffer of at most a line's limit plus one
+//! read's worth: a line longer than the limit (a file of NUL bytes without a line end, a
+//! megabyte-long field) is refused as soon as it is seen. A row is the line split at the
+//! delimiter, nothing more: quoting is off (the host's CSV holds numbers and names, and a
+//! stray quote would otherwise make the rest of the file one field), which is also why no
+//! CSV parser's state machine is needed (it took a tenth of `supine fit`'s instructions).
+//! A UTF-8 byte order mark at the start and CR before LF (CRLF line ends) are accepted and
+//! dropped; blank lines (empty or only whitespace) are skipped.
 
-use std::io::Read;
+use std::io::{ErrorKind, Read};
 use std::path::Path;
 
 use crate::io::small_file::UTF8_BOM;
@@ -17,6 +19,9 @@ use crate::io::small_file::UTF8_BOM;
 /// Longest line the readers accept, bytes: a recording's line of 13 numbers takes a few
 /// hundred.
 pub const MAX_LINE_BYTES: usize = 4096;
+
+/// Bytes asked of the source per read.
+const READ_BYTES: usize = 64 * 1024;
 
 /// Why the next line could not be read.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -39,29 +44,40 @@ pub enum LineError {
 pub struct Row<'a> {
     /// 1-based line number in the file.
     pub line: u64,
-    record: &'a csv::ByteRecord,
+    /// The line without its LF.
+    text: &'a [u8],
+    /// Where each cell ends in `text` (the next starts one byte further).
+    ends: &'a [usize],
     first: bool,
 }
 
 impl Row<'_> {
     /// Number of cells.
     pub fn len(&self) -> usize {
-        self.record.len()
+        self.ends.len()
     }
 
     /// Whether the line has no cell (never, for a row that was returned).
     pub fn is_empty(&self) -> bool {
-        self.record.is_empty()
+        self.ends.is_empty()
     }
 
     /// Cell `index` as it is in the file, without a byte order mark (first line) or the
     /// CR of a CRLF line end (last cell); empty past the last cell.
     pub fn cell(&self, index: usize) -> &[u8] {
-        let mut cell = self.record.get(index).unwrap_or_default();
+        let Some(&end) = self.ends.get(index) else {
+            return &[];
+        };
+        let start = if index == 0 {
+            0
+        } else {
+            self.ends[index - 1] + 1
+        };
+        let mut cell = &self.text[start..end];
         if self.first && index == 0 {
             cell = cell.strip_prefix(UTF8_BOM).unwrap_or(cell);
         }
-        if index + 1 == self.record.len() {
+        if index + 1 == self.ends.len() {
             cell = cell.strip_suffix(b"\r").unwrap_or(cell);
         }
         cell
@@ -75,8 +91,21 @@ impl Row<'_> {
 
 /// A CSV file read one line at a time.
 pub struct CsvLines<R: Read> {
-    reader: csv::Reader<BoundedLines<R>>,
-    record: csv::ByteRecord,
+    source: R,
+    max_line_bytes: usize,
+    delimiter: u8,
+    /// Bytes read and not yet returned are `buffer[start..end]`.
+    buffer: Vec<u8>,
+    start: usize,
+    end: usize,
+    /// `buffer[start..scanned]` holds no LF.
+    scanned: usize,
+    /// Whether the source has ended.
+    finished: bool,
+    /// 1-based number of the last line returned (0 before the first).
+    line: u64,
+    /// The current row's cell ends.
+    ends: Vec<usize>,
     rows_read: u64,
 }
 
@@ -101,17 +130,17 @@ impl<R: Read> CsvLines<R> {
     /// Lines of `source`, at most `max_line_bytes` each, split at `delimiter` (other
     /// loggers write `;` where a decimal comma is the custom).
     pub fn with_delimiter(source: R, max_line_bytes: usize, delimiter: u8) -> Self {
-        let reader = csv::ReaderBuilder::new()
-            .has_headers(false)
-            .delimiter(delimiter)
-            .flexible(true)
-            .quoting(false)
-            // One record per line: `\r` stays in the last cell and `Row::cell` drops it.
-            .terminator(csv::Terminator::Any(b'\n'))
-            .from_reader(BoundedLines::new(source, max_line_bytes));
         Self {
-            reader,
-            record: csv::ByteRecord::new(),
+            source,
+            max_line_bytes,
+            delimiter,
+            buffer: Vec::new(),
+            start: 0,
+            end: 0,
+            scanned: 0,
+            finished: false,
+            line: 0,
+            ends: Vec::new(),
             rows_read: 0,
         }
     }
@@ -119,112 +148,95 @@ impl<R: Read> CsvLines<R> {
     /// The next non-blank line, or `None` at the end of the file.
     pub fn next_row(&mut self) -> Result<Option<Row<'_>>, LineError> {
         loop {
-            let more = self
-                .reader
-                .read_byte_record(&mut self.record)
-                .map_err(|e| line_error(e, self.reader.get_ref()))?;
-            if !more {
+            let Some((start, end)) = self.next_line()? else {
                 return Ok(None);
-            }
+            };
+            let text = &self.buffer[start..end];
+            self.ends.clear();
+            self.ends
+                .extend(memchr::memchr_iter(self.delimiter, text).chain([text.len()]));
             let first = self.rows_read == 0;
             let row = Row {
-                line: 0,
-                record: &self.record,
+                line: self.line,
+                text,
+                ends: &self.ends,
                 first,
             };
             let blank = row.len() == 1 && row.cell(0).iter().all(u8::is_ascii_whitespace);
             if blank {
                 continue;
             }
-            // Every line ends with a LF (`BoundedLines` adds a missing last one), so after
-            // a record the reader stands at the start of the next line.
-            let line = self.reader.position().line() - 1;
             self.rows_read += 1;
             return Ok(Some(Row {
-                line,
-                record: &self.record,
+                line: self.line,
+                text: &self.buffer[start..end],
+                ends: &self.ends,
                 first,
             }));
         }
     }
-}
 
-fn line_error<R>(e: csv::Error, source: &BoundedLines<R>) -> LineError {
-    match e.into_kind() {
-        csv::ErrorKind::Io(io) if io.get_ref().is_some_and(|i| i.is::<TooLongMarker>()) => {
-            LineError::TooLong {
-                line: source.line,
-                max_bytes: source.max_line_bytes,
-            }
-        }
-        csv::ErrorKind::Io(io) => LineError::Read(io.to_string()),
-        // Byte records without quoting have no other error; keep its words if one comes.
-        other => LineError::Read(format!("{other:?}")),
-    }
-}
-
-/// The error [`BoundedLines`] returns for a line over the limit (its position is read
-/// from the reader).
-#[derive(Debug, thiserror::Error)]
-#[error("line too long")]
-struct TooLongMarker;
-
-/// A reader that fails once a line exceeds a length, counts lines, and ends the input
-/// with a LF if it does not end with one.
-struct BoundedLines<R> {
-    inner: R,
-    max_line_bytes: usize,
-    /// 1-based number of the line being read.
-    line: u64,
-    /// Bytes of that line so far.
-    line_bytes: usize,
-    /// Whether the last byte passed on was a LF (or nothing was passed on yet).
-    at_line_start: bool,
-    finished: bool,
-}
-
-impl<R> BoundedLines<R> {
-    fn new(inner: R, max_line_bytes: usize) -> Self {
-        Self {
-            inner,
-            max_line_bytes,
-            line: 1,
-            line_bytes: 0,
-            at_line_start: true,
-            finished: false,
-        }
-    }
-}
-
-impl<R: Read> Read for BoundedLines<R> {
-    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
-        if self.finished || buf.is_empty() {
-            return Ok(0);
-        }
-        let n = self.inner.read(buf)?;
-        if n == 0 {
-            self.finished = true;
-            if self.at_line_start {
-                return Ok(0);
-            }
-            buf[0] = b'\n';
-            return Ok(1);
-        }
-        for (k, segment) in buf[..n].split(|b| *b == b'\n').enumerate() {
-            if k > 0 {
+    /// The next line's bounds in `buffer` (without its LF; a last line without one
+    /// counts), or `None` at the end of the file.
+    fn next_line(&mut self) -> Result<Option<(usize, usize)>, LineError> {
+        loop {
+            if let Some(at) = memchr::memchr(b'\n', &self.buffer[self.scanned..self.end]) {
+                let (start, end) = (self.start, self.scanned + at);
                 self.line += 1;
-                self.line_bytes = 0;
+                self.check_length(end - start)?;
+                (self.start, self.scanned) = (end + 1, end + 1);
+                return Ok(Some((start, end)));
             }
-            self.line_bytes += segment.len();
-            if self.line_bytes > self.max_line_bytes {
-                return Err(std::io::Error::new(
-                    std::io::ErrorKind::InvalidData,
-                    TooLongMarker,
-                ));
+            self.scanned = self.end;
+            self.check_length(self.end - self.start)
+                .map_err(|_| self.too_long(self.line + 1))?;
+            if self.finished {
+                if self.start == self.end {
+                    return Ok(None);
+                }
+                let (start, end) = (self.start, self.end);
+                self.line += 1;
+                self.start = end;
+                return Ok(Some((start, end)));
             }
+            self.fill()?;
         }
-        self.at_line_start = buf[n - 1] == b'\n';
-        Ok(n)
+    }
+
+    /// Refuses a line of `bytes` over the limit (the line is `self.line`).
+    fn check_length(&self, bytes: usize) -> Result<(), LineError> {
+        if bytes > self.max_line_bytes {
+            return Err(self.too_long(self.line));
+        }
+        Ok(())
+    }
+
+    fn too_long(&self, line: u64) -> LineError {
+        LineError::TooLong {
+            line,
+            max_bytes: self.max_line_bytes,
+        }
+    }
+
+    /// Moves the unreturned bytes to the front and reads more after them.
+    fn fill(&mut self) -> Result<(), LineError> {
+        if self.start > 0 {
+            self.buffer.copy_within(self.start..self.end, 0);
+            (self.end, self.scanned) = (self.end - self.start, self.scanned - self.start);
+            self.start = 0;
+        }
+        if self.buffer.len() < self.end + READ_BYTES {
+            self.buffer.resize(self.end + READ_BYTES, 0);
+        }
+        loop {
+            match self.source.read(&mut self.buffer[self.end..]) {
+                Ok(0) => self.finished = true,
+                Ok(n) => self.end += n,
+                Err(e) if e.kind() == ErrorKind::Interrupted => continue,
+                Err(e) => return Err(LineError::Read(e.to_string())),
+            }
+            return Ok(());
+        }
     }
 }
 

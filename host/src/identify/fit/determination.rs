@@ -93,8 +93,9 @@ pub fn identifiability(setup: &Setup, result: &FitResult) -> Identifiability {
     order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
     let singular_values: Vec<f64> = order.iter().map(|&k| svd.singular_values[k]).collect();
     let s_max = singular_values.first().copied().unwrap_or(0.0);
+    // One SVD for both: the same as the covariance's own (`Covariance::at_minimum`).
+    let covariance = uncertainty::Covariance::from_svd(&svd, jac.nrows(), result.solution.cost);
     let v_t = svd.v_t.unwrap_or_else(|| DMatrix::zeros(0, n));
-    let covariance = uncertainty::Covariance::at_minimum(jac, result.solution.cost);
     let standard_errors = covariance.as_ref().map(|c| c.standard_errors());
     let params = (0..n)
         .map(|j| {

@@ -35,6 +35,7 @@
 //!   litter-board case).
 
 pub mod band;
+pub mod block_solve;
 pub mod determination;
 pub mod multistart;
 pub mod objective;

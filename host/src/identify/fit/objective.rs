@@ -19,13 +19,17 @@
 
 use std::f64::consts::PI;
 
-use nalgebra::{Complex, DMatrix, SMatrix};
+use nalgebra::{DMatrix, SMatrix};
 use supine_core::model::assembly::{DOF_COUNT, Shape, param_shape};
 use supine_core::model::geometry::Body;
 use supine_core::model::modal::Subsystem;
 use supine_core::model::response::COUPLED_COMPONENTS;
 use supine_core::model::{ModelParams, ParamId, SystemMatrices, Transmissibility};
 
+use super::block_solve::{
+    Cplx, LANES, Lane, LaneCplx, LaneSystem, MAX_BLOCK, MAX_OUTPUTS, MAX_RHS, solve_lanes,
+    solve_small,
+};
 use crate::identify::geomean::wrap_pi;
 
 /// Number of fitted components.
@@ -123,15 +127,6 @@ struct Layout {
     per_freq: usize,
 }
 
-/// The largest uncoupled block of A this solver handles (the geometry gives 3, 6, 6, 3).
-const MAX_BLOCK: usize = 6;
-
-/// Outputs (rows of R): the most a block's components can read.
-const MAX_OUTPUTS: usize = 9;
-
-/// Right-hand sides of one block's solve: X's input columns and W's output columns.
-const MAX_RHS: usize = 3 + MAX_OUTPUTS;
-
 /// One block's part of the system's matrices in its local DOFs, for one evaluation.
 struct LocalMatrices {
     stiffness: [[f64; MAX_BLOCK]; MAX_BLOCK],
@@ -178,71 +173,6 @@ impl LocalMatrices {
     }
 }
 
-/// Solves A X = B in place for a small complex system (n <= 6) by Gaussian elimination
-/// with partial pivoting; `rhs` holds B's first `nrhs` columns and receives X. Returns
-/// false if A is singular.
-// Row operations read one row and write another: index loops say that most plainly.
-#[allow(clippy::needless_range_loop)]
-fn solve_small(
-    n: usize,
-    a: &mut [[Cplx; MAX_BLOCK]; MAX_BLOCK],
-    rhs: &mut [[Cplx; MAX_RHS]; MAX_BLOCK],
-    nrhs: usize,
-) -> bool {
-    // 1 / the pivot of each column, used again by the back substitution (row `col` of A
-    // no longer changes once its column is eliminated).
-    let mut inverse = [Cplx::new(0.0, 0.0); MAX_BLOCK];
-    for col in 0..n {
-        // The largest |a|^2 in the column, the last one on a tie.
-        let (mut pivot, mut largest) = (col, a[col][col].norm_sqr());
-        for i in col + 1..n {
-            let v = a[i][col].norm_sqr();
-            if v.total_cmp(&largest).is_ge() {
-                (pivot, largest) = (i, v);
-            }
-        }
-        if largest == 0.0 {
-            return false;
-        }
-        if pivot != col {
-            // Only what is read later: A's columns from `col` on, B's first `nrhs`.
-            for k in col..n {
-                (a[col][k], a[pivot][k]) = (a[pivot][k], a[col][k]);
-            }
-            for k in 0..nrhs {
-                (rhs[col][k], rhs[pivot][k]) = (rhs[pivot][k], rhs[col][k]);
-            }
-        }
-        let inv = Cplx::new(1.0, 0.0) / a[col][col];
-        inverse[col] = inv;
-        for row in col + 1..n {
-            let factor = a[row][col] * inv;
-            if factor == Cplx::new(0.0, 0.0) {
-                continue;
-            }
-            for k in col..n {
-                let v = a[col][k];
-                a[row][k] -= factor * v;
-            }
-            for k in 0..nrhs {
-                let v = rhs[col][k];
-                rhs[row][k] -= factor * v;
-            }
-        }
-    }
-    for col in (0..n).rev() {
-        let inv = inverse[col];
-        for k in 0..nrhs {
-            let mut acc = rhs[col][k];
-            for j in col + 1..n {
-                acc -= a[col][j] * rhs[j][k];
-            }
-            rhs[col][k] = acc * inv;
-        }
-    }
-    true
-}
-
 /// The DOFs of each uncoupled block of A = K - w^2 M + j w C: the connected components of
 /// the graph in which every element's shape vector links its DOFs (M is diagonal).
 fn uncoupled_blocks(body: &Body) -> Vec<Vec<usize>> {
@@ -276,8 +206,6 @@ fn uncoupled_blocks(body: &Body) -> Vec<Vec<usize>> {
     }
     blocks
 }
-
-type Cplx = Complex<f64>;
 
 impl Objective {
     /// Sets up the problem. Shapes depend on the subject only, so they are computed once.
@@ -567,112 +495,167 @@ impl Objective {
                     (p, col, s.unwrap_or(0))
                 })
                 .collect();
-            let mut uv = vec![([zero; MAX_OUTPUTS], [zero; 3]); shape_ids.len()];
-            let mut projected = vec![[(zero, zero); COMPONENTS]; shape_ids.len()];
-            // Every frequency overwrites the n x n and n x (nk + no) entries the solve reads.
+            let mut projected =
+                vec![[(LaneCplx::ZERO, LaneCplx::ZERO); COMPONENTS]; shape_ids.len()];
+            // X = A^-1 F (F = (K + j w C) G) in the first nk columns, W = A^-1 R^T (the
+            // read outputs' rows of R) in the next no. Every frequency overwrites the n x n
+            // and n x (nk + no) entries the solve reads.
+            let a_at = |omega: f64, i: usize, j: usize| {
+                Cplx::new(
+                    local.stiffness[i][j] - omega * omega * local.mass[i][j],
+                    omega * local.damping[i][j],
+                )
+            };
+            let rhs_at = |omega: f64, i: usize, col: usize| {
+                if col < nk {
+                    Cplx::new(local.kg[i][col], omega * local.cg[i][col])
+                } else {
+                    Cplx::new(local.output[col - nk][i], 0.0)
+                }
+            };
+            let nf = self.target.freqs_hz.len();
+            let omega_at = |f: usize| 2.0 * PI * self.target.freqs_hz[f];
+            let mut lanes = LaneSystem::new();
+            // Per component of the block, every group overwrites them (so zeroed once).
+            let mut mag_factor = [LaneCplx::ZERO; COMPONENTS];
+            let mut phase_factor = [LaneCplx::ZERO; COMPONENTS];
+            let (mut u, mut v) = ([LaneCplx::ZERO; MAX_OUTPUTS], [LaneCplx::ZERO; 3]);
             let mut a = [[zero; MAX_BLOCK]; MAX_BLOCK];
             let mut rhs = [[zero; MAX_RHS]; MAX_BLOCK];
-            for (f, &freq_hz) in self.target.freqs_hz.iter().enumerate() {
-                let omega = 2.0 * PI * freq_hz;
-                // X = A^-1 F (F = (K + j w C) G) in the first nk columns, W = A^-1 R^T
-                // (the read outputs' rows of R) in the next no.
+            // LANES frequencies solved at once (the last group's spare lanes repeat its
+            // last frequency); one at a time only where a lane is singular (to name it).
+            for first in (0..nf).step_by(LANES) {
+                let count = (first + LANES).min(nf) - first;
+                let omega: Lane = std::array::from_fn(|l| omega_at((first + l).min(nf - 1)));
+                // a_at and rhs_at in every lane at once.
                 for i in 0..n {
                     for j in 0..n {
-                        a[i][j] = Cplx::new(
-                            local.stiffness[i][j] - omega * omega * local.mass[i][j],
-                            omega * local.damping[i][j],
-                        );
+                        let (k, m, c) =
+                            (local.stiffness[i][j], local.mass[i][j], local.damping[i][j]);
+                        let entry = &mut lanes.a[i][j];
+                        for l in 0..LANES {
+                            entry.re[l] = k - omega[l] * omega[l] * m;
+                            entry.im[l] = omega[l] * c;
+                        }
                     }
                     for col in 0..nk {
-                        rhs[i][col] = Cplx::new(local.kg[i][col], omega * local.cg[i][col]);
+                        let (kg, cg) = (local.kg[i][col], local.cg[i][col]);
+                        let entry = &mut lanes.rhs[i][col];
+                        for l in 0..LANES {
+                            entry.re[l] = kg;
+                            entry.im[l] = omega[l] * cg;
+                        }
                     }
                     for col in 0..no {
-                        rhs[i][nk + col] = Cplx::new(local.output[col][i], 0.0);
+                        lanes.rhs[i][nk + col] = LaneCplx {
+                            re: [local.output[col][i]; LANES],
+                            im: [0.0; LANES],
+                        };
                     }
                 }
-                if !solve_small(n, &mut a, &mut rhs, nk + no) {
-                    return Err(format!("the model is singular at {freq_hz} Hz"));
+                if !solve_lanes(n, &mut lanes, nk + no) {
+                    for l in 0..count {
+                        for i in 0..n {
+                            for j in 0..n {
+                                a[i][j] = a_at(omega[l], i, j);
+                            }
+                            for col in 0..nk + no {
+                                rhs[i][col] = rhs_at(omega[l], i, col);
+                            }
+                        }
+                        if !solve_small(n, &mut a, &mut rhs, nk + no) {
+                            let freq_hz = self.target.freqs_hz[first + l];
+                            return Err(format!("the model is singular at {freq_hz} Hz"));
+                        }
+                        for i in 0..n {
+                            for col in 0..nk + no {
+                                lanes.rhs[i][col].set(l, rhs[i][col]);
+                            }
+                        }
+                    }
                 }
-                let x = |i: usize, col: usize| rhs[i][col];
-                let w = |i: usize, o: usize| rhs[i][nk + o];
-                // Only the fitted components of H = R X.
-                let measured = &self.target.h[f];
-                let base = f * per_freq;
-                let mut h = [zero; COMPONENTS];
-                for (&c, &(kl, ol)) in block.components.iter().zip(&block.component_at) {
+                // From here on every lane goes through the same arithmetic the scalar
+                // evaluation did, one lane per frequency (spare lanes computed, not written).
+                let x = |i: usize, col: usize| &lanes.rhs[i][col];
+                let w = |i: usize, o: usize| &lanes.rhs[i][nk + o];
+                // Only the fitted components of H = R X, per component of the block.
+                for (at, (&c, &(kl, ol))) in
+                    block.components.iter().zip(&block.component_at).enumerate()
+                {
                     let (output, input) = COUPLED_COMPONENTS[c];
-                    let mut sum = zero;
+                    let mut sum = LaneCplx::ZERO;
                     for &(i, weight) in &block.read_rows[ol] {
-                        sum += x(i, kl) * weight;
+                        sum.add_scaled(x(i, kl), weight);
                     }
-                    h[c] = sum;
-                    let gv = measured[(output.index(), input.index())];
-                    let r = base + slot_of[c];
-                    let g_abs = gv.norm_sqr().sqrt();
-                    residuals[r] = (sum.norm_sqr().sqrt() - g_abs) / g_abs;
-                    // wrap(arg h - arg g) = arg(h conj(g)), in (-pi, pi].
-                    residuals[r + 1] = wrap_pi((sum * gv.conj()).arg()) / PI;
+                    for l in 0..count {
+                        let f = first + l;
+                        let (hv, gv) = (
+                            sum.get(l),
+                            self.target.h[f][(output.index(), input.index())],
+                        );
+                        let r = f * per_freq + slot_of[c];
+                        let g_abs = gv.norm_sqr().sqrt();
+                        residuals[r] = (hv.norm_sqr().sqrt() - g_abs) / g_abs;
+                        // wrap(arg h - arg g) = arg(h conj(g)), in (-pi, pi].
+                        residuals[r + 1] = wrap_pi((hv * gv.conj()).arg()) / PI;
+                        // d r_mag = Re(dh conj(h) / (|h| |g|)), d r_phase = Im(dh / (pi h)):
+                        // the factors once per component, so the inner loop only multiplies.
+                        mag_factor[at].set(l, hv.conj() / (hv.norm_sqr() * gv.norm_sqr()).sqrt());
+                        phase_factor[at].set(l, Cplx::new(1.0, 0.0) / (hv * PI));
+                    }
                 }
                 let Some(jac) = jacobian.as_deref_mut() else {
                     continue;
                 };
-                // d r_mag = Re(dh conj(h) / (|h| |g|)), d r_phase = Im(dh / (pi h)): the
-                // factors once per component, so the inner loop only multiplies.
-                let mut mag_factor = [zero; COMPONENTS];
-                let mut phase_factor = [zero; COMPONENTS];
-                for &c in &block.components {
-                    let (output, input) = COUPLED_COMPONENTS[c];
-                    let (hv, gv) = (h[c], measured[(output.index(), input.index())]);
-                    mag_factor[c] = hv.conj() / (hv.norm_sqr() * gv.norm_sqr()).sqrt();
-                    phase_factor[c] = Cplx::new(1.0, 0.0) / (hv * PI);
-                }
                 // W = A^-1 R^T, so (R A^-1)_(j, d) = W_(d, j) by symmetry of A. Per distinct
                 // shape b: u = R A^-1 b (the read outputs) and v = b^T (G - X) (the
                 // inputs), shared by the stiffness and the damping of its element and axis.
+                // Then per component, dh/dp / s projected on both residuals: t = u_o v_i,
+                // (t m_c, t p_c) with the factors above. A stiffness (s = p) gives
+                // (p Re(t m), p Im(t p)); a damping (s = j w p) gives (-w p Im(t m),
+                // w p Re(t p)): one complex product per shape, not per parameter.
                 for (s, &i) in shape_ids.iter().enumerate() {
-                    let (u, v) = &mut uv[s];
-                    *u = [zero; MAX_OUTPUTS];
-                    *v = [zero; 3];
+                    u[..no].fill(LaneCplx::ZERO);
+                    v[..nk].fill(LaneCplx::ZERO);
                     for &(d, global, wt) in &self.shapes[i].entries {
                         for (o, u) in u.iter_mut().enumerate().take(no) {
-                            *u += w(d, o) * wt;
+                            u.add_scaled(w(d, o), wt);
                         }
                         for (kl, &k) in block.inputs.iter().enumerate() {
-                            v[kl] += (Cplx::new(g_real[(global, k)], 0.0) - x(d, kl)) * wt;
+                            v[kl].add_real_minus_scaled(g_real[(global, k)], x(d, kl), wt);
                         }
                     }
-                }
-                // Per shape and component, dh/dp / s projected on both residuals:
-                // t = u_o v_i, (t m_c, t p_c) with the factors above. A stiffness (s = p)
-                // then gives (p Re(t m), p Im(t p)); a damping (s = j w p) gives
-                // (-w p Im(t m), w p Re(t p)): one complex product per shape, not per
-                // parameter.
-                for (s, (u, v)) in uv.iter().enumerate() {
-                    for (&c, &(kl, ol)) in block.components.iter().zip(&block.component_at) {
-                        let t = u[ol] * v[kl];
-                        projected[s][c] = (t * mag_factor[c], t * phase_factor[c]);
+                    for (at, &(kl, ol)) in block.component_at.iter().enumerate() {
+                        let t = u[ol].mul(&v[kl]);
+                        projected[s][at] = (t.mul(&mag_factor[at]), t.mul(&phase_factor[at]));
                     }
                 }
                 let rows = jac.nrows();
                 let entries = jac.as_mut_slice();
+                let row_of: [usize; LANES] = std::array::from_fn(|l| (first + l) * per_freq);
                 for &(p, col, s) in &block_cols {
                     let projected = &projected[s];
                     let column = &mut entries[col * rows..(col + 1) * rows];
+                    // Lane l's rows of component c: row_of[l] + slot_of[c] and the next.
                     if self.free[p].is_stiffness() {
                         let value = values[p];
-                        for &c in &block.components {
-                            let (tm, tp) = projected[c];
-                            let r = base + slot_of[c];
-                            column[r] = value * tm.re;
-                            column[r + 1] = value * tp.im;
+                        for (at, &c) in block.components.iter().enumerate() {
+                            let (tm, tp) = &projected[at];
+                            for l in 0..count {
+                                let r = row_of[l] + slot_of[c];
+                                column[r] = value * tm.re[l];
+                                column[r + 1] = value * tp.im[l];
+                            }
                         }
                     } else {
-                        let value = omega * values[p];
-                        for &c in &block.components {
-                            let (tm, tp) = projected[c];
-                            let r = base + slot_of[c];
-                            column[r] = -value * tm.im;
-                            column[r + 1] = value * tp.re;
+                        let value: Lane = std::array::from_fn(|l| omega[l] * values[p]);
+                        for (at, &c) in block.components.iter().enumerate() {
+                            let (tm, tp) = &projected[at];
+                            for l in 0..count {
+                                let r = row_of[l] + slot_of[c];
+                                column[r] = -value[l] * tm.im[l];
+                                column[r + 1] = value[l] * tp.re[l];
+                            }
                         }
                     }
                 }

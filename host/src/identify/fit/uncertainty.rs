@@ -14,7 +14,7 @@
 //! positive.
 
 use anyhow::{Result, anyhow, bail};
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DVector, Dyn, SVD};
 use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};
 use supine_core::model::{ModelParams, ParamId};
@@ -43,10 +43,19 @@ impl Covariance {
         if m <= n {
             return None;
         }
+        Self::from_svd(&jacobian.clone().svd(false, true), m, cost)
+    }
+
+    /// Like [`Covariance::at_minimum`], from the SVD of the m x n Jacobian (V^T computed)
+    /// when the caller has it already (the fit's identifiability needs the same one).
+    pub fn from_svd(svd: &SVD<f64, Dyn, Dyn>, m: usize, cost: f64) -> Option<Self> {
+        let v_t = svd.v_t.as_ref()?;
+        let n = v_t.ncols();
+        if m <= n {
+            return None;
+        }
         let degrees_of_freedom = m - n;
         let residual_variance = 2.0 * cost / degrees_of_freedom as f64;
-        let svd = jacobian.clone().svd(false, true);
-        let v_t = svd.v_t?;
         let s_max = svd.singular_values.max();
         let mut matrix = DMatrix::zeros(n, n);
         for (k, &s) in svd.singular_values.iter().enumerate() {
