@@ -1,7 +1,9 @@
 //! Alerts: exposure levels (advisory, warning, alarm) from the running rms and the VDV of
 //! the head's vector sum, with hysteresis and dwell; and sensor faults (non-finite
-//! sample, saturation, stuck sensor, gap in sample indices). Both report time-stamped
-//! raise and clear events ([`AlertEvent`]), stamped with the sample index.
+//! sample, saturation, stuck sensor, gap in sample indices); and, in [`joint`], alerts on
+//! the neck's and lower back's motion, on thresholds a medical director sets (none by
+//! default). All report time-stamped raise and clear events ([`AlertEvent`]), stamped
+//! with the sample index.
 //!
 //! # Default thresholds, and what they rest on
 //! ISO 2631-1 gives **no** health or comfort method for recumbent persons. The defaults
