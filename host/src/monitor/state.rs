@@ -6,6 +6,7 @@ use std::collections::VecDeque;
 
 use anyhow::Result;
 use supine_core::alerts::{AlertConfig, AlertEvent, Criterion, FaultFlags, Level};
+use supine_core::model::JointOutput;
 use supine_core::protocol::{DeviceToHost, Greeting, ParamsSource, Status, Telemetry};
 
 use crate::device::device_params::identity_hex;
@@ -156,6 +157,9 @@ pub struct Monitor {
     counters: Counters,
     ride_length_s: Option<f64>,
     thresholds: Option<AlertConfig>,
+    /// The joint alerts raised and not cleared, as (output, criterion name), in the
+    /// order they were raised.
+    joint_alerts_raised: Vec<(JointOutput, &'static str)>,
 }
 
 impl Monitor {
@@ -181,6 +185,7 @@ impl Monitor {
             counters: Counters::default(),
             ride_length_s: None,
             thresholds: None,
+            joint_alerts_raised: Vec::new(),
         })
     }
 
@@ -242,8 +247,15 @@ impl Monitor {
                             self.faults.remove(fault);
                         }
                     }
-                    // Shown and logged as they come; the panel's history keeps them.
-                    AlertEvent::Joint { .. } => {}
+                    AlertEvent::Joint { raised, .. } => {
+                        if let Some((output, criterion)) = e.joint_criterion() {
+                            let key = (output, criterion.name());
+                            self.joint_alerts_raised.retain(|k| *k != key);
+                            if raised {
+                                self.joint_alerts_raised.push(key);
+                            }
+                        }
+                    }
                 }
                 if self.history.len() == HISTORY_LEN {
                     self.history.pop_front();
@@ -292,6 +304,12 @@ impl Monitor {
     /// Records the link's frame counters (decoded, bad, lost, reordered).
     pub fn on_link(&mut self, stats: LinkStats) {
         self.counters.link = stats;
+    }
+
+    /// The joint alerts raised and not cleared, as (output, criterion name such as
+    /// `running-rms`), in the order they were raised.
+    pub fn joint_alerts_raised(&self) -> &[(JointOutput, &'static str)] {
+        &self.joint_alerts_raised
     }
 
     /// The greeting in force (the latest one).

@@ -60,8 +60,9 @@ fn thresholds_text(thresholds: [f32; 3]) -> String {
 /// The panel. The most important first, each line starting with what matters most, so
 /// that a short or narrow terminal (lines are cut, never wrapped) keeps the level and the
 /// vector running rms: level and vector rms with its thresholds; VDV with its thresholds;
-/// time (of the ride's length when known), highest level and faults; head acceleration
-/// and per-axis running rms; the device; link counters; the latest alert events.
+/// time (of the ride's length when known), highest level and faults; the joint alerts
+/// raised, if any; head acceleration, per-axis running rms and the joint outputs; the
+/// device; link counters; the latest alert events.
 pub fn panel_lines(m: &Monitor) -> Vec<Vec<Span>> {
     let g = m.greeting();
     let level = m.level();
@@ -111,6 +112,19 @@ pub fn panel_lines(m: &Monitor) -> Vec<Vec<Span>> {
             marked(Severity::Fault, faults.join(" + "))
         },
     ]);
+    // Shown only while one is raised: the device's thresholds are set per mission, and
+    // most missions set none (docs/exposure.md).
+    let joint_alerts = m.joint_alerts_raised();
+    if !joint_alerts.is_empty() {
+        let names: Vec<String> = joint_alerts
+            .iter()
+            .map(|(output, criterion)| format!("{output} {criterion}"))
+            .collect();
+        lines.push(vec![
+            plain("joint alerts  "),
+            marked(Severity::Warning, names.join(" + ")),
+        ]);
+    }
     if let Some(t) = m.latest() {
         let [hx, hy, hz] = t.head_acc_m_s2;
         let [rx, ry, rz] = t.running_rms_m_s2;
@@ -541,6 +555,47 @@ mod tests {
         assert_eq!(
             find(&lines, "sensor fault stuck raised").severity,
             Some(Severity::Fault)
+        );
+    }
+
+    #[test]
+    fn raised_joint_alerts_stay_on_the_panel_until_cleared() {
+        use supine_core::alerts::JointCriterion;
+        let joint = |output: u8, criterion: JointCriterion, raised: bool| {
+            DeviceToHost::Alert(AlertEvent::Joint {
+                output,
+                criterion,
+                raised,
+                at_sample: 2600,
+            })
+        };
+        let rms = JointCriterion::RunningRms {
+            value_m_or_rad: 0.002,
+        };
+        let excursion = JointCriterion::Excursion {
+            value_m_or_rad: 0.05,
+        };
+        let mut m = monitor();
+        let line = |m: &Monitor| {
+            panel_lines(m)
+                .iter()
+                .find(|l| l.first().is_some_and(|s| s.text == "joint alerts  "))
+                .map(|l| (l[1].text.clone(), l[1].severity))
+        };
+        assert_eq!(line(&m), None, "no line while none is raised");
+        m.on_message(&joint(2, rms, true)).expect("event");
+        m.on_message(&joint(3, excursion, true)).expect("event");
+        assert_eq!(
+            line(&m),
+            Some((
+                "neck_z running-rms + neck_ry excursion".to_owned(),
+                Some(Severity::Warning)
+            ))
+        );
+        m.on_message(&joint(2, rms, false)).expect("event");
+        assert_eq!(
+            line(&m),
+            Some(("neck_ry excursion".to_owned(), Some(Severity::Warning)))
         );
     }
 
