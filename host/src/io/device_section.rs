@@ -358,10 +358,22 @@ pub fn commented_defaults() -> String {
         device: DeviceSection::default(),
     })
     .unwrap_or_default();
-    let mut text = String::from(
+    let outputs: Vec<String> = JointOutput::ALL
+        .iter()
+        .map(|o| format!("\"{}\"", o.name()))
+        .collect();
+    let mut text = format!(
         "# The device's configuration (docs/exposure.md), every key at its default. Uncomment\n\
          # what you change; a key left out keeps its default. Weightings: wk, wd, wj.\n\
-         # telemetry_decimation (telemetry every N samples) defaults to about 100 Hz.\n\n",
+         # telemetry_decimation (telemetry every N samples) defaults to about 100 Hz.\n\
+         # joint_outputs (the neck and lower-back outputs read and reported) defaults to all\n\
+         # ten, [] for none:\n\
+         #   {},\n\
+         #   {}.\n\
+         # [device.joint_alerts] has no defaults: no joint-motion alert unless one is set\n\
+         # there (README, docs/exposure.md).\n\n",
+        outputs[..5].join(", "),
+        outputs[5..].join(", ")
     );
     for line in body.lines() {
         if line.is_empty() {
@@ -677,13 +689,11 @@ mod tests {
     fn the_commented_defaults_read_back_as_the_defaults() {
         let text = commented_defaults();
         assert!(text.lines().all(|l| l.is_empty() || l.starts_with('#')));
-        let uncommented: String = text
+        // The prose ends at the first blank line.
+        let (prose, tables) = text.split_once("\n\n").expect("prose, then the tables");
+        assert!(prose.contains("\"neck_x\", \"neck_y\""), "{prose}");
+        let uncommented: String = tables
             .lines()
-            .filter(|l| {
-                !l.starts_with("# The ")
-                    && !l.starts_with("# what")
-                    && !l.starts_with("# telemetry_decimation (")
-            })
             .map(|l| l.strip_prefix("# ").unwrap_or(l).to_string() + "\n")
             .collect();
         #[derive(Deserialize)]
