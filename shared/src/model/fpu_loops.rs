@@ -27,6 +27,85 @@ const BLOCK_BYTES: usize = core::mem::size_of::<ModalBlock<f32, 3>>();
 const _: () = assert!(BLOCK_BYTES == 40);
 const _: () = assert!(core::mem::offset_of!(ModalBlock<f32, 3>, output) == 16);
 
+/// One row step of the model's output: `acc = (acc + c0 x0) + c1 x1`, the state in `s0`,
+/// `s1`, the product in `s13`.
+macro_rules! step_row {
+    ($acc:literal, $c0:literal, $c1:literal) => {
+        concat!(
+            "vmul.f32 s13, ",
+            $c0,
+            ", s0\n",
+            "vadd.f32 ",
+            $acc,
+            ", ",
+            $acc,
+            ", s13\n",
+            "vmul.f32 s13, ",
+            $c1,
+            ", s1\n",
+            "vadd.f32 ",
+            $acc,
+            ", ",
+            $acc,
+            ", s13",
+        )
+    };
+}
+
+/// The model step's loop over `n` blocks for one row count: its coefficients' `vldm`
+/// list (Phi - I in `s2`-`s5`, then the rows), its accumulators' `vldm` list and
+/// `vmul`s by the input, its rows, its results.
+macro_rules! step_loop {
+    (
+        $blocks:expr, $states:expr, $n:ident, $u:ident, $ft:ident,
+        coefficients: $coeffs:literal,
+        accumulators: $accs:literal,
+        init: [$($init:literal),*],
+        rows: [$($row:expr),*],
+        out: [$($out:ident => $reg:literal),*]
+    ) => {
+        core::arch::asm!(
+            "vmov s10, {u}",
+            concat!("vldmia {ft}, {{", $accs, "}}"),
+            $(concat!("vmul.f32 ", $init, ", ", $init, ", s10"),)*
+            "cmp {n}, #0",
+            "beq 3f",
+            "2:",
+            "vldmia {x}, {{s0-s1}}",
+            concat!("vldmia {b}, {{", $coeffs, "}}"),
+            "add {b}, {b}, #{stride}",
+            $($row,)*
+            // x0 += (d00 x0 + d01 x1) + u; x1 += d10 x0 + d11 x1.
+            "vmul.f32 s13, s2, s0",
+            "vmul.f32 s14, s3, s1",
+            "vadd.f32 s13, s13, s14",
+            "vadd.f32 s13, s13, s10",
+            "vadd.f32 s13, s0, s13",
+            "vmul.f32 s14, s4, s0",
+            "vmul.f32 s15, s5, s1",
+            "vadd.f32 s14, s14, s15",
+            "vadd.f32 s14, s1, s14",
+            "vstmia {x}!, {{s13-s14}}",
+            "subs {n}, {n}, #1",
+            "bne 2b",
+            "3:",
+            $(concat!("vmov {", stringify!($out), "}, ", $reg),)*
+            u = in(reg) $u.to_bits(),
+            ft = in(reg) $ft,
+            n = inout(reg) $n => _,
+            x = inout(reg) $states => _,
+            b = inout(reg) $blocks => _,
+            stride = const BLOCK_BYTES,
+            $($out = lateout(reg) $out,)*
+            out("s0") _, out("s1") _, out("s2") _, out("s3") _, out("s4") _,
+            out("s5") _, out("s6") _, out("s7") _, out("s8") _, out("s9") _,
+            out("s10") _, out("s11") _, out("s12") _, out("s13") _, out("s14") _,
+            out("s15") _,
+            options(nostack),
+        )
+    };
+}
+
 /// A group's blocks advanced one sample on input `u`, with `K` (1 or 2) packed output rows:
 /// returns the rows' sums (direct term included), as `ModalGroup::run` accumulates them.
 /// `blocks` and `states` have the same length (the caller slices both).
@@ -39,7 +118,7 @@ pub(super) fn advance<const K: usize>(
 ) -> [f32; K] {
     const { assert!(K == 1 || K == 2) };
     let n = blocks.len().min(states.len());
-    let (a0, a1): (u32, u32);
+    let (mut a0, mut a1) = (0u32, 0u32);
     let ft = group.feedthrough.as_ptr();
     // Per block, in the Rust definition's order: each row's acc = (acc + c0 x0) + c1 x1;
     // x0 += (d00 x0 + d01 x1) + u; x1 += d10 x0 + d11 x1 (x0, x1 the state before).
@@ -52,96 +131,19 @@ pub(super) fn advance<const K: usize>(
     // direct terms. No stack; the FPU registers used are declared clobbered.
     unsafe {
         if K == 1 {
-            core::arch::asm!(
-                "vmov s10, {u}",
-                "vldr s11, [{ft}]",
-                "vmul.f32 s11, s11, s10",
-                "cmp {n}, #0",
-                "beq 3f",
-                "2:",
-                "vldmia {x}, {{s0-s1}}",
-                "vldmia {b}, {{s2-s7}}",
-                "add {b}, {b}, #{stride}",
-                "vmul.f32 s13, s6, s0",
-                "vadd.f32 s11, s11, s13",
-                "vmul.f32 s13, s7, s1",
-                "vadd.f32 s11, s11, s13",
-                "vmul.f32 s13, s2, s0",
-                "vmul.f32 s14, s3, s1",
-                "vadd.f32 s13, s13, s14",
-                "vadd.f32 s13, s13, s10",
-                "vadd.f32 s13, s0, s13",
-                "vmul.f32 s14, s4, s0",
-                "vmul.f32 s15, s5, s1",
-                "vadd.f32 s14, s14, s15",
-                "vadd.f32 s14, s1, s14",
-                "vstmia {x}!, {{s13-s14}}",
-                "subs {n}, {n}, #1",
-                "bne 2b",
-                "3:",
-                "vmov {a0}, s11",
-                u = in(reg) u.to_bits(),
-                ft = in(reg) ft,
-                n = inout(reg) n => _,
-                x = inout(reg) states.as_mut_ptr() => _,
-                b = inout(reg) blocks.as_ptr() => _,
-                stride = const BLOCK_BYTES,
-                a0 = lateout(reg) a0,
-                out("s0") _, out("s1") _, out("s2") _, out("s3") _, out("s4") _,
-                out("s5") _, out("s6") _, out("s7") _, out("s10") _, out("s11") _,
-                out("s13") _, out("s14") _, out("s15") _,
-                options(nostack),
-            );
-            a1 = 0;
+            step_loop!(blocks.as_ptr(), states.as_mut_ptr(), n, u, ft,
+                coefficients: "s2-s7",
+                accumulators: "s11",
+                init: ["s11"],
+                rows: [step_row!("s11", "s6", "s7")],
+                out: [a0 => "s11"]);
         } else {
-            core::arch::asm!(
-                "vmov s10, {u}",
-                "vldmia {ft}, {{s11-s12}}",
-                "vmul.f32 s11, s11, s10",
-                "vmul.f32 s12, s12, s10",
-                "cmp {n}, #0",
-                "beq 3f",
-                "2:",
-                "vldmia {x}, {{s0-s1}}",
-                "vldmia {b}, {{s2-s9}}",
-                "add {b}, {b}, #{stride}",
-                "vmul.f32 s13, s6, s0",
-                "vadd.f32 s11, s11, s13",
-                "vmul.f32 s13, s7, s1",
-                "vadd.f32 s11, s11, s13",
-                "vmul.f32 s13, s8, s0",
-                "vadd.f32 s12, s12, s13",
-                "vmul.f32 s13, s9, s1",
-                "vadd.f32 s12, s12, s13",
-                "vmul.f32 s13, s2, s0",
-                "vmul.f32 s14, s3, s1",
-                "vadd.f32 s13, s13, s14",
-                "vadd.f32 s13, s13, s10",
-                "vadd.f32 s13, s0, s13",
-                "vmul.f32 s14, s4, s0",
-                "vmul.f32 s15, s5, s1",
-                "vadd.f32 s14, s14, s15",
-                "vadd.f32 s14, s1, s14",
-                "vstmia {x}!, {{s13-s14}}",
-                "subs {n}, {n}, #1",
-                "bne 2b",
-                "3:",
-                "vmov {a0}, s11",
-                "vmov {a1}, s12",
-                u = in(reg) u.to_bits(),
-                ft = in(reg) ft,
-                n = inout(reg) n => _,
-                x = inout(reg) states.as_mut_ptr() => _,
-                b = inout(reg) blocks.as_ptr() => _,
-                stride = const BLOCK_BYTES,
-                a0 = lateout(reg) a0,
-                a1 = lateout(reg) a1,
-                out("s0") _, out("s1") _, out("s2") _, out("s3") _, out("s4") _,
-                out("s5") _, out("s6") _, out("s7") _, out("s8") _, out("s9") _,
-                out("s10") _, out("s11") _, out("s12") _, out("s13") _, out("s14") _,
-                out("s15") _,
-                options(nostack),
-            );
+            step_loop!(blocks.as_ptr(), states.as_mut_ptr(), n, u, ft,
+                coefficients: "s2-s9",
+                accumulators: "s11-s12",
+                init: ["s11", "s12"],
+                rows: [step_row!("s11", "s6", "s7"), step_row!("s12", "s8", "s9")],
+                out: [a0 => "s11", a1 => "s12"]);
         }
     }
     core::array::from_fn(|i| f32::from_bits(if i == 0 { a0 } else { a1 }))
