@@ -20,7 +20,7 @@ use supine_host::io::subject_args::SubjectArgs;
 use supine_host::io::telemetry_csv::EventRow;
 use supine_host::report::build;
 use supine_host::report::device_check::CheckBuilder;
-use supine_host::report::device_check::{DeviceLog, DeviceRun};
+use supine_host::report::device_check::{DeviceLog, DeviceRun, PassResult};
 use supine_host::report::device_series::{DeviceSeries, TraceSeriesBuilder};
 use supine_host::report::html::render;
 
@@ -400,16 +400,18 @@ fn log_of(device: &[Telemetry], host: &[Telemetry], events: &[EventRow], fs: f64
         samples: n,
         bands: Vec::new(),
         moments: Vec::new(),
-        check: check.finish(true),
-        device_events: events.to_vec(),
-        device_event_count: events.len(),
-        host_event_count: events.len(),
-        device_records: device.len(),
-        host_records: n,
-        series: DeviceSeries {
-            device: device_series.finish(end_s),
-            host: host_series.finish(end_s),
-            ..DeviceSeries::default()
+        pass: PassResult {
+            check: check.finish(true),
+            device_events: events.to_vec(),
+            device_event_count: events.len(),
+            host_event_count: events.len(),
+            device_records: device.len(),
+            host_records: n,
+            series: DeviceSeries {
+                device: device_series.finish(end_s),
+                host: host_series.finish(end_s),
+                ..DeviceSeries::default()
+            },
         },
     }
 }

@@ -141,7 +141,7 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
 /// (0 when bit for bit; null when a series is missing a record) and whether the events
 /// agree.
 fn device_check_json(log: &DeviceLog) -> serde_json::Value {
-    let c = &log.check;
+    let c = &log.pass.check;
     let finite = |v: f64| v.is_finite().then_some(v);
     serde_json::json!({
         "agree": c.agree(),
@@ -150,10 +150,10 @@ fn device_check_json(log: &DeviceLog) -> serde_json::Value {
         "rms_diff_m_s2": finite(c.rms_diff_m_s2),
         "events_agree": c.events_agree,
         "records_complete": c.records_complete,
-        "device_records": log.device_records,
-        "host_records": log.host_records,
-        "device_events": log.device_event_count,
-        "host_events": log.host_event_count,
+        "device_records": log.pass.device_records,
+        "host_records": log.pass.host_records,
+        "device_events": log.pass.device_event_count,
+        "host_events": log.pass.host_event_count,
         "samples": log.samples,
         "device_mtvv_m_s2": c.device_mtvv_m_s2,
         "device_vdv_m_s175": c.device_vdv_m_s175,

@@ -42,7 +42,7 @@ impl Summary {
                 (format!("head z ({})", labels[2]), head[2]),
                 ("vector sum".to_string(), vector),
             ],
-            check: data.log.check.clone(),
+            check: data.log.pass.check.clone(),
         }
     }
 

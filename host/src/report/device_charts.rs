@@ -53,7 +53,7 @@ fn x_range(log: &DeviceLog) -> (f64, f64) {
 
 /// The litter frame's acceleration on every axis: the ride the device was given.
 pub fn input(log: &DeviceLog) -> Chart {
-    let input = &log.series.input_m_s2;
+    let input = &log.pass.series.input_m_s2;
     let lines: Vec<Line> = [2, 0, 1]
         .into_iter()
         .map(|a| {
@@ -82,8 +82,8 @@ pub fn input(log: &DeviceLog) -> Chart {
 
 /// Predicted head acceleration on one axis: the device, and the f64 model over it.
 pub fn head(log: &DeviceLog, axis: usize) -> Chart {
-    let d = &log.series.device;
-    let f64_head = &log.series.head_f64_m_s2[axis];
+    let d = &log.pass.series.device;
+    let f64_head = &log.pass.series.head_f64_m_s2[axis];
     let y = y_range(ys([&d.head_m_s2[axis], f64_head]), &[], false);
     Chart {
         title: format!("Predicted head acceleration, {} (unweighted)", AXES[axis]),
@@ -108,7 +108,8 @@ pub fn head(log: &DeviceLog, axis: usize) -> Chart {
 
 /// A marker at each device level event, at height `y_of` it.
 fn level_markers(log: &DeviceLog, y_of: impl Fn(&LevelMark) -> f64) -> Vec<Marker> {
-    log.series
+    log.pass
+        .series
         .level_marks
         .iter()
         .map(|m| Marker {
@@ -122,8 +123,8 @@ fn level_markers(log: &DeviceLog, y_of: impl Fn(&LevelMark) -> f64) -> Vec<Marke
 
 /// The vector sum's running rms against the running-rms thresholds, with level events.
 pub fn vector_rms(log: &DeviceLog, alerts: &AlertConfig, warmup_s: f64) -> Chart {
-    let d = &log.series.device;
-    let h = &log.series.host;
+    let d = &log.pass.series.device;
+    let h = &log.pass.series.host;
     let th = alerts.running_rms_m_s2;
     let y = y_range(
         ys([&d.vector_rms_m_s2]),
@@ -161,8 +162,8 @@ pub fn vector_rms(log: &DeviceLog, alerts: &AlertConfig, warmup_s: f64) -> Chart
 
 /// The running rms of each weighted head axis, device and host.
 pub fn axis_rms(log: &DeviceLog, warmup_s: f64) -> Chart {
-    let d = &log.series.device;
-    let h = &log.series.host;
+    let d = &log.pass.series.device;
+    let h = &log.pass.series.host;
     let mut lines = Vec::new();
     for a in 0..3 {
         lines.push(line(
@@ -197,8 +198,8 @@ pub fn axis_rms(log: &DeviceLog, warmup_s: f64) -> Chart {
 
 /// The vibration dose value against its thresholds (those in view).
 pub fn vdv(log: &DeviceLog, alerts: &AlertConfig, warmup_s: f64) -> Chart {
-    let d = &log.series.device;
-    let h = &log.series.host;
+    let d = &log.pass.series.device;
+    let h = &log.pass.series.host;
     let th = alerts.vdv_m_s175;
     // Keep the first threshold in view; higher ones far above the data would flatten the
     // curve, and the caption lists them.
@@ -230,14 +231,14 @@ pub fn levels(log: &DeviceLog, warmup_s: f64) -> Chart {
         bands: bands_with_warmup(log, warmup_s),
         lines: vec![
             line(
-                log.series.device.level_steps.clone(),
+                log.pass.series.device.level_steps.clone(),
                 VECTOR_COLOR,
                 2,
                 false,
                 "device",
             ),
             line(
-                log.series.host.level_steps.clone(),
+                log.pass.series.host.level_steps.clone(),
                 HOST_COLOR,
                 1,
                 true,

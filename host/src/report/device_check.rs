@@ -51,6 +51,14 @@ pub struct DeviceLog {
     pub bands: Vec<Band>,
     /// Instants worth marking (shocks).
     pub moments: Vec<Moment>,
+    /// What the pass over the device's and the host's records found.
+    pub pass: PassResult,
+}
+
+/// What one pass over a run's records found ([`crate::report::device_pass`]): the check,
+/// the device's first events, counts, chart series.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PassResult {
     /// How the device's account compares with the host's.
     pub check: Check,
     /// The device's first [`MAX_LISTED_EVENTS`] alert events (all are in its events CSV).

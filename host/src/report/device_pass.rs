@@ -19,27 +19,10 @@ use crate::exposure::reference::HeadF64;
 use crate::io::telemetry_csv::{EventRow, level_from_name};
 use crate::plot::downsample::MinMax;
 use crate::plot::time_chart::{Band, Moment, PLOT_COLUMNS};
-use crate::report::device_check::{Check, CheckBuilder, DeviceLog, DeviceRun, MAX_LISTED_EVENTS};
+use crate::report::device_check::{
+    CheckBuilder, DeviceLog, DeviceRun, MAX_LISTED_EVENTS, PassResult,
+};
 use crate::report::device_series::{DeviceSeries, LevelMark, TraceSeriesBuilder};
-
-/// What the pass found: the check, the device's first events, counts, chart series.
-#[derive(Clone, Debug, PartialEq)]
-pub struct PassResult {
-    /// The check's figures.
-    pub check: Check,
-    /// The device's first [`MAX_LISTED_EVENTS`] events.
-    pub device_events: Vec<EventRow>,
-    /// The device's events, all of them.
-    pub device_event_count: usize,
-    /// The host's events.
-    pub host_event_count: usize,
-    /// The device's telemetry records.
-    pub device_records: usize,
-    /// The host's telemetry records.
-    pub host_records: usize,
-    /// The charts' series.
-    pub series: DeviceSeries,
-}
 
 impl PassResult {
     /// The report's account of the run: `run`, marked with `bands` and `moments`.
@@ -56,13 +39,7 @@ impl PassResult {
             samples: session.samples,
             bands,
             moments,
-            check: self.check,
-            device_events: self.device_events,
-            device_event_count: self.device_event_count,
-            host_event_count: self.host_event_count,
-            device_records: self.device_records,
-            host_records: self.host_records,
-            series: self.series,
+            pass: self,
         }
     }
 }
@@ -248,6 +225,7 @@ mod tests {
     use crate::io::telemetry_csv::{
         event_records, events_path, telemetry_records, write_events, write_telemetry,
     };
+    use crate::report::device_check::Check;
     use supine_core::alerts::{AlertEvent, Level};
     use supine_core::model::Preset;
 

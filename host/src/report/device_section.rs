@@ -105,12 +105,12 @@ fn events_table(h: &mut String, log: &DeviceLog) {
     h.push_str(
         "<h3>Alert events (device)</h3>\n<table>\n<tr><th>time, s</th><th class=\"text\">event</th></tr>\n",
     );
-    if log.device_events.is_empty() {
+    if log.pass.device_events.is_empty() {
         h.push_str(
             "<tr><td colspan=\"2\" class=\"text\">no alert: the exposure stayed normal</td></tr>\n",
         );
     }
-    for e in log.device_events.iter().take(MAX_DEVICE_EVENT_ROWS) {
+    for e in log.pass.device_events.iter().take(MAX_DEVICE_EVENT_ROWS) {
         let cell = match (e.kind.as_str(), level_from_name(&e.name)) {
             ("level", Some(l)) => format!(
                 "{} {}",
@@ -125,11 +125,11 @@ fn events_table(h: &mut String, log: &DeviceLog) {
             e.time_s
         );
     }
-    if log.device_event_count > MAX_DEVICE_EVENT_ROWS {
+    if log.pass.device_event_count > MAX_DEVICE_EVENT_ROWS {
         let _ = writeln!(
             h,
             "<tr><td colspan=\"2\" class=\"text\">... {} more in the events file</td></tr>",
-            log.device_event_count - MAX_DEVICE_EVENT_ROWS
+            log.pass.device_event_count - MAX_DEVICE_EVENT_ROWS
         );
     }
     h.push_str("</table>\n");

@@ -157,7 +157,7 @@ pub fn render(report: &MissionReport, device: Option<&DeviceLog>) -> Result<Stri
         h.push_str(&band::html(b, legs, total));
     }
     if let Some(log) = device {
-        device_section::check(&mut h, log, &log.check);
+        device_section::check(&mut h, log, &log.pass.check);
     }
     h.push_str("<h2>Charts</h2>\n");
     let config = &report.thresholds;
