@@ -252,6 +252,42 @@ pub fn supine_binary() -> PathBuf {
     profile_dir.join("supine")
 }
 
+/// Runs `command` to its end: (success, stdout, stderr), decoded lossily.
+pub fn run_to_end(command: &mut std::process::Command) -> (bool, String, String) {
+    let output = command.output().expect("the command runs");
+    (
+        output.status.success(),
+        String::from_utf8_lossy(&output.stdout).into_owned(),
+        String::from_utf8_lossy(&output.stderr).into_owned(),
+    )
+}
+
+/// Runs `supine ARGS`: (success, stdout, stderr).
+pub fn run_supine(args: &[&str]) -> (bool, String, String) {
+    run_to_end(std::process::Command::new(supine_binary()).args(args))
+}
+
+/// 20 s of rough road from `supine ride` (seed 3), with one shock (one per 20 s window)
+/// to drive alert events, written to `dir/ride.csv`.
+pub fn rough_ride(dir: &std::path::Path) -> PathBuf {
+    let ride = dir.join("ride.csv");
+    let path = ride.to_str().expect("utf-8 path");
+    let (ok, _, stderr) = run_supine(&[
+        "ride",
+        "--profile",
+        "rough-road",
+        "--duration-s",
+        "20",
+        "--seed",
+        "3",
+        "--out",
+        path,
+    ]);
+    assert!(ok, "{stderr}");
+    assert!(stderr.contains(", 1 shock\n"), "{stderr}");
+    ride
+}
+
 /// The process ids of `pid`'s children (Linux `/proc`).
 pub fn child_pids(pid: u32) -> Vec<u32> {
     let mut out = Vec::new();

@@ -14,21 +14,9 @@ use supine_host::io::params_file::ParamFile;
 use supine_host::io::recording::read_input;
 use supine_host::io::telemetry_csv::{EVENTS_HEADER, TELEMETRY_HEADER};
 use supine_qemu_tests::{
-    firmware, qemu_cmdline, signal_and_wait, supine_binary, wait_for_qemu_child,
+    firmware, qemu_cmdline, rough_ride, run_supine, signal_and_wait, supine_binary,
+    wait_for_qemu_child,
 };
-
-/// Runs `supine ARGS`, returning (success, stdout, stderr).
-fn supine(args: &[&str]) -> (bool, String, String) {
-    let output = Command::new(supine_binary())
-        .args(args)
-        .output()
-        .expect("supine runs");
-    (
-        output.status.success(),
-        String::from_utf8_lossy(&output.stdout).into_owned(),
-        String::from_utf8_lossy(&output.stderr).into_owned(),
-    )
-}
 
 fn cells(line: &str) -> Vec<&str> {
     line.split(',').collect()
@@ -38,24 +26,10 @@ fn cells(line: &str) -> Vec<&str> {
 fn monitor_logs_what_the_host_pipeline_predicts_for_a_scripted_ride() {
     firmware(supine_host::device::firmware::PRODUCT_BINARY);
     let dir = tempfile::tempdir().expect("temp dir");
-    let ride = dir.path().join("ride.csv");
+    let ride = rough_ride(dir.path());
     let log = dir.path().join("log.csv");
     let s = |p: &Path| p.to_str().expect("utf-8 path").to_owned();
-    // 20 s of rough road: one shock (one per 20 s window), which drives an alert.
-    let (ok, _, stderr) = supine(&[
-        "ride",
-        "--profile",
-        "rough-road",
-        "--duration-s",
-        "20",
-        "--seed",
-        "3",
-        "--out",
-        &s(&ride),
-    ]);
-    assert!(ok, "{stderr}");
-    assert!(stderr.contains(", 1 shock\n"), "{stderr}");
-    let (ok, stdout, stderr) = supine(&[
+    let (ok, stdout, stderr) = run_supine(&[
         "monitor",
         "--qemu",
         "--preset",

@@ -6,45 +6,13 @@
 //! input resolution in f64, independently of the core's code; and a log without its input
 //! stream, or re-analysed with another patient, is refused with one line.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::Path;
 
 use supine_host::io::recording::read_input;
-use supine_qemu_tests::{firmware, supine_binary};
-
-/// Runs `supine ARGS`, returning (success, stdout, stderr).
-fn supine(args: &[&str]) -> (bool, String, String) {
-    let output = Command::new(supine_binary())
-        .args(args)
-        .output()
-        .expect("supine runs");
-    (
-        output.status.success(),
-        String::from_utf8_lossy(&output.stdout).into_owned(),
-        String::from_utf8_lossy(&output.stderr).into_owned(),
-    )
-}
+use supine_qemu_tests::{firmware, rough_ride, run_supine};
 
 fn s(p: &Path) -> String {
     p.to_str().expect("utf-8 path").to_owned()
-}
-
-/// 20 s of rough road with a shock (alert events to compare), written into `dir`.
-fn rough_ride(dir: &Path) -> PathBuf {
-    let ride = dir.join("ride.csv");
-    let (ok, _, stderr) = supine(&[
-        "ride",
-        "--profile",
-        "rough-road",
-        "--duration-s",
-        "20",
-        "--seed",
-        "3",
-        "--out",
-        &s(&ride),
-    ]);
-    assert!(ok, "{stderr}");
-    ride
 }
 
 #[test]
@@ -53,7 +21,7 @@ fn a_monitor_log_re_analysed_by_report_matches_the_device_bit_for_bit() {
     let dir = tempfile::tempdir().expect("temp dir");
     let ride = rough_ride(dir.path());
     let log = dir.path().join("log.csv");
-    let (ok, stdout, stderr) = supine(&[
+    let (ok, stdout, stderr) = run_supine(&[
         "monitor",
         "--qemu",
         "--preset",
@@ -92,7 +60,7 @@ fn a_monitor_log_re_analysed_by_report_matches_the_device_bit_for_bit() {
     assert_eq!(streamed.sample_rate_hz(), recording.sample_rate_hz());
 
     let out = dir.path().join("report");
-    let (ok, stdout, stderr) = supine(&[
+    let (ok, stdout, stderr) = run_supine(&[
         "report",
         "--input",
         &s(&log),
@@ -127,7 +95,7 @@ fn a_monitor_log_re_analysed_by_report_matches_the_device_bit_for_bit() {
     assert!(page.contains("the device and the host agree"));
 
     // Another patient: refused, naming the session file and the identity expected.
-    let (ok, _, stderr) = supine(&[
+    let (ok, _, stderr) = run_supine(&[
         "report",
         "--input",
         &s(&log),
@@ -151,7 +119,7 @@ fn a_monitor_log_re_analysed_by_report_matches_the_device_bit_for_bit() {
 
     // Without its input stream: refused, saying so.
     std::fs::remove_file(&input).expect("remove the input file");
-    let (ok, _, stderr) = supine(&[
+    let (ok, _, stderr) = run_supine(&[
         "report",
         "--input",
         &s(&log),

@@ -34,7 +34,7 @@ use supine_host::device::qemu::{PARAMS_ADDR, Qemu, QemuConfig};
 use supine_host::device::replay::{Outgoing, Session, SessionConfig, sample_messages, session};
 use supine_host::exposure::reference;
 use supine_host::io::params_file::{DeviceSection, ParamFile};
-use supine_qemu_tests::{MONITOR_STACK_CEILING_BYTES, firmware};
+use supine_qemu_tests::{MONITOR_STACK_CEILING_BYTES, firmware, run_to_end};
 
 const FS_HZ: f64 = 500.0;
 const STEP: Duration = Duration::from_secs(20);
@@ -670,15 +670,6 @@ fn supine() -> std::process::Command {
     std::process::Command::new(supine_qemu_tests::supine_binary())
 }
 
-fn run_cli(cmd: &mut std::process::Command) -> (bool, String, String) {
-    let out = cmd.output().expect("supine runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
 #[test]
 fn supine_flash_writes_a_bootable_qemu_image_uploads_into_qemu_and_explains_failures() {
     let dir = tempfile::tempdir().expect("temp dir");
@@ -688,7 +679,7 @@ fn supine_flash_writes_a_bootable_qemu_image_uploads_into_qemu_and_explains_fail
 
     // --qemu-image: the device boots it from slot A at the rate asked for.
     let image = dir.path().join("params.bin");
-    let (ok, stdout, stderr) = run_cli(
+    let (ok, stdout, stderr) = run_to_end(
         supine()
             .args([
                 "flash",
@@ -710,7 +701,7 @@ fn supine_flash_writes_a_bootable_qemu_image_uploads_into_qemu_and_explains_fail
 
     // --qemu: uploaded into a running device (built-in parameters, so slot A).
     let (ok, stdout, stderr) =
-        run_cli(supine().args(["flash", "--preset", "paper-rigid", "--qemu"]));
+        run_to_end(supine().args(["flash", "--preset", "paper-rigid", "--qemu"]));
     assert!(ok, "{stderr}");
     assert!(
         stdout.contains(&format!("parameters {rigid_hex} committed to slot 0")),
@@ -722,7 +713,7 @@ fn supine_flash_writes_a_bootable_qemu_image_uploads_into_qemu_and_explains_fail
 
     // --json, for a 1.6 m, 52 kg patient: one object on stdout saying what the device
     // acknowledged, and the patient it greets with after the commit.
-    let (ok, stdout, stderr) = run_cli(supine().args([
+    let (ok, stdout, stderr) = run_to_end(supine().args([
         "flash",
         "--preset",
         "paper-rigid",
@@ -755,7 +746,7 @@ fn supine_flash_writes_a_bootable_qemu_image_uploads_into_qemu_and_explains_fail
     // The wrong key: the device's code, on one line, and a failing status.
     let wrong = dir.path().join("wrong.key");
     std::fs::write(&wrong, "11".repeat(KEY_LEN)).expect("key");
-    let (ok, _, stderr) = run_cli(
+    let (ok, _, stderr) = run_to_end(
         supine()
             .args(["flash", "--preset", "paper-rigid", "--qemu", "--key"])
             .arg(&wrong),
@@ -767,7 +758,7 @@ fn supine_flash_writes_a_bootable_qemu_image_uploads_into_qemu_and_explains_fail
     // A key file that is not a key names the file and what it should hold.
     let short = dir.path().join("short.key");
     std::fs::write(&short, "abcd\n").expect("key");
-    let (ok, _, stderr) = run_cli(
+    let (ok, _, stderr) = run_to_end(
         supine()
             .args(["flash", "--preset", "paper-rigid", "--qemu", "--key"])
             .arg(&short),
@@ -780,7 +771,7 @@ fn supine_flash_writes_a_bootable_qemu_image_uploads_into_qemu_and_explains_fail
 
     // A bad rate: named, and no image left behind.
     let bad = dir.path().join("bad.bin");
-    let (ok, _, stderr) = run_cli(
+    let (ok, _, stderr) = run_to_end(
         supine()
             .args([
                 "flash",
@@ -797,7 +788,7 @@ fn supine_flash_writes_a_bootable_qemu_image_uploads_into_qemu_and_explains_fail
     assert!(!bad.exists());
 
     // No probe-rs on the PATH: how to install it.
-    let (ok, _, stderr) = run_cli(
+    let (ok, _, stderr) = run_to_end(
         supine()
             .args([
                 "flash",
