@@ -7,7 +7,7 @@
 //! identification of the model from measurements ([`identify`]), exposure of rides
 //! ([`exposure`]), the device and the ways to reach it ([`device`]), the live monitor
 //! ([`monitor`]), the end-to-end demo ([`demo`]), the mission report ([`report`]), the one plotting
-//! layer ([`plot`]), and
+//! layer ([`plot`]), jobs over the cores ([`parallel`]), and
 //! the command line ([`cli`], [`commands`]) on top of them all.
 
 pub mod cli;
@@ -18,5 +18,6 @@ pub mod exposure;
 pub mod identify;
 pub mod io;
 pub mod monitor;
+pub mod parallel;
 pub mod plot;
 pub mod report;

@@ -14,6 +14,7 @@ use nalgebra::Complex;
 use supine_core::model::Transmissibility;
 
 /// Wraps an angle into (-pi, pi], rad.
+#[inline]
 pub fn wrap_pi(angle_rad: f64) -> f64 {
     let wrapped = angle_rad - 2.0 * PI * (angle_rad / (2.0 * PI)).round();
     if wrapped <= -PI {

@@ -72,20 +72,24 @@ pub fn estimate(
     let recordings = dataset.read_case(case, &selected)?;
     let sample_rate_hz = recordings[0].recording.sample_rate_hz();
     let settings = WelchSettings::for_resolution(sample_rate_hz, resolution_hz);
-    let mut subjects = Vec::with_capacity(recordings.len());
-    for r in &recordings {
-        let rec = &r.recording;
+    // One subject's spectra per job, on every core; errors in the subjects' order.
+    let estimates = crate::parallel::in_parallel(recordings.len(), 0, |k| {
+        let rec = &recordings[k].recording;
         let inputs = [0, 1, 2].map(|a| rec.platform_m_s2[a].as_slice());
         let outputs = core::array::from_fn(|j| rec.sensors_m_s2[j].as_slice());
-        let estimate = spectral::h1(inputs, outputs, sample_rate_hz, &settings, fmin_hz, fmax_hz)
-            .map_err(|e| match e {
-                SpectralError::TooShort { .. } => anyhow!(
-                    "{}: {e} (at {sample_rate_hz:.3} Hz for {resolution_hz} Hz resolution: record {:.2} s)",
-                    rec.path.display(),
-                    rec.duration_s()
-                ),
-                _ => anyhow!("{}: columns platform_x,y,z: {e}", rec.path.display()),
-            })?;
+        spectral::h1(inputs, outputs, sample_rate_hz, &settings, fmin_hz, fmax_hz)
+    });
+    let mut subjects = Vec::with_capacity(recordings.len());
+    for (r, estimate) in recordings.iter().zip(estimates) {
+        let rec = &r.recording;
+        let estimate = estimate.map_err(|e| match e {
+            SpectralError::TooShort { .. } => anyhow!(
+                "{}: {e} (at {sample_rate_hz:.3} Hz for {resolution_hz} Hz resolution: record {:.2} s)",
+                rec.path.display(),
+                rec.duration_s()
+            ),
+            _ => anyhow!("{}: columns platform_x,y,z: {e}", rec.path.display()),
+        })?;
         if estimate.freqs_hz.is_empty() {
             bail!(
                 "no Welch bin between {fmin_hz} and {fmax_hz} Hz at {:.4} Hz resolution",

@@ -300,37 +300,12 @@ impl Dataset {
                 })
             })
             .collect::<Result<Vec<_>>>()?;
-        let threads = std::thread::available_parallelism()
-            .map_or(1, |n| n.get())
-            .min(files.len());
-        let next = std::sync::atomic::AtomicUsize::new(0);
-        let mut read: Vec<Option<Result<Recording>>> = (0..files.len()).map(|_| None).collect();
-        std::thread::scope(|scope| {
-            let worker = || {
-                let mut done = Vec::new();
-                loop {
-                    let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                    let Some(file) = files.get(i) else {
-                        return done;
-                    };
-                    done.push((i, Recording::read(file).map_err(anyhow::Error::from)));
-                }
-            };
-            let handles: Vec<_> = (1..threads).map(|_| scope.spawn(worker)).collect();
-            let mut finished = worker();
-            for handle in handles {
-                match handle.join() {
-                    Ok(done) => finished.extend(done),
-                    Err(panic) => std::panic::resume_unwind(panic),
-                }
-            }
-            for (i, recording) in finished {
-                read[i] = Some(recording);
-            }
+        let read = crate::parallel::in_parallel(files.len(), 0, |i| {
+            Recording::read(files[i]).map_err(anyhow::Error::from)
         });
         let mut out: Vec<CaseRecording> = Vec::with_capacity(selected.len());
         for ((entry, file), recording) in selected.iter().zip(&files).zip(read) {
-            let recording = recording.ok_or_else(|| anyhow!("{}: not read", file.display()))??;
+            let recording = recording?;
             if let Some(first) = out.first() {
                 let (f0, f1) = (first.recording.sample_rate_hz(), recording.sample_rate_hz());
                 if ((f1 - f0) / f0).abs() > SAMPLE_RATE_TOLERANCE {

@@ -176,7 +176,7 @@ pub fn evaluate_draws<T: Send>(
     threads: usize,
     evaluate: impl Fn(&ModelParams) -> Result<T> + Sync,
 ) -> Result<Vec<T>> {
-    super::multistart::in_parallel(sets.len(), threads, |k| evaluate(&sets[k]))
+    crate::parallel::in_parallel(sets.len(), threads, |k| evaluate(&sets[k]))
         .into_iter()
         .collect()
 }

@@ -206,6 +206,8 @@ impl Default for LaneSystem {
 /// Returns false, leaving `system` spoiled, when some lane is singular.
 // Row operations read one row and write another: index loops say that most plainly.
 #[allow(clippy::needless_range_loop)]
+// Inlined into the evaluation, so that its AVX2 build (`kernels`) covers the solve too.
+#[inline(always)]
 pub fn solve_lanes(n: usize, system: &mut LaneSystem, nrhs: usize) -> bool {
     let LaneSystem { a, rhs } = system;
     let mut inverse = [LaneCplx::ZERO; MAX_BLOCK];

@@ -21,15 +21,16 @@
 //!   start), the paper's litter-board contacts (clamped to the bounds, both dampings),
 //!   then the rigid fit's contacts times e^(-|N(0, 2)|). The parameters of no part keep
 //!   the first anchor's values.
-//! - Rounds: the anchors (the paper's values) run first on every part, to the end; every
-//!   other start then runs knowing each part's best anchor cost, and is abandoned on a
-//!   part when it stagnates far above it ([`SolverSettings::best_elsewhere`]). Each round
-//!   spreads its (part, start) runs over `threads` threads; a run's path never depends on
-//!   another's timing.
+//! - Order: on each part the anchors (the paper's values) run first, to the end; every
+//!   other start then runs on that part knowing its best anchor cost, and is abandoned
+//!   there when it stagnates far above it ([`SolverSettings::best_elsewhere`]). The
+//!   (part, start) runs are spread over `threads` threads, each released as soon as its
+//!   own part allows (`multistart`'s `Schedule`); a run's path never depends on another's
+//!   timing.
 //! - Polish: each part's kept minimum is refined with Marquardt's damping and tolerances
 //!   10^4 times tighter ([`polish_settings`]): along the weakly determined directions the
 //!   cost keeps falling slowly long after a step's relative reduction is below ftol.
-//! - Determinism: a fixed order of rounds, ChaCha8 from the seed: the same seed gives
+//! - Determinism: each run's inputs fixed before it starts, ChaCha8 from the seed: the same seed gives
 //!   bit-identical parameters and cost, whatever the number of threads. Another seed
 //!   changes only the random starts (the third on in the rigid case, the fourth on in the
 //!   litter-board case).
@@ -37,6 +38,7 @@
 pub mod band;
 pub mod block_solve;
 pub mod determination;
+pub mod kernels;
 pub mod multistart;
 pub mod objective;
 pub mod part;
@@ -103,7 +105,7 @@ pub struct FitSettings {
     pub seed: u64,
     /// Solver tolerances.
     pub solver: SolverSettings,
-    /// Threads the starts of a round are spread over (0: one per core).
+    /// Threads the (part, start) runs are spread over (0: one per core).
     pub threads: usize,
     /// Refine the best start's minimum ([`polish_settings`]).
     pub polish: bool,
@@ -124,10 +126,7 @@ impl Default for FitSettings {
 impl FitSettings {
     /// The number of threads: `threads`, or one per core when 0.
     pub fn thread_count(&self) -> usize {
-        if self.threads > 0 {
-            return self.threads;
-        }
-        std::thread::available_parallelism().map_or(1, |n| n.get())
+        crate::parallel::thread_count(self.threads)
     }
 }
 
@@ -140,12 +139,12 @@ pub struct Start {
     pub theta: Vec<f64>,
     /// The damping the solver uses from it.
     pub damping: DampingScale,
-    /// Runs in the first round, to the end; the others run after it, against its cost.
+    /// Runs first on every part, to the end; the others run after it, against its cost.
     pub anchor: bool,
 }
 
 impl Start {
-    /// A start that runs in the second round.
+    /// A start that runs after the anchors.
     pub fn new(label: impl Into<String>, theta: Vec<f64>, damping: DampingScale) -> Self {
         Self {
             label: label.into(),
@@ -155,7 +154,7 @@ impl Start {
         }
     }
 
-    /// The same start, run in the first round.
+    /// The same start, run first (an anchor).
     pub fn anchor(mut self) -> Self {
         self.anchor = true;
         self

@@ -1,14 +1,13 @@
-//! Running the solver on every part of a [`Setup`] from every start: two rounds spread
-//! over threads (the anchors, then the others against each part's best anchor cost), each
-//! part's lowest minimum kept and polished, the parts joined. See the `fit` module for why.
-
-use std::sync::atomic::{AtomicUsize, Ordering};
+//! Running the solver on every part of a [`Setup`] from every start, spread over threads
+//! (each part's anchors, then its other starts against its best anchor cost), each part's
+//! lowest minimum kept and polished, the parts joined. See the `fit` module for why.
 
 use anyhow::{Result, anyhow, bail};
 use nalgebra::DMatrix;
 use supine_core::model::ModelParams;
 
 use super::part::PartProblem;
+use crate::parallel::on_pool;
 
 use super::solver::{self, DampingScale, Solution, SolverSettings, Termination};
 use super::{FitSettings, Setup};
@@ -90,43 +89,6 @@ pub struct FitResult {
 /// that runs the start.
 pub type Progress<'a> = &'a (dyn Fn(usize, usize, f64) + Sync);
 
-/// Runs `work(0..jobs)` on up to `threads` scoped threads; the results in job order.
-pub(super) fn in_parallel<T: Send>(
-    jobs: usize,
-    threads: usize,
-    work: impl Fn(usize) -> T + Sync,
-) -> Vec<T> {
-    let next = AtomicUsize::new(0);
-    let worker = || {
-        let mut done = Vec::new();
-        loop {
-            let job = next.fetch_add(1, Ordering::Relaxed);
-            if job >= jobs {
-                return done;
-            }
-            done.push((job, work(job)));
-        }
-    };
-    let mut slots: Vec<Option<T>> = (0..jobs).map(|_| None).collect();
-    std::thread::scope(|scope| {
-        let handles: Vec<_> = (1..threads.clamp(1, jobs.max(1)))
-            .map(|_| scope.spawn(worker))
-            .collect();
-        // This thread works too.
-        let mut finished = vec![worker()];
-        for handle in handles {
-            match handle.join() {
-                Ok(done) => finished.push(done),
-                Err(panic) => std::panic::resume_unwind(panic),
-            }
-        }
-        for (job, value) in finished.into_iter().flatten() {
-            slots[job] = Some(value);
-        }
-    });
-    slots.into_iter().flatten().collect()
-}
-
 /// Solves part `part` from start `index` with `solver_settings`.
 fn solve_from(
     setup: &Setup,
@@ -160,27 +122,185 @@ fn solve_from(
     Ok((outcome, solution))
 }
 
-/// Solves every (part, start) job in parallel, each abandoned when it stagnates far above
-/// its part's `best_elsewhere`.
-fn solve_round(
-    setup: &Setup,
-    settings: &FitSettings,
-    problems: &[PartProblem],
-    jobs: &[(usize, usize)],
-    best_elsewhere: &[f64],
-    progress: Progress,
-) -> Result<Vec<(usize, usize, StartOutcome, Solution)>> {
-    let results = in_parallel(jobs.len(), settings.thread_count(), |job| {
-        let (part, index) = jobs[job];
-        let solver_settings = SolverSettings {
-            damping: setup.starts[index].damping,
-            best_elsewhere: settings.solver.best_elsewhere.min(best_elsewhere[part]),
-            ..settings.solver
-        };
-        solve_from(setup, &problems[part], index, &solver_settings, progress)
-            .map(|(outcome, solution)| (part, index, outcome, solution))
-    });
-    results.into_iter().collect()
+/// A run's outcome and solution, or why it failed.
+type RunResult = Result<(StartOutcome, Solution)>;
+
+/// The error of a finished run, taken out; a success stays where it is.
+fn take_error(run: &mut Option<RunResult>) -> Option<anyhow::Error> {
+    match run.take() {
+        Some(Err(e)) => Some(e),
+        other => {
+            *run = other;
+            None
+        }
+    }
+}
+
+/// One part's runs as they finish.
+struct PartRuns {
+    /// Anchors still running.
+    anchors_left: usize,
+    /// Other starts still running (or not yet released).
+    others_left: usize,
+    /// The lowest cost the finished anchors reached.
+    best_anchor: f64,
+    /// Per start (in the starts' order): its run, once finished.
+    runs: Vec<Option<RunResult>>,
+    /// Whether the other starts were released.
+    others_released: bool,
+    /// Whether the polish was released.
+    polish_released: bool,
+    /// The polish of the part's kept minimum, once finished.
+    polished: Option<RunResult>,
+}
+
+impl PartRuns {
+    /// The start whose minimum the part keeps: the lowest cost, the first start on a tie.
+    /// None unless every run has finished without error.
+    fn kept(&self) -> Option<(usize, &Solution)> {
+        let mut kept: Option<(usize, &Solution)> = None;
+        for (index, run) in self.runs.iter().enumerate() {
+            let (_, solution) = run.as_ref()?.as_ref().ok()?;
+            if kept.is_none_or(|(_, b)| solution.cost < b.cost) {
+                kept = Some((index, solution));
+            }
+        }
+        kept
+    }
+}
+
+/// Every part's runs, scheduled by what each needs rather than in rounds: a part's other
+/// starts are released as soon as its own anchors have finished (they run against the
+/// anchors' best cost, [`SolverSettings::best_elsewhere`]), and its polish as soon as all
+/// its starts have, so no thread waits for another part. Every run's inputs are fixed
+/// before it is released, so the results never depend on the threads' timing. A failed
+/// run releases nothing that needs it; the others still run, so which runs fail does not
+/// depend on the timing either.
+struct Schedule<'a> {
+    setup: &'a Setup,
+    settings: &'a FitSettings,
+    problems: &'a [PartProblem<'a>],
+    progress: Progress<'a>,
+    parts: std::sync::Mutex<Vec<PartRuns>>,
+}
+
+impl<'a> Schedule<'a> {
+    fn new(
+        setup: &'a Setup,
+        settings: &'a FitSettings,
+        problems: &'a [PartProblem<'a>],
+        progress: Progress<'a>,
+    ) -> Self {
+        let anchors = setup.starts.iter().filter(|s| s.anchor).count();
+        let parts = problems
+            .iter()
+            .map(|_| PartRuns {
+                anchors_left: anchors,
+                others_left: setup.starts.len() - anchors,
+                best_anchor: f64::INFINITY,
+                runs: (0..setup.starts.len()).map(|_| None).collect(),
+                others_released: false,
+                polish_released: false,
+                polished: None,
+            })
+            .collect();
+        Self {
+            setup,
+            settings,
+            problems,
+            progress,
+            parts: std::sync::Mutex::new(parts),
+        }
+    }
+
+    /// Runs every part's anchors, and what they release, on the pool; each part's runs.
+    fn run(self) -> Vec<PartRuns> {
+        on_pool(self.settings.threads, || {
+            rayon::scope(|scope| {
+                for k in 0..self.problems.len() {
+                    let anchors =
+                        (0..self.setup.starts.len()).filter(|&i| self.setup.starts[i].anchor);
+                    for index in anchors {
+                        self.start(scope, k, index, f64::INFINITY);
+                    }
+                    // A setup without anchors releases its other starts at once.
+                    self.release(scope, k, &mut self.lock()[k]);
+                }
+            })
+        });
+        self.parts
+            .into_inner()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, Vec<PartRuns>> {
+        self.parts
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// Solves part `k` from start `index` on the pool, abandoned when it stagnates far
+    /// above `best_elsewhere`; then releases what its end allows.
+    fn start<'s>(&'s self, scope: &rayon::Scope<'s>, k: usize, index: usize, best_elsewhere: f64) {
+        scope.spawn(move |scope| {
+            let solver_settings = SolverSettings {
+                damping: self.setup.starts[index].damping,
+                best_elsewhere: self.settings.solver.best_elsewhere.min(best_elsewhere),
+                ..self.settings.solver
+            };
+            let run = solve_from(
+                self.setup,
+                &self.problems[k],
+                index,
+                &solver_settings,
+                self.progress,
+            );
+            let mut parts = self.lock();
+            let part = &mut parts[k];
+            if self.setup.starts[index].anchor {
+                part.anchors_left -= 1;
+                if let Ok((_, solution)) = &run {
+                    part.best_anchor = part.best_anchor.min(solution.cost);
+                }
+            } else {
+                part.others_left -= 1;
+            }
+            part.runs[index] = Some(run);
+            self.release(scope, k, part);
+        });
+    }
+
+    /// Releases part `k`'s other starts once its anchors have all finished well, and its
+    /// polish once every start has; each once.
+    fn release<'s>(&'s self, scope: &rayon::Scope<'s>, k: usize, part: &mut PartRuns) {
+        let anchors: Vec<usize> = (0..part.runs.len())
+            .filter(|&i| self.setup.starts[i].anchor)
+            .collect();
+        let anchors_well = anchors.iter().all(|&i| matches!(part.runs[i], Some(Ok(_))));
+        if !part.others_released && part.anchors_left == 0 && anchors_well {
+            part.others_released = true;
+            for index in (0..part.runs.len()).filter(|i| !anchors.contains(i)) {
+                self.start(scope, k, index, part.best_anchor);
+            }
+        }
+        let all_finished = part.anchors_left == 0 && part.others_left == 0;
+        if !part.polish_released && all_finished && self.settings.polish {
+            if let Some((index, solution)) = part.kept().map(|(i, s)| (i, s.clone())) {
+                part.polish_released = true;
+                let label = &self.setup.starts[index].label;
+                scope.spawn(move |_| {
+                    let polished = polish(
+                        self.setup,
+                        self.settings,
+                        &self.problems[k],
+                        label,
+                        solution,
+                    );
+                    self.lock()[k].polished = Some(polished);
+                });
+            }
+        }
+    }
 }
 
 /// Refines a part's `solution` with [`polish_settings`]; the polish's outcome and the
@@ -235,9 +355,9 @@ fn combined(label: &str, initial_cost: f64, offset: f64, runs: &[&StartOutcome])
     }
 }
 
-/// Runs the solver on every part from every start in two rounds (the anchors, then the
-/// others against the anchors' best cost of that part), keeps each part's lowest cost
-/// (the first start on a tie), polishes it, and joins the parts (see the module
+/// Runs the solver on every part from every start (the anchors first, then the others
+/// against the anchors' best cost of that part, [`Schedule`]), keeps each part's lowest
+/// cost (the first start on a tie), polishes it, and joins the parts (see the module
 /// documentation of `fit`).
 pub fn run(setup: &Setup, settings: &FitSettings, progress: Progress) -> Result<FitResult> {
     if setup.starts.is_empty() {
@@ -275,63 +395,43 @@ pub fn run(setup: &Setup, settings: &FitSettings, progress: Progress) -> Result<
             .map(|(v, _)| v * v)
             .sum::<f64>();
 
-    let (anchors, others): (Vec<usize>, Vec<usize>) =
-        (0..setup.starts.len()).partition(|&i| setup.starts[i].anchor);
-    let jobs = |starts: &[usize]| -> Vec<(usize, usize)> {
-        (0..parts.len())
-            .flat_map(|k| starts.iter().map(move |&i| (k, i)))
-            .collect()
-    };
-    let no_best = vec![f64::INFINITY; parts.len()];
-    let mut solved = solve_round(
-        setup,
-        settings,
-        &problems,
-        &jobs(&anchors),
-        &no_best,
-        progress,
-    )?;
-    let mut best_anchor = no_best.clone();
-    for (k, _, _, s) in &solved {
-        best_anchor[*k] = best_anchor[*k].min(s.cost);
+    let mut runs = Schedule::new(setup, settings, &problems, progress).run();
+    // The first error as the rounds would meet them: the anchors', the other starts', the
+    // polishes', each in the parts' and the starts' order.
+    let is_anchor = |&i: &usize| setup.starts[i].anchor;
+    let (anchors, others): (Vec<usize>, Vec<usize>) = (0..setup.starts.len()).partition(is_anchor);
+    for starts in [&anchors, &others] {
+        for part in &mut runs {
+            for &index in starts {
+                if let Some(e) = take_error(&mut part.runs[index]) {
+                    return Err(e);
+                }
+            }
+        }
     }
-    solved.extend(solve_round(
-        setup,
-        settings,
-        &problems,
-        &jobs(&others),
-        &best_anchor,
-        progress,
-    )?);
-    solved.sort_by_key(|(k, index, _, _)| (*k, *index));
+    for part in &mut runs {
+        if let Some(e) = take_error(&mut part.polished) {
+            return Err(e);
+        }
+    }
 
     // Per part: every start's outcome and the lowest minimum (the first start on a tie).
     let mut outcomes: Vec<Vec<StartOutcome>> = vec![Vec::new(); parts.len()];
-    let mut kept: Vec<Option<(usize, Solution)>> = (0..parts.len()).map(|_| None).collect();
-    for (k, index, outcome, solution) in solved {
-        outcomes[k].push(outcome);
-        if kept[k].as_ref().is_none_or(|(_, b)| solution.cost < b.cost) {
-            kept[k] = Some((index, solution));
+    let mut kept: Vec<(usize, Solution)> = Vec::with_capacity(parts.len());
+    let mut polished: Vec<Option<(StartOutcome, Solution)>> = Vec::with_capacity(parts.len());
+    for (k, part) in runs.iter_mut().enumerate() {
+        let (index, solution) = part
+            .kept()
+            .map(|(index, solution)| (index, solution.clone()))
+            .ok_or_else(|| anyhow!("part {}: a start did not finish", parts[k].name))?;
+        kept.push((index, solution));
+        polished.push(part.polished.take().and_then(Result::ok));
+        for run in &mut part.runs {
+            if let Some(Ok((outcome, _))) = run.take() {
+                outcomes[k].push(outcome);
+            }
         }
     }
-    let kept: Vec<(usize, Solution)> = kept.into_iter().flatten().collect();
-    let polished: Vec<Option<(StartOutcome, Solution)>> = if settings.polish {
-        in_parallel(kept.len(), settings.thread_count(), |k| {
-            let (index, solution) = &kept[k];
-            polish(
-                setup,
-                settings,
-                &problems[k],
-                &setup.starts[*index].label,
-                solution.clone(),
-            )
-            .map(Some)
-        })
-        .into_iter()
-        .collect::<Result<_>>()?
-    } else {
-        vec![None; kept.len()]
-    };
 
     // Join the parts.
     let mut x = reference;

@@ -64,8 +64,30 @@ impl Problem for PartProblem<'_> {
 }
 
 /// J^T J of a dense Jacobian: one dot product of two contiguous columns per entry of the
-/// lower triangle (J is column-major), mirrored.
+/// lower triangle (J is column-major), mirrored. With AVX2 where the CPU has it
+/// ([`super::kernels`]): the same bits either way.
 pub fn gram_dense(jacobian: &DMatrix<f64>) -> DMatrix<f64> {
+    #[cfg(target_arch = "x86_64")]
+    if super::kernels::avx2() {
+        // SAFETY: the CPU has AVX2 (checked just above).
+        return unsafe { gram_dense_avx2(jacobian) };
+    }
+    gram_dense_portable(jacobian)
+}
+
+/// [`gram_dense_portable`] compiled with AVX2.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn gram_dense_avx2(jacobian: &DMatrix<f64>) -> DMatrix<f64> {
+    gram_dense_portable(jacobian)
+}
+
+/// J^T J itself, inlined into both callers above.
+#[inline(always)]
+fn gram_dense_portable(jacobian: &DMatrix<f64>) -> DMatrix<f64> {
     let (m, n) = jacobian.shape();
     let data = jacobian.as_slice();
     let column = |a: usize| &data[a * m..(a + 1) * m];
@@ -82,6 +104,7 @@ pub fn gram_dense(jacobian: &DMatrix<f64>) -> DMatrix<f64> {
 
 /// A dot product with four running sums (the compiler vectorizes it; one sum could not
 /// be reordered).
+#[inline(always)]
 fn dot(x: &[f64], y: &[f64]) -> f64 {
     let mut sums = [0.0; 4];
     let (xc, yc) = (x.chunks_exact(4), y.chunks_exact(4));
@@ -97,4 +120,33 @@ fn dot(x: &[f64], y: &[f64]) -> f64 {
         }
     }
     (sums[0] + sums[1]) + (sums[2] + sums[3]) + tail
+}
+
+#[cfg(all(test, target_arch = "x86_64"))]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    #[test]
+    fn the_avx2_gram_gives_the_portable_gram_bits_and_the_product() {
+        let mut rng = ChaCha8Rng::seed_from_u64(18);
+        // Row counts that leave every remainder of the four running sums.
+        for rows in [948, 949, 950, 951, 1896] {
+            let jacobian = DMatrix::from_fn(rows, 14, |_, _| rng.random_range(-1e3..1e3));
+            let portable = gram_dense_portable(&jacobian);
+            let product = jacobian.transpose() * &jacobian;
+            assert!(
+                (&portable - &product).amax() <= 1e-9 * product.amax(),
+                "{rows} rows"
+            );
+            if !super::super::kernels::avx2() {
+                continue;
+            }
+            // SAFETY: the CPU has AVX2 (checked above).
+            let avx2 = unsafe { gram_dense_avx2(&jacobian) };
+            let bits = |m: &DMatrix<f64>| m.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&portable), bits(&avx2), "{rows} rows");
+        }
+    }
 }
