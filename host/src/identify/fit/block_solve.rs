@@ -164,9 +164,42 @@ impl LaneCplx {
         }
     }
 
+    /// |self|^2, lane by lane, as num-complex's `norm_sqr`.
+    #[inline(always)]
+    pub fn norm_sqr(&self) -> Lane {
+        std::array::from_fn(|l| self.re[l] * self.re[l] + self.im[l] * self.im[l])
+    }
+
+    /// The complex conjugate, lane by lane.
+    #[inline(always)]
+    pub fn conj(&self) -> Self {
+        Self {
+            re: self.re,
+            im: self.im.map(|v| -v),
+        }
+    }
+
+    /// self * factor (a real factor), lane by lane, as num-complex's `self * factor`.
+    #[inline(always)]
+    pub fn scale(&self, factor: f64) -> Self {
+        Self {
+            re: self.re.map(|v| v * factor),
+            im: self.im.map(|v| v * factor),
+        }
+    }
+
+    /// self / divisor (a real divisor per lane), as num-complex's `self / divisor`.
+    #[inline(always)]
+    pub fn div_real(&self, divisor: &Lane) -> Self {
+        Self {
+            re: std::array::from_fn(|l| self.re[l] / divisor[l]),
+            im: std::array::from_fn(|l| self.im[l] / divisor[l]),
+        }
+    }
+
     /// 1 / self, lane by lane, as num-complex's `Complex::new(1.0, 0.0) / self`.
     #[inline(always)]
-    fn recip(&self) -> Self {
+    pub fn recip(&self) -> Self {
         let mut out = Self::ZERO;
         for l in 0..LANES {
             let (re, im) = (self.re[l], self.im[l]);
@@ -176,6 +209,12 @@ impl LaneCplx {
         }
         out
     }
+}
+
+/// The square root of every lane (exact, as the scalar's).
+#[inline(always)]
+pub fn lane_sqrt(v: Lane) -> Lane {
+    v.map(f64::sqrt)
 }
 
 /// [`LANES`] systems of one block, lane `l` holding one frequency's.

@@ -27,8 +27,8 @@ use supine_core::model::response::COUPLED_COMPONENTS;
 use supine_core::model::{ModelParams, ParamId, SystemMatrices, Transmissibility};
 
 use super::block_solve::{
-    Cplx, LANES, Lane, LaneCplx, LaneSystem, MAX_BLOCK, MAX_OUTPUTS, MAX_RHS, solve_lanes,
-    solve_small,
+    Cplx, LANES, Lane, LaneCplx, LaneSystem, MAX_BLOCK, MAX_OUTPUTS, MAX_RHS, lane_sqrt,
+    solve_lanes, solve_small,
 };
 use super::kernels;
 use crate::identify::geomean::wrap_pi;
@@ -624,21 +624,31 @@ impl Objective {
                     for &(i, weight) in &block.read_rows[ol] {
                         sum.add_scaled(x(i, kl), weight);
                     }
+                    // g of each lane's frequency (spare lanes repeat the last).
+                    let mut g = LaneCplx::ZERO;
+                    for l in 0..LANES {
+                        let f = (first + l).min(nf - 1);
+                        g.set(l, self.target.h[f][(output.index(), input.index())]);
+                    }
+                    // num-complex's arithmetic of the scalar definitions, lane by lane:
+                    // r_mag = (|h| - |g|) / |g|, r_phase = wrap(arg(h conj(g))) / pi.
+                    let (h_norm_sqr, g_norm_sqr) = (sum.norm_sqr(), g.norm_sqr());
+                    let g_abs = lane_sqrt(g_norm_sqr);
+                    let h_abs = lane_sqrt(h_norm_sqr);
+                    let h_conj_g = sum.mul(&g.conj());
                     for l in 0..count {
-                        let f = first + l;
-                        let (hv, gv) = (
-                            sum.get(l),
-                            self.target.h[f][(output.index(), input.index())],
-                        );
-                        let r = f * per_freq + slot_of[c];
-                        let g_abs = gv.norm_sqr().sqrt();
-                        residuals[r] = (hv.norm_sqr().sqrt() - g_abs) / g_abs;
+                        let r = (first + l) * per_freq + slot_of[c];
+                        residuals[r] = (h_abs[l] - g_abs[l]) / g_abs[l];
                         // wrap(arg h - arg g) = arg(h conj(g)), in (-pi, pi].
-                        residuals[r + 1] = wrap_pi((hv * gv.conj()).arg()) / PI;
+                        residuals[r + 1] = wrap_pi(h_conj_g.im[l].atan2(h_conj_g.re[l])) / PI;
+                    }
+                    if want_w {
                         // d r_mag = Re(dh conj(h) / (|h| |g|)), d r_phase = Im(dh / (pi h)):
                         // the factors once per component, so the inner loop only multiplies.
-                        mag_factor[at].set(l, hv.conj() / (hv.norm_sqr() * gv.norm_sqr()).sqrt());
-                        phase_factor[at].set(l, Cplx::new(1.0, 0.0) / (hv * PI));
+                        let norm =
+                            lane_sqrt(std::array::from_fn(|l| h_norm_sqr[l] * g_norm_sqr[l]));
+                        mag_factor[at] = sum.conj().div_real(&norm);
+                        phase_factor[at] = sum.scale(PI).recip();
                     }
                 }
                 let Some(jac) = jacobian.as_deref_mut() else {
