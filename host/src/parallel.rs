@@ -12,9 +12,14 @@ pub fn thread_count(threads: usize) -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 
-/// Runs `work` on a pool of [`thread_count`]`(threads)` threads. The calling thread
-/// waits; where no pool can be made (no thread can be spawned), it runs `work` itself.
+/// Runs `work` on a pool of [`thread_count`]`(threads)` threads: rayon's global pool (one
+/// thread per core, made once per process) for 0, else a pool of its own. The calling
+/// thread waits; where no pool can be made (no thread can be spawned), it runs `work`
+/// itself.
 pub fn on_pool<R: Send>(threads: usize, work: impl FnOnce() -> R + Send) -> R {
+    if threads == 0 {
+        return work();
+    }
     match rayon::ThreadPoolBuilder::new()
         .num_threads(thread_count(threads))
         .build()
