@@ -89,6 +89,48 @@ impl Row<'_> {
     }
 }
 
+/// One non-blank line of the file, as it is in the file: a reader that recognizes the
+/// line's form can take its text as it is, and [`split`](Self::split) it otherwise.
+#[derive(Debug)]
+pub struct Line<'a> {
+    /// 1-based line number in the file.
+    pub line: u64,
+    /// The line without its LF (with a CRLF line end's CR, and on the first line a byte
+    /// order mark).
+    text: &'a [u8],
+    /// The reader's buffer of cell ends, filled by `split`.
+    ends: &'a mut Vec<usize>,
+    first: bool,
+    delimiter: u8,
+}
+
+impl<'a> Line<'a> {
+    /// The line without its LF: on the file's first line with its byte order mark, if any,
+    /// and with the CR of a CRLF line end.
+    pub fn text(&self) -> &[u8] {
+        self.text
+    }
+
+    /// Whether this is the file's first non-blank line (its text may start with a byte
+    /// order mark).
+    pub fn is_first(&self) -> bool {
+        self.first
+    }
+
+    /// The line split at the delimiter.
+    pub fn split(self) -> Row<'a> {
+        self.ends.clear();
+        self.ends
+            .extend(memchr::memchr_iter(self.delimiter, self.text).chain([self.text.len()]));
+        Row {
+            line: self.line,
+            text: self.text,
+            ends: self.ends,
+            first: self.first,
+        }
+    }
+}
+
 /// A CSV file read one line at a time.
 pub struct CsvLines<R: Read> {
     source: R,
@@ -145,40 +187,41 @@ impl<R: Read> CsvLines<R> {
         }
     }
 
-    /// The next non-blank line, or `None` at the end of the file.
+    /// The next non-blank line, split, or `None` at the end of the file.
     pub fn next_row(&mut self) -> Result<Option<Row<'_>>, LineError> {
+        Ok(self.next_line()?.map(Line::split))
+    }
+
+    /// The next non-blank line (empty or only white space after a first line's byte order
+    /// mark, and holding no delimiter), not yet split, or `None` at the end of the file.
+    pub fn next_line(&mut self) -> Result<Option<Line<'_>>, LineError> {
         loop {
-            let Some((start, end)) = self.next_line()? else {
+            let Some((start, end)) = self.next_line_bounds()? else {
                 return Ok(None);
             };
             let text = &self.buffer[start..end];
-            self.ends.clear();
-            self.ends
-                .extend(memchr::memchr_iter(self.delimiter, text).chain([text.len()]));
             let first = self.rows_read == 0;
-            let row = Row {
-                line: self.line,
-                text,
-                ends: &self.ends,
-                first,
+            let body = match first {
+                true => text.strip_prefix(UTF8_BOM).unwrap_or(text),
+                false => text,
             };
-            let blank = row.len() == 1 && row.cell(0).iter().all(u8::is_ascii_whitespace);
-            if blank {
+            if body.iter().all(u8::is_ascii_whitespace) && !text.contains(&self.delimiter) {
                 continue;
             }
             self.rows_read += 1;
-            return Ok(Some(Row {
+            return Ok(Some(Line {
                 line: self.line,
                 text: &self.buffer[start..end],
-                ends: &self.ends,
+                ends: &mut self.ends,
                 first,
+                delimiter: self.delimiter,
             }));
         }
     }
 
     /// The next line's bounds in `buffer` (without its LF; a last line without one
     /// counts), or `None` at the end of the file.
-    fn next_line(&mut self) -> Result<Option<(usize, usize)>, LineError> {
+    fn next_line_bounds(&mut self) -> Result<Option<(usize, usize)>, LineError> {
         loop {
             if let Some(at) = memchr::memchr(b'\n', &self.buffer[self.scanned..self.end]) {
                 let (start, end) = (self.start, self.scanned + at);

@@ -23,7 +23,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Result;
 use serde::Serialize;
 
-use crate::io::csv_lines::{CsvLines, LineError, Row};
+use crate::io::csv_lines::{CsvLines, Line, LineError, Row};
 use crate::io::excerpt::{excerpt, number};
 use crate::io::output::write_atomically;
 
@@ -450,34 +450,22 @@ impl<R: Read> RowReader<R> {
 
     /// The next row's line and its 13 numbers (the sensor columns zero in a ride).
     fn next_row(&mut self) -> Result<Option<(u64, [f64; 13])>, RecordingError> {
-        let p = || self.path.clone();
-        let Some(cells) = self
+        let Some(text) = self
             .lines
-            .next_row()
+            .next_line()
             .map_err(|e| line_error(&self.path, e))?
         else {
             return Ok(None);
         };
-        let line = cells.line;
+        let line = text.line;
         let columns = self.layout.columns();
-        if cells.len() != columns {
-            return Err(RecordingError::CellCount {
-                path: p(),
-                line,
-                expected: columns,
-                found: cells.len(),
-            });
-        }
-        let mut row = [0.0f64; 13];
-        for (c, cell) in cells.cells().enumerate() {
-            let value = parse_cell(cell, column_name(c)).map_err(|e| e.at(p(), line))?;
-            if let Some(slot) = row.get_mut(c) {
-                *slot = value;
-            }
-        }
+        let row = match plain_row(&text, columns) {
+            Some(row) => row,
+            None => split_row(&self.path, text.split(), columns)?,
+        };
         if row[0] <= self.previous_s {
             return Err(RecordingError::TimeNotIncreasing {
-                path: p(),
+                path: self.path.clone(),
                 line,
                 previous_s: self.previous_s,
                 found_s: row[0],
@@ -486,6 +474,58 @@ impl<R: Read> RowReader<R> {
         self.previous_s = row[0];
         Ok(Some((line, row)))
     }
+}
+
+/// A line's 13 numbers, cell by cell, with every check and error of the format.
+fn split_row(path: &Path, cells: Row, columns: usize) -> Result<[f64; 13], RecordingError> {
+    let line = cells.line;
+    if cells.len() != columns {
+        return Err(RecordingError::CellCount {
+            path: path.to_path_buf(),
+            line,
+            expected: columns,
+            found: cells.len(),
+        });
+    }
+    let mut row = [0.0f64; 13];
+    for (c, cell) in cells.cells().enumerate() {
+        let value = parse_cell(cell, column_name(c)).map_err(|e| e.at(path.to_path_buf(), line))?;
+        if let Some(slot) = row.get_mut(c) {
+            *slot = value;
+        }
+    }
+    Ok(row)
+}
+
+/// The fast path of [`split_row`] for the line every writer of the format writes: exactly
+/// `columns` plain numbers, each followed by a comma (the last by the line end, or a CR
+/// before it), in range. It parses each number where it starts and checks that a comma
+/// follows, so the line is walked once instead of split first. Such a line gives the same
+/// numbers either way: `fast-float2`'s whole-cell parse, the one [`parse_number`] tries
+/// first, is this partial parse required to end where the cell does, and a cell that
+/// begins and ends with a number's own characters is unchanged by trimming. Anything else
+/// (white space around a number, infinity, a missing cell, a number out of range, a first
+/// line's byte order mark) is None, and [`split_row`] reads the line and names what is wrong.
+fn plain_row(line: &Line, columns: usize) -> Option<[f64; 13]> {
+    if line.is_first() {
+        return None;
+    }
+    let mut rest = line.text();
+    let mut row = [0.0f64; 13];
+    for c in 0..columns {
+        let (value, used) = fast_float2::parse_partial::<f64, _>(rest).ok()?;
+        let cell = &rest[..used];
+        check_value(value, cell, column_name(c)).ok()?;
+        if let Some(slot) = row.get_mut(c) {
+            *slot = value;
+        }
+        rest = match (&rest[used..], c + 1 == columns) {
+            ([b',', tail @ ..], false) => tail,
+            ([] | [b'\r'], true) => &[],
+            _ => return None,
+        };
+    }
+    Some(row)
 }
 
 fn line_error(path: &Path, error: LineError) -> RecordingError {
@@ -700,6 +740,11 @@ impl CellError {
 /// One cell of `column` as a number: finite, and within the f32 range for accelerations.
 fn parse_cell(cell: &[u8], column: &'static str) -> Result<f64, CellError> {
     let value = parse_number(cell).ok_or_else(|| CellError::NotANumber(column, excerpt(cell)))?;
+    check_value(value, cell, column)
+}
+
+/// `value`, read from `cell` of `column`, if it is finite and (accelerations) in range.
+fn check_value(value: f64, cell: &[u8], column: &'static str) -> Result<f64, CellError> {
     if !value.is_finite() {
         return Err(CellError::NotFinite(column, excerpt(cell)));
     }
@@ -864,6 +909,74 @@ mod tests {
         // Bytes that are not UTF-8 are no number either way.
         assert_eq!(parse_number(b"1\xff"), None);
         assert_eq!(parse_number(b"\xff1"), None);
+    }
+
+    /// One line through the plain path (None: left to the other) and the split path.
+    type BothPaths = (Option<[f64; 13]>, Result<[f64; 13], RecordingError>);
+
+    /// Every data line of `text` (after its first line) through both paths: the plain
+    /// path's row when it takes the line, and the split path's result.
+    fn both_paths(text: &[u8], columns: usize) -> Vec<BothPaths> {
+        let mut lines = CsvLines::new(text);
+        lines.next_row().unwrap();
+        let mut out = Vec::new();
+        while let Some(line) = lines.next_line().unwrap() {
+            let plain = plain_row(&line, columns);
+            out.push((plain, split_row(Path::new("r.csv"), line.split(), columns)));
+        }
+        out
+    }
+
+    #[test]
+    fn the_plain_row_path_reads_what_the_split_path_reads_or_leaves_the_line_to_it() {
+        let bits = |row: &[f64; 13]| row.map(f64::to_bits);
+        let typical = "0.005,-0.3103853555041264,0.6351828879414806,-0.33694338988462247,\
+                       0.12898576060760694,0.1915549112861066,-0.47268948950438106,\
+                       0.077507434500577,0.25115283280613787,-0.3471950739479998,\
+                       0.03779977928589595,0.19315472581235382,-0.22782856447920097";
+        let odd_cells = [
+            " 1.25", "1.25 ", "\t2", "inf", "-inf", "nan", "1e", "1e5", "+1.5", ".5", "1.", "0x10",
+            "1 2", "", "1e309", "2e3", "-2e3", "99999", "1.5\r", "\u{a0}5",
+        ];
+        let mut text = format!("{HEADER_LINE}\n{typical}\n{typical}\r\n");
+        let cells: Vec<&str> = typical.split(',').collect();
+        for (k, odd) in odd_cells.iter().enumerate() {
+            for position in [1, 5, 12] {
+                let mut line = cells.clone();
+                line[position] = odd;
+                text.push_str(&line.join(","));
+                text.push_str(["\n", "\r\n"][k % 2]);
+            }
+        }
+        // A cell too few, a cell too many, an empty last cell, a trailing comma.
+        text.push_str(&format!("{}\n", cells[..12].join(",")));
+        text.push_str(&format!("{typical},1\n{typical},\n"));
+        let rows = both_paths(text.as_bytes(), 13);
+        assert_eq!(rows.len(), 2 + 3 * odd_cells.len() + 3);
+        let mut taken = 0;
+        for (k, (plain, split)) in rows.iter().enumerate() {
+            if let Some(plain) = plain {
+                taken += 1;
+                let split = split.as_ref().unwrap_or_else(|e| panic!("line {k}: {e}"));
+                assert_eq!(bits(plain), bits(split), "line {k}");
+            }
+        }
+        // The typical lines (LF and CRLF) and those with plain odd numbers are taken.
+        assert!(rows[0].0.is_some() && rows[1].0.is_some());
+        assert!(taken >= 2 + 3 * 5, "{taken} lines taken");
+        // Every line the split path refuses, the plain path leaves to it.
+        assert!(
+            rows.iter()
+                .all(|(plain, split)| split.is_ok() || plain.is_none())
+        );
+        // The prediction layout's joint columns are read and left out the same way.
+        let wide = format!("h\n{typical},1,2,3,4,5,6,7,8,9,10\n{typical},1,2,3,4,5,6,7,8,9\n");
+        let rows = both_paths(wide.as_bytes(), 23);
+        assert_eq!(
+            rows[0].0.map(|r| bits(&r)),
+            Some(bits(rows[0].1.as_ref().unwrap()))
+        );
+        assert!(rows[1].0.is_none() && rows[1].1.is_err());
     }
 
     #[test]
