@@ -204,25 +204,17 @@ fn jacobian_svd(setup: &Setup, jac: &DMatrix<f64>) -> SVD<f64, Dyn, Dyn> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::identify::fit::objective::Target;
+    use crate::identify::fit::objective::perturbed_target;
     use crate::identify::fit::{FitSettings, rigid_setup};
-    use supine_core::model::{ModelParams, Preset, SystemMatrices};
+    use supine_core::model::{ModelParams, Preset};
 
     /// The rigid fit's problem against a perturbed model's H, and its Jacobian at the
     /// paper's values.
     fn setup_and_jacobian() -> (Setup, DMatrix<f64>) {
-        let mut other = ModelParams::preset(Preset::PaperRigid);
-        for (i, id) in ParamId::ALL.into_iter().enumerate() {
-            other.set(id, other.get(id) * (0.6 + 0.08 * (i % 11) as f64));
-        }
-        let m = SystemMatrices::assemble(&other);
         let freqs_hz: Vec<f64> = (0..60).map(|k| 0.5 + 0.25 * k as f64).collect();
-        let h = freqs_hz
-            .iter()
-            .map(|&f| m.transmissibility(f).unwrap())
-            .collect();
         let subject = ModelParams::preset(Preset::PaperRigid).subject;
-        let setup = rigid_setup(Target { freqs_hz, h }, subject, &FitSettings::default()).unwrap();
+        let target = perturbed_target(freqs_hz);
+        let setup = rigid_setup(target, subject, &FitSettings::default()).unwrap();
         let theta = setup.starts[0].theta.clone();
         let objective = &setup.objective;
         let mut r = vec![0.0; objective.residual_count()];

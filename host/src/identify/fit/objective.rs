@@ -761,6 +761,22 @@ impl Objective {
     }
 }
 
+/// The H of the paper's rigid model with every parameter scaled by 0.7 to 1.3 (so the
+/// fit's residuals are not zero) at `freqs_hz`: a target for tests.
+#[cfg(test)]
+pub(crate) fn perturbed_target(freqs_hz: Vec<f64>) -> Target {
+    let mut other = ModelParams::preset(supine_core::model::Preset::PaperRigid);
+    for (i, id) in ParamId::ALL.into_iter().enumerate() {
+        other.set(id, other.get(id) * (0.7 + 0.06 * (i % 11) as f64));
+    }
+    let m = SystemMatrices::assemble(&other);
+    let h = freqs_hz
+        .iter()
+        .map(|&f| m.transmissibility(f).unwrap())
+        .collect();
+    Target { freqs_hz, h }
+}
+
 #[cfg(all(test, target_arch = "x86_64"))]
 mod tests {
     use super::*;
@@ -768,21 +784,12 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
     use supine_core::model::Preset;
 
-    /// A target from a perturbed model (non-zero residuals) on the fit's 0.5-16 Hz band,
-    /// at a resolution that leaves a partial last group of lanes.
+    /// The rigid problem against a perturbed target on the fit's 0.5-16 Hz band, at a
+    /// resolution that leaves a partial last group of lanes.
     fn objective() -> Objective {
-        let base = ModelParams::preset(Preset::PaperRigid);
-        let mut other = base;
-        for (i, id) in ParamId::ALL.into_iter().enumerate() {
-            other.set(id, other.get(id) * (0.7 + 0.06 * (i % 11) as f64));
-        }
-        let m = SystemMatrices::assemble(&other);
         let freqs_hz: Vec<f64> = (0..155).map(|k| 0.5 + 0.1 * k as f64).collect();
-        let h = freqs_hz
-            .iter()
-            .map(|&f| m.transmissibility(f).unwrap())
-            .collect();
-        Objective::new(base, ParamId::ALL.to_vec(), Target { freqs_hz, h })
+        let base = ModelParams::preset(Preset::PaperRigid);
+        Objective::new(base, ParamId::ALL.to_vec(), perturbed_target(freqs_hz))
     }
 
     fn bits(values: &[f64]) -> Vec<u64> {
