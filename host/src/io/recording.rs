@@ -505,7 +505,8 @@ fn split_row(path: &Path, cells: Row, columns: usize) -> Result<[f64; 13], Recor
 /// first, is this partial parse required to end where the cell does, and a cell that
 /// begins and ends with a number's own characters is unchanged by trimming. Anything else
 /// (white space around a number, infinity, a missing cell, a number out of range, a first
-/// line's byte order mark) is None, and [`split_row`] reads the line and names what is wrong.
+/// line's byte order mark) is None, and [`split_row`] reads the line and names what is
+/// wrong.
 fn plain_row(line: &Line, columns: usize) -> Option<[f64; 13]> {
     if line.is_first() {
         return None;

@@ -30,10 +30,10 @@
 //! - Polish: each part's kept minimum is refined with Marquardt's damping and tolerances
 //!   10^4 times tighter ([`polish_settings`]): along the weakly determined directions the
 //!   cost keeps falling slowly long after a step's relative reduction is below ftol.
-//! - Determinism: each run's inputs fixed before it starts, ChaCha8 from the seed: the same seed gives
-//!   bit-identical parameters and cost, whatever the number of threads. Another seed
-//!   changes only the random starts (the third on in the rigid case, the fourth on in the
-//!   litter-board case).
+//! - Determinism: each run's inputs fixed before it starts, ChaCha8 from the seed: the
+//!   same seed gives bit-identical parameters and cost, whatever the number of threads
+//!   and their timing. Another seed changes only the random starts (the third on in the
+//!   rigid case, the fourth on in the litter-board case).
 
 pub mod band;
 pub mod block_solve;

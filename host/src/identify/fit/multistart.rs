@@ -138,12 +138,6 @@ fn take_error(run: &mut Option<RunResult>) -> Option<anyhow::Error> {
 
 /// One part's runs as they finish.
 struct PartRuns {
-    /// Anchors still running.
-    anchors_left: usize,
-    /// Other starts still running (or not yet released).
-    others_left: usize,
-    /// The lowest cost the finished anchors reached.
-    best_anchor: f64,
     /// Per start (in the starts' order): its run, once finished.
     runs: Vec<Option<RunResult>>,
     /// Whether the other starts were released.
@@ -191,13 +185,9 @@ impl<'a> Schedule<'a> {
         problems: &'a [PartProblem<'a>],
         progress: Progress<'a>,
     ) -> Self {
-        let anchors = setup.starts.iter().filter(|s| s.anchor).count();
         let parts = problems
             .iter()
             .map(|_| PartRuns {
-                anchors_left: anchors,
-                others_left: setup.starts.len() - anchors,
-                best_anchor: f64::INFINITY,
                 runs: (0..setup.starts.len()).map(|_| None).collect(),
                 others_released: false,
                 polish_released: false,
@@ -257,34 +247,31 @@ impl<'a> Schedule<'a> {
             );
             let mut parts = self.lock();
             let part = &mut parts[k];
-            if self.setup.starts[index].anchor {
-                part.anchors_left -= 1;
-                if let Ok((_, solution)) = &run {
-                    part.best_anchor = part.best_anchor.min(solution.cost);
-                }
-            } else {
-                part.others_left -= 1;
-            }
             part.runs[index] = Some(run);
             self.release(scope, k, part);
         });
     }
 
-    /// Releases part `k`'s other starts once its anchors have all finished well, and its
-    /// polish once every start has; each once.
+    /// Releases part `k`'s other starts once its anchors have all finished well (against
+    /// their lowest cost), and its polish once every start has; each once.
     fn release<'s>(&'s self, scope: &rayon::Scope<'s>, k: usize, part: &mut PartRuns) {
-        let anchors: Vec<usize> = (0..part.runs.len())
-            .filter(|&i| self.setup.starts[i].anchor)
+        let is_anchor = |i: &usize| self.setup.starts[*i].anchor;
+        let anchor_costs: Option<Vec<f64>> = (0..part.runs.len())
+            .filter(is_anchor)
+            .map(|i| match &part.runs[i] {
+                Some(Ok((_, solution))) => Some(solution.cost),
+                _ => None,
+            })
             .collect();
-        let anchors_well = anchors.iter().all(|&i| matches!(part.runs[i], Some(Ok(_))));
-        if !part.others_released && part.anchors_left == 0 && anchors_well {
+        if let (false, Some(costs)) = (part.others_released, anchor_costs) {
             part.others_released = true;
-            for index in (0..part.runs.len()).filter(|i| !anchors.contains(i)) {
-                self.start(scope, k, index, part.best_anchor);
+            let best_anchor = costs.into_iter().fold(f64::INFINITY, f64::min);
+            for index in (0..part.runs.len()).filter(|i| !is_anchor(i)) {
+                self.start(scope, k, index, best_anchor);
             }
         }
-        let all_finished = part.anchors_left == 0 && part.others_left == 0;
-        if !part.polish_released && all_finished && self.settings.polish {
+        // `kept` is Some once every start has finished well.
+        if !part.polish_released && self.settings.polish {
             if let Some((index, solution)) = part.kept().map(|(i, s)| (i, s.clone())) {
                 part.polish_released = true;
                 let label = &self.setup.starts[index].label;

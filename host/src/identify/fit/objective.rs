@@ -30,6 +30,7 @@ use super::block_solve::{
     Cplx, LANES, Lane, LaneCplx, LaneSystem, MAX_BLOCK, MAX_OUTPUTS, MAX_RHS, lane_sqrt,
     solve_lanes, solve_small,
 };
+#[cfg(target_arch = "x86_64")]
 use super::kernels;
 use crate::identify::geomean::wrap_pi;
 

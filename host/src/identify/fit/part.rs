@@ -115,8 +115,7 @@ unsafe fn gram_dense_avx2(jacobian: &DMatrix<f64>) -> DMatrix<f64> {
                 let mut lanes = [0.0; 4];
                 // SAFETY: `lanes` holds four f64.
                 unsafe { _mm256_storeu_pd(lanes.as_mut_ptr(), *sum) };
-                let tail: f64 = x[full..].iter().zip(&y[full..]).map(|(p, q)| p * q).sum();
-                let v = (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]) + tail;
+                let v = dot_total(lanes, &x[full..], &y[full..]);
                 out[(a, b + g)] = v;
                 out[(b + g, a)] = v;
             }
@@ -154,17 +153,20 @@ fn gram_dense_portable(jacobian: &DMatrix<f64>) -> DMatrix<f64> {
 fn dot(x: &[f64], y: &[f64]) -> f64 {
     let mut sums = [0.0; 4];
     let (xc, yc) = (x.chunks_exact(4), y.chunks_exact(4));
-    let tail: f64 = xc
-        .remainder()
-        .iter()
-        .zip(yc.remainder())
-        .map(|(a, b)| a * b)
-        .sum();
+    let (x_tail, y_tail) = (xc.remainder(), yc.remainder());
     for (a, b) in xc.zip(yc) {
         for k in 0..4 {
             sums[k] += a[k] * b[k];
         }
     }
+    dot_total(sums, x_tail, y_tail)
+}
+
+/// A dot product's total from its four running sums over the chunks of four and the
+/// remainder `x_tail . y_tail`: the order both J^T J builds share, so they agree in bits.
+#[inline(always)]
+fn dot_total(sums: [f64; 4], x_tail: &[f64], y_tail: &[f64]) -> f64 {
+    let tail: f64 = x_tail.iter().zip(y_tail).map(|(a, b)| a * b).sum();
     (sums[0] + sums[1]) + (sums[2] + sums[3]) + tail
 }
 
