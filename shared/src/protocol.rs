@@ -229,8 +229,8 @@ pub struct Status {
     /// Running rms (tau as the head's, 1 s by default) of each joint output the
     /// parameters read, m or rad, in [`Greeting::joint_outputs`] order.
     pub joint_running_rms: JointValues,
-    /// Largest absolute value of each joint output read since the pipeline started, m or
-    /// rad, in the same order.
+    /// Largest absolute value of each joint output read since the pipeline's warm-up
+    /// ended (0 before), m or rad, in the same order.
     pub joint_largest_excursion: JointValues,
 }
 

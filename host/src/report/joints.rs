@@ -22,8 +22,8 @@ pub struct MissionJoint {
     pub output: &'static str,
     /// `mm` or `deg`.
     pub unit: &'static str,
-    /// Rms over the legs' whole time, combined energy-equivalently (each leg's mean square
-    /// weighted by its duration).
+    /// Rms over the legs' evaluated time (each after its warm-up, as the head's), combined
+    /// energy-equivalently (each leg's mean square weighted by its evaluated time).
     pub rms: f64,
     /// The largest 1 s running rms of any leg.
     pub max_running_rms: f64,
@@ -47,7 +47,7 @@ pub fn mission_joints(legs: &[Leg]) -> Vec<MissionJoint> {
             let mut peak = (0.0_f64, 0.0, 1);
             for (i, leg) in legs.iter().enumerate() {
                 let Some(j) = leg.joints.get(o) else { continue };
-                rms_and_duration.push((j.rms, leg.duration_s));
+                rms_and_duration.push((j.rms, leg.exposure.evaluated_s));
                 max_running_rms = max_running_rms.max(j.max_running_rms);
                 if j.largest_excursion > peak.0 {
                     peak = (
@@ -88,7 +88,8 @@ pub fn section(
          which no sensor on the litter can see: the head relative to the torso (neck) and the \
          torso relative to the pelvis (lower back). x is along the spine (compression and \
          distraction), y lateral shear, z anteroposterior shear, in mm; ry flexion and \
-         extension, rz lateral bending, in degrees. <strong>No standard sets limits for a \
+         extension, rz lateral bending, in degrees. Each leg counts from the end of its \
+         warm-up, as the head's values do. <strong>No standard sets limits for a \
          supine patient's spinal motion</strong>: these values are reported, not judged, and \
          any threshold is a medical director's to set (see the project's docs/exposure.md).</p>\n",
     );
