@@ -127,7 +127,7 @@ fn a_pause_of_100_ms_in_each_boards_clock_processes_a_partial_block() {
         (32_768, 3_277),
     ] {
         assert_eq!(ticks_in_ms(rate_hz, IDLE_FLUSH_MS), pause_ticks);
-        let (mut rig, _) = Rig::boot_at_rate(&encode(&params), rate_hz);
+        let (mut rig, _) = Rig::boot_at_rate(&encode(&params), rate_hz, 0);
         let input = samples(3, 5);
         rig.send_all(&sample_frames(0, &input));
         assert_eq!(rig.run(), [], "a partial block waits for more samples");
@@ -141,6 +141,29 @@ fn a_pause_of_100_ms_in_each_boards_clock_processes_a_partial_block() {
             &pipeline_messages(&params, &[0, 1, 2, 3, 4], &input),
         );
     }
+}
+
+/// `Status::busy_ticks` counts the board's ticks around the pipeline only: on a clock
+/// that moves a tick each time it is read, and a host that pauses a second of that clock
+/// between frames, the busy time is a few ticks a block, never the pauses.
+#[test]
+fn busy_ticks_count_the_pipelines_ticks_and_never_the_wait_for_the_link() {
+    let params = boot_params();
+    let rate_hz = 64_000_000;
+    let (mut rig, _) = Rig::boot_at_rate(&encode(&params), rate_hz, 1);
+    let input = samples(4, 64);
+    let frames = sample_frames(0, &input);
+    for frame in &frames {
+        rig.send_all(std::slice::from_ref(frame));
+        rig.run();
+        rig.advance_ticks(rate_hz);
+    }
+    let (_, status) = rig.status();
+    assert_eq!(status.samples_processed, 64);
+    let waited = u64::from(rate_hz) * frames.len() as u64;
+    println!("busy_ticks {} while waiting {waited}", status.busy_ticks);
+    assert!(status.busy_ticks > 0, "the pipeline's own ticks are counted");
+    assert!(status.busy_ticks < 1_000, "{}", status.busy_ticks);
 }
 
 #[test]
