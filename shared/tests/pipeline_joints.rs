@@ -211,7 +211,10 @@ fn a_ride_that_starts_in_motion_keeps_the_start_up_transient_out_of_the_excursio
         .fold((0, 0.0f32), |a, b| if b.1 > a.1 { b } else { a });
     let output = order[k];
     println!("{output}: first second {ratio:.2} x the ride's largest after the warm-up");
-    assert!(ratio > 1.2, "the start-up transient must stand out: {ratio}");
+    assert!(
+        ratio > 1.2,
+        "the start-up transient must stand out: {ratio}"
+    );
 
     // The device's largest excursion: the ride's after the warm-up, for every output.
     let reported = state.joints().largest_excursion(order.len());
@@ -232,7 +235,11 @@ fn a_ride_that_starts_in_motion_keeps_the_start_up_transient_out_of_the_excursio
             events.push(e);
         }
     });
-    assert_eq!(events, [], "{output}: the transient raised an excursion alert");
+    assert_eq!(
+        events,
+        [],
+        "{output}: the transient raised an excursion alert"
+    );
     // Below the ride's own peak it is raised, after the warm-up.
     config.excursion_m_or_rad[k] = 0.9 * ride_peak;
     let alerted = params.with_joint_alerts(config).unwrap();
@@ -243,5 +250,9 @@ fn a_ride_that_starts_in_motion_keeps_the_start_up_transient_out_of_the_excursio
         }
     });
     assert_eq!(raised_at.len(), 1, "{output}");
-    assert!(raised_at[0] >= warmup, "{output}: raised at {}", raised_at[0]);
+    assert!(
+        raised_at[0] >= warmup,
+        "{output}: raised at {}",
+        raised_at[0]
+    );
 }

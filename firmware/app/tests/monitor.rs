@@ -162,7 +162,10 @@ fn busy_ticks_count_the_pipelines_ticks_and_never_the_wait_for_the_link() {
     assert_eq!(status.samples_processed, 64);
     let waited = u64::from(rate_hz) * frames.len() as u64;
     println!("busy_ticks {} while waiting {waited}", status.busy_ticks);
-    assert!(status.busy_ticks > 0, "the pipeline's own ticks are counted");
+    assert!(
+        status.busy_ticks > 0,
+        "the pipeline's own ticks are counted"
+    );
     assert!(status.busy_ticks < 1_000, "{}", status.busy_ticks);
 }
 

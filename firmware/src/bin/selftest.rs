@@ -80,9 +80,18 @@ enum Failure {
     Peripherals,
     Console,
     Params(params::ParamsError),
-    NotFinite { index: usize },
-    Golden { what: &'static str, index: usize },
-    Assembly { what: &'static str, case: usize, sample: usize },
+    NotFinite {
+        index: usize,
+    },
+    Golden {
+        what: &'static str,
+        index: usize,
+    },
+    Assembly {
+        what: &'static str,
+        case: usize,
+        sample: usize,
+    },
     Output,
 }
 

@@ -268,7 +268,11 @@ impl Rig {
 
     /// [`boot`](Self::boot) on a board whose clock ticks at `tick_rate_hz`, moving on by
     /// `ticks_per_read` each time the monitor reads it.
-    pub fn boot_at_rate(boot_blob: &[u8], tick_rate_hz: u32, ticks_per_read: u32) -> (Self, Greeting) {
+    pub fn boot_at_rate(
+        boot_blob: &[u8],
+        tick_rate_hz: u32,
+        ticks_per_read: u32,
+    ) -> (Self, Greeting) {
         Self::boot_clocked(
             &plain_slot_a(boot_blob),
             FlashFaults::default(),
