@@ -11,6 +11,27 @@ use supine_core::model::{JointOutput, JointUnit, ModelParams, Preset, SystemMatr
 use supine_host::cli::{Cli, Command};
 use supine_host::io::recording::PLATFORM_HEADER_LINE;
 
+/// What `supine exposure --preset PRESET --input PATH [--json]` prints.
+fn exposure_output(preset: &str, path: &std::path::Path, json: bool) -> Vec<u8> {
+    let mut argv = vec![
+        "supine",
+        "exposure",
+        "--preset",
+        preset,
+        "--input",
+        path.to_str().unwrap(),
+    ];
+    if json {
+        argv.push("--json");
+    }
+    let Command::Exposure(args) = Cli::try_parse_from(argv).unwrap().command else {
+        unreachable!()
+    };
+    let mut out = Vec::new();
+    supine_host::commands::exposure::run_to(&args, &mut out).unwrap();
+    out
+}
+
 #[test]
 fn a_vertical_sine_moves_the_joints_by_the_joint_response_and_the_report_says_so() {
     let dir = tempfile::tempdir().unwrap();
@@ -32,22 +53,7 @@ fn a_vertical_sine_moves_the_joints_by_the_joint_response_and_the_report_says_so
     std::fs::write(&path, text).unwrap();
     // The rigid-platform preset: on the litter the torso's vertical contact is nearly free
     // (0.8 N/m), and its slow mode would carry a drift from the ramp into the excursion.
-    let cli = Cli::try_parse_from([
-        "supine",
-        "exposure",
-        "--preset",
-        "paper-rigid",
-        "--input",
-        path.to_str().unwrap(),
-        "--json",
-    ])
-    .unwrap();
-    let Command::Exposure(args) = cli.command else {
-        unreachable!()
-    };
-    let mut out = Vec::new();
-    supine_host::commands::exposure::run_to(&args, &mut out).unwrap();
-    let v: Value = serde_json::from_slice(&out).unwrap();
+    let v: Value = serde_json::from_slice(&exposure_output("paper-rigid", &path, true)).unwrap();
     let joints = v["joints"].as_array().expect("a joints array");
     assert_eq!(joints.len(), 10);
     let h = SystemMatrices::assemble(&ModelParams::preset(Preset::PaperRigid))
@@ -78,21 +84,7 @@ fn a_vertical_sine_moves_the_joints_by_the_joint_response_and_the_report_says_so
         }
     }
     // And the table names the section.
-    let cli = Cli::try_parse_from([
-        "supine",
-        "exposure",
-        "--preset",
-        "paper-rigid",
-        "--input",
-        path.to_str().unwrap(),
-    ])
-    .unwrap();
-    let Command::Exposure(args) = cli.command else {
-        unreachable!()
-    };
-    let mut out = Vec::new();
-    supine_host::commands::exposure::run_to(&args, &mut out).unwrap();
-    let text = String::from_utf8(out).unwrap();
+    let text = String::from_utf8(exposure_output("paper-rigid", &path, false)).unwrap();
     assert!(text.contains("neck and lower back"), "{text}");
     assert!(text.contains("no standard sets limits"), "{text}");
     assert!(text.contains("low_back_ry"), "{text}");
@@ -119,22 +111,7 @@ fn a_ride_that_starts_in_motion_keeps_the_models_start_up_out_of_the_joint_numbe
         input.push([0.0, 0.0, z]);
     }
     std::fs::write(&path, text).unwrap();
-    let cli = Cli::try_parse_from([
-        "supine",
-        "exposure",
-        "--preset",
-        "paper-litter",
-        "--input",
-        path.to_str().unwrap(),
-        "--json",
-    ])
-    .unwrap();
-    let Command::Exposure(args) = cli.command else {
-        unreachable!()
-    };
-    let mut out = Vec::new();
-    supine_host::commands::exposure::run_to(&args, &mut out).unwrap();
-    let v: Value = serde_json::from_slice(&out).unwrap();
+    let v: Value = serde_json::from_slice(&exposure_output("paper-litter", &path, true)).unwrap();
     assert_eq!(v["warmup_s"].as_f64(), Some(warmup_s));
     let joints = v["joints"].as_array().expect("a joints array");
 

@@ -365,7 +365,7 @@ fn every_selection_taken_from_the_full_readout_is_the_readout_built_for_it() {
             for (state, u) in &states {
                 let (mut a, mut b) = ([0.0; JOINT_OUTPUT_COUNT], [0.0; JOINT_OUTPUT_COUNT]);
                 let n = selected.read_packed(&head, state, *u, &mut a);
-                assert_eq!(selected.read_packed_definition(&head, state, *u, &mut b), n);
+                assert_eq!(selected.read_packed_by::<true>(&head, state, *u, &mut b), n);
                 assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits));
             }
         }

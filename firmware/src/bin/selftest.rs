@@ -4,7 +4,7 @@
 //! `TestVector::new(SEED)` through the device's model step (the FPU assembly of
 //! `supine_core::model::fpu_loops`) and prints every output's f32 bits, compares that
 //! assembly with the Rust definitions compiled beside it (`DiscreteModal::step` and
-//! `JointReadout::read_packed_definition`) bit for bit, for every row count the step and
+//! `JointReadout::read_packed_by::<true>`) bit for bit, for every row count the step and
 //! the readout take, with and without blocks, and for every selection of joint outputs,
 //! checks the wire protocol's golden bytes (`supine_core::protocol::golden`: every
 //! message and the example blob must encode to exactly the bytes the host recorded, and
@@ -281,7 +281,7 @@ fn compare_readout(
         if sample >= ASM_SETTLE_SAMPLES {
             let (mut a, mut d) = ([0.0; JOINT_OUTPUT_COUNT], [0.0; JOINT_OUTPUT_COUNT]);
             let n = black_box(readout).read_packed(head, &state, u, &mut a);
-            let m = black_box(readout).read_packed_definition(head, &state, u, &mut d);
+            let m = black_box(readout).read_packed_by::<true>(head, &state, u, &mut d);
             if n != m || a.map(f32::to_bits) != d.map(f32::to_bits) {
                 return Err(Failure::Assembly {
                     what: "joint readout",

@@ -351,27 +351,15 @@ impl JointReadout {
         input_m_s2: [f32; 3],
         out: &mut [f32; JOINT_OUTPUT_COUNT],
     ) -> usize {
-        self.read_packed_with::<false>(head, state, input_m_s2, out)
+        self.read_packed_by::<false>(head, state, input_m_s2, out)
     }
 
-    /// [`read_packed`](Self::read_packed) by its Rust definition on every target: what
-    /// the assembly must equal bit for bit, compiled beside it for the device's self-test
-    /// to compare (`firmware/src/bin/selftest.rs`). Not linked into the monitor.
-    #[inline(never)]
-    pub fn read_packed_definition(
-        &self,
-        head: &DiscreteModal<f32, 3>,
-        state: &ModalState<f32>,
-        input_m_s2: [f32; 3],
-        out: &mut [f32; JOINT_OUTPUT_COUNT],
-    ) -> usize {
-        self.read_packed_with::<true>(head, state, input_m_s2, out)
-    }
-
-    /// [`read_packed`](Self::read_packed), its loops the Rust definition if `DEFINITION`,
-    /// else the device's.
+    /// [`read_packed`](Self::read_packed), its loops the Rust definition if `DEFINITION`
+    /// (on every target), else the device's (`fpu_loops`' assembly on the Cortex-M4F).
+    /// The definition is what the assembly must equal bit for bit, compiled beside it in
+    /// the device's self-test to compare (`firmware/src/bin/selftest.rs`).
     #[inline(always)]
-    fn read_packed_with<const DEFINITION: bool>(
+    pub fn read_packed_by<const DEFINITION: bool>(
         &self,
         head: &DiscreteModal<f32, 3>,
         state: &ModalState<f32>,
