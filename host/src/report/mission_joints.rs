@@ -15,7 +15,9 @@ use crate::exposure::joints::JointReport;
 pub struct LegJoints<'a> {
     /// The leg's start in the mission, s.
     pub start_s: f64,
-    /// The leg's evaluated time (after its warm-up), s: the joints' rms weight.
+    /// The leg's duration, s.
+    pub duration_s: f64,
+    /// The leg's evaluated time (after its warm-up, from which the joints count), s.
     pub evaluated_s: f64,
     /// The leg's joint outputs, in the model's order.
     pub joints: &'a [JointReport],
