@@ -427,6 +427,14 @@ impl ExposureSettings {
         Ok(())
     }
 
+    /// Samples of the warm-up still to come in `state`: the next sample's
+    /// [`ExposureSample::valid`] is false while this is not zero. The joints' exposure
+    /// waits for the same warm-up (`crate::pipeline`).
+    #[inline]
+    pub fn warmup_left(&self, state: &ExposureState) -> u32 {
+        self.warmup_samples.saturating_sub(state.acc.samples)
+    }
+
     /// One sample of predicted head acceleration (m/s^2, head x, y, z, at the design rate).
     ///
     /// Never fails: a non-finite input propagates into the values (the sensor check in
@@ -487,7 +495,7 @@ impl ExposureSettings {
         let (gain, dt) = (self.running_gain, self.sample_period_s);
         // The warm-up samples of this block come first, in a loop of their own, so the
         // steady-state loop below carries no warm-up test.
-        let warm = (self.warmup_samples.saturating_sub(samples) as usize).min(N);
+        let warm = (self.warmup_left(state) as usize).min(N);
         for n in 0..warm {
             for i in 0..3 {
                 ms[i] += gain * (a[i][n] * a[i][n] - ms[i]);

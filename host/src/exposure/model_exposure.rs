@@ -64,8 +64,9 @@ pub struct ModelExposure {
     pub max_level: &'static str,
     /// Exposure level after the last sample.
     pub final_level: &'static str,
-    /// The predicted neck and lower-back motion over the whole ride (from the start, warm-up
-    /// included: the joints need no settling filter); empty when the model is not known.
+    /// The predicted neck and lower-back motion over the ride after the warm-up (as the
+    /// head's and the device's: the model's start-up transient is not motion of the ride);
+    /// empty when the model is not known.
     pub joints: Vec<JointReport>,
 }
 
@@ -89,7 +90,7 @@ pub fn evaluate_model_with(
     let name = input.source().path().display().to_string();
     let warmup_s = params.exposure.config.warmup_s as f64;
     check_warmup(&name, input.samples, fs, warmup_s)?;
-    let joints = JointTracker::new(&file.params, fs)?;
+    let joints = JointTracker::new(&file.params, fs, params.exposure.warmup_samples as usize)?;
     let mut run = ModelRun::new(&params, Some(joints), input.start_s);
     for sample in input.platform()? {
         run.push(sample?, &mut observe)?;

@@ -30,7 +30,8 @@ pub fn section(
          which no sensor on the litter can see: the head relative to the torso (neck) and the \
          torso relative to the pelvis (lower back). x is along the spine (compression and \
          distraction), y lateral shear, z anteroposterior shear, in mm; ry flexion and \
-         extension, rz lateral bending, in degrees. <strong>No standard sets limits for a \
+         extension, rz lateral bending, in degrees. Each leg counts from the end of its \
+         warm-up, as the head's values do. <strong>No standard sets limits for a \
          supine patient's spinal motion</strong>: these values are reported, not judged, and \
          any threshold is a medical director's to set (see the project's docs/exposure.md).</p>\n",
     );

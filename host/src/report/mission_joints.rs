@@ -28,8 +28,8 @@ pub struct MissionJoint {
     pub output: &'static str,
     /// `mm` or `deg`.
     pub unit: &'static str,
-    /// Rms over the legs' whole time, combined energy-equivalently (each leg's mean square
-    /// weighted by its duration).
+    /// Rms over the legs' evaluated time (each after its warm-up, as the head's), combined
+    /// energy-equivalently (each leg's mean square weighted by its evaluated time).
     pub rms: f64,
     /// The largest 1 s running rms of any leg.
     pub max_running_rms: f64,
@@ -53,7 +53,7 @@ pub fn mission_joints(legs: &[LegJoints<'_>]) -> Vec<MissionJoint> {
             let mut peak = (0.0_f64, 0.0, 1);
             for (i, leg) in legs.iter().enumerate() {
                 let Some(j) = leg.joints.get(o) else { continue };
-                rms_and_duration.push((j.rms, leg.duration_s));
+                rms_and_duration.push((j.rms, leg.exposure.evaluated_s));
                 max_running_rms = max_running_rms.max(j.max_running_rms);
                 if j.largest_excursion > peak.0 {
                     peak = (
