@@ -9,15 +9,13 @@ use supine_core::exposure::combined_rms_m_s2;
 
 use crate::exposure::joints::JointReport;
 
-/// What the combination needs of a leg: when it starts in the mission, how long it is, and
-/// its joint outputs.
+/// What the combination needs of a leg: when it starts in the mission, how long it was
+/// evaluated (after its warm-up), and its joint outputs.
 #[derive(Clone, Copy, Debug)]
 pub struct LegJoints<'a> {
     /// The leg's start in the mission, s.
     pub start_s: f64,
-    /// The leg's duration, s.
-    pub duration_s: f64,
-    /// The leg's evaluated time (after its warm-up, from which the joints count), s.
+    /// The leg's evaluated time, after its warm-up, s.
     pub evaluated_s: f64,
     /// The leg's joint outputs, in the model's order.
     pub joints: &'a [JointReport],
