@@ -217,14 +217,19 @@ def summary(rows):
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--set", choices=sorted(SETS), required=True, action="append")
+    ap.add_argument("--set", choices=sorted(SETS), action="append", default=[])
     ap.add_argument("--only", type=int, nargs="*", help="dataset indices within the set")
     ap.add_argument("--supine", default=os.path.join(REPO, "target/release/supine"))
     ap.add_argument("--root", default=os.path.join(REPO, "target/fit-robustness"))
     ap.add_argument("--tolerance", type=float, default=1e-8, help="SciPy's ftol, xtol, gtol")
     ap.add_argument("--supine-tolerance", type=float, help="supine's (default: its own)")
     ap.add_argument("--json", help="also write the rows here")
+    ap.add_argument("--summary", help="only print the table and summary of this --json file")
     args = ap.parse_args()
+    if args.summary:
+        with open(args.summary) as fh:
+            summary(json.load(fh))
+        return
     datasets = [d for name in args.set for d in design(name)]
     if args.only:
         datasets = [datasets[k] for k in args.only]
@@ -239,9 +244,10 @@ def main():
               f"{r['rust_litter_cost']:.6f} vs {r['scipy_litter_cost']:.6f} (pipelines), "
               f"{r['rust_stage_litter_cost']:.6f} vs {r['scipy_stage_litter_cost']:.6f} "
               f"(same joints)", file=sys.stderr)
-    if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(rows, fh, indent=1)
+        if args.json:
+            # After every dataset, so that an interrupted run keeps what it measured.
+            with open(args.json, "w") as fh:
+                json.dump(rows, fh, indent=1)
     summary(rows)
 
 

@@ -267,29 +267,31 @@ def main():
         desc = tomllib.load(fh)
     subjects = [s for s in desc["subject"] if s["id"] not in exclude]
 
-    t0 = time.perf_counter()
-    hs, fs = [], None
-    for s in subjects:
-        d = read_recording(os.path.join(args.dataset, s[args.case]))
-        fs = (len(d) - 1) / (d[-1, 0] - d[0, 0])
-        nperseg = 1 << math.ceil(math.log2(math.ceil(fs / 0.1)))
-        kw = dict(fs=fs, window="hann", nperseg=nperseg, noverlap=nperseg // 2,
-                  detrend="constant", scaling="density")
-        x, y = d[:, 1:4], d[:, 4:13]
-        f, _ = signal.csd(x[:, 0], x[:, 0], **kw)
-        sel = (f >= 0.5 - 1e-9) & (f <= 16.0 + 1e-9)
-        sxx = np.empty((sel.sum(), 3, 3), complex)
-        sxy = np.empty((sel.sum(), 3, 9), complex)
-        xy = np.concatenate([x, y], axis=1)
-        for i in range(3):
-            # S_ab = E[conj(A) B] (scipy's convention): input i against all 12 channels.
-            _, pxy = signal.csd(np.broadcast_to(x[:, i : i + 1], xy.shape), xy, axis=0, **kw)
-            sxx[:, i, :] = pxy[sel, :3]
-            sxy[:, i, :] = pxy[sel, 3:]
-        hs.append(np.linalg.solve(sxx, sxy).transpose(0, 2, 1))
-        freqs = f[sel]
-    target = geometric_mean(np.array(hs))
-    t_spectra = time.perf_counter() - t0
+    def measured(case):
+        """The geometric-mean H of `case` over the subjects, its frequencies, and the time."""
+        t0 = time.perf_counter()
+        hs = []
+        for s in subjects:
+            d = read_recording(os.path.join(args.dataset, s[case]))
+            fs = (len(d) - 1) / (d[-1, 0] - d[0, 0])
+            nperseg = 1 << math.ceil(math.log2(math.ceil(fs / 0.1)))
+            kw = dict(fs=fs, window="hann", nperseg=nperseg, noverlap=nperseg // 2,
+                      detrend="constant", scaling="density")
+            x, y = d[:, 1:4], d[:, 4:13]
+            f, _ = signal.csd(x[:, 0], x[:, 0], **kw)
+            sel = (f >= 0.5 - 1e-9) & (f <= 16.0 + 1e-9)
+            sxx = np.empty((sel.sum(), 3, 3), complex)
+            sxy = np.empty((sel.sum(), 3, 9), complex)
+            xy = np.concatenate([x, y], axis=1)
+            for i in range(3):
+                # S_ab = E[conj(A) B] (scipy's convention): input i against all 12 channels.
+                _, pxy = signal.csd(np.broadcast_to(x[:, i : i + 1], xy.shape), xy, axis=0,
+                                    **kw)
+                sxx[:, i, :] = pxy[sel, :3]
+                sxy[:, i, :] = pxy[sel, 3:]
+            hs.append(np.linalg.solve(sxx, sxy).transpose(0, 2, 1))
+            freqs = f[sel]
+        return freqs, geometric_mean(np.array(hs)), time.perf_counter() - t0
 
     height = np.mean([s["height_m"] for s in subjects])
     mass = np.mean([s["mass_kg"] for s in subjects])
@@ -297,6 +299,7 @@ def main():
 
     def fit(case, joints):
         """Every start of `case`; its summary and the best start's 42 parameters."""
+        freqs, target, t_spectra = measured(case)
         base, free, lo, hi, starts = problem(case, joints, stiff)
         obj = Objective(freqs, target, height, mass, base, free)
         results, best_theta = [], None
@@ -317,7 +320,8 @@ def main():
                 best_theta = obj._full(res.x)
         # The starts' own times: the initial costs computed for the table are not the fit's.
         best = min(results, key=lambda r: r["cost"])
-        out = dict(case=case, fit_s=sum(r["seconds"] for r in results),
+        out = dict(case=case, spectra_s=t_spectra, frequencies=len(freqs),
+                   fit_s=sum(r["seconds"] for r in results),
                    fit_cpu_s=sum(r["cpu_seconds"] for r in results),
                    best_cost=best["cost"], starts=results)
         return out, np.exp(best_theta)
@@ -330,13 +334,12 @@ def main():
         out["rigid_params"] = rigid_params.tolist()
     else:
         out, _ = fit(args.case, read_joints(args.joints) if args.joints else None)
-    out.update(spectra_s=t_spectra, frequencies=len(freqs),
-               subjects=[s["id"] for s in subjects])
+    out["subjects"] = [s["id"] for s in subjects]
     if args.json:
         print(json.dumps(out, indent=2))
         return
     for stage in [out] + ([out["litter"]] if "litter" in out else []):
-        print(f"{stage['case']}: spectra {t_spectra:.3f} s, fit {stage['fit_s']:.3f} s, "
+        print(f"{stage['case']}: spectra {stage['spectra_s']:.3f} s, fit {stage['fit_s']:.3f} s, "
               f"best cost {stage['best_cost']:.6f}")
         for r in stage["starts"]:
             print(f"  {r['start']}: cost {r['initial_cost']:.6f} -> {r['cost']:.6f}, "
