@@ -121,12 +121,13 @@ pub fn litter_over_minima(
 
     // Every combination within the budget; the lowest litter-board cost, the first
     // (the kept rigid minimum's) on a tie.
-    let above = |k: usize, c: usize| {
-        parts[k].1[c].map_or(0.0, |i| minima.minima[i].cost_above_kept)
-    };
+    let above =
+        |k: usize, c: usize| parts[k].1[c].map_or(0.0, |i| minima.minima[i].cost_above_kept);
     let count: usize = parts.iter().map(|(_, o)| o.len()).product();
     if count > MOST_COMBINATIONS {
-        bail!("[fit.rigid_minima]: {count} combinations of rigid minima, expected at most {MOST_COMBINATIONS}");
+        bail!(
+            "[fit.rigid_minima]: {count} combinations of rigid minima, expected at most {MOST_COMBINATIONS}"
+        );
     }
     let mut best: Option<(f64, Vec<usize>)> = None;
     for index in 0..count {
@@ -168,6 +169,22 @@ pub fn litter_over_minima(
                 rigid_cost_above_kept: above(k, c),
                 litter_cost: litter_costs[k][c],
                 kept: choice[k] == c,
+            });
+        }
+    }
+    // The parts without another rigid minimum: their kept one, for a complete account.
+    for part in result
+        .parts
+        .iter()
+        .filter(|p| !parts.iter().any(|(n, _)| *n == p.name))
+    {
+        if let Some(litter_cost) = part_cost(&result, &part.name) {
+            options.push(PartOption {
+                part: part.name.clone(),
+                start: KEPT.to_string(),
+                rigid_cost_above_kept: 0.0,
+                litter_cost,
+                kept: true,
             });
         }
     }
