@@ -3,28 +3,36 @@
 "Identification: robustness and speed over datasets").
 
 Each dataset is made by `supine synth` with its own seed, spread of the subjects'
-parameters (e^N(0, 0.15) or e^N(0, 0.3)), number of subjects (5-10) and noise
-(0.005-0.05 m/s^2); every subject is fitted (none held out). On each dataset, back to
-back on the same machine:
+parameters (e^N(0, 0.15), e^N(0, 0.3) or e^N(0, 0.5)), correlation of a subject's
+parameters (0, independent, or 0.8), number of subjects (5-10) and noise (0.005-0.05
+m/s^2); every subject is fitted (none held out). On each dataset, back to back on the
+same machine:
 
 1. `supine fit --case rigid` (the whole command: reading, spectra, every start), timed
    from outside as the wall time of the process;
-2. `scipy_fit.py --case rigid` (SciPy's two-start fit, the paper's two starts);
-3. `supine fit --case litter --joints RIGID.toml` (the joints of step 1 fixed);
-4. `scipy_fit.py --case litter --joints RIGID.toml` (the same fixed joints).
+2. `scipy_fit.py --case pipeline`: SciPy's own two stages (its two-start rigid fit, the
+   paper's two starts; then its litter-board fit bounded by its own rigid minimum);
+3. `supine fit --case litter --joints RIGID.toml`: supine's second stage, which also
+   explores the rigid minima of step 1 within its noise (pipeline against pipeline:
+   against step 2's litter-board cost);
+4. `supine fit --case litter --no-explore --joints RIGID.toml` and
+   `scipy_fit.py --case litter --joints RIGID.toml`: both litter-board fits on the same
+   fixed joints, step 1's (stage by stage).
 
 SciPy runs with ftol = xtol = gtol = `--tolerance` (1e-8, tighter than its defaults);
 supine with its own defaults (1e-6, docs/model.md#solver-and-tolerances, and the polish at 1e-8) unless
 `--supine-tolerance` is given. The speed-up is
-SciPy's fit time alone (its reading, spectra and interpreter start-up left out) over
-the whole supine command, so it favours SciPy; the same ratio of CPU times (every thread
-of supine counted) is printed beside it, as it depends less on what else the machine runs.
-The load average is recorded with each dataset.
+SciPy's rigid fit time alone (its reading, spectra and interpreter start-up left out) over
+the whole supine rigid command, so it favours SciPy; the same ratio of CPU times (every
+thread of supine counted) is printed beside it, as it depends less on what else the
+machine runs. The load average is recorded with each dataset.
 
-Two disjoint sets: `selection` (seeds 1001-1012), on which settings may be chosen, and
-`report` (seeds 2001-2024), on which they are reported.
+Sets, disjoint: `selection` (seeds 1001-1012) and `selection-wide` (1101-1112), on which
+settings may be chosen; `report` (2001-2024) and `report-wide` (2101-2124), on which they
+are reported. The `-wide` sets cycle through (spread 0.5, independent), (0.5, correlated
+0.8) and (0.3, correlated 0.8).
 
-Usage: fit_robustness.py --set selection|report [--only K ...] [--supine BIN]
+Usage: fit_robustness.py --set NAME [--set NAME ...] [--only K ...] [--supine BIN]
        [--root DIR] [--tolerance 1e-8] [--supine-tolerance T] [--json OUT.json]
 """
 
@@ -41,24 +49,30 @@ import tomllib
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(os.path.dirname(HERE))
-SPREADS = [0.15, 0.3]
 SUBJECTS = [5, 6, 7, 8, 9, 10]
 NOISES_M_S2 = [0.005, 0.01, 0.02, 0.05]
-SETS = {"selection": (1001, 12), "report": (2001, 24)}
+# (spread, correlation) cycles of the sets.
+NARROW = [(0.15, 0.0), (0.3, 0.0)]
+WIDE = [(0.5, 0.0), (0.5, 0.8), (0.3, 0.8)]
+SETS = {"selection": (1001, 12, NARROW), "report": (2001, 24, NARROW),
+        "selection-wide": (1101, 12, WIDE), "report-wide": (2101, 24, WIDE)}
 # Costs this close (relative) are the same minimum up to the rounding of the sum of 3,792
 # squares: counted as equal, not as above.
 SAME_MINIMUM = 1e-12
 
 
 def design(name):
-    """The datasets of a set: (seed, spread, subjects, noise). Over 24 datasets every pair of
-    (subjects, noise) from the 12 combinations below meets both spreads."""
-    first, count = SETS[name]
+    """The datasets of a set: (seed, spread, correlation, subjects, noise). Over 24 datasets
+    of `report` every pair of (subjects, noise) from the 12 combinations below meets both
+    spreads."""
+    first, count, cycle = SETS[name]
     out = []
     for k in range(count):
-        out.append(dict(seed=first + k, spread=SPREADS[k % 2],
-                        subjects=SUBJECTS[(k // 2) % len(SUBJECTS)],
-                        noise_m_s2=NOISES_M_S2[(k // 2) % len(NOISES_M_S2)]))
+        spread, correlation = cycle[k % len(cycle)]
+        step = k // len(cycle)
+        out.append(dict(seed=first + k, spread=spread, correlation=correlation,
+                        subjects=SUBJECTS[step % len(SUBJECTS)],
+                        noise_m_s2=NOISES_M_S2[step % len(NOISES_M_S2)]))
     return out
 
 
@@ -86,14 +100,18 @@ def synth(supine, d, directory):
                 return
     run([supine, "synth", "--out", directory, "--seed", str(d["seed"]),
          "--subjects", str(d["subjects"]), "--noise-m-s2", str(d["noise_m_s2"]),
-         "--param-log-sd", str(d["spread"])])
+         "--param-log-sd", str(d["spread"]), "--param-correlation", str(d["correlation"])])
     with open(stamp, "w") as fh:
         json.dump(d, fh)
 
 
-def final_cost(path):
+def fit_table(path):
     with open(path, "rb") as fh:
-        return tomllib.load(fh)["fit"]["final_cost"]
+        return tomllib.load(fh)["fit"]
+
+
+def final_cost(path):
+    return fit_table(path)["final_cost"]
 
 
 def tolerance_args(tolerance):
@@ -106,23 +124,34 @@ def measure(supine, d, directory, tolerance, supine_tolerance):
              "--json"] + tolerance_args(tolerance)
     rigid = os.path.join(directory, "rigid.toml")
     litter = os.path.join(directory, "litter.toml")
+    stage = os.path.join(directory, "litter_stage.toml")
     row = dict(d, load=os.getloadavg()[0])
     done, row["rust_rigid_s"] = run([supine, "fit", "--dataset", directory, "--case", "rigid",
                                      "--out", rigid] + tol_args)
     row["rust_rigid_cpu_s"] = run.cpu_s
     row["rust_rigid_cost"] = final_cost(rigid)
+    row["rust_rigid_minima"] = len(fit_table(rigid)["rigid_minima"]["minimum"])
     split = re.search(r"reading and spectra ([0-9.]+) s, solver ([0-9.]+) s", done.stderr)
     row["rust_spectra_s"], row["rust_solver_s"] = float(split[1]), float(split[2])
-    out, row["scipy_rigid_total_s"] = run(scipy + ["--case", "rigid"])
+    out, row["scipy_total_s"] = run(scipy + ["--case", "pipeline"])
     sp = json.loads(out.stdout)
     row["scipy_rigid_s"], row["scipy_rigid_cost"] = sp["fit_s"], sp["best_cost"]
     row["scipy_rigid_cpu_s"] = sp["fit_cpu_s"]
+    row["scipy_litter_s"] = sp["litter"]["fit_s"]
+    row["scipy_litter_cost"] = sp["litter"]["best_cost"]
+    # Pipeline against pipeline: supine's litter-board fit over its rigid minima.
     _, row["rust_litter_s"] = run([supine, "fit", "--dataset", directory, "--case", "litter",
                                    "--joints", rigid, "--out", litter] + tol_args)
-    row["rust_litter_cost"] = final_cost(litter)
+    table = fit_table(litter)
+    row["rust_litter_cost"] = table["final_cost"]
+    explored = table["rigid_minima_explored"]
+    row["rust_pair_rigid_cost"] = row["rust_rigid_cost"] + explored["rigid_cost_above_kept"]
+    # Stage by stage: both litter-board fits on supine's rigid joints.
+    run([supine, "fit", "--dataset", directory, "--case", "litter", "--no-explore",
+         "--joints", rigid, "--out", stage] + tol_args)
+    row["rust_stage_litter_cost"] = final_cost(stage)
     out, _ = run(scipy + ["--case", "litter", "--joints", rigid])
-    sp = json.loads(out.stdout)
-    row["scipy_litter_s"], row["scipy_litter_cost"] = sp["fit_s"], sp["best_cost"]
+    row["scipy_stage_litter_cost"] = json.loads(out.stdout)["best_cost"]
     row["speedup"] = row["scipy_rigid_s"] / row["rust_rigid_s"]
     row["cpu_speedup"] = row["scipy_rigid_cpu_s"] / row["rust_rigid_cpu_s"]
     return row
@@ -136,59 +165,72 @@ def compare(ours, scipy):
 
 
 def summary(rows):
-    print("| seed | spread | subjects | noise m/s^2 | load | rigid: supine cost | SciPy cost "
-          "| supine s (reading + spectra, solver) | SciPy fit s | speed-up | CPU speed-up "
-          "| litter: supine cost | SciPy cost | supine s | SciPy fit s |")
-    print("|" + "---|" * 15)
+    print("| seed | spread | corr. | subjects | noise m/s^2 | load | rigid: supine | SciPy "
+          "| speed-up (CPU) | pipeline litter: supine | SciPy | pair's rigid "
+          "| stage litter: supine | SciPy |")
+    print("|" + "---|" * 14)
+    marks = {"below": "", "equal": " (equal)", "above": " (ABOVE)"}
     for r in rows:
-        marks = {"below": "", "equal": " (equal)", "above": " (ABOVE)"}
-        rigid_mark = marks[compare(r["rust_rigid_cost"], r["scipy_rigid_cost"])]
-        litter_mark = marks[compare(r["rust_litter_cost"], r["scipy_litter_cost"])]
-        print(f"| {r['seed']} | {r['spread']} | {r['subjects']} | {r['noise_m_s2']} "
-              f"| {r['load']:.2f} | {r['rust_rigid_cost']:.6f}{rigid_mark} "
-              f"| {r['scipy_rigid_cost']:.6f} | {r['rust_rigid_s']:.3f} "
-              f"({r['rust_spectra_s']:.3f}, {r['rust_solver_s']:.3f}) "
-              f"| {r['scipy_rigid_s']:.2f} | {r['speedup']:.0f}x | {r['cpu_speedup']:.0f}x "
-              f"| {r['rust_litter_cost']:.6f}{litter_mark} | {r['scipy_litter_cost']:.6f} "
-              f"| {r['rust_litter_s']:.3f} | {r['scipy_litter_s']:.2f} |")
+        def mark(ours, theirs):
+            return marks[compare(r[ours], r[theirs])]
+        print(f"| {r['seed']} | {r['spread']} | {r['correlation']} | {r['subjects']} "
+              f"| {r['noise_m_s2']} | {r['load']:.2f} "
+              f"| {r['rust_rigid_cost']:.6f}{mark('rust_rigid_cost', 'scipy_rigid_cost')} "
+              f"| {r['scipy_rigid_cost']:.6f} | {r['speedup']:.0f}x ({r['cpu_speedup']:.0f}x) "
+              f"| {r['rust_litter_cost']:.6f}{mark('rust_litter_cost', 'scipy_litter_cost')} "
+              f"| {r['scipy_litter_cost']:.6f} "
+              f"| {r['rust_pair_rigid_cost']:.6f}"
+              f"{mark('rust_pair_rigid_cost', 'scipy_rigid_cost')} "
+              f"| {r['rust_stage_litter_cost']:.6f}"
+              f"{mark('rust_stage_litter_cost', 'scipy_stage_litter_cost')} "
+              f"| {r['scipy_stage_litter_cost']:.6f} |")
 
     def spread(name, values, fmt):
         lo, mid, hi = min(values), statistics.median(values), max(values)
         print(f"{name}: min {fmt(lo)}, median {fmt(mid)}, max {fmt(hi)}")
 
     print()
-    spread("speed-up (SciPy fit s / supine rigid command s, wall)",
+    spread("speed-up (SciPy rigid fit s / supine rigid command s, wall)",
            [r["speedup"] for r in rows], lambda v: f"{v:.1f}x")
-    spread("speed-up in CPU time (SciPy fit / supine command, all its threads)",
+    spread("speed-up in CPU time (SciPy rigid fit / supine command, all its threads)",
            [r["cpu_speedup"] for r in rows], lambda v: f"{v:.1f}x")
     spread("load average (1 min) at each dataset", [r["load"] for r in rows],
            lambda v: f"{v:.2f}")
-    spread("supine rigid command CPU s (all threads)", [r["rust_rigid_cpu_s"] for r in rows],
+    spread("supine rigid command s", [r["rust_rigid_s"] for r in rows], lambda v: f"{v:.3f}")
+    spread("supine litter-board command s (exploring)", [r["rust_litter_s"] for r in rows],
            lambda v: f"{v:.3f}")
-    spread("SciPy fit CPU s", [r["scipy_rigid_cpu_s"] for r in rows], lambda v: f"{v:.2f}")
-    spread("supine reading + spectra s", [r["rust_spectra_s"] for r in rows],
-           lambda v: f"{v:.3f}")
-    spread("supine solver s", [r["rust_solver_s"] for r in rows], lambda v: f"{v:.3f}")
-    spread("SciPy fit s", [r["scipy_rigid_s"] for r in rows], lambda v: f"{v:.2f}")
-    for case in ("rigid", "litter"):
-        rel = [r[f"rust_{case}_cost"] / r[f"scipy_{case}_cost"] - 1 for r in rows]
-        verdicts = [compare(r[f"rust_{case}_cost"], r[f"scipy_{case}_cost"]) for r in rows]
+    spread("SciPy rigid fit s", [r["scipy_rigid_s"] for r in rows], lambda v: f"{v:.2f}")
+    spread("rigid minima kept for the litter-board fit", [r["rust_rigid_minima"] for r in rows],
+           lambda v: f"{v}")
+    for name, ours, theirs in (
+            ("rigid", "rust_rigid_cost", "scipy_rigid_cost"),
+            ("pipeline litter-board", "rust_litter_cost", "scipy_litter_cost"),
+            ("pipeline: the kept pair's rigid", "rust_pair_rigid_cost", "scipy_rigid_cost"),
+            ("stage litter-board (same joints)", "rust_stage_litter_cost",
+             "scipy_stage_litter_cost")):
+        rel = [r[ours] / r[theirs] - 1 for r in rows]
+        verdicts = [compare(r[ours], r[theirs]) for r in rows]
         counts = ", ".join(f"{verdicts.count(v)} {v}" for v in ("below", "equal", "above"))
-        spread(f"{case}: supine cost / SciPy cost - 1 ({counts})", rel,
+        spread(f"{name}: supine cost / SciPy cost - 1 ({counts})", rel,
                lambda v: f"{100 * v:+.2e} %")
 
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--set", choices=sorted(SETS), required=True)
+    ap.add_argument("--set", choices=sorted(SETS), action="append", default=[])
     ap.add_argument("--only", type=int, nargs="*", help="dataset indices within the set")
     ap.add_argument("--supine", default=os.path.join(REPO, "target/release/supine"))
     ap.add_argument("--root", default=os.path.join(REPO, "target/fit-robustness"))
     ap.add_argument("--tolerance", type=float, default=1e-8, help="SciPy's ftol, xtol, gtol")
     ap.add_argument("--supine-tolerance", type=float, help="supine's (default: its own)")
     ap.add_argument("--json", help="also write the rows here")
+    ap.add_argument("--summary", help="only print the table and summary of this --json file")
     args = ap.parse_args()
-    datasets = design(args.set)
+    if args.summary:
+        with open(args.summary) as fh:
+            summary(json.load(fh))
+        return
+    datasets = [d for name in args.set for d in design(name)]
     if args.only:
         datasets = [datasets[k] for k in args.only]
     rows = []
@@ -199,10 +241,13 @@ def main():
         r = rows[-1]
         print(f"seed {d['seed']}: rigid {r['rust_rigid_cost']:.6f} vs {r['scipy_rigid_cost']:.6f}"
               f" ({r['rust_rigid_s']:.3f} s vs {r['scipy_rigid_s']:.2f} s), litter "
-              f"{r['rust_litter_cost']:.6f} vs {r['scipy_litter_cost']:.6f}", file=sys.stderr)
-    if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(rows, fh, indent=1)
+              f"{r['rust_litter_cost']:.6f} vs {r['scipy_litter_cost']:.6f} (pipelines), "
+              f"{r['rust_stage_litter_cost']:.6f} vs {r['scipy_stage_litter_cost']:.6f} "
+              f"(same joints)", file=sys.stderr)
+        if args.json:
+            # After every dataset, so that an interrupted run keeps what it measured.
+            with open(args.json, "w") as fh:
+                json.dump(rows, fh, indent=1)
     summary(rows)
 
 

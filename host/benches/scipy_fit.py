@@ -10,6 +10,11 @@ subjects (phase on the branch nearest the circular mean), residuals
 method='trf' and the same exact Jacobian (vectorized over frequencies with numpy), from
 the same deterministic starts (rigid: the paper's all-ones start and the paper's values).
 
+`--case pipeline` runs SciPy's own two stages, the paper's procedure: the rigid fit, then
+the litter-board fit bounded by (and on the joints of) that rigid fit's best minimum;
+its JSON holds the rigid fit's fields, its 42 parameters (`rigid_params`) and the
+litter-board fit's (`litter`).
+
 The litter-board case (`--case litter --joints RIGID.toml`) keeps the 24 joint parameters
 of a rigid fit's parameter file (supine's format) fixed and fits the 18 contacts within
 [min(1e-3, rigid value), rigid value], from supine's two deterministic starts (the rigid
@@ -19,7 +24,7 @@ as `supine fit --case litter --joints RIGID.toml`. A contact whose box is a sing
 
 BLAS is pinned to one thread.
 
-Usage: scipy_fit.py --dataset DIR [--case rigid|litter] [--joints RIGID.toml] [--exclude s8]
+Usage: scipy_fit.py --dataset DIR [--case rigid|litter|pipeline] [--joints RIGID.toml] [--exclude s8]
        [--starts 2] [--ftol 1e-8] [--xtol 1e-8] [--jac exact|2-point] [--json]
 """
 
@@ -245,7 +250,7 @@ def geometric_mean(values):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--dataset", required=True)
-    ap.add_argument("--case", choices=["rigid", "litter"], default="rigid")
+    ap.add_argument("--case", choices=["rigid", "litter", "pipeline"], default="rigid")
     ap.add_argument("--joints", help="the rigid fit (supine parameter file), for --case litter")
     ap.add_argument("--exclude", default="")
     ap.add_argument("--starts", type=int, default=2)
@@ -262,60 +267,81 @@ def main():
         desc = tomllib.load(fh)
     subjects = [s for s in desc["subject"] if s["id"] not in exclude]
 
-    t0 = time.perf_counter()
-    hs, fs = [], None
-    for s in subjects:
-        d = read_recording(os.path.join(args.dataset, s[args.case]))
-        fs = (len(d) - 1) / (d[-1, 0] - d[0, 0])
-        nperseg = 1 << math.ceil(math.log2(math.ceil(fs / 0.1)))
-        kw = dict(fs=fs, window="hann", nperseg=nperseg, noverlap=nperseg // 2,
-                  detrend="constant", scaling="density")
-        x, y = d[:, 1:4], d[:, 4:13]
-        f, _ = signal.csd(x[:, 0], x[:, 0], **kw)
-        sel = (f >= 0.5 - 1e-9) & (f <= 16.0 + 1e-9)
-        sxx = np.empty((sel.sum(), 3, 3), complex)
-        sxy = np.empty((sel.sum(), 3, 9), complex)
-        xy = np.concatenate([x, y], axis=1)
-        for i in range(3):
-            # S_ab = E[conj(A) B] (scipy's convention): input i against all 12 channels.
-            _, pxy = signal.csd(np.broadcast_to(x[:, i : i + 1], xy.shape), xy, axis=0, **kw)
-            sxx[:, i, :] = pxy[sel, :3]
-            sxy[:, i, :] = pxy[sel, 3:]
-        hs.append(np.linalg.solve(sxx, sxy).transpose(0, 2, 1))
-        freqs = f[sel]
-    target = geometric_mean(np.array(hs))
-    t_spectra = time.perf_counter() - t0
+    def measured(case):
+        """The geometric-mean H of `case` over the subjects, its frequencies, and the time."""
+        t0 = time.perf_counter()
+        hs = []
+        for s in subjects:
+            d = read_recording(os.path.join(args.dataset, s[case]))
+            fs = (len(d) - 1) / (d[-1, 0] - d[0, 0])
+            nperseg = 1 << math.ceil(math.log2(math.ceil(fs / 0.1)))
+            kw = dict(fs=fs, window="hann", nperseg=nperseg, noverlap=nperseg // 2,
+                      detrend="constant", scaling="density")
+            x, y = d[:, 1:4], d[:, 4:13]
+            f, _ = signal.csd(x[:, 0], x[:, 0], **kw)
+            sel = (f >= 0.5 - 1e-9) & (f <= 16.0 + 1e-9)
+            sxx = np.empty((sel.sum(), 3, 3), complex)
+            sxy = np.empty((sel.sum(), 3, 9), complex)
+            xy = np.concatenate([x, y], axis=1)
+            for i in range(3):
+                # S_ab = E[conj(A) B] (scipy's convention): input i against all 12 channels.
+                _, pxy = signal.csd(np.broadcast_to(x[:, i : i + 1], xy.shape), xy, axis=0,
+                                    **kw)
+                sxx[:, i, :] = pxy[sel, :3]
+                sxy[:, i, :] = pxy[sel, 3:]
+            hs.append(np.linalg.solve(sxx, sxy).transpose(0, 2, 1))
+            freqs = f[sel]
+        return freqs, geometric_mean(np.array(hs)), time.perf_counter() - t0
 
     height = np.mean([s["height_m"] for s in subjects])
     mass = np.mean([s["mass_kg"] for s in subjects])
     _, _, stiff, _, _ = model_matrices(height, mass)
-    joints = read_joints(args.joints) if args.joints else None
-    base, free, lo, hi, starts = problem(args.case, joints, stiff)
-    obj = Objective(freqs, target, height, mass, base, free)
-    results = []
-    for label, x0 in starts[: args.starts]:
-        ts, cpu = time.perf_counter(), time.process_time()
-        x0 = np.clip(x0, lo, hi)
-        jac = obj.jacobian if args.jac == "exact" else "2-point"
-        res = optimize.least_squares(obj.residuals, x0, jac=jac, bounds=(lo, hi), method="trf",
-                                     ftol=args.ftol, xtol=args.xtol, gtol=args.gtol)
-        seconds, cpu_seconds = time.perf_counter() - ts, time.process_time() - cpu
-        initial_cost = 0.5 * float(np.sum(obj.residuals(x0) ** 2))
-        results.append(dict(start=label, initial_cost=initial_cost, cost=float(res.cost),
-                            nfev=int(res.nfev), njev=int(res.njev or 0), status=int(res.status),
-                            seconds=seconds, cpu_seconds=cpu_seconds))
-    # The starts' own times: the initial costs computed for the table are not the fit's.
-    t_fit = sum(r["seconds"] for r in results)
-    cpu_fit = sum(r["cpu_seconds"] for r in results)
-    best = min(results, key=lambda r: r["cost"])
-    out = dict(case=args.case, spectra_s=t_spectra, fit_s=t_fit, fit_cpu_s=cpu_fit,
-               best_cost=best["cost"],
-               starts=results, frequencies=len(freqs), subjects=[s["id"] for s in subjects])
+
+    def fit(case, joints):
+        """Every start of `case`; its summary and the best start's 42 parameters."""
+        freqs, target, t_spectra = measured(case)
+        base, free, lo, hi, starts = problem(case, joints, stiff)
+        obj = Objective(freqs, target, height, mass, base, free)
+        results, best_theta = [], None
+        for label, x0 in starts[: args.starts]:
+            ts, cpu = time.perf_counter(), time.process_time()
+            x0 = np.clip(x0, lo, hi)
+            jac = obj.jacobian if args.jac == "exact" else "2-point"
+            res = optimize.least_squares(obj.residuals, x0, jac=jac, bounds=(lo, hi),
+                                         method="trf", ftol=args.ftol, xtol=args.xtol,
+                                         gtol=args.gtol)
+            seconds, cpu_seconds = time.perf_counter() - ts, time.process_time() - cpu
+            initial_cost = 0.5 * float(np.sum(obj.residuals(x0) ** 2))
+            results.append(dict(start=label, initial_cost=initial_cost, cost=float(res.cost),
+                                nfev=int(res.nfev), njev=int(res.njev or 0),
+                                status=int(res.status), seconds=seconds,
+                                cpu_seconds=cpu_seconds))
+            if best_theta is None or res.cost < min(r["cost"] for r in results[:-1]):
+                best_theta = obj._full(res.x)
+        # The starts' own times: the initial costs computed for the table are not the fit's.
+        best = min(results, key=lambda r: r["cost"])
+        out = dict(case=case, spectra_s=t_spectra, frequencies=len(freqs),
+                   fit_s=sum(r["seconds"] for r in results),
+                   fit_cpu_s=sum(r["cpu_seconds"] for r in results),
+                   best_cost=best["cost"], starts=results)
+        return out, np.exp(best_theta)
+
+    if args.case == "pipeline":
+        # SciPy's own two stages: its rigid minimum bounds its litter-board fit.
+        out, rigid_params = fit("rigid", None)
+        out["case"] = "pipeline"
+        out["litter"], _ = fit("litter", rigid_params)
+        out["rigid_params"] = rigid_params.tolist()
+    else:
+        out, _ = fit(args.case, read_joints(args.joints) if args.joints else None)
+    out["subjects"] = [s["id"] for s in subjects]
     if args.json:
         print(json.dumps(out, indent=2))
-    else:
-        print(f"spectra {t_spectra:.3f} s, fit {t_fit:.3f} s, best cost {best['cost']:.6f}")
-        for r in results:
+        return
+    for stage in [out] + ([out["litter"]] if "litter" in out else []):
+        print(f"{stage['case']}: spectra {stage['spectra_s']:.3f} s, fit {stage['fit_s']:.3f} s, "
+              f"best cost {stage['best_cost']:.6f}")
+        for r in stage["starts"]:
             print(f"  {r['start']}: cost {r['initial_cost']:.6f} -> {r['cost']:.6f}, "
                   f"{r['nfev']} evaluations, "
                   f"{r['njev']} Jacobians, status {r['status']}, {r['seconds']:.3f} s")

@@ -42,6 +42,10 @@ pub struct Args {
     /// Skip the final polish of the best start's minimum.
     #[arg(long)]
     pub no_polish: bool,
+    /// Litter board: fit on --joints' own rigid minimum only, not also on the rigid fit's
+    /// other minima within its noise (`[fit.rigid_minima]`, docs/model.md#the-pipeline-over-indistinguishable-rigid-minima).
+    #[arg(long)]
+    pub no_explore: bool,
     /// Stop when an accepted step lowers the cost by less than this fraction (1e-6, docs/model.md#solver-and-tolerances).
     #[arg(long, default_value_t = DEFAULT_TOLERANCE)]
     pub ftol: f64,
@@ -117,6 +121,7 @@ fn request(args: &Args) -> Result<FitRequest> {
             threads: args.threads,
             polish: !args.no_polish,
         },
+        explore: !args.no_explore,
     })
 }
 

@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::Result;
+use anyhow::{Result, bail};
 
 use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
@@ -38,6 +38,9 @@ pub struct Args {
     /// Spread of the subjects' parameters: each is the paper's value times e^N(0, this).
     #[arg(long, default_value_t = SynthSettings::default().param_log_sd)]
     pub param_log_sd: f64,
+    /// Correlation of any two of a subject's ln-parameters, 0 (independent) to below 1.
+    #[arg(long, default_value_t = SynthSettings::default().param_correlation)]
+    pub param_correlation: f64,
     /// Print what was written as JSON.
     #[command(flatten)]
     pub json: JsonFlag,
@@ -45,6 +48,10 @@ pub struct Args {
 
 /// Writes the dataset.
 pub fn run(args: &Args) -> Result<()> {
+    let rho = args.param_correlation;
+    if !(0.0..1.0).contains(&rho) {
+        bail!("--param-correlation: expected a number in [0, 1), found {rho}");
+    }
     let settings = SynthSettings {
         subjects: args.subjects,
         seed: args.seed,
@@ -52,6 +59,7 @@ pub fn run(args: &Args) -> Result<()> {
         sample_rate_hz: args.fs_hz,
         noise_m_s2: args.noise_m_s2,
         param_log_sd: args.param_log_sd,
+        param_correlation: rho,
         ..SynthSettings::default()
     };
     let folder = output_folder::claim(&args.out, "supine synth", "--out", args.force)?;

@@ -50,6 +50,9 @@ pub struct SynthSettings {
     pub mass_kg: (f64, f64),
     /// Standard deviation of ln(parameter / paper value) per subject.
     pub param_log_sd: f64,
+    /// Correlation of any two of a subject's ln(parameter / paper value), in [0, 1): a
+    /// subject stiff (or damped) in one element tends to be in every other.
+    pub param_correlation: f64,
 }
 
 impl Default for SynthSettings {
@@ -65,6 +68,7 @@ impl Default for SynthSettings {
             height_m: (1.82, 0.084),
             mass_kg: (81.0, 15.0),
             param_log_sd: 0.15,
+            param_correlation: 0.0,
         }
     }
 }
@@ -81,9 +85,11 @@ pub struct SynthSubject {
 }
 
 /// Draws the subjects' anthropometry and parameters: each of the 42 parameters is the
-/// paper's value times e^(N(0, sd)); the litter case keeps the subject's joints and draws
-/// its contacts around the paper's litter-board values. Height and mass are normal,
-/// clipped to 1.5..2.1 m and 50..130 kg.
+/// paper's value times e^(sd (sqrt(rho) z_s + sqrt(1 - rho) z)), with z_s one N(0, 1) draw
+/// per subject shared by all its parameters (drawn only when rho > 0, so rho = 0 keeps
+/// the stream of independent draws) and z one per parameter; the litter case keeps the
+/// subject's joints and draws its contacts around the paper's litter-board values the
+/// same way. Height and mass are normal, clipped to 1.5..2.1 m and 50..130 kg.
 pub fn draw_subjects(settings: &SynthSettings, rng: &mut ChaCha8Rng) -> Result<Vec<SynthSubject>> {
     let unit = Normal::new(0.0, 1.0).map_err(|e| anyhow!("{e}"))?;
     let rigid_paper = ModelParams::preset(Preset::PaperRigid);
@@ -96,16 +102,22 @@ pub fn draw_subjects(settings: &SynthSettings, rng: &mut ChaCha8Rng) -> Result<V
             mass_kg: (settings.mass_kg.0 + settings.mass_kg.1 * unit.sample(rng))
                 .clamp(50.0, 130.0),
         };
+        let rho = settings.param_correlation;
+        let shared = if rho > 0.0 {
+            rho.sqrt() * unit.sample(rng)
+        } else {
+            0.0
+        };
+        let own = (1.0 - rho).sqrt();
+        let mut factor = || (settings.param_log_sd * (shared + own * unit.sample(rng))).exp();
         let mut rigid = rigid_paper;
         rigid.subject = subject;
         for id in ParamId::ALL {
-            let factor = (settings.param_log_sd * unit.sample(rng)).exp();
-            rigid.set(id, rigid_paper.get(id) * factor);
+            rigid.set(id, rigid_paper.get(id) * factor());
         }
         let mut litter = rigid;
         for id in ParamId::ALL.into_iter().filter(|id| id.is_contact()) {
-            let factor = (settings.param_log_sd * unit.sample(rng)).exp();
-            litter.set(id, litter_paper.get(id) * factor);
+            litter.set(id, litter_paper.get(id) * factor());
         }
         out.push(SynthSubject {
             id: format!("s{}", s + 1),

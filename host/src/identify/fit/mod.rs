@@ -38,7 +38,9 @@
 pub mod band;
 pub mod block_solve;
 pub mod determination;
+pub mod explore;
 pub mod kernels;
+pub mod minima;
 pub mod multistart;
 pub mod objective;
 pub mod part;

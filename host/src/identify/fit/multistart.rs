@@ -55,8 +55,13 @@ pub struct PartOutcome {
     pub name: String,
     /// Its number of free parameters.
     pub params: usize,
+    /// Its free parameters: indices into the fit's unknowns.
+    pub free: Vec<usize>,
     /// Every start on this part, in the starts' order.
     pub starts: Vec<StartOutcome>,
+    /// Every start's minimum of this part (ln p of `free`), in the starts' order: the
+    /// other minima the litter-board fit may explore ([`super::minima`]).
+    pub minima: Vec<Vec<f64>>,
     /// Index of the start whose minimum of this part was kept.
     pub best: usize,
     /// The polish of that minimum, if any.
@@ -404,6 +409,7 @@ pub fn run(setup: &Setup, settings: &FitSettings, progress: Progress) -> Result<
 
     // Per part: every start's outcome and the lowest minimum (the first start on a tie).
     let mut outcomes: Vec<Vec<StartOutcome>> = vec![Vec::new(); parts.len()];
+    let mut minima: Vec<Vec<Vec<f64>>> = vec![Vec::new(); parts.len()];
     let mut kept: Vec<(usize, Solution)> = Vec::with_capacity(parts.len());
     let mut polished: Vec<Option<(StartOutcome, Solution)>> = Vec::with_capacity(parts.len());
     for (k, part) in runs.iter_mut().enumerate() {
@@ -414,8 +420,9 @@ pub fn run(setup: &Setup, settings: &FitSettings, progress: Progress) -> Result<
         kept.push((index, solution));
         polished.push(part.polished.take().and_then(Result::ok));
         for run in &mut part.runs {
-            if let Some(Ok((outcome, _))) = run.take() {
+            if let Some(Ok((outcome, solution))) = run.take() {
                 outcomes[k].push(outcome);
+                minima[k].push(solution.x);
             }
         }
     }
@@ -441,7 +448,9 @@ pub fn run(setup: &Setup, settings: &FitSettings, progress: Progress) -> Result<
         part_outcomes.push(PartOutcome {
             name: part.name.clone(),
             params: part.params.len(),
+            free: part.params.clone(),
             starts: std::mem::take(&mut outcomes[k]),
+            minima: std::mem::take(&mut minima[k]),
             best: *index,
             polish,
         });

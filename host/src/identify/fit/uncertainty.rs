@@ -150,11 +150,12 @@ pub struct StoredUncertainty {
 /// The `[fit]` table's key of the uncertainty.
 pub const FIT_KEY: &str = "uncertainty";
 
-fn parse_id(name: &str) -> Result<ParamId> {
+/// The parameter named `name` in the `[fit]` sub-table `table` (named in the error).
+pub fn parse_id(name: &str, table: &str) -> Result<ParamId> {
     ParamId::ALL
         .into_iter()
         .find(|id| id.to_string() == name)
-        .ok_or_else(|| anyhow!("[fit.uncertainty]: unknown parameter {name}"))
+        .ok_or_else(|| anyhow!("[{table}]: unknown parameter {name}"))
 }
 
 impl StoredUncertainty {
@@ -252,7 +253,7 @@ impl StoredUncertainty {
             .as_array()
             .ok_or_else(|| anyhow!("[fit.uncertainty] parameters: expected names"))?
             .iter()
-            .map(|v| parse_id(v.as_str().unwrap_or_default()))
+            .map(|v| parse_id(v.as_str().unwrap_or_default(), "fit.uncertainty"))
             .collect::<Result<Vec<_>>>()?;
         let standard_errors = table("standard_error_ln_p")?;
         let correlation = table("correlation")?;

@@ -8,6 +8,8 @@ use std::time::Instant;
 
 use anyhow::{Result, anyhow, bail};
 
+use super::explore::{self, Exploration};
+use super::minima::{self, RigidMinima};
 use super::objective::{COMPONENTS, Target};
 use super::uncertainty::{self, StoredUncertainty};
 use super::{Determination, FitResult, FitSettings, Identifiability, Progress, Setup, report};
@@ -34,6 +36,9 @@ pub struct FitRequest {
     pub resolution_hz: f64,
     /// Starts, seed and solver settings.
     pub settings: FitSettings,
+    /// Litter board: also fit on the rigid fit's other indistinguishable minima
+    /// (`[fit.rigid_minima]`) and keep the pair with the lowest litter-board cost.
+    pub explore: bool,
 }
 
 /// A finished fit with everything the files and the summary are made from.
@@ -47,6 +52,10 @@ pub struct DatasetFit {
     pub result: FitResult,
     /// What the data determine.
     pub identifiability: Identifiability,
+    /// Rigid fit: its other minima within its noise, for the litter-board fit.
+    pub rigid_minima: Option<RigidMinima>,
+    /// Litter board: the rigid minima explored and the pair kept.
+    pub exploration: Option<Exploration>,
     /// Per component: rms magnitude and phase errors.
     pub errors: [(f64, f64); COMPONENTS],
     /// Wall time of reading and spectra, s.
@@ -80,20 +89,50 @@ fn measure(request: &FitRequest, dataset: &Dataset) -> Result<CaseEstimate> {
     )
 }
 
-/// The case's problem for the subjects' mean anthropometry.
-fn problem(
-    estimate: &CaseEstimate,
-    joints: Option<&ParamFile>,
-    settings: &FitSettings,
-) -> Result<Setup> {
-    let target = Target {
+/// The measured target of the case.
+fn target(estimate: &CaseEstimate) -> Target {
+    Target {
         freqs_hz: estimate.freqs_hz.clone(),
         h: estimate.geomean.clone(),
-    };
+    }
+}
+
+/// The case's problem, solved: the rigid fit, or the litter-board fit on the rigid fit's
+/// joints (and, with `explore` and stored minima, on each indistinguishable rigid minimum).
+fn solve(
+    request: &FitRequest,
+    estimate: &CaseEstimate,
+    joints: Option<&ParamFile>,
+    progress: Progress,
+) -> Result<(Setup, FitResult, Option<Exploration>)> {
+    let settings = &request.settings;
     let subject = estimate.mean_subject();
-    match joints {
-        Some(rigid) => super::litter_setup(target, subject, &rigid.params, settings),
-        None => super::rigid_setup(target, subject, settings),
+    let Some(rigid) = joints else {
+        let setup = super::rigid_setup(target(estimate), subject, settings)?;
+        let result = super::run(&setup, settings, progress)?;
+        return Ok((setup, result, None));
+    };
+    let stored = RigidMinima::from_fit_table(rigid.fit.as_ref()).map_err(|e| {
+        let path = request.joints.as_deref().unwrap_or(Path::new("--joints"));
+        anyhow!("{}: {e}", path.display())
+    })?;
+    match stored.filter(|_| request.explore) {
+        Some(stored) => {
+            let (setup, result, exploration) = explore::litter_over_minima(
+                &target(estimate),
+                subject,
+                &rigid.params,
+                &stored,
+                settings,
+                progress,
+            )?;
+            Ok((setup, result, Some(exploration)))
+        }
+        None => {
+            let setup = super::litter_setup(target(estimate), subject, &rigid.params, settings)?;
+            let result = super::run(&setup, settings, progress)?;
+            Ok((setup, result, None))
+        }
     }
 }
 
@@ -104,20 +143,22 @@ pub fn fit_dataset(request: &FitRequest, progress: Progress) -> Result<DatasetFi
     let joints = load_joints(request)?;
     let estimate = measure(request, &dataset)?;
     let spectra_s = started.elapsed().as_secs_f64();
-    let setup = problem(&estimate, joints.as_ref(), &request.settings)?;
     let solver_started = Instant::now();
-    let result = super::run(&setup, &request.settings, progress)?;
+    let (setup, result, exploration) = solve(request, &estimate, joints.as_ref(), progress)?;
     let solver_s = solver_started.elapsed().as_secs_f64();
     let identifiability = super::identifiability(&setup, &result);
     let errors = super::component_errors(
         &result.solution.residuals,
         setup.objective.target.freqs_hz.len(),
     );
+    let rigid_minima = (request.case == Case::Rigid).then(|| RigidMinima::of_fit(&setup, &result));
     Ok(DatasetFit {
         estimate,
         setup,
         result,
         identifiability,
+        rigid_minima,
+        exploration,
         errors,
         spectra_s,
         solver_s,
@@ -127,14 +168,25 @@ pub fn fit_dataset(request: &FitRequest, progress: Progress) -> Result<DatasetFi
 impl DatasetFit {
     /// The Markdown summary (printed, and `summary.md` of the report).
     pub fn summary(&self) -> String {
-        report::summary(
+        let mut s = report::summary(
             &self.setup,
             &self.result,
             &self.identifiability,
             &self.errors,
             self.spectra_s,
             self.solver_s,
-        )
+        );
+        if let Some(m) = &self.rigid_minima {
+            s.push_str(&format!(
+                "\n{} other minima of the parts within this fit's noise (rigid cost at most {:.6} above it, 2 x rise / s^2 below chi-square(1, 95 %) = 3.84) are kept in [fit.rigid_minima] for the litter-board fit to explore.\n",
+                m.minima.len(),
+                m.cost_budget
+            ));
+        }
+        if let Some(e) = &self.exploration {
+            s.push_str(&e.markdown());
+        }
+        s
     }
 
     /// The names of the free parameters with the given verdict, in the fit's order.
@@ -210,6 +262,12 @@ impl DatasetFit {
             .map(|p| p.id.to_string())
             .collect();
         table.insert("at_bound".into(), strings(at_bound));
+        if let Some(m) = &self.rigid_minima {
+            table.insert(minima::FIT_KEY.into(), m.to_toml().into());
+        }
+        if let Some(e) = &self.exploration {
+            table.insert(explore::FIT_KEY.into(), e.to_toml().into());
+        }
         if let Some(c) = &self.identifiability.covariance {
             let determined: Vec<usize> = (0..setup.objective.free.len())
                 .filter(|&i| self.identifiability.params[i].standard_error.is_some())

@@ -1,0 +1,214 @@
+//! The rigid fit's other minima that its own data cannot tell apart from the kept one,
+//! kept in the parameter file (`[fit.rigid_minima]`) for the litter-board fit to explore
+//! ([`super::explore`]).
+//!
+//! Why: the litter-board contacts are bounded by the rigid fit's contacts and share its
+//! joints, yet the rigid data barely determine some of them: two starts can end a part
+//! at almost the same rigid cost with contacts 10^4 apart, and which one bounds the
+//! litter-board problem decides its cost. A part's minimum counts as indistinguishable
+//! when its cost is above the kept one's by less than the likelihood-ratio test allows
+//! at 95 %: 2 (cost - kept) / s^2 below the chi-square(1) quantile 3.84, with s^2 = 2
+//! cost / (m - n) the rigid fit's residual variance (docs/model.md#the-pipeline-over-indistinguishable-rigid-minima).
+//! The budget holds for the sum over parts, so the pair the litter-board fit keeps is
+//! itself within it.
+
+use anyhow::{Result, anyhow};
+use supine_core::model::{ModelParams, ParamId};
+
+use super::uncertainty::parse_id;
+use super::{FitResult, Setup};
+
+/// chi-square quantile of 1 degree of freedom at 95 %.
+pub const CHI2_1_95: f64 = 3.841_458_820_694_124;
+/// The `[fit]` table's key of the stored minima.
+pub const FIT_KEY: &str = "rigid_minima";
+/// Most minima kept per part besides the kept one (the lowest): bounds the litter-board
+/// fit's work and the file's size whatever `--starts` is.
+pub const MOST_PER_PART: usize = 4;
+/// Two minima of a part whose every ln p differs by less than this are one minimum.
+pub const SAME_MINIMUM_LN: f64 = 1e-3;
+
+/// One part's minimum from another start.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RigidMinimum {
+    /// The part (the model's subsystem, e.g. `vertical`).
+    pub part: String,
+    /// The start it came from.
+    pub start: String,
+    /// Its rigid cost above the kept minimum's, of this part.
+    pub cost_above_kept: f64,
+    /// The part's parameters at this minimum.
+    pub values: Vec<(ParamId, f64)>,
+}
+
+impl RigidMinimum {
+    /// `params` with this part's parameters replaced by this minimum's.
+    pub fn apply(&self, params: &mut ModelParams) {
+        for &(id, v) in &self.values {
+            params.set(id, v);
+        }
+    }
+}
+
+/// The kept rigid fit's indistinguishable minima, by part.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RigidMinima {
+    /// s^2 = 2 cost / (m - n) of the rigid fit.
+    pub residual_variance: f64,
+    /// The largest rise of the rigid cost over all parts together: 0.5 chi2(1, 95 %) s^2.
+    pub cost_budget: f64,
+    /// The minima within it, by part, then by rising cost.
+    pub minima: Vec<RigidMinimum>,
+}
+
+/// The cost budget of a fit with residual variance `s2`.
+pub fn cost_budget(s2: f64) -> f64 {
+    0.5 * CHI2_1_95 * s2
+}
+
+fn float(t: &toml::Table, key: &str, at: &str) -> Result<f64> {
+    t.get(key)
+        .and_then(toml::Value::as_float)
+        .filter(|v| v.is_finite() && *v >= 0.0)
+        .ok_or_else(|| anyhow!("[{at}] {key}: expected a number >= 0"))
+}
+
+fn string(t: &toml::Table, key: &str, at: &str) -> Result<String> {
+    t.get(key)
+        .and_then(toml::Value::as_str)
+        .map(str::to_string)
+        .ok_or_else(|| anyhow!("[{at}] {key}: expected a string"))
+}
+
+impl RigidMinima {
+    /// The minima of a rigid fit's parts within the budget of its residual variance:
+    /// every start's minimum of a part, but the kept one and repeats of another.
+    pub fn of_fit(setup: &Setup, result: &FitResult) -> Self {
+        let m = result.solution.residuals.len();
+        let n = setup.objective.free.len();
+        let residual_variance = 2.0 * result.solution.cost / m.saturating_sub(n).max(1) as f64;
+        let cost_budget = cost_budget(residual_variance);
+        let mut minima = Vec::new();
+        for part in &result.parts {
+            let kept_cost = part
+                .polish
+                .as_ref()
+                .map_or(part.starts[part.best].final_cost, |p| p.final_cost);
+            let mut listed: Vec<&[f64]> = vec![&part.minima[part.best]];
+            let mut order: Vec<usize> = (0..part.starts.len()).collect();
+            order.sort_by(|&a, &b| {
+                part.starts[a]
+                    .final_cost
+                    .total_cmp(&part.starts[b].final_cost)
+            });
+            let mut of_part = Vec::new();
+            for i in order {
+                let above = part.starts[i].final_cost - kept_cost;
+                let x = &part.minima[i];
+                let repeat = listed.iter().any(|y| {
+                    x.iter()
+                        .zip(y.iter())
+                        .all(|(a, b)| (a - b).abs() < SAME_MINIMUM_LN)
+                });
+                if above > cost_budget || repeat || of_part.len() == MOST_PER_PART {
+                    continue;
+                }
+                listed.push(x);
+                of_part.push(RigidMinimum {
+                    part: part.name.clone(),
+                    start: setup.starts[i].label.clone(),
+                    cost_above_kept: above.max(0.0),
+                    values: part
+                        .free
+                        .iter()
+                        .zip(x)
+                        .map(|(&j, t)| (setup.objective.free[j], t.exp()))
+                        .collect(),
+                });
+            }
+            minima.extend(of_part);
+        }
+        Self {
+            residual_variance,
+            cost_budget,
+            minima,
+        }
+    }
+
+    /// The `[fit.rigid_minima]` table: the variance, the budget, and one sub-table per
+    /// minimum (`part`, `start`, `cost_above_kept`, and its parameters by name).
+    pub fn to_toml(&self) -> toml::Table {
+        let mut t = toml::Table::new();
+        t.insert("residual_variance".into(), self.residual_variance.into());
+        t.insert("cost_budget".into(), self.cost_budget.into());
+        let minima: Vec<toml::Value> = self
+            .minima
+            .iter()
+            .map(|m| {
+                let mut e = toml::Table::new();
+                e.insert("part".into(), m.part.clone().into());
+                e.insert("start".into(), m.start.clone().into());
+                e.insert("cost_above_kept".into(), m.cost_above_kept.into());
+                let mut values = toml::Table::new();
+                for (id, v) in &m.values {
+                    values.insert(id.to_string(), (*v).into());
+                }
+                e.insert("values".into(), values.into());
+                e.into()
+            })
+            .collect();
+        t.insert("minimum".into(), minima.into());
+        t
+    }
+
+    /// Reads `[fit.rigid_minima]`; None when the file has none (a preset, a litter-board
+    /// fit, or a rigid fit written before it existed).
+    pub fn from_fit_table(fit: Option<&toml::Table>) -> Result<Option<Self>> {
+        let Some(value) = fit.and_then(|f| f.get(FIT_KEY)) else {
+            return Ok(None);
+        };
+        let at = "fit.rigid_minima";
+        let t = value
+            .as_table()
+            .ok_or_else(|| anyhow!("[{at}]: expected a table"))?;
+        let residual_variance = float(t, "residual_variance", at)?;
+        let cost_budget = float(t, "cost_budget", at)?;
+        let entries = t
+            .get("minimum")
+            .and_then(toml::Value::as_array)
+            .ok_or_else(|| anyhow!("[{at}] minimum: expected a list of tables"))?;
+        let mut minima = Vec::with_capacity(entries.len());
+        for (k, entry) in entries.iter().enumerate() {
+            let at = format!("fit.rigid_minima.minimum {}", k + 1);
+            let e = entry
+                .as_table()
+                .ok_or_else(|| anyhow!("[{at}]: expected a table"))?;
+            let values = e
+                .get("values")
+                .and_then(toml::Value::as_table)
+                .ok_or_else(|| anyhow!("[{at}] values: expected a table of parameters"))?;
+            let values = values
+                .iter()
+                .map(|(name, v)| {
+                    let id = parse_id(name, &at)?;
+                    let v = v
+                        .as_float()
+                        .filter(|v| v.is_finite() && *v > 0.0)
+                        .ok_or_else(|| anyhow!("[{at}] {name}: expected a number > 0"))?;
+                    Ok((id, v))
+                })
+                .collect::<Result<Vec<_>>>()?;
+            minima.push(RigidMinimum {
+                part: string(e, "part", &at)?,
+                start: string(e, "start", &at)?,
+                cost_above_kept: float(e, "cost_above_kept", &at)?,
+                values,
+            });
+        }
+        Ok(Some(Self {
+            residual_variance,
+            cost_budget,
+            minima,
+        }))
+    }
+}
