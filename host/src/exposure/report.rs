@@ -40,6 +40,7 @@ use crate::io::params_file::ParamFile;
 use crate::io::recording::{COLUMNS, Layout};
 use crate::io::ride_rows::RideSource;
 use crate::io::wording::joint_alert_text;
+use crate::ride::quality::DataQuality;
 
 /// Samples handed to the device pipeline per call (bounds the chunk buffer).
 const CHUNK_SAMPLES: usize = 4096;
@@ -379,6 +380,8 @@ pub struct ModelExposure {
     /// The predicted neck and lower-back motion over the whole ride (from the start, warm-up
     /// included: the joints need no settling filter); empty when the model is not known.
     pub joints: Vec<JointReport>,
+    /// The ride's data-quality account (a logger's file; null for a recording).
+    pub data_quality: Option<DataQuality>,
 }
 
 /// No event was left out of a list (serde's test for leaving the count out).
@@ -621,6 +624,7 @@ pub fn evaluate_model_with(
         max_level: outcome.max_level.name(),
         final_level: outcome.final_level.name(),
         joints: outcome.joints,
+        data_quality: input.source().quality().cloned(),
     };
     Ok((report, params))
 }
@@ -771,6 +775,8 @@ pub struct ChannelExposure {
     /// The weighted evaluation.
     #[serde(flatten)]
     pub values: AxisReport,
+    /// The ride's data-quality account (a logger's file; null for a recording).
+    pub data_quality: Option<DataQuality>,
 }
 
 /// The channel form's settings: `kind` on every axis at `sample_rate_hz`, the core's
@@ -843,6 +849,7 @@ pub fn evaluate_channel(
             (sum2 / n as f64).sqrt()
         },
         values: AxisReport::new(kind.name(), &values.axes[0]),
+        data_quality: source.quality().cloned(),
     })
 }
 
