@@ -26,7 +26,7 @@ use crate::io::subject_args::SubjectArgs;
 /// Arguments of `supine exposure`.
 #[derive(Debug, clap::Args)]
 #[command(group(
-    ArgGroup::new("form").required(true).args(["preset", "params", "channel"])
+    ArgGroup::new("form").args(["preset", "params", "channel"])
 ))]
 pub struct Args {
     /// Model form: one of the paper's parameter sets.
@@ -80,9 +80,9 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
                 (None, Some(p)) => p
                     .to_possible_value()
                     .map_or_else(|| format!("{p:?}"), |v| v.get_name().to_string()),
-                (None, None) => "?".to_string(),
+                (None, None) => "paper-litter".to_string(),
             };
-            let mut file = source.load()?;
+            let mut file = source.load_for_ride()?;
             args.subject.apply(&mut file)?;
             let mounting = file.device.unwrap_or_default().mounting;
             let ride = args.ride.open(&args.input, &mounting)?;

@@ -87,6 +87,9 @@ pub struct RideInputArgs {
     /// Read the ride up to this time, s.
     #[arg(long, value_name = "S")]
     pub to_s: Option<f64>,
+    /// A name for each ride (one per --input, in order), shown instead of its file name.
+    #[arg(long = "label", value_name = "NAME")]
+    pub labels: Vec<String>,
 }
 
 impl Default for RideInputArgs {
@@ -101,6 +104,7 @@ impl Default for RideInputArgs {
             max_gap_s: DEFAULT_MAX_GAP_S,
             from_s: None,
             to_s: None,
+            labels: Vec::new(),
         }
     }
 }
@@ -175,7 +179,10 @@ impl RideInputArgs {
             return self.open_recording(path, mounting);
         };
         if !(self.max_gap_s.is_finite() && self.max_gap_s > 0.0) {
-            bail!("--max-gap-s {}: expected a positive number of seconds", self.max_gap_s);
+            bail!(
+                "--max-gap-s {}: expected a positive number of seconds",
+                self.max_gap_s
+            );
         }
         if let Some(fs) = self.fs_hz
             && !SampleRate::supports_hz(fs)
@@ -448,7 +455,12 @@ pub fn check_gravity_streamed(ride: &PlatformStream) -> Result<()> {
     if n == 0 {
         return Ok(());
     }
-    check_units_and_gravity(ride.path(), sum.map(|s| s / n as f64), AccelUnit::MS2, false)
+    check_units_and_gravity(
+        ride.path(),
+        sum.map(|s| s / n as f64),
+        AccelUnit::MS2,
+        false,
+    )
 }
 
 /// Refuses a recording whose vertical (`platform_z`) still averages away from zero
@@ -715,7 +727,9 @@ mod tests {
         std::fs::write(&path, "t,a x,a y,a z\n0,0,0,0\n2,0,0,x\n").unwrap();
         let err = error(args.read(&path, &Mounting::LEVEL));
         assert!(
-            err.ends_with("line 3, column a z: expected an acceleration in g (a finite number), found \"x\""),
+            err.ends_with(
+                "line 3, column a z: expected an acceleration in g (a finite number), found \"x\""
+            ),
             "{err}"
         );
         args.time_unit = Some(TimeUnit::Text);

@@ -208,7 +208,11 @@ impl ForeignRows {
     /// The next row: its line, and time (s), x, y, z (m/s^2).
     pub fn next_row(&mut self) -> Result<Option<(u64, [f64; 4])>> {
         let shown = self.path.display();
-        let Some(line) = self.lines.next_line().map_err(|e| anyhow!("{shown}: {e}"))? else {
+        let Some(line) = self
+            .lines
+            .next_line()
+            .map_err(|e| anyhow!("{shown}: {e}"))?
+        else {
             return Ok(None);
         };
         let number = line.line;
@@ -216,7 +220,9 @@ impl ForeignRows {
         let row;
         let cells: Vec<&[u8]> = if has_quote {
             self.quoted = unquoted_cells(line.text(), self.delimiter).ok_or_else(|| {
-                anyhow!("{shown}: line {number}: expected RFC 4180 quoting, found an unclosed quote")
+                anyhow!(
+                    "{shown}: line {number}: expected RFC 4180 quoting, found an unclosed quote"
+                )
             })?;
             self.quoted.iter().map(Vec::as_slice).collect()
         } else {
@@ -236,7 +242,11 @@ impl ForeignRows {
         let mut value = [0.0f64; 4];
         for (k, slot) in value.iter_mut().enumerate() {
             let raw = cells[self.index[k]];
-            let cell = if has_quote { trailing_cr(raw) } else { raw.to_vec() };
+            let cell = if has_quote {
+                trailing_cr(raw)
+            } else {
+                raw.to_vec()
+            };
             let name = &self.names[k];
             let text = std::str::from_utf8(&cell).ok();
             let parsed = if k == 0 {
@@ -282,7 +292,9 @@ pub fn read_header(path: &Path) -> Result<(u8, Vec<String>)> {
         .map_err(|e| anyhow!("{shown}: {e}"))?
         .ok_or_else(|| anyhow!("{shown}: line 1: expected a header line, found an empty file"))?;
     let text = line.text();
-    let text = text.strip_prefix(crate::io::small_file::UTF8_BOM).unwrap_or(text);
+    let text = text
+        .strip_prefix(crate::io::small_file::UTF8_BOM)
+        .unwrap_or(text);
     let text = text.strip_suffix(b"\r").unwrap_or(text);
     let cells = unquoted_cells(text, delimiter).ok_or_else(|| {
         anyhow!("{shown}: line 1: expected RFC 4180 quoting, found an unclosed quote")
@@ -434,6 +446,14 @@ impl RideSource {
             origin: Origin::Conditioned(Box::new((rows, plan))),
             gravity_removal: None,
             quality: Some(quality),
+        }
+    }
+
+    /// The sensor's own rate when the rows are converted to another, Hz.
+    pub fn converted_from_hz(&self) -> Option<f64> {
+        match &self.origin {
+            Origin::Conditioned(both) => both.1.converted_from_hz(),
+            _ => None,
         }
     }
 

@@ -28,6 +28,7 @@ pub mod html;
 pub mod joints;
 pub mod mission;
 pub mod monitor_log;
+pub mod quality_section;
 pub mod spectrum;
 
 use std::path::PathBuf;

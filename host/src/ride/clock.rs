@@ -105,7 +105,9 @@ impl Clock {
                     return Some((i - origin) as f64 * self.unit.to_s());
                 }
                 // A decimal count (some exports write ns as floats): no exact origin.
-                let v = fast_float2::parse::<f64, _>(cell).ok().filter(|v| v.is_finite())?;
+                let v = fast_float2::parse::<f64, _>(cell)
+                    .ok()
+                    .filter(|v| v.is_finite())?;
                 let origin = *self.integer_origin.get_or_insert(v as i128);
                 Some((v - origin as f64) * self.unit.to_s())
             }
@@ -151,8 +153,9 @@ fn parse_date_time_ns(cell: &str) -> Option<i128> {
     if let Ok(t) = OffsetDateTime::parse(cell, &Rfc3339) {
         return Some(unix(t));
     }
-    let with_fraction =
-        format_description!("[year]-[month]-[day][first [T][ ]][hour]:[minute]:[second].[subsecond]");
+    let with_fraction = format_description!(
+        "[year]-[month]-[day][first [T][ ]][hour]:[minute]:[second].[subsecond]"
+    );
     let whole = format_description!("[year]-[month]-[day][first [T][ ]][hour]:[minute]:[second]");
     let local = cell.strip_suffix('Z').unwrap_or(cell);
     PrimitiveDateTime::parse(local, &with_fraction)
@@ -219,10 +222,17 @@ mod tests {
         // Sensor Logger's `time` column: ns since the Unix epoch.
         let t = times(
             TimeUnit::Ns,
-            &["1718030736872695300", "1718030736877695301", "1718030736882695299"],
+            &[
+                "1718030736872695300",
+                "1718030736877695301",
+                "1718030736882695299",
+            ],
         );
         close(&t, &[0.0, 0.005000001, 0.009999999]);
-        close(&times(TimeUnit::Us, &["5000000", "5000250"]), &[0.0, 0.00025]);
+        close(
+            &times(TimeUnit::Us, &["5000000", "5000250"]),
+            &[0.0, 0.00025],
+        );
         close(&times(TimeUnit::Ms, &["2", "4"]), &[0.002, 0.004]);
     }
 
@@ -231,7 +241,11 @@ mod tests {
         close(
             &times(
                 TimeUnit::Text,
-                &["2018-10-03 17:23:55.4640", "2018-10-03 17:23:55.4650", "2018-10-03T17:23:56"],
+                &[
+                    "2018-10-03 17:23:55.4640",
+                    "2018-10-03 17:23:55.4650",
+                    "2018-10-03T17:23:56",
+                ],
             ),
             &[0.0, 0.001, 0.536],
         );
@@ -243,10 +257,16 @@ mod tests {
             &[0.0, 0.010],
         );
         close(
-            &times(TimeUnit::Text, &["23:59:59.990", "23:59:59:995", "00:00:00.005"]),
+            &times(
+                TimeUnit::Text,
+                &["23:59:59.990", "23:59:59:995", "00:00:00.005"],
+            ),
             &[0.0, 0.005, 0.015],
         );
-        close(&times(TimeUnit::Text, &["05:12.250", "05:12.300"]), &[0.0, 0.05]);
+        close(
+            &times(TimeUnit::Text, &["05:12.250", "05:12.300"]),
+            &[0.0, 0.05],
+        );
         for bad in ["12:61:00", "2018-13-03 17:23:55", "abc", "1.5", "12:00:00."] {
             assert_eq!(times(TimeUnit::Text, &[bad]), [None], "{bad}");
         }

@@ -51,6 +51,8 @@ pub struct Conditioned {
     stretches: Vec<(usize, f64, f64)>,
     /// The grid's rate, Hz (the effective rate, or the evaluation's when they agree).
     grid_hz: f64,
+    /// The sensor's effective rate, Hz.
+    effective_hz: f64,
     resampler: Option<Resampler>,
     samples: usize,
 }
@@ -87,6 +89,7 @@ impl Conditioned {
             conditioning,
             stretches: scan.stretches.clone(),
             grid_hz,
+            effective_hz: effective,
             resampler,
             samples,
         })
@@ -107,13 +110,24 @@ impl Conditioned {
         self.conditioning.rate_hz
     }
 
+    /// The sensor's effective rate when the evaluation's differs from it (to 1 ppm), Hz.
+    pub fn converted_from_hz(&self) -> Option<f64> {
+        let rate = self.conditioning.rate_hz;
+        ((self.effective_hz - rate).abs() > 1e-6 * rate).then_some(self.effective_hz)
+    }
+
     /// The first kept row's time, s.
     pub fn start_s(&self) -> f64 {
         self.stretches.first().map_or(0.0, |s| s.1)
     }
 
     /// The account of `scan` for this plan.
-    pub fn account(&self, scan: &Scan, format: String, levelling: Option<Levelling>) -> DataQuality {
+    pub fn account(
+        &self,
+        scan: &Scan,
+        format: String,
+        levelling: Option<Levelling>,
+    ) -> DataQuality {
         scan.account(
             format,
             self.conditioning.rate_hz,
@@ -183,9 +197,8 @@ fn resample<'a>(
         }
     }
     let whole: Vec<[f64; 3]> = grid.collect();
-    let columns: [Vec<f64>; 3] = std::array::from_fn(|c| {
-        resampler.process(&whole.iter().map(|v| v[c]).collect::<Vec<_>>())
-    });
+    let columns: [Vec<f64>; 3] =
+        std::array::from_fn(|c| resampler.process(&whole.iter().map(|v| v[c]).collect::<Vec<_>>()));
     let len = columns[0].len();
     Box::new((0..len).map(move |k| Ok([columns[0][k], columns[1][k], columns[2][k]])))
 }
@@ -261,4 +274,3 @@ impl RawRows for Vec<(f64, [f64; 3])> {
         Ok(Box::new(self.iter().map(|r| Ok(*r))))
     }
 }
-

@@ -86,15 +86,27 @@ mod tests {
 
     #[test]
     fn headers_of_real_exports_are_recognized_and_others_are_not() {
-        let names = |s: &str| s.split(',').map(|c| c.trim_matches('"').to_string()).collect::<Vec<_>>();
+        let names = |s: &str| {
+            s.split(',')
+                .map(|c| c.trim_matches('"').to_string())
+                .collect::<Vec<_>>()
+        };
         let found = |s: &str| recognize(&names(s)).map(|f| f.name);
         assert_eq!(found("time,seconds_elapsed,z,y,x"), Some("Sensor Logger"));
         assert_eq!(found("time,x,y,z"), None);
         assert_eq!(
-            found("\"Time (s)\",\"Acceleration x (m/s^2)\",\"Acceleration y (m/s^2)\",\"Acceleration z (m/s^2)\""),
+            found(
+                "\"Time (s)\",\"Acceleration x (m/s^2)\",\"Acceleration y (m/s^2)\",\"Acceleration z (m/s^2)\""
+            ),
             Some("phyphox (acceleration with g)")
         );
-        assert_eq!(found("time,gFx,gFy,gFz,TgF"), Some("Physics Toolbox Sensor Suite"));
-        assert_eq!(found("time_s,platform_x,platform_y,platform_z"), Some("supine ride"));
+        assert_eq!(
+            found("time,gFx,gFy,gFz,TgF"),
+            Some("Physics Toolbox Sensor Suite")
+        );
+        assert_eq!(
+            found("time_s,platform_x,platform_y,platform_z"),
+            Some("supine ride")
+        );
     }
 }

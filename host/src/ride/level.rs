@@ -89,12 +89,21 @@ mod tests {
     #[test]
     fn gravity_goes_to_up_by_a_rotation_that_keeps_the_heading() {
         let s = std::f64::consts::FRAC_1_SQRT_2;
-        for u in [[0.0, 1.0, 0.0], [s, 0.0, s], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [0.3, -0.5, 0.8124]] {
+        for u in [
+            [0.0, 1.0, 0.0],
+            [s, 0.0, s],
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, -1.0],
+            [0.3, -0.5, 0.8124],
+        ] {
             let n = norm(u);
             let u = u.map(|v| v / n);
             let r = rotation_to_up(u);
             let up = apply(&r, u);
-            assert!((up[2] - 1.0).abs() < 1e-12 && up[0].abs() < 1e-12, "{u:?}: {up:?}");
+            assert!(
+                (up[2] - 1.0).abs() < 1e-12 && up[0].abs() < 1e-12,
+                "{u:?}: {up:?}"
+            );
             for i in 0..3 {
                 for j in 0..3 {
                     let dot: f64 = (0..3).map(|k| r[i][k] * r[j][k]).sum();

@@ -392,7 +392,11 @@ impl DataQuality {
                 "gravity reads {:.2} m/s^2 ({:+.1} % off 9.81: a scale error, values read {})",
                 l.gravity_m_s2,
                 100.0 * (l.gravity_m_s2 / STANDARD_GRAVITY_M_S2 - 1.0),
-                if l.gravity_m_s2 > STANDARD_GRAVITY_M_S2 { "high" } else { "low" }
+                if l.gravity_m_s2 > STANDARD_GRAVITY_M_S2 {
+                    "high"
+                } else {
+                    "low"
+                }
             ));
         }
         if self.repeated_samples > 0 {

@@ -75,9 +75,11 @@ impl Cleaner {
         {
             return RowFate::NotIncreasing;
         }
-        let repeated = self
-            .last_values
-            .is_some_and(|v| v.iter().zip(&values).all(|(a, b)| a.to_bits() == b.to_bits()));
+        let repeated = self.last_values.is_some_and(|v| {
+            v.iter()
+                .zip(&values)
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+        });
         self.last_values = Some(values);
         if repeated {
             return RowFate::Repeated;
@@ -150,7 +152,9 @@ fn interpolate(nodes: &VecDeque<(f64, [f64; 3])>, at: usize, t: f64) -> [f64; 3]
     let n = nodes.len();
     let mut weights = [0.0f64; 2 * HALF_WIDTH_ROWS];
     for half in [HALF_WIDTH_ROWS, 2, 1] {
-        let lo = (at + 1).saturating_sub(half).min(n.saturating_sub(2 * half));
+        let lo = (at + 1)
+            .saturating_sub(half)
+            .min(n.saturating_sub(2 * half));
         let hi = (lo + 2 * half).min(n);
         let used = hi - lo;
         let mut lebesgue = 0.0;
@@ -242,7 +246,15 @@ mod tests {
         use RowFate::*;
         assert_eq!(
             fates,
-            [KeptAfterGap, Kept, NotIncreasing, NotIncreasing, Kept, Repeated, KeptAfterGap]
+            [
+                KeptAfterGap,
+                Kept,
+                NotIncreasing,
+                NotIncreasing,
+                Kept,
+                Repeated,
+                KeptAfterGap
+            ]
         );
     }
 
@@ -270,7 +282,12 @@ mod tests {
         assert_eq!(grid.len(), 13);
         for (m, g) in grid.iter().enumerate() {
             let t = m as f64 * 0.01;
-            assert!((g[0] - cubic(t)).abs() < 1e-9, "{t}: {} vs {}", g[0], cubic(t));
+            assert!(
+                (g[0] - cubic(t)).abs() < 1e-9,
+                "{t}: {} vs {}",
+                g[0],
+                cubic(t)
+            );
         }
     }
 }
