@@ -310,7 +310,7 @@ pub fn read_header(path: &Path) -> Result<(u8, Vec<String>)> {
 
 /// The header's fields as an error lists them: quoted, within [`MAX_LISTED_CHARS`]
 /// including the `... (N fields)` that ends a list cut short.
-fn listed_fields<'a>(cells: impl Iterator<Item = &'a [u8]>, width: usize) -> Vec<String> {
+pub fn listed_fields<'a>(cells: impl Iterator<Item = &'a [u8]>, width: usize) -> Vec<String> {
     let length = |fields: &[String]| fields.iter().map(|f| f.chars().count() + 2).sum::<usize>();
     let mut fields: Vec<String> = Vec::new();
     for cell in cells {

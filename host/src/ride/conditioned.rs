@@ -166,8 +166,13 @@ impl Conditioned {
                 None => Box::new(grid.map(Ok)),
                 Some(r) => resample(r, grid_len(first, last, self.grid_hz), grid),
             };
-            let kept = Rc::clone(&kept);
-            values.enumerate().map(move |(j, v)| {
+            let rest = Rc::clone(kept);
+            let drained = std::iter::from_fn(move || {
+                rest.borrow_mut().finish_stretch();
+                None
+            });
+            let kept = Rc::clone(kept);
+            values.chain(drained).enumerate().map(move |(j, v)| {
                 if let Some(e) = kept.borrow_mut().error.take() {
                     return Err(e);
                 }
@@ -214,6 +219,18 @@ struct KeptRows<'a> {
 }
 
 impl KeptRows<'_> {
+    /// Reads past the rows of the current stretch a grid did not need, up to the next
+    /// stretch's first row.
+    fn finish_stretch(&mut self) {
+        while self.pending.is_none() {
+            match self.next_kept() {
+                Some((t, v, true)) => self.pending = Some((t, v)),
+                Some(_) => {}
+                None => return,
+            }
+        }
+    }
+
     /// The next kept row and whether it starts a stretch.
     fn next_kept(&mut self) -> Option<(f64, [f64; 3], bool)> {
         loop {
