@@ -478,7 +478,7 @@ fn check_removed(path: &Path, mean: f64) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::exposure::report::evaluate_model;
+    use crate::exposure::model_exposure::evaluate_model;
     use crate::exposure::ride::{Profile, generate, write_ride};
     use crate::io::params_file::ParamFile;
     use supine_core::model::Preset;
