@@ -10,7 +10,7 @@ use rand_chacha::ChaCha8Rng;
 use realfft::RealFftPlanner;
 use supine_core::model::Preset;
 use supine_core::mounting::{Mounting, STANDARD_GRAVITY_M_S2};
-use supine_host::exposure::report::{ModelExposure, evaluate_model};
+use supine_host::exposure::model_exposure::{ModelExposure, evaluate_model};
 use supine_host::exposure::ride::{Profile, generate};
 use supine_host::io::params_file::ParamFile;
 use supine_host::io::ride_input::{AccelUnit, RideInputArgs};

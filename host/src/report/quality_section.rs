@@ -4,7 +4,7 @@
 
 use std::fmt::Write as _;
 
-use crate::report::html::escape;
+use crate::report::markup::escape;
 use crate::report::mission::Leg;
 use crate::ride::quality::DataQuality;
 
