@@ -5,7 +5,7 @@
 //! large (a coefficient of 1e30, a pole 1e-12 inside the circle) that input within the
 //! sensor's full scale overflows f32.
 //!
-//! For x[k+1] = A x[k] + b u[k] with |u| <= U and x[0] = 0, write A = T M T^-1 with M
+//! For x[k+1] = A x\[k\] + b u\[k\] with |u| <= U and x\[0\] = 0, write A = T M T^-1 with M
 //! diagonal (real poles) or a scaled rotation (a complex pair), whose powers have norm
 //! |pole|^k. In z = T^-1 x each mode is a geometric series: |z_i| <= |(T^-1 b)_i| U /
 //! (1 - |pole_i|); then ||x|| <= sum ||t_i|| |z_i| and an output c x + d u is at most
@@ -50,7 +50,7 @@ pub struct Amplification {
     pub output: f32,
 }
 
-/// A recursion x[k+1] = A x[k] + b u[k] in modal coordinates z = T^-1 x, with the bound on
+/// A recursion x[k+1] = A x\[k\] + b u\[k\] in modal coordinates z = T^-1 x, with the bound on
 /// each |z_i| per unit input bound (module doc).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ModalBound {
@@ -178,7 +178,7 @@ fn pole_margin(mu: f32) -> f32 {
 }
 
 /// One 2-state recursion with a single input and a single output:
-/// x[k+1] = (I + D) x[k] + b u[k], y[k] = c x[k] + d u[k].
+/// x[k+1] = (I + D) x\[k\] + b u\[k\], y\[k\] = c x\[k\] + d u\[k\].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Recursion2 {
     /// D = A - I, the transition matrix minus the identity.

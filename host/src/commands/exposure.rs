@@ -33,7 +33,7 @@ pub struct Args {
     /// Model form: one of the paper's parameter sets.
     #[arg(long, value_enum, conflicts_with_all = ["params", "channel", "weighting"])]
     pub preset: Option<PresetArg>,
-    /// Model form: a parameter file (TOML; its optional [device] table sets the
+    /// Model form: a parameter file (TOML; its optional `[device]` table sets the
     /// weighting per axis, the alert thresholds and the sensor checks).
     #[arg(long, value_name = "FILE", conflicts_with_all = ["channel", "weighting"])]
     pub params: Option<PathBuf>,

@@ -65,7 +65,7 @@ pub struct Args {
     /// With --qemu: run this firmware ELF instead of the image built into supine.
     #[arg(long, value_name = "ELF", requires = "qemu")]
     pub firmware: Option<PathBuf>,
-    /// Log every telemetry record to FILE.csv and every alert event to <stem>.events.csv
+    /// Log every telemetry record to FILE.csv and every alert event to FILE.events.csv
     /// (the formats of `supine replay`).
     #[arg(long, value_name = "FILE.csv")]
     pub log: Option<PathBuf>,

@@ -2,7 +2,7 @@
 //!
 //! Steps, each announced on one line: the firmware image (built into the tool, or
 //! `--firmware`); make a ride
-//! ([`ride`]); place the paper litter-board parameters in QEMU's PARAMS region (the
+//! ([`demo_ride`]); place the paper litter-board parameters in QEMU's PARAMS region (the
 //! region image `supine flash` makes); run the image in QEMU with the ride streamed over
 //! its UART, followed live by the monitor ([`crate::monitor`]) which logs the device's
 //! telemetry and events to CSV; run the host's own computation on the same samples
@@ -88,7 +88,7 @@ pub struct DemoConfig {
     pub firmware: Option<PathBuf>,
     /// Write into an output folder that holds files the demo did not write.
     pub force: bool,
-    /// The parameters to flash (telemetry is set to every sample, see [`param_file`]).
+    /// The parameters to flash (telemetry is set to every sample, see `param_file`).
     pub model: ParamFile,
     /// What they are called in the steps and the report (a preset's name, a file's path).
     pub model_name: String,

@@ -8,7 +8,7 @@
 //! not grow with the ride. A final `GetStatus` makes the device process what it has
 //! buffered and report its counters; its `Status` ends the session.
 //!
-//! The frames take one of two routes ([`ScriptRoute`]). Sessions (the tests' scripts) send
+//! The frames take one of two routes (`ScriptRoute`). Sessions (the tests' scripts) send
 //! them over UART0 from a writer thread: QEMU serves the socket with `wait=on` and the
 //! device's one-byte RX flow-controls it. A replay writes them to a file in its scratch
 //! folder first, which the image reads by semihosting ahead of the UART

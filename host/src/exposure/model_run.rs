@@ -34,7 +34,7 @@ pub enum Step<'a> {
 }
 
 /// The device pipeline over a ride, one sample at a time: [`DeviceParams::process`] in
-/// f32 on chunks of [`CHUNK_SAMPLES`] with sample indices `0, 1, ...`, exactly what the
+/// f32 on chunks of `CHUNK_SAMPLES` with sample indices `0, 1, ...`, exactly what the
 /// device computes, and beside it what `supine exposure` reports: the alert timeline (its
 /// first [`MAX_LISTED_EVENTS`] events), the platform's unweighted mean squares, and the
 /// joints when tracked. Memory: the pipeline state and one chunk.

@@ -11,7 +11,7 @@
 //! The table is written by hand, so every key may be left out (a partial
 //! `[device.alerts]` with only the thresholds takes the other alert defaults) and a
 //! weighting is spelled as on the command line, in either case (`wd`, `Wd`). The file's
-//! form is [`DeviceTable`] and its parts, mirrors of the core's configurations whose
+//! form is `DeviceTable` and its parts, mirrors of the core's configurations whose
 //! defaults are the core's own constants; a test checks that they have the same keys.
 
 use serde::{Deserialize, Deserializer, Serialize, Serializer};

@@ -1,10 +1,10 @@
 //! When the live panel (and the demo's, which is the same) uses colour: `--color` and
-//! NO_COLOR (https://no-color.org).
+//! NO_COLOR (<https://no-color.org>).
 
 /// When the live panel uses colour.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
 pub enum ColorChoice {
-    /// On a terminal, unless the NO_COLOR environment variable is set (https://no-color.org).
+    /// On a terminal, unless the NO_COLOR environment variable is set (no-color.org).
     #[default]
     Auto,
     /// Always, even into a file or a pipe.

@@ -483,7 +483,7 @@ pub fn totals(legs: &[Leg], config: &AlertConfig) -> MissionTotals {
                 .iter()
                 .map(|l| LegJoints {
                     start_s: l.start_s,
-                    duration_s: l.duration_s,
+                    evaluated_s: l.exposure.evaluated_s,
                     joints: &l.joints,
                 })
                 .collect::<Vec<_>>(),

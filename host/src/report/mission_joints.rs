@@ -15,8 +15,8 @@ use crate::exposure::joints::JointReport;
 pub struct LegJoints<'a> {
     /// The leg's start in the mission, s.
     pub start_s: f64,
-    /// The leg's duration, s.
-    pub duration_s: f64,
+    /// The leg's evaluated time (after its warm-up), s: the joints' rms weight.
+    pub evaluated_s: f64,
     /// The leg's joint outputs, in the model's order.
     pub joints: &'a [JointReport],
 }
@@ -53,7 +53,7 @@ pub fn mission_joints(legs: &[LegJoints<'_>]) -> Vec<MissionJoint> {
             let mut peak = (0.0_f64, 0.0, 1);
             for (i, leg) in legs.iter().enumerate() {
                 let Some(j) = leg.joints.get(o) else { continue };
-                rms_and_duration.push((j.rms, leg.exposure.evaluated_s));
+                rms_and_duration.push((j.rms, leg.evaluated_s));
                 max_running_rms = max_running_rms.max(j.max_running_rms);
                 if j.largest_excursion > peak.0 {
                     peak = (

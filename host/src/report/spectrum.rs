@@ -39,7 +39,7 @@ pub struct AxisSpectrum {
 }
 
 /// Welch settings for `samples` at `fs_hz`: the segment for [`TARGET_RESOLUTION_HZ`],
-/// halved until [`MIN_SEGMENTS`] fit (never below [`MIN_SEGMENT_LEN`]).
+/// halved until [`MIN_SEGMENTS`] fit (never below `MIN_SEGMENT_LEN`).
 pub fn settings_for(samples: usize, fs_hz: f64) -> WelchSettings {
     let mut s = WelchSettings::for_resolution(fs_hz, TARGET_RESOLUTION_HZ);
     s.min_segments = MIN_SEGMENTS;

@@ -1,5 +1,5 @@
 //! Alerts on joint motion: a joint output's running rms above its threshold, or its largest
-//! excursion above its own, as time-stamped raise and clear events ([`AlertEvent::Joint`]).
+//! excursion above its own, as time-stamped raise and clear events ([`AlertEvent::Joint`](crate::alerts::AlertEvent::Joint)).
 //!
 //! # No default thresholds
 //! No standard sets limits for the motion of a supine patient's neck or lower back, and

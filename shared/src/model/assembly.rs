@@ -194,7 +194,7 @@ pub fn input_matrix() -> InputMatrix {
     g
 }
 
-/// R (9 x 18): R_m = [I3, -[p_m]x], so that a_E = u'' + th'' x p_m.
+/// R (9 x 18): R_m = \[I3, -\[p_m\]x\], so that a_E = u'' + th'' x p_m.
 pub fn output_matrix(params: &ModelParams) -> OutputMatrix {
     let mut r = OutputMatrix::zeros();
     for segment in Segment::ALL {

@@ -18,11 +18,11 @@
 //! z = 1 at high sample rates.
 //!
 //! First-order hold: with u linear between samples, the exact update of a mode
-//! z' = lambda z + g u is z[k+1] = phi z[k] + g (gamma0 u[k] + gamma1 u[k+1]), with
+//! z' = lambda z + g u is z[k+1] = phi z\[k\] + g (gamma0 u\[k\] + gamma1 u[k+1]), with
 //! phi = e^(lambda T), gamma1 = T E2(lambda T), gamma0 = T (E1(lambda T) - E2(lambda T)),
-//! E1(s) = (e^s - 1)/s, E2(s) = (e^s - 1 - s)/s^2. Shifting the state by gamma1 g u[k] makes
-//! it causal with a feedthrough term: w[k+1] = phi w[k] + (phi gamma1 + gamma0) g u[k],
-//! y[k] = Re(c w[k]) + c gamma1 g u[k].
+//! E1(s) = (e^s - 1)/s, E2(s) = (e^s - 1 - s)/s^2. Shifting the state by gamma1 g u\[k\] makes
+//! it causal with a feedthrough term: w[k+1] = phi w\[k\] + (phi gamma1 + gamma0) g u\[k\],
+//! y\[k\] = Re(c w\[k\]) + c gamma1 g u\[k\].
 
 use core::f64::consts::PI;
 use core::fmt::Debug;

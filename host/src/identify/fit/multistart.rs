@@ -48,7 +48,7 @@ pub struct StartOutcome {
     pub seconds: f64,
 }
 
-/// One part's ([`FitSubsystem`]) runs: every start's and the polish's.
+/// One part's (`FitSubsystem`) runs: every start's and the polish's.
 #[derive(Clone, Debug)]
 pub struct PartOutcome {
     /// The part's name (the model's subsystem).
@@ -343,7 +343,7 @@ fn combined(label: &str, initial_cost: f64, offset: f64, runs: &[&StartOutcome])
 }
 
 /// Runs the solver on every part from every start (the anchors first, then the others
-/// against the anchors' best cost of that part, [`Schedule`]), keeps each part's lowest
+/// against the anchors' best cost of that part, `Schedule`), keeps each part's lowest
 /// cost (the first start on a tie), polishes it, and joins the parts (see the module
 /// documentation of `fit`).
 pub fn run(setup: &Setup, settings: &FitSettings, progress: Progress) -> Result<FitResult> {
