@@ -38,7 +38,7 @@ use crate::io::ride_rows::{
     ForeignFormat, OpenRide, RideSource, WindowedRows, listed_fields, read_header,
 };
 use crate::ride::conditioned::{Conditioned, Conditioning};
-use crate::ride::formats::{KNOWN_FORMATS, recognize};
+use crate::ride::formats::recognize;
 use crate::ride::level::{Levelling, angles_rad, level_by_mean};
 use crate::ride::regular::DEFAULT_MAX_GAP_S;
 
