@@ -21,3 +21,4 @@ pub mod monitor;
 pub mod parallel;
 pub mod plot;
 pub mod report;
+pub mod ride;

@@ -65,7 +65,6 @@ fn exposure_json(input: &Path) -> Value {
         subject: SubjectArgs::default(),
         channel: None,
         weighting: None,
-        fs_hz: None,
         json: true,
     };
     let mut text = Vec::new();

@@ -17,7 +17,6 @@ use anyhow::{Result, anyhow};
 use clap::{ArgGroup, ValueEnum};
 use supine_core::mounting::Mounting;
 
-use crate::commands::values;
 use crate::commands::weighting::Kind;
 use crate::exposure::channel_exposure::evaluate_channel;
 use crate::exposure::model_exposure::evaluate_model;
@@ -28,7 +27,7 @@ use crate::io::subject_args::SubjectArgs;
 /// Arguments of `supine exposure`.
 #[derive(Debug, clap::Args)]
 #[command(group(
-    ArgGroup::new("form").required(true).args(["preset", "params", "channel"])
+    ArgGroup::new("form").args(["preset", "params", "channel"])
 ))]
 pub struct Args {
     /// Model form: one of the paper's parameter sets.
@@ -54,14 +53,6 @@ pub struct Args {
     /// Channel form: the weighting to apply to the channel.
     #[arg(long, value_enum, requires = "channel")]
     pub weighting: Option<Kind>,
-    /// Resample to this rate first, Hz (a rate the device supports; Kaiser-windowed sinc,
-    /// zero phase).
-    #[arg(
-        long = "fs",
-        value_name = "HZ",
-        help = values::sample_rate_help("Resample to this rate first (Kaiser-windowed sinc, zero phase)")
-    )]
-    pub fs_hz: Option<f64>,
     /// Print one JSON object instead of the table.
     #[arg(long)]
     pub json: bool,
@@ -73,7 +64,7 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
         (Some(channel), Some(kind)) => {
             // No parameters: a raw reading is taken as level-mounted.
             let ride = args.ride.open(&args.input, &Mounting::LEVEL)?;
-            let report = evaluate_channel(&ride, channel, kind.into(), args.fs_hz)?;
+            let report = evaluate_channel(&ride, channel, kind.into(), args.ride.fs_hz)?;
             if args.json {
                 serde_json::to_string(&report)? + "\n"
             } else {
@@ -90,13 +81,13 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
                 (None, Some(p)) => p
                     .to_possible_value()
                     .map_or_else(|| format!("{p:?}"), |v| v.get_name().to_string()),
-                (None, None) => "?".to_string(),
+                (None, None) => "paper-litter".to_string(),
             };
-            let mut file = source.load()?;
+            let mut file = source.load_for_ride()?;
             args.subject.apply(&mut file)?;
             let mounting = file.device.unwrap_or_default().mounting;
             let ride = args.ride.open(&args.input, &mounting)?;
-            let report = evaluate_model(&ride, &file, model, args.fs_hz)?;
+            let report = evaluate_model(&ride, &file, model, args.ride.fs_hz)?;
             if args.json {
                 serde_json::to_string(&report)? + "\n"
             } else {

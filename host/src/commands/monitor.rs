@@ -56,15 +56,6 @@ pub struct Args {
     /// Length of the generated ride, s.
     #[arg(long, default_value_t = values::DEFAULT_DURATION_S, requires = "profile")]
     pub duration_s: f64,
-    /// Sample rate of the generated ride, Hz (a rate the device supports).
-    #[arg(
-        long = "fs",
-        value_name = "HZ",
-        default_value_t = values::DEFAULT_SAMPLE_RATE_HZ,
-        requires = "profile",
-        help = values::sample_rate_help("Sample rate of the generated ride")
-    )]
-    pub fs_hz: f64,
     /// Seed of the generated ride.
     #[arg(long, default_value_t = values::DEFAULT_SEED, requires = "profile")]
     pub seed: u64,
@@ -231,7 +222,8 @@ fn prepare_qemu(args: &Args, greeting_timeout: Duration) -> Result<QemuRun> {
             (samples, ride.sample_rate_hz())
         }
         (None, Some(profile)) => {
-            let ride = make(profile, args.duration_s, args.fs_hz, args.seed)?;
+            let fs_hz = args.ride.fs_hz.unwrap_or(values::DEFAULT_SAMPLE_RATE_HZ);
+            let ride = make(profile, args.duration_s, fs_hz, args.seed)?;
             (ride.samples(), ride.ride.sample_rate_hz)
         }
         (None, None) => bail!("--qemu needs a ride: --input RIDE.csv or --profile NAME"),

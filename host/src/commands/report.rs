@@ -56,13 +56,13 @@ pub fn model_name(source: &ModelSource) -> String {
         (None, Some(p)) => p
             .to_possible_value()
             .map_or_else(|| format!("{p:?}"), |v| v.get_name().to_string()),
-        (None, None) => "?".to_string(),
+        (None, None) => "paper-litter".to_string(),
     }
 }
 
 /// Builds the report, writes `report.html`, and the JSON to `out` with `--json`.
 pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
-    let mut file = args.model.load()?;
+    let mut file = args.model.load_for_ride()?;
     args.subject.apply(&mut file)?;
     let band = args.band.request(&args.model, &file)?;
     let mounting = file.device.unwrap_or_default().mounting;
@@ -90,6 +90,18 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
         &model_name(&args.model),
         args.compare,
     )?;
+    if !args.ride.labels.is_empty() {
+        if args.ride.labels.len() != report.legs.len() {
+            bail!(
+                "--label: expected one per --input ({}), found {}",
+                report.legs.len(),
+                args.ride.labels.len()
+            );
+        }
+        for (leg, label) in report.legs.iter_mut().zip(&args.ride.labels) {
+            leg.label = Some(label.clone());
+        }
+    }
     let device = match &logged {
         Some((log, session)) => {
             let ride = args.ride.open(&session.ride, &mounting)?;

@@ -17,6 +17,7 @@ use crate::exposure::evaluation_input::{EvaluationInput, check_warmup};
 use crate::exposure::reported_values::{AxisReport, tidy};
 use crate::io::recording::{COLUMNS, Layout};
 use crate::io::ride_rows::RideSource;
+use crate::ride::quality::DataQuality;
 
 /// A single recorded channel, weighted and evaluated without a model.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -46,6 +47,8 @@ pub struct ChannelExposure {
     /// The weighted evaluation.
     #[serde(flatten)]
     pub values: AxisReport,
+    /// The ride's data-quality account (a logger's file; null for a recording).
+    pub data_quality: Option<DataQuality>,
 }
 
 /// The channel form's settings: `kind` on every axis at `sample_rate_hz`, the core's
@@ -118,6 +121,7 @@ pub fn evaluate_channel(
             (sum2 / n as f64).sqrt()
         },
         values: AxisReport::new(kind.name(), &values.axes[0]),
+        data_quality: source.quality().cloned(),
     })
 }
 

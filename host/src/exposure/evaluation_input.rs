@@ -41,7 +41,7 @@ impl<'a> EvaluationInput<'a> {
         let mut input = Self {
             source,
             sample_rate_hz: own_hz,
-            resampled_from_hz: None,
+            resampled_from_hz: source.converted_from_hz(),
             start_s: source.start_s(),
             samples: source.len(),
             resampler: None,

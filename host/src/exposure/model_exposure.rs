@@ -18,6 +18,7 @@ use crate::exposure::timed_event::TimedEvent;
 use crate::io::params_file::ParamFile;
 use crate::io::recording::Layout;
 use crate::io::ride_rows::RideSource;
+use crate::ride::quality::DataQuality;
 
 /// Predicted head exposure of a ride: the device pipeline over the platform columns.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -68,6 +69,8 @@ pub struct ModelExposure {
     /// head's and the device's: the model's start-up transient is not motion of the ride);
     /// empty when the model is not known.
     pub joints: Vec<JointReport>,
+    /// The ride's data-quality account (a logger's file; null for a recording).
+    pub data_quality: Option<DataQuality>,
 }
 
 /// No event was left out of a list (serde's test for leaving the count out).
@@ -121,6 +124,7 @@ pub fn evaluate_model_with(
         max_level: outcome.max_level.name(),
         final_level: outcome.final_level.name(),
         joints: outcome.joints,
+        data_quality: input.source().quality().cloned(),
     };
     Ok((report, params))
 }

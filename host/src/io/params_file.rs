@@ -261,12 +261,8 @@ impl From<PresetArg> for Preset {
 #[derive(Clone, Debug, Args)]
 pub struct ModelSource {
     /// One of the paper's parameter sets.
-    #[arg(
-        long,
-        value_enum,
-        conflicts_with = "params",
-        required_unless_present = "params"
-    )]
+    /// (Commands that take a ride default to the litter-board preset; the others need one.)
+    #[arg(long, value_enum, conflicts_with = "params")]
     pub preset: Option<PresetArg>,
     /// A parameter file (TOML), as `supine params` prints and `supine fit` writes.
     #[arg(long, value_name = "FILE")]
@@ -281,5 +277,18 @@ impl ModelSource {
             (None, Some(preset)) => Ok(ParamFile::preset(preset.into())),
             (None, None) => Err(anyhow!("give --preset NAME or --params FILE")),
         }
+    }
+
+    /// Loads the parameters the user named, or, for a command that takes a ride, the
+    /// litter-board preset (a patient on a spinal board on a litter: how patients ride),
+    /// said on standard error.
+    pub fn load_for_ride(&self) -> Result<ParamFile> {
+        if self.params.is_none() && self.preset.is_none() {
+            eprintln!(
+                "no --preset or --params: using the litter-board preset (--preset paper-litter)"
+            );
+            return Ok(ParamFile::preset(Preset::PaperLitter));
+        }
+        self.load()
     }
 }

@@ -1,111 +1,310 @@
-//! Rides from any logger, as `exposure` and `report` read them (`docs/exposure.md#rides-from-other-loggers`).
+//! Rides from any logger, as every command that takes a ride reads them
+//! (`docs/exposure.md#rides-from-phones-and-loggers`): `report`, `exposure`, `predict`,
+//! `replay` and `monitor --input` share [`RideInputArgs`].
 //!
-//! Without `--columns` a file is the project's own (the recording format, or a ride's
-//! `time_s,platform_x,platform_y,platform_z`, read by [`crate::io::recording`]). With
-//! `--columns time=NAME,x=NAME,y=NAME,z=NAME` it is another logger's CSV: the four columns
-//! are found by their exact header names (other columns are ignored), the delimiter is
-//! `;` when the header line holds one (spreadsheets where the decimal comma is the custom)
-//! and `,` otherwise, time is in `--time-unit` and acceleration in `--units`. A byte order
-//! mark, CRLF line ends and blank lines are accepted, as in every CSV the host reads, and
-//! the file is read line by line ([`CsvLines`]).
+//! A file is recognized from its header ([`crate::ride::formats`]: the project's ride,
+//! phyphox, Sensor Logger, Physics Toolbox), or read by `--columns
+//! time=NAME,x=NAME,y=NAME,z=NAME` (exact header names, other columns ignored; `;` or `,`
+//! delimited; quoted fields read). Its clock may jitter, burst, repeat and stop: the
+//! conditioning ([`crate::ride::conditioned`]) drops and counts what cannot be placed,
+//! splits the ride at gaps and puts the samples on a uniform grid at `--fs` (default
+//! [`DEFAULT_RATE_HZ`]; a uniform ride at a rate the device supports keeps its own), and
+//! every such ride carries its data-quality account ([`crate::ride::quality`]).
 //!
-//! Then the gravity check ([`check_gravity`]): a vertical column whose mean lies within
-//! [`GRAVITY_MARGIN_M_S2`] of +-g is a raw accelerometer reading with gravity in it, which
-//! the model would take for a steady 1 g push and report nonsense from. `--remove-gravity`
-//! converts every sample as the device converts its sensor's readings
-//! ([`Mounting::to_litter_m_s2`]: the parameters' `[device.mounting]` rotation, then
-//! gravity off the vertical), in the device's f32.
+//! Units and gravity are checked on the magnitude of the ride's mean acceleration, which
+//! does not depend on how the logger lay ([`check_units_and_gravity`]): near 9.81 m/s^2
+//! is gravity, near 1 in a file read as m/s^2 is a file in g. `--remove-gravity` levels
+//! the ride by its own gravity ([`crate::ride::level`]); `--mounting`, or a
+//! `[device.mounting]` other than level in the parameters, converts it as the device
+//! does instead ([`Mounting::to_litter_m_s2`]).
+//!
+//! The project's full recording (13 columns) is read as before ([`PlatformStream`]).
 
 use std::io::Write as _;
 use std::path::Path;
 
 use anyhow::{Result, anyhow, bail};
 use supine_core::mounting::{Mounting, STANDARD_GRAVITY_M_S2};
+use supine_core::sample_rate::SampleRate;
 
 use crate::io::csv_lines::CsvLines;
 use crate::io::excerpt::quoted_name;
 use crate::io::output::write_atomically;
 use crate::io::recording::{
-    Layout, LineNumbers, PLATFORM_HEADER_LINE, PlatformStream, Recording, RecordingError,
+    COLUMNS, Layout, PLATFORM_HEADER_LINE, PlatformStream, Recording, RecordingError,
 };
 pub use crate::io::ride_rows::{AccelUnit, ColumnNames, TimeUnit};
-use crate::io::ride_rows::{ForeignFormat, ForeignRows, OpenRide, RideSource};
+use crate::io::ride_rows::{
+    ForeignFormat, OpenRide, RideSource, WindowedRows, listed_fields, read_header,
+};
+use crate::ride::conditioned::{Conditioned, Conditioning};
+use crate::ride::formats::recognize;
+use crate::ride::level::{Levelling, angles_rad, level_by_mean};
+use crate::ride::regular::DEFAULT_MAX_GAP_S;
 
 /// A vertical mean within this of +-g means gravity was left in, m/s^2: a kinematic
 /// acceleration averages to about zero over any ride (the litter ends where it started,
 /// vertically), and 2 m/s^2 leaves room for a sensor's offset and scale error.
 pub const GRAVITY_MARGIN_M_S2: f64 = 2.0;
+/// A mean magnitude within this of 1 in a file read as m/s^2 is gravity in g.
+pub const G_UNITS_MARGIN: f64 = 0.25;
+/// The rate a ride is evaluated at unless it is uniform at a rate the device supports,
+/// or `--fs` says otherwise, Hz.
+pub const DEFAULT_RATE_HZ: f64 = 500.0;
 
-/// How to read a ride file: `--columns`, `--time-unit`, `--units`, `--remove-gravity`,
-/// shared by every command that reads a ride.
-#[derive(Clone, Debug, Default, PartialEq, clap::Args)]
+/// How to read a ride file, shared by every command that reads a ride.
+#[derive(Clone, Debug, PartialEq, clap::Args)]
 pub struct RideInputArgs {
-    /// Another logger's CSV: the header names of its time and litter x, y, z columns
-    /// (exact; other columns are ignored; `,` or `;` delimited).
+    /// A logger's CSV whose header is not recognized: the header names of its time and
+    /// litter x, y, z columns (exact; other columns are ignored; `,` or `;` delimited).
     #[arg(long, value_name = "time=NAME,x=NAME,y=NAME,z=NAME", value_parser = ColumnNames::parse)]
     pub columns: Option<ColumnNames>,
-    /// Unit of the time column of a `--columns` file.
-    #[arg(long, value_enum, value_name = "UNIT", requires = "columns")]
+    /// Unit (or form) of the time column (else the recognized format's, or s).
+    #[arg(long, value_enum, value_name = "UNIT")]
     pub time_unit: Option<TimeUnit>,
-    /// Unit of the acceleration columns of a `--columns` file (g = 9.80665 m/s^2).
-    #[arg(long, value_enum, value_name = "UNIT", requires = "columns")]
+    /// Unit of the acceleration columns (else the recognized format's, or m/s2; g =
+    /// 9.80665 m/s^2).
+    #[arg(long, value_enum, value_name = "UNIT")]
     pub units: Option<AccelUnit>,
-    /// The file is a raw accelerometer's, with gravity: convert it as the device does
-    /// (the parameters' [device.mounting] rotation, then gravity off the vertical).
+    /// The file is a raw accelerometer's, with gravity: level it by its own gravity and
+    /// remove it (or as the parameters' [device.mounting] says, with --mounting).
     #[arg(long)]
     pub remove_gravity: bool,
+    /// With --remove-gravity: convert as the parameters' [device.mounting] says (as the
+    /// device does) instead of levelling by the ride's own gravity.
+    #[arg(long, requires = "remove_gravity")]
+    pub mounting: bool,
+    /// Evaluate at this rate, Hz (default: a uniform ride's own rate if the device
+    /// supports it, else 500 Hz).
+    #[arg(long = "fs", value_name = "HZ")]
+    pub fs_hz: Option<f64>,
+    /// Longest step between samples bridged by interpolation, s; a longer one is a gap
+    /// the exposure pauses across.
+    #[arg(long, value_name = "S", default_value_t = DEFAULT_MAX_GAP_S)]
+    pub max_gap_s: f64,
+    /// Read the ride from this time on, s (the file's time; relative clocks count from
+    /// the first row).
+    #[arg(long, value_name = "S")]
+    pub from_s: Option<f64>,
+    /// Read the ride up to this time, s.
+    #[arg(long, value_name = "S")]
+    pub to_s: Option<f64>,
+    /// A name for each ride (one per --input, in order), shown instead of its file name.
+    #[arg(long = "label", value_name = "NAME")]
+    pub labels: Vec<String>,
+}
+
+impl Default for RideInputArgs {
+    fn default() -> Self {
+        Self {
+            columns: None,
+            time_unit: None,
+            units: None,
+            remove_gravity: false,
+            mounting: false,
+            fs_hz: None,
+            max_gap_s: DEFAULT_MAX_GAP_S,
+            from_s: None,
+            to_s: None,
+            labels: Vec::new(),
+        }
+    }
 }
 
 impl RideInputArgs {
-    /// How another logger's file is laid out (`--columns`, `--time-unit`, `--units`).
-    fn foreign_format(&self) -> Option<ForeignFormat> {
-        self.columns.as_ref().map(|columns| ForeignFormat {
-            columns: columns.clone(),
-            time_unit: self.time_unit.unwrap_or_default(),
-            units: self.units.unwrap_or_default(),
-        })
+    /// Whether any option asks for more than reading the project's file as it is.
+    fn converts(&self) -> bool {
+        self.columns.is_some()
+            || self.remove_gravity
+            || self.fs_hz.is_some()
+            || self.from_s.is_some()
+            || self.to_s.is_some()
+            || self.time_unit.is_some()
+            || self.units.is_some()
     }
 
-    /// The vertical column's name in the file, as the gravity check names it.
-    fn vertical(&self) -> &str {
-        match &self.columns {
-            Some(c) => c.names[3].as_str(),
-            None => "platform_z",
+    /// How the file at `path` is laid out: `--columns`, or its recognized header;
+    /// `None` for the project's full recording.
+    fn format(&self, path: &Path) -> Result<Option<ForeignFormat>> {
+        let units = |default: AccelUnit| self.units.unwrap_or(default);
+        let time_unit = |default: TimeUnit| self.time_unit.unwrap_or(default);
+        if let Some(columns) = &self.columns {
+            return Ok(Some(ForeignFormat {
+                name: "--columns".to_string(),
+                columns: columns.clone(),
+                time_unit: time_unit(TimeUnit::S),
+                units: units(AccelUnit::MS2),
+            }));
         }
-    }
-
-    /// Reads the ride at `path` whole: the project's formats, or another logger's with
-    /// `--columns`; then gravity removed (`mounting`, with `--remove-gravity`) and checked.
-    pub fn read(&self, path: &Path, mounting: &Mounting) -> Result<(Recording, Layout)> {
-        let (mut recording, layout) = match self.foreign_format() {
-            Some(format) => (read_foreign(path, &format)?, Layout::PlatformOnly),
-            None => read_own(path)?,
+        let (delimiter, header) = read_header(path)?;
+        if header.len() == COLUMNS.len() && header.iter().zip(COLUMNS).all(|(h, c)| h == c) {
+            return Ok(None);
+        }
+        let Some(known) = recognize(&header) else {
+            let guess = |k: usize| {
+                header
+                    .get(k)
+                    .filter(|h| h.chars().count() <= 10 && !h.contains([',', '=']))
+                    .map_or_else(|| "NAME".to_string(), String::clone)
+            };
+            bail!(
+                "{}: line 1: header not recognized, found {} ({:?}-separated); give --columns time={},x={},y={},z={}",
+                path.display(),
+                listed_fields(header.iter().map(String::as_bytes), header.len()).join(", "),
+                delimiter as char,
+                guess(0),
+                guess(1),
+                guess(2),
+                guess(3)
+            );
         };
-        if self.remove_gravity {
-            remove_gravity(&mut recording, mounting);
-        }
-        check_gravity(&recording, self.vertical(), self.remove_gravity)?;
-        Ok((recording, layout))
+        Ok(Some(ForeignFormat {
+            name: known.name.to_string(),
+            columns: ColumnNames {
+                names: known.columns.map(String::from),
+            },
+            time_unit: time_unit(known.time_unit),
+            units: units(known.units),
+        }))
     }
 
-    /// Opens the ride at `path` to be read row by row, with the checks of
-    /// [`read`](Self::read) and the same errors: every row checked (two passes), then the
-    /// gravity check on the converted rows (one more). Memory holds a line.
+    /// Opens the ride at `path` to be read row by row (see the module's description):
+    /// one pass for the scan and the checks; each of the source's passes reads it again.
+    /// `mounting` is the parameters' `[device.mounting]`, used with `--mounting` or when it
+    /// is not level.
     pub fn open(&self, path: &Path, mounting: &Mounting) -> Result<RideSource> {
-        let removal = self.remove_gravity.then_some(*mounting);
-        let source = match self.foreign_format() {
-            Some(format) => RideSource::foreign(path, format, removal)?,
-            None => RideSource::own(PlatformStream::open(path).map_err(own_error)?, removal),
+        let Some(format) = self.format(path)? else {
+            return self.open_recording(path, mounting);
         };
-        let mut sum = 0.0f64;
+        if !(self.max_gap_s.is_finite() && self.max_gap_s > 0.0) {
+            bail!(
+                "--max-gap-s {}: expected a positive number of seconds",
+                self.max_gap_s
+            );
+        }
+        if let Some(fs) = self.fs_hz
+            && !SampleRate::supports_hz(fs)
+        {
+            bail!(
+                "--fs {fs}: expected a rate the device supports, {}..={} Hz",
+                SampleRate::MIN_HZ,
+                SampleRate::MAX_HZ
+            );
+        }
+        let rows = WindowedRows {
+            path: path.to_path_buf(),
+            format: format.clone(),
+            from_s: self.from_s.unwrap_or(f64::NEG_INFINITY),
+            to_s: self.to_s.unwrap_or(f64::INFINITY),
+        };
+        let scan = Conditioned::scan(&rows, self.max_gap_s)?;
+        let shown = path.display();
+        if scan.kept < 2 {
+            bail!(
+                "{shown}: expected at least 2 samples{}, found {}",
+                if self.from_s.is_some() || self.to_s.is_some() {
+                    " in --from-s..--to-s"
+                } else {
+                    ""
+                },
+                scan.kept
+            );
+        }
+        let mean = scan.mean_m_s2();
+        check_units_and_gravity(path, mean, format.units, self.remove_gravity)?;
+        let (levelling, account) = if !self.remove_gravity {
+            (None, None)
+        } else if self.mounting || *mounting != Mounting::LEVEL {
+            let (tilt_rad, roll_rad, pitch_rad) = angles_rad(mean);
+            let z = (0..3)
+                .map(|k| f64::from(mounting.sensor_to_litter[2][k]) * mean[k])
+                .sum::<f64>()
+                - f64::from(mounting.gravity_m_s2);
+            if z.abs() > GRAVITY_MARGIN_M_S2 {
+                bail!(
+                    "{shown}: mean vertical {z:.2} m/s^2 after --remove-gravity with [device.mounting], \
+                     expected within {GRAVITY_MARGIN_M_S2} of 0: the mounting does not fit this \
+                     sensor (see supine calibrate; or level by the ride's gravity without --mounting)"
+                );
+            }
+            let account = Levelling {
+                method: "mounting",
+                gravity_m_s2: norm(mean),
+                tilt_rad,
+                roll_rad,
+                pitch_rad,
+            };
+            (Some(*mounting), Some(account))
+        } else {
+            let (m, account) = level_by_mean(mean);
+            (Some(m), Some(account))
+        };
+        let effective = scan.effective_rate_hz();
+        let draft = scan.account(String::new(), effective, self.max_gap_s, None);
+        let uniform = draft.dropped_samples == 0
+            && draft.repeated_samples == 0
+            && draft.gaps == 0
+            && draft.step_p99_s <= 1.01 * draft.step_median_s;
+        let rate_hz = match self.fs_hz {
+            Some(fs) => fs,
+            None if uniform && SampleRate::supports_hz(effective) => effective,
+            None => DEFAULT_RATE_HZ,
+        };
+        let plan = Conditioned::new(
+            &scan,
+            Conditioning {
+                rate_hz,
+                max_gap_s: self.max_gap_s,
+                levelling,
+            },
+        )?;
+        let quality = plan.account(&scan, format.name.clone(), account);
+        Ok(RideSource::conditioned(rows, plan, quality))
+    }
+
+    /// The project's full recording, checked as before (uniform time, gravity on the
+    /// vertical), converted with `mounting` on `--remove-gravity`.
+    fn open_recording(&self, path: &Path, mounting: &Mounting) -> Result<RideSource> {
+        let removal = self.remove_gravity.then_some(*mounting);
+        let source = RideSource::own(PlatformStream::open(path).map_err(own_error)?, removal);
+        let mut sum = [0.0f64; 3];
         for row in source.rows()? {
-            sum += row?[3];
+            let row = row?;
+            for (s, v) in sum.iter_mut().zip(&row[1..4]) {
+                *s += v;
+            }
         }
         if !source.is_empty() {
-            let mean = sum / source.len() as f64;
-            gravity_verdict(path, self.vertical(), mean, self.remove_gravity)?;
+            let mean = sum.map(|s| s / source.len() as f64);
+            if self.remove_gravity {
+                check_removed(path, mean[2])?;
+            } else {
+                check_units_and_gravity(path, mean, AccelUnit::MS2, false)?;
+            }
         }
         Ok(source)
+    }
+
+    /// Reads the ride at `path` whole (tests; the commands stream).
+    pub fn read(&self, path: &Path, mounting: &Mounting) -> Result<(Recording, Layout)> {
+        let source = self.open(path, mounting)?;
+        let mut recording = Recording {
+            path: path.to_path_buf(),
+            time_s: Vec::new(),
+            platform_m_s2: Default::default(),
+            sensors_m_s2: Default::default(),
+        };
+        for row in source.rows()? {
+            let row = row?;
+            recording.time_s.push(row[0]);
+            for (axis, column) in recording.platform_m_s2.iter_mut().enumerate() {
+                column.push(row[1 + axis]);
+            }
+            for (axis, column) in recording.sensors_m_s2.iter_mut().enumerate() {
+                column.push(row[4 + axis]);
+            }
+        }
+        Ok((recording, source.layout()))
     }
 
     /// The rides as `report` opens them: row by row, with these options and `mounting`.
@@ -115,6 +314,53 @@ impl RideInputArgs {
             mounting,
         }
     }
+}
+
+fn norm(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// Refuses a ride whose units or gravity disagree with what was given, from the
+/// magnitude of its mean acceleration `mean_m_s2` (read in `units`), whatever the
+/// logger's orientation: near 1 in a file read as m/s^2 is a file in g; near 9.81 in
+/// a file read as g is one in m/s^2; near 9.81 m/s^2 is gravity, which
+/// `--remove-gravity` (`remove`) must be given for, and without which it must not.
+pub fn check_units_and_gravity(
+    path: &Path,
+    mean_m_s2: [f64; 3],
+    units: AccelUnit,
+    remove: bool,
+) -> Result<()> {
+    let shown = path.display();
+    let g = STANDARD_GRAVITY_M_S2;
+    let m = norm(mean_m_s2);
+    let raw = m / units.to_m_s2();
+    let [x, y, z] = mean_m_s2.map(|v| v / units.to_m_s2());
+    let means = format!("mean x {x:.3}, y {y:.3}, z {z:.3}, magnitude {raw:.3}");
+    if units == AccelUnit::MS2 && (raw - 1.0).abs() <= G_UNITS_MARGIN {
+        bail!(
+            "{shown}: {means}, near 1: gravity in g read as m/s^2? Give --units g (with \
+             --remove-gravity)"
+        );
+    }
+    if units == AccelUnit::G && (raw - g).abs() <= GRAVITY_MARGIN_M_S2 {
+        bail!("{shown}: {means} g, near 9.81: a file in m/s^2 read as g? Give --units m/s2");
+    }
+    let gravity = (m - g).abs() <= GRAVITY_MARGIN_M_S2;
+    if gravity && !remove {
+        bail!(
+            "{shown}: {means} m/s^2, near 9.81: gravity left in a raw accelerometer? Give \
+             --remove-gravity"
+        );
+    }
+    if remove && !gravity {
+        bail!(
+            "{shown}: --remove-gravity: {means} {}, expected a magnitude near 9.81 m/s^2 \
+             (gravity): no gravity to remove here, or other units (--units)",
+            units.name()
+        );
+    }
+    Ok(())
 }
 
 /// Opens each ride of a report row by row ([`RideInputArgs::open`]).
@@ -131,18 +377,19 @@ impl OpenRide for RideOpener<'_> {
 }
 
 /// The ride at `path` as a [`PlatformStream`] for the commands that stream it
-/// (`replay`): the file itself when it is in the project's format and needs no
-/// conversion (gravity checked in one more pass), else the converted ride written to
-/// `scratch` first, row by row (another logger's file, or `--remove-gravity`), whose
-/// samples are the converted ones bit for bit.
+/// (`replay`, `monitor --input`): the file itself when it is the project's (a full
+/// recording, or a uniform ride at a rate the device supports) and no option converts it
+/// (gravity checked in one more pass), else the conditioned ride written to `scratch`
+/// first, row by row, whose samples are the conditioned ones bit for bit.
 pub fn open_stream(
     args: &RideInputArgs,
     path: &Path,
     mounting: &Mounting,
     scratch: &Path,
 ) -> Result<PlatformStream> {
-    if args.columns.is_none() && !args.remove_gravity {
-        let stream = PlatformStream::open(path)?;
+    if !args.converts()
+        && let Ok(stream) = PlatformStream::open(path)
+    {
         check_gravity_streamed(&stream)?;
         return Ok(stream);
     }
@@ -158,16 +405,6 @@ pub fn open_stream(
         Ok(())
     })?;
     Ok(PlatformStream::open(&converted)?)
-}
-
-/// A file in the project's formats, with the header error extended by what other files
-/// need.
-fn read_own(path: &Path) -> Result<(Recording, Layout)> {
-    let file = std::fs::File::open(path).map_err(|e| RecordingError::Read {
-        path: path.to_path_buf(),
-        reason: e.to_string(),
-    })?;
-    Recording::from_reader(file, path, &[Layout::Full, Layout::PlatformOnly]).map_err(own_error)
 }
 
 /// A recording error of a file read as a ride: a header error within the 200 characters
@@ -202,95 +439,37 @@ fn header_field(path: &Path, column: usize) -> String {
     }
 }
 
-/// Reads another logger's file whole: the four named columns, converted to s and m/s^2.
-fn read_foreign(path: &Path, format: &ForeignFormat) -> Result<Recording> {
-    let mut rows = ForeignRows::open(path, format)?;
-    let mut recording = Recording {
-        path: path.to_path_buf(),
-        time_s: Vec::new(),
-        platform_m_s2: Default::default(),
-        sensors_m_s2: Default::default(),
-    };
-    let mut lines_of = LineNumbers::default();
-    while let Some((line, value)) = rows.next_row()? {
-        lines_of.push(recording.time_s.len(), line);
-        recording.time_s.push(value[0]);
-        for (axis, column) in recording.platform_m_s2.iter_mut().enumerate() {
-            column.push(value[1 + axis]);
-        }
-    }
-    recording.check_uniform(&lines_of)?;
-    // The sensor columns of a ride are zeros, as the recording reader fills them.
-    let n = recording.len();
-    recording.sensors_m_s2 = std::array::from_fn(|_| vec![0.0; n]);
-    Ok(recording)
-}
-
-/// Converts every platform sample from sensor axes with gravity to litter axes without,
-/// as the device converts its sensor's readings (f32).
-pub fn remove_gravity(recording: &mut Recording, mounting: &Mounting) {
-    let [x, y, z] = &mut recording.platform_m_s2;
-    for k in 0..z.len() {
-        let litter = mounting.to_litter_m_s2([x[k] as f32, y[k] as f32, z[k] as f32]);
-        x[k] = f64::from(litter[0]);
-        y[k] = f64::from(litter[1]);
-        z[k] = f64::from(litter[2]);
-    }
-}
-
-/// Refuses a ride whose vertical column (named `vertical` in the file) averages within
-/// [`GRAVITY_MARGIN_M_S2`] of +-g, or of +-1 (gravity in g read as m/s^2); after
-/// `--remove-gravity` (`removed`), one whose mean is not within the margin of zero.
-pub fn check_gravity(recording: &Recording, vertical: &str, removed: bool) -> Result<()> {
-    let z = &recording.platform_m_s2[2];
-    if z.is_empty() {
-        return Ok(());
-    }
-    let mean = z.iter().sum::<f64>() / z.len() as f64;
-    gravity_verdict(&recording.path, vertical, mean, removed)
-}
-
-/// [`check_gravity`] on a ride streamed from its file (`replay`, `monitor --input`): one
+/// The gravity check of the project's recording streamed from its file (`replay`, `monitor --input`): one
 /// more pass over the file, memory for a line.
 pub fn check_gravity_streamed(ride: &PlatformStream) -> Result<()> {
-    let mut sum = 0.0f64;
+    let mut sum = [0.0f64; 3];
     let mut n = 0usize;
     for sample in ride.samples()? {
-        sum += f64::from(sample?[2]);
+        for (s, v) in sum.iter_mut().zip(sample?) {
+            *s += f64::from(v);
+        }
         n += 1;
     }
     if n == 0 {
         return Ok(());
     }
-    gravity_verdict(ride.path(), "platform_z", sum / n as f64, false)
+    check_units_and_gravity(
+        ride.path(),
+        sum.map(|s| s / n as f64),
+        AccelUnit::MS2,
+        false,
+    )
 }
 
-fn gravity_verdict(path: &Path, vertical: &str, mean: f64, removed: bool) -> Result<()> {
-    let g = STANDARD_GRAVITY_M_S2;
-    let shown = path.display();
-    let sign = if mean < 0.0 { "-" } else { "+" };
-    if removed {
-        if mean.abs() > GRAVITY_MARGIN_M_S2 {
-            bail!(
-                "{shown}: column {vertical}: mean {mean:.2} m/s^2 after --remove-gravity, expected \
-                 within {GRAVITY_MARGIN_M_S2} of 0: [device.mounting] does not fit this sensor \
-                 (see supine calibrate)"
-            );
-        }
-        return Ok(());
-    }
-    if (mean.abs() - g).abs() <= GRAVITY_MARGIN_M_S2 {
+/// Refuses a recording whose vertical (`platform_z`) still averages away from zero
+/// (`mean`, m/s^2) after `[device.mounting]` removed gravity.
+fn check_removed(path: &Path, mean: f64) -> Result<()> {
+    if mean.abs() > GRAVITY_MARGIN_M_S2 {
         bail!(
-            "{shown}: column {vertical}: mean {mean:.2} m/s^2, within {GRAVITY_MARGIN_M_S2} of \
-             {sign}9.81: gravity left in a raw accelerometer? Give --remove-gravity \
-             ([device.mounting] removes it as on the device)"
-        );
-    }
-    if (mean.abs() - 1.0).abs() <= GRAVITY_MARGIN_M_S2 / g {
-        bail!(
-            "{shown}: column {vertical}: mean {mean:.2}, within {:.1} of {sign}1: gravity in g \
-             read as m/s^2? Give --units g --remove-gravity (with --columns)",
-            GRAVITY_MARGIN_M_S2 / g
+            "{}: column platform_z: mean {mean:.2} m/s^2 after --remove-gravity, expected \
+             within {GRAVITY_MARGIN_M_S2} of 0: [device.mounting] does not fit this sensor \
+             (see supine calibrate)",
+            path.display()
         );
     }
     Ok(())
@@ -335,7 +514,7 @@ mod tests {
             ),
             time_unit: Some(TimeUnit::Ms),
             units: Some(AccelUnit::G),
-            remove_gravity: false,
+            ..RideInputArgs::default()
         }
     }
 
@@ -406,11 +585,11 @@ mod tests {
         std::fs::write(&raw, text).unwrap();
         let err = error(RideInputArgs::default().read(&raw, &Mounting::LEVEL));
         assert!(
-            err.contains("raw.csv: column platform_z: mean -9.8"),
+            err.contains("raw.csv: mean x ") && err.contains("z -9.8"),
             "{err}"
         );
         assert!(
-            err.contains("of -9.81") && err.contains("--remove-gravity"),
+            err.contains("near 9.81") && err.contains("--remove-gravity"),
             "{err}"
         );
         assert!(!err.contains('\n'));
@@ -422,12 +601,30 @@ mod tests {
             remove_gravity: true,
             ..RideInputArgs::default()
         };
-        // The level calibration leaves -2 g in z: still refused, with what to check.
-        let err = error(removing.read(&raw, &Mounting::LEVEL));
+        // With the level calibration asked for (--mounting), -2 g stay in z: refused, with
+        // what to check.
+        let by_mounting = RideInputArgs {
+            mounting: true,
+            ..removing.clone()
+        };
+        let err = error(by_mounting.read(&raw, &Mounting::LEVEL));
         assert!(
-            err.contains("mean -19.6") && err.contains("after --remove-gravity"),
+            err.contains("mean vertical -19.6") && err.contains("after --remove-gravity"),
             "{err}"
         );
+        // Levelled by its own gravity, the ride is the clean one, less the ride's own mean
+        // z (gravity is measured, not assumed: its magnitude is the mean's).
+        let (levelled, _) = removing.read(&raw, &Mounting::LEVEL).unwrap();
+        let mean_z = clean.platform_m_s2[2].iter().sum::<f64>() / clean.len() as f64;
+        for axis in 0..3 {
+            for (p, q) in clean.platform_m_s2[axis]
+                .iter()
+                .zip(&levelled.platform_m_s2[axis])
+            {
+                let offset = if axis == 2 { mean_z } else { 0.0 };
+                assert!((p - offset - q).abs() <= 1e-4, "{p} vs {q}");
+            }
+        }
         let (fixed, _) = removing.read(&raw, &upside_down).unwrap();
         for axis in 0..3 {
             for (p, q) in clean.platform_m_s2[axis]
@@ -459,7 +656,8 @@ mod tests {
         };
         let err = error(args.read(&path, &Mounting::LEVEL));
         assert!(
-            err.contains("column az: mean 1.01,") && err.contains("--units g"),
+            err.contains("g.csv: mean x 0.010, y 0.000, z 1.010, magnitude 1.010, near 1")
+                && err.contains("--units g"),
             "{err}"
         );
     }
@@ -483,24 +681,26 @@ mod tests {
                 path.display()
             )
         );
-        // The project's format with a wrong header says what other files need.
+        // An unrecognized header: the columns found and the --columns to give.
         std::fs::write(&path, "time,x,y,z\n0,0,0,0\n").unwrap();
         let err = error(RideInputArgs::default().read(&path, &Mounting::LEVEL));
         assert!(
-            err.contains("line 1, column 1: expected \"time_s\"")
-                && err.ends_with("found \"time\""),
-            "{err}"
-        );
-        assert!(
-            err.contains("(a ride: time_s,platform_x,platform_y,platform_z; else --columns)"),
+            err.contains("line 1: header not recognized")
+                && err.ends_with(
+                    "found \"time\", \"x\", \"y\", \"z\" (','-separated); give --columns \
+                     time=time,x=x,y=y,z=z"
+                ),
             "{err}"
         );
         // A header field of 3000 bytes: the error stays short, the field cut.
         std::fs::write(&path, format!("{},b\n0,0\n", "A".repeat(3000))).unwrap();
         let err = error(RideInputArgs::default().read(&path, &Mounting::LEVEL));
         let own = err.strip_prefix(&format!("{}: ", path.display())).unwrap();
-        assert!(own.chars().count() <= 160, "{}: {own}", own.chars().count());
-        assert!(own.ends_with("(3000 bytes)"), "{own}");
+        assert!(own.chars().count() <= 200, "{}: {own}", own.chars().count());
+        assert!(
+            own.contains("(3000 bytes)") && own.contains("time=NAME,x=b,"),
+            "{own}"
+        );
     }
 
     #[test]
@@ -512,7 +712,7 @@ mod tests {
             columns: Some(ColumnNames::parse("time=t,x=a x,y=a y,z=a z").unwrap()),
             time_unit: Some(TimeUnit::Ms),
             units: Some(AccelUnit::G),
-            remove_gravity: false,
+            ..RideInputArgs::default()
         };
         let err = error(args.read(&path, &Mounting::LEVEL));
         assert!(
@@ -525,10 +725,21 @@ mod tests {
             err.ends_with("line 3, column a y: expected an acceleration in g (a finite number), found \"0\\u{1b}x\""),
             "{err}"
         );
-        args.units = None;
-        std::fs::write(&path, "t,a x,a y,a z\n0,0,0,0\n2,0,0,0\n2,0,0,0\n").unwrap();
+        std::fs::write(&path, "t,a x,a y,a z\n0,0,0,0\n2,0,0,x\n").unwrap();
         let err = error(args.read(&path, &Mounting::LEVEL));
-        assert!(err.ends_with("line 4, column t: expected a time after 0.002 s (strictly increasing), found 0.002 s"), "{err}");
+        assert!(
+            err.ends_with(
+                "line 3, column a z: expected an acceleration in g (a finite number), found \"x\""
+            ),
+            "{err}"
+        );
+        args.time_unit = Some(TimeUnit::Text);
+        std::fs::write(&path, "t,a x,a y,a z\n12:00:00.000,0,0,0\n12:00:61,0,0,0\n").unwrap();
+        let err = error(args.read(&path, &Mounting::LEVEL));
+        assert!(
+            err.ends_with("line 3, column t: expected a date-time (ISO 8601) or clock time (HH:MM:SS.f), found \"12:00:61\""),
+            "{err}"
+        );
     }
 
     #[test]

@@ -21,41 +21,19 @@ use clap::ValueEnum;
 use supine_core::mounting::{Mounting, STANDARD_GRAVITY_M_S2};
 
 use crate::io::csv_lines::{CsvLines, MAX_LINE_BYTES};
-use crate::io::excerpt::{excerpt, number, quoted_name};
+use crate::io::excerpt::{excerpt, quoted_name};
 use crate::io::recording::{
-    Layout, MAX_ACCELERATION_M_S2, PLATFORM_HEADER_LINE, PlatformStream, Recording, Uniform,
+    Layout, MAX_ACCELERATION_M_S2, PLATFORM_HEADER_LINE, PlatformStream, Recording,
 };
+use crate::ride::clock::Clock;
+use crate::ride::conditioned::{Conditioned, RawRows};
+use crate::ride::quality::DataQuality;
 
 /// Most characters of header fields an error lists (a logger's header can be long, and an
 /// error stays within about 200 characters).
 const MAX_LISTED_CHARS: usize = 40;
 
-/// Unit of the time column.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
-pub enum TimeUnit {
-    /// Seconds.
-    #[default]
-    S,
-    /// Milliseconds.
-    Ms,
-}
-
-impl TimeUnit {
-    /// Seconds per unit.
-    pub const fn to_s(self) -> f64 {
-        match self {
-            TimeUnit::S => 1.0,
-            TimeUnit::Ms => 1e-3,
-        }
-    }
-
-    fn name(self) -> &'static str {
-        match self {
-            TimeUnit::S => "s",
-            TimeUnit::Ms => "ms",
-        }
-    }
-}
+pub use crate::ride::clock::TimeUnit;
 
 /// Unit of the acceleration columns.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
@@ -77,7 +55,8 @@ impl AccelUnit {
         }
     }
 
-    fn name(self) -> &'static str {
+    /// The unit's name, as errors and reports say it.
+    pub fn name(self) -> &'static str {
         match self {
             AccelUnit::MS2 => "m/s^2",
             AccelUnit::G => "g",
@@ -139,6 +118,9 @@ impl ColumnNames {
 /// How another logger's file is laid out: its columns and units.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ForeignFormat {
+    /// What the file is, as the data-quality account names it (an app's name, or
+    /// `--columns`).
+    pub name: String,
     /// The header names of time, x, y, z.
     pub columns: ColumnNames,
     /// The time column's unit.
@@ -147,8 +129,11 @@ pub struct ForeignFormat {
     pub units: AccelUnit,
 }
 
-/// The rows of another logger's file, parsed and checked one line at a time: each its
-/// line and time (s), x, y, z (m/s^2).
+/// The rows of another logger's file, parsed one line at a time: each its line and time
+/// (s), x, y, z (m/s^2). Every cell is checked; time may go backwards or repeat (the
+/// conditioning drops and counts such rows, [`crate::ride::regular`]). Quoted cells
+/// (RFC 4180, as apps and spreadsheets write them) are read by the `csv` crate, a line
+/// at a time; a line without a quote is split directly.
 pub struct ForeignRows {
     path: PathBuf,
     lines: CsvLines<std::fs::File>,
@@ -156,43 +141,50 @@ pub struct ForeignRows {
     width: usize,
     index: [usize; 4],
     names: [String; 4],
-    scale: [f64; 4],
+    scale: [f64; 3],
     what: [String; 4],
-    previous_s: f64,
+    clock: Clock,
+    quoted: Vec<Vec<u8>>,
+}
+
+/// The cells of a line that holds a quote, unquoted (RFC 4180) by the `csv` crate.
+fn unquoted_cells(text: &[u8], delimiter: u8) -> Option<Vec<Vec<u8>>> {
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .delimiter(delimiter)
+        .flexible(true)
+        .from_reader(text);
+    let mut record = csv::ByteRecord::new();
+    match reader.read_byte_record(&mut record) {
+        Ok(true) => Some(record.iter().map(<[u8]>::to_vec).collect()),
+        _ => None,
+    }
 }
 
 impl ForeignRows {
     /// Opens the file at `path` and finds the columns of `format` in its header.
     pub fn open(path: &Path, format: &ForeignFormat) -> Result<Self> {
         let shown = path.display();
-        let delimiter = sniff_delimiter(path)?;
-        let file =
-            std::fs::File::open(path).map_err(|e| anyhow!("{shown}: cannot read the ride: {e}"))?;
-        let mut lines = CsvLines::with_delimiter(file, MAX_LINE_BYTES, delimiter);
-        let header = lines
-            .next_row()
-            .map_err(|e| anyhow!("{shown}: {e}"))?
-            .ok_or_else(|| {
-                anyhow!("{shown}: line 1: expected a header line, found an empty file")
-            })?;
+        let (delimiter, header) = read_header(path)?;
         let width = header.len();
         let mut index = [0usize; 4];
         for (k, wanted) in format.columns.names.iter().enumerate() {
-            index[k] = header
-                .cells()
-                .position(|c| c == wanted.as_bytes())
-                .ok_or_else(|| {
-                    let fields = listed_fields(header.cells(), width);
-                    anyhow!(
-                        "{shown}: line 1: --columns {}=: expected a field {}, found {} ({:?}-separated; \
-                         a ride: {PLATFORM_HEADER_LINE})",
-                        COLUMN_KEYS[k],
-                        quoted_name(wanted),
-                        fields.join(", "),
-                        delimiter as char
-                    )
-                })?;
+            index[k] = header.iter().position(|c| c == wanted).ok_or_else(|| {
+                let fields = listed_fields(header.iter().map(String::as_bytes), width);
+                anyhow!(
+                    "{shown}: line 1: --columns {}=: expected a field {}, found {} ({:?}-separated; \
+                     a ride: {PLATFORM_HEADER_LINE})",
+                    COLUMN_KEYS[k],
+                    quoted_name(wanted),
+                    fields.join(", "),
+                    delimiter as char
+                )
+            })?;
         }
+        let file =
+            std::fs::File::open(path).map_err(|e| anyhow!("{shown}: cannot read the ride: {e}"))?;
+        let mut lines = CsvLines::with_delimiter(file, MAX_LINE_BYTES, delimiter);
+        lines.next_line().map_err(|e| anyhow!("{shown}: {e}"))?;
         let accel = format!("an acceleration in {}", format.units.name());
         Ok(Self {
             path: path.to_path_buf(),
@@ -201,77 +193,124 @@ impl ForeignRows {
             width,
             index,
             names: format.columns.names.clone(),
-            scale: [
-                format.time_unit.to_s(),
-                format.units.to_m_s2(),
-                format.units.to_m_s2(),
-                format.units.to_m_s2(),
-            ],
+            scale: [format.units.to_m_s2(); 3],
             what: [
-                format!("a time in {}", format.time_unit.name()),
+                format.time_unit.expected().to_string(),
                 accel.clone(),
                 accel.clone(),
                 accel,
             ],
-            previous_s: f64::NEG_INFINITY,
+            clock: Clock::new(format.time_unit),
+            quoted: Vec::new(),
         })
     }
 
     /// The next row: its line, and time (s), x, y, z (m/s^2).
     pub fn next_row(&mut self) -> Result<Option<(u64, [f64; 4])>> {
         let shown = self.path.display();
-        let Some(row) = self.lines.next_row().map_err(|e| anyhow!("{shown}: {e}"))? else {
+        let Some(line) = self
+            .lines
+            .next_line()
+            .map_err(|e| anyhow!("{shown}: {e}"))?
+        else {
             return Ok(None);
         };
-        let line = row.line;
-        if row.len() != self.width {
+        let number = line.line;
+        let has_quote = memchr::memchr(b'"', line.text()).is_some();
+        let row;
+        let cells: Vec<&[u8]> = if has_quote {
+            self.quoted = unquoted_cells(line.text(), self.delimiter).ok_or_else(|| {
+                anyhow!(
+                    "{shown}: line {number}: expected RFC 4180 quoting, found an unclosed quote"
+                )
+            })?;
+            self.quoted.iter().map(Vec::as_slice).collect()
+        } else {
+            row = line.split();
+            row.cells().collect()
+        };
+        let cells_len = cells.len();
+        let trailing_cr = |c: &[u8]| -> Vec<u8> { c.strip_suffix(b"\r").unwrap_or(c).to_vec() };
+        if cells_len != self.width {
             bail!(
-                "{shown}: line {line}: expected {} {:?}-separated cells as in the header, found {}",
+                "{shown}: line {number}: expected {} {:?}-separated cells as in the header, found {}",
                 self.width,
                 self.delimiter as char,
-                row.len()
+                cells_len
             );
         }
         let mut value = [0.0f64; 4];
         for (k, slot) in value.iter_mut().enumerate() {
-            let cell = row.cell(self.index[k]);
+            let raw = cells[self.index[k]];
+            let cell = if has_quote {
+                trailing_cr(raw)
+            } else {
+                raw.to_vec()
+            };
             let name = &self.names[k];
-            let parsed: f64 = std::str::from_utf8(cell)
-                .ok()
-                .and_then(|t| t.trim().parse().ok())
-                .filter(|v: &f64| v.is_finite())
-                .ok_or_else(|| {
-                    anyhow!(
-                        "{shown}: line {line}, column {name}: expected {} (a finite number), found {}",
-                        self.what[k],
-                        excerpt(cell)
-                    )
-                })?;
-            *slot = parsed * self.scale[k];
+            let text = std::str::from_utf8(&cell).ok();
+            let parsed = if k == 0 {
+                text.and_then(|t| self.clock.seconds(t))
+            } else {
+                text.and_then(|t| fast_float2::parse::<f64, _>(t.trim()).ok())
+                    .filter(|v| v.is_finite())
+                    .map(|v| v * self.scale[k - 1])
+            };
+            *slot = parsed.ok_or_else(|| {
+                anyhow!(
+                    "{shown}: line {number}, column {name}: expected {}, found {}",
+                    if k == 0 {
+                        self.what[0].clone()
+                    } else {
+                        format!("{} (a finite number)", self.what[k])
+                    },
+                    excerpt(&cell)
+                )
+            })?;
             if k > 0 && slot.abs() > MAX_ACCELERATION_M_S2 {
                 bail!(
-                    "{shown}: line {line}, column {name}: expected an acceleration within the f32 \
+                    "{shown}: line {number}, column {name}: expected an acceleration within the f32 \
                      range the device computes in, found {}",
-                    excerpt(cell)
+                    excerpt(&cell)
                 );
             }
         }
-        if value[0] <= self.previous_s {
-            bail!(
-                "{shown}: line {line}, column {}: expected a time after {} s (strictly increasing), found {} s",
-                self.names[0],
-                number(self.previous_s),
-                number(value[0])
-            );
-        }
-        self.previous_s = value[0];
-        Ok(Some((line, value)))
+        Ok(Some((number, value)))
     }
+}
+
+/// The delimiter (`;` when the first line holds one, else `,`) and the header's fields,
+/// unquoted, of the file at `path`.
+pub fn read_header(path: &Path) -> Result<(u8, Vec<String>)> {
+    let shown = path.display();
+    let delimiter = sniff_delimiter(path)?;
+    let file =
+        std::fs::File::open(path).map_err(|e| anyhow!("{shown}: cannot read the ride: {e}"))?;
+    let mut lines = CsvLines::with_delimiter(file, MAX_LINE_BYTES, delimiter);
+    let line = lines
+        .next_line()
+        .map_err(|e| anyhow!("{shown}: {e}"))?
+        .ok_or_else(|| anyhow!("{shown}: line 1: expected a header line, found an empty file"))?;
+    let text = line.text();
+    let text = text
+        .strip_prefix(crate::io::small_file::UTF8_BOM)
+        .unwrap_or(text);
+    let text = text.strip_suffix(b"\r").unwrap_or(text);
+    let cells = unquoted_cells(text, delimiter).ok_or_else(|| {
+        anyhow!("{shown}: line 1: expected RFC 4180 quoting, found an unclosed quote")
+    })?;
+    Ok((
+        delimiter,
+        cells
+            .into_iter()
+            .map(|c| String::from_utf8_lossy(&c).into_owned())
+            .collect(),
+    ))
 }
 
 /// The header's fields as an error lists them: quoted, within [`MAX_LISTED_CHARS`]
 /// including the `... (N fields)` that ends a list cut short.
-fn listed_fields<'a>(cells: impl Iterator<Item = &'a [u8]>, width: usize) -> Vec<String> {
+pub fn listed_fields<'a>(cells: impl Iterator<Item = &'a [u8]>, width: usize) -> Vec<String> {
     let length = |fields: &[String]| fields.iter().map(|f| f.chars().count() + 2).sum::<usize>();
     let mut fields: Vec<String> = Vec::new();
     for cell in cells {
@@ -307,8 +346,8 @@ fn sniff_delimiter(path: &Path) -> Result<u8> {
 enum Origin {
     /// A file in the project's formats.
     Own(PlatformStream),
-    /// Another logger's file.
-    Foreign(ForeignFormat),
+    /// A logger's file on any clock, conditioned onto a uniform grid.
+    Conditioned(Box<(WindowedRows, Conditioned)>),
     /// A recording read whole before (the demo's ride, tests).
     Memory(Box<Recording>),
 }
@@ -323,6 +362,40 @@ pub struct RideSource {
     start_s: f64,
     origin: Origin,
     gravity_removal: Option<Mounting>,
+    quality: Option<DataQuality>,
+}
+
+/// The rows of a logger's file within a time window (`--from-s`, `--to-s`), raw: time
+/// (s), x, y, z (m/s^2, the file's axes).
+#[derive(Clone, Debug)]
+pub struct WindowedRows {
+    /// The file.
+    pub path: PathBuf,
+    /// Its layout.
+    pub format: ForeignFormat,
+    /// Rows before this time are skipped, s.
+    pub from_s: f64,
+    /// Rows after this time are skipped, s.
+    pub to_s: f64,
+}
+
+impl RawRows for WindowedRows {
+    fn open_rows(&self) -> Result<Box<dyn Iterator<Item = Result<(f64, [f64; 3])>> + '_>> {
+        let mut rows = ForeignRows::open(&self.path, &self.format)?;
+        let (from_s, to_s) = (self.from_s, self.to_s);
+        Ok(Box::new(std::iter::from_fn(move || {
+            loop {
+                match rows.next_row() {
+                    Err(e) => return Some(Err(e)),
+                    Ok(None) => return None,
+                    Ok(Some((_, [t, x, y, z]))) if t >= from_s && t <= to_s => {
+                        return Some(Ok((t, [x, y, z])));
+                    }
+                    Ok(Some(_)) => {}
+                }
+            }
+        })))
+    }
 }
 
 /// One row of a ride: time, s, then the 12 acceleration columns of the recording format,
@@ -341,6 +414,7 @@ impl RideSource {
             start_s: time.first().copied().unwrap_or(0.0),
             origin: Origin::Memory(Box::new(recording)),
             gravity_removal: None,
+            quality: None,
         }
     }
 
@@ -356,43 +430,36 @@ impl RideSource {
             start_s: stream.start_s(),
             origin: Origin::Own(stream),
             gravity_removal,
+            quality: None,
         }
     }
 
-    /// Another logger's file at `path`: two passes, every cell and the time's order in the
-    /// first, each step against the mean step in the second (the checks, in the order and
-    /// words, of the whole-file reader).
-    pub fn foreign(
-        path: &Path,
-        format: ForeignFormat,
-        gravity_removal: Option<Mounting>,
-    ) -> Result<Self> {
-        let mut rows = ForeignRows::open(path, &format)?;
-        let (mut samples, mut first_s, mut last_s) = (0usize, None, None);
-        while let Some((_, row)) = rows.next_row()? {
-            samples += 1;
-            first_s.get_or_insert(row[0]);
-            last_s = Some(row[0]);
-        }
-        let uniform = Uniform::new(path, samples, first_s.as_ref(), last_s.as_ref())?;
-        let mut rows = ForeignRows::open(path, &format)?;
-        let mut previous_s = None;
-        while let Some((line, row)) = rows.next_row()? {
-            if let Some(previous_s) = previous_s {
-                uniform.check(line, row[0] - previous_s)?;
-            }
-            previous_s = Some(row[0]);
-        }
-        let (first_s, last_s) = (first_s.unwrap_or_default(), last_s.unwrap_or_default());
-        Ok(Self {
-            path: path.to_path_buf(),
+    /// A logger's file, its rows in `rows`' window, conditioned as `plan` says (see
+    /// [`crate::ride::conditioned`]), with its data-quality account.
+    pub fn conditioned(rows: WindowedRows, plan: Conditioned, quality: DataQuality) -> Self {
+        Self {
+            path: rows.path.clone(),
             layout: Layout::PlatformOnly,
-            samples,
-            sample_rate_hz: (samples - 1) as f64 / (last_s - first_s),
-            start_s: first_s,
-            origin: Origin::Foreign(format),
-            gravity_removal,
-        })
+            samples: plan.len(),
+            sample_rate_hz: plan.rate_hz(),
+            start_s: plan.start_s(),
+            origin: Origin::Conditioned(Box::new((rows, plan))),
+            gravity_removal: None,
+            quality: Some(quality),
+        }
+    }
+
+    /// The sensor's own rate when the rows are converted to another, Hz.
+    pub fn converted_from_hz(&self) -> Option<f64> {
+        match &self.origin {
+            Origin::Conditioned(both) => both.1.converted_from_hz(),
+            _ => None,
+        }
+    }
+
+    /// The data-quality account (a logger's file; `None` for a recording).
+    pub fn quality(&self) -> Option<&DataQuality> {
+        self.quality.as_ref()
     }
 
     /// The file.
@@ -429,15 +496,13 @@ impl RideSource {
     pub fn rows(&self) -> Result<Box<dyn Iterator<Item = Result<Row>> + '_>> {
         let rows: Box<dyn Iterator<Item = Result<Row>>> = match &self.origin {
             Origin::Own(stream) => Box::new(stream.rows()?.map(|r| r.map_err(Into::into))),
-            Origin::Foreign(format) => {
-                let mut rows = ForeignRows::open(&self.path, format)?;
-                Box::new(std::iter::from_fn(move || {
-                    rows.next_row().transpose().map(|r| {
-                        r.map(|(_, [t, x, y, z])| {
-                            let mut row = [0.0; 13];
-                            row[..4].copy_from_slice(&[t, x, y, z]);
-                            row
-                        })
+            Origin::Conditioned(both) => {
+                let (rows, plan) = both.as_ref();
+                Box::new(plan.samples(rows)?.map(|r| {
+                    r.map(|(t, [x, y, z])| {
+                        let mut row = [0.0; 13];
+                        row[..4].copy_from_slice(&[t, x, y, z]);
+                        row
                     })
                 }))
             }

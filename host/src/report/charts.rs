@@ -26,11 +26,14 @@ const HEAD_COLOR: &str = "#d62728";
 /// Predicted head, weighted.
 const WEIGHTED_COLOR: &str = "#2ca02c";
 
-/// The name a leg is shown by: its number and file name.
+/// The name a leg is shown by: its number and `--label`, or its file name.
 pub fn leg_label(index: usize, leg: &Leg) -> String {
-    let name = std::path::Path::new(&leg.input)
-        .file_name()
-        .map_or_else(|| leg.input.clone(), |n| n.to_string_lossy().into_owned());
+    let file_name = || {
+        std::path::Path::new(&leg.input)
+            .file_name()
+            .map_or_else(|| leg.input.clone(), |n| n.to_string_lossy().into_owned())
+    };
+    let name = leg.label.clone().unwrap_or_else(file_name);
     format!("leg {}: {name}", index + 1)
 }
 

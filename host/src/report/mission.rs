@@ -126,6 +126,9 @@ pub struct LegSeries {
 pub struct Leg {
     /// The file.
     pub input: String,
+    /// The leg's name (`--label`), shown instead of the file's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub label: Option<String>,
     /// Its length, s.
     pub duration_s: f64,
     /// Start within the mission, s.
@@ -301,6 +304,7 @@ pub fn evaluate_leg(
         })?;
     Ok(Leg {
         input: exposure.input.clone(),
+        label: None,
         duration_s: exposure.duration_s,
         start_s,
         axes: exposure.head,

@@ -38,6 +38,7 @@ pub mod mission_joints;
 pub mod monitor_log;
 pub mod page;
 pub mod prediction_band;
+pub mod quality_section;
 pub mod spectrum;
 
 use std::path::PathBuf;

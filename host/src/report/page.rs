@@ -13,7 +13,7 @@ use crate::report::device_check::DeviceLog;
 use crate::report::markup::{escape, tag};
 use crate::report::mission::{LEVEL_NAMES, Leg, level_named};
 use crate::report::{Comparison, MissionReport};
-use crate::report::{band_section, charts, device_section, joints_section};
+use crate::report::{band_section, charts, device_section, joints_section, quality_section};
 
 /// Most alert events listed per leg (the JSON has them all).
 pub const MAX_EVENT_ROWS: usize = 60;
@@ -111,6 +111,7 @@ pub fn render(report: &MissionReport, device: Option<&DeviceLog>) -> Result<Stri
         escape(&report.model.name),
         escape(&report.model.identity)
     );
+    quality_section::section(&mut h, legs);
     match &report.comparison {
         Some(c) => comparison(&mut h, legs, c),
         None => mission(&mut h, report),
