@@ -25,11 +25,14 @@ use crate::ride::regular::{Cleaner, GridSamples, RowFate, grid_len};
 /// Rates closer than this (relative) are taken as the same: no rate conversion.
 pub const SAME_RATE_TOLERANCE: f64 = 0.01;
 
+/// A stream of timed samples: time (s), x, y, z (m/s^2).
+pub type TimedSamples<'a> = Box<dyn Iterator<Item = Result<(f64, [f64; 3])>> + 'a>;
+
 /// A source of raw rows: time (s), x, y, z (m/s^2, the file's axes), opened anew for
 /// each pass.
 pub trait RawRows {
     /// The rows in the time window, in file order.
-    fn open_rows(&self) -> Result<Box<dyn Iterator<Item = Result<(f64, [f64; 3])>> + '_>>;
+    fn open_rows(&self) -> Result<TimedSamples<'_>>;
 }
 
 /// What the conditioning does with a ride.
@@ -141,7 +144,7 @@ impl Conditioned {
     pub fn samples<'a>(
         &'a self,
         rows: &'a dyn RawRows,
-    ) -> Result<Box<dyn Iterator<Item = Result<(f64, [f64; 3])>> + 'a>> {
+    ) -> Result<TimedSamples<'a>> {
         let kept = Rc::new(RefCell::new(KeptRows {
             rows: rows.open_rows()?,
             cleaner: Cleaner::new(self.conditioning.max_gap_s),
@@ -155,7 +158,7 @@ impl Conditioned {
             let kept = &shared;
             let grid = GridSamples::new(
                 Stretch {
-                    kept: Rc::clone(&kept),
+                    kept: Rc::clone(kept),
                     started: false,
                 },
                 first,
