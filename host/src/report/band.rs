@@ -18,7 +18,6 @@ use anyhow::{Result, anyhow};
 use serde::Serialize;
 use supine_core::model::ModelParams;
 
-use super::charts::leg_label;
 use super::html::escape;
 use super::mission::{Leg, MissionTotals};
 use crate::device::device_params;
@@ -219,8 +218,7 @@ pub fn html(band: &ReportBand, legs: &[Leg], total: &str) -> String {
     );
     let labels = legs
         .iter()
-        .enumerate()
-        .map(|(i, leg)| leg_label(i, leg))
+        .map(|leg| leg.label.clone())
         .chain([total.to_string()]);
     for (label, row) in labels.zip(band.legs.iter().chain([&band.mission])) {
         let _ = write!(h, "<tr><td>{}</td>", escape(&label));
