@@ -14,8 +14,8 @@ use heapless::String;
 use supine_app::{App, Boot};
 use supine_core::blob::{BlobError, DeviceParams};
 use supine_core::protocol::{PANIC_MESSAGE_LEN, ParamsSource, ResetCause};
-use supine_firmware::boards::mps2_an386::{Board, SsramFlash, Uart};
-use supine_firmware::cycles::InstructionCounter;
+use supine_firmware::boards::mps2_an386::{Board, SYSCLK_HZ, SsramFlash, Uart};
+use supine_firmware::cycles::SysTickCounter;
 use supine_firmware::host_file::{self, HostFile};
 use supine_firmware::param_flash::{self, ParamRegion};
 use supine_firmware::replay_link::ReplayLink;
@@ -39,7 +39,7 @@ fn main() -> ! {
 #[inline(never)]
 fn monitor(
     replay_input: Option<HostFile>,
-) -> App<ReplayLink<Uart>, InstructionCounter, PaintedStack, SsramFlash> {
+) -> App<ReplayLink<Uart>, SysTickCounter, PaintedStack, SsramFlash> {
     let Some(board) = Board::take() else {
         // Only reachable if something took the peripherals before main: a build error.
         exit::exit(exit::FAILURE)
@@ -52,7 +52,7 @@ fn monitor(
     let flash = SsramFlash::new(region);
     let mut loaded = Err(BlobError::Empty);
     let source = params::load_to(&flash, &mut loaded);
-    let counter = InstructionCounter::new(board.syst);
+    let counter = SysTickCounter::new(board.syst, SYSCLK_HZ);
     let link = ReplayLink::new(board.uart0, replay_input);
     start(link, counter, flash, &mut loaded, source, last_panic)
 }
@@ -63,12 +63,12 @@ fn monitor(
 #[inline(never)]
 fn start(
     link: ReplayLink<Uart>,
-    counter: InstructionCounter,
+    counter: SysTickCounter,
     flash: SsramFlash,
     loaded: &mut Result<DeviceParams, BlobError>,
     source: ParamsSource,
     last_panic: Option<String<PANIC_MESSAGE_LEN>>,
-) -> App<ReplayLink<Uart>, InstructionCounter, PaintedStack, SsramFlash> {
+) -> App<ReplayLink<Uart>, SysTickCounter, PaintedStack, SsramFlash> {
     let Ok(params) = core::mem::replace(loaded, Err(BlobError::Empty)) else {
         // The built-in default was validated when it was built: a broken build.
         exit::exit(exit::FAILURE)

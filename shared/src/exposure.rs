@@ -427,6 +427,14 @@ impl ExposureSettings {
         Ok(())
     }
 
+    /// Samples of the warm-up still to come in `state`: the next sample's
+    /// [`ExposureSample::valid`] is false while this is not zero. The joints' exposure
+    /// waits for the same warm-up (`crate::pipeline`).
+    #[inline]
+    pub fn warmup_left(&self, state: &ExposureState) -> u32 {
+        self.warmup_samples.saturating_sub(state.acc.samples)
+    }
+
     /// One sample of predicted head acceleration (m/s^2, head x, y, z, at the design rate).
     ///
     /// Never fails: a non-finite input propagates into the values (the sensor check in
@@ -487,7 +495,7 @@ impl ExposureSettings {
         let (gain, dt) = (self.running_gain, self.sample_period_s);
         // The warm-up samples of this block come first, in a loop of their own, so the
         // steady-state loop below carries no warm-up test.
-        let warm = (self.warmup_samples.saturating_sub(samples) as usize).min(N);
+        let warm = (self.warmup_left(state) as usize).min(N);
         for n in 0..warm {
             for i in 0..3 {
                 ms[i] += gain * (a[i][n] * a[i][n] - ms[i]);
@@ -683,6 +691,25 @@ fn axis_values(
             vdv_ratio: vdv_ratio > VDV_RATIO_LIMIT as f64,
         },
     }
+}
+
+/// The VDV of exposures in sequence (the legs of a mission), m/s^1.75: ISO 2631-1 adds
+/// the fourth powers, `(sum VDV_i^4)^(1/4)`, because the VDV is the fourth root of an
+/// integral over time. In f64: the host combines reported values, the device never does.
+pub fn combined_vdv_m_s175(vdv_m_s175: &[f64]) -> f64 {
+    let sum: f64 = vdv_m_s175.iter().map(|v| (v * v) * (v * v)).sum();
+    libm::pow(sum, 0.25)
+}
+
+/// The rms of exposures in sequence, m/s^2: energy-equivalent, as ISO 2631-1 combines
+/// periods of different magnitude, `sqrt(sum a_i^2 T_i / sum T_i)` over `(a_i, T_i)`
+/// pairs of rms (m/s^2) and evaluated duration (s). Zero when no time was evaluated.
+pub fn combined_rms_m_s2(rms_and_duration: &[(f64, f64)]) -> f64 {
+    let total_s: f64 = rms_and_duration.iter().map(|(_, t)| t).sum();
+    if total_s <= 0.0 {
+        return 0.0;
+    }
+    libm::sqrt(rms_and_duration.iter().map(|(a, t)| a * a * t).sum::<f64>() / total_s)
 }
 
 #[cfg(test)]

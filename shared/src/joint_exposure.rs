@@ -1,7 +1,8 @@
 //! The device's exposure of the joint outputs (neck and lower-back motion): for each output
 //! its running rms (the head's exponential form and time constant, see [`crate::exposure`])
-//! and its largest absolute excursion since the start, and the compact list of values that
-//! telemetry and status carry.
+//! and its largest absolute excursion since the head's warm-up ended (the running rms is
+//! primed during it, as the head's), and the compact list of values that telemetry and
+//! status carry.
 //!
 //! The joint outputs are read on the samples telemetry reports (every `decimation`-th),
 //! not on every sample: all ten cost about 790 instructions per reading, more than the
@@ -113,7 +114,7 @@ impl<'de> Deserialize<'de> for JointValues {
 pub struct JointExposureState {
     /// Running mean square, m^2 or rad^2.
     ms: [f32; JOINT_OUTPUT_COUNT],
-    /// Largest absolute value so far, m or rad.
+    /// Largest absolute value since the warm-up, m or rad.
     peak: [f32; JOINT_OUTPUT_COUNT],
 }
 
@@ -128,17 +129,21 @@ impl JointExposureState {
 
     /// One reading of the outputs read (`y`, m or rad, packed), `gain` the running mean
     /// square's update gain over the step since the last reading ([`running_gain`]).
+    /// `settled`: the reading is past the head's warm-up. Before it a reading only primes
+    /// the running mean square, as the head's: the model's start-up transient (a ride
+    /// that starts in motion, a pipeline restarted mid-ride by an upload) is not motion
+    /// of the ride and must not become its largest excursion.
     #[inline(never)]
-    pub fn step(&mut self, gain: f32, y: &[f32]) {
+    pub fn step(&mut self, gain: f32, y: &[f32], settled: bool) {
         let n = y.len().min(JOINT_OUTPUT_COUNT);
-        for ((ms, peak), &v) in self.ms[..n]
-            .iter_mut()
-            .zip(&mut self.peak[..n])
-            .zip(&y[..n])
-        {
+        for (ms, &v) in self.ms[..n].iter_mut().zip(&y[..n]) {
             *ms += gain * (v * v - *ms);
-            let a = v.abs();
-            *peak = if a > *peak { a } else { *peak };
+        }
+        if settled {
+            for (peak, &v) in self.peak[..n].iter_mut().zip(&y[..n]) {
+                let a = v.abs();
+                *peak = if a > *peak { a } else { *peak };
+            }
         }
     }
 
@@ -156,12 +161,13 @@ impl JointExposureState {
         out
     }
 
-    /// Largest absolute value of the first `count` outputs so far, m or rad, as a slice.
+    /// Largest absolute value of the first `count` outputs since the warm-up, m or rad,
+    /// as a slice.
     pub fn peaks(&self, count: usize) -> &[f32] {
         &self.peak[..count.min(JOINT_OUTPUT_COUNT)]
     }
 
-    /// Largest absolute value of the first `count` outputs so far, m or rad.
+    /// Largest absolute value of the first `count` outputs since the warm-up, m or rad.
     pub fn largest_excursion(&self, count: usize) -> JointValues {
         JointValues::packed(count, self.peak)
     }

@@ -44,6 +44,9 @@ struct Records<'a, const N: usize> {
     levels: &'a [AlertEvent],
     joints: &'a [[f32; JOINT_OUTPUT_COUNT]],
     joint_count: usize,
+    /// Samples at the block's start still in the head's warm-up, which the joints' own
+    /// exposure and alerts wait for too.
+    warmup_left: usize,
     joint_gain: f32,
     decimation: u16,
 }
@@ -291,19 +294,22 @@ impl DeviceParams {
         // `joint_exposure`): their values, in sample order, for the records below. Their
         // exposure is stepped at once, unless joint alerts are set: then it is stepped
         // with the alerts at the records below, so that a joint alert is sent in sample
-        // order with the others, with no buffer of its own.
+        // order with the others, with no buffer of its own. Both wait for the head's
+        // warm-up: the block's first `warmup_left` samples are in it.
+        let warmup_left = self.exposure.warmup_left(&state.exposure) as usize;
         let decimation = self.telemetry.decimation.max(1);
         let joint_gain = running_gain(self.exposure.running_gain, decimation);
         let mut countdown = state.telemetry_countdown;
         let mut joints: Vec<[f32; JOINT_OUTPUT_COUNT], N> = Vec::new();
         let mut joint_count = 0;
-        for h in head.iter_mut() {
+        for (n, h) in head.iter_mut().enumerate() {
             if countdown == 0 {
                 countdown = decimation;
                 if joints.push([0.0; JOINT_OUTPUT_COUNT]).is_ok()
                     && let Some(y) = joints.last_mut()
                 {
-                    joint_count = self.read_joints(state, joint_gain, *h, y);
+                    let settled = n >= warmup_left;
+                    joint_count = self.read_joints(state, joint_gain, *h, settled, y);
                 }
             }
             countdown -= 1;
@@ -352,6 +358,7 @@ impl DeviceParams {
             levels,
             joints: &joints,
             joint_count,
+            warmup_left,
             joint_gain,
             decimation,
         };
@@ -404,7 +411,8 @@ impl DeviceParams {
                     let y_read = &y[..r.joint_count.min(JOINT_OUTPUT_COUNT)];
                     if JOINT_ALERTS {
                         let emit: &mut dyn FnMut(PipelineOutput) = &mut *emit;
-                        self.step_joint_alerts(state, r.joint_gain, y_read, index, emit);
+                        let settled = n >= r.warmup_left;
+                        self.step_joint_alerts(state, r.joint_gain, y_read, index, settled, emit);
                     }
                     JointValues::packed(r.joint_count, *y)
                 });
@@ -421,29 +429,33 @@ impl DeviceParams {
     }
 
     /// The joint outputs read (packed into `y`; returns how many) at the sample about to
-    /// be stepped, taken into their exposure with `gain` unless joint alerts are set
-    /// ([`step_joint_alerts`](Self::step_joint_alerts) does it then). Out of line: the
-    /// pipeline is compiled for two block lengths, and this need not be twice in flash.
+    /// be stepped, taken into their exposure with `gain` (`settled`: past the warm-up)
+    /// unless joint alerts are set ([`step_joint_alerts`](Self::step_joint_alerts) does
+    /// it then). Out of line: the pipeline is compiled for two block lengths, and this
+    /// need not be twice in flash.
     #[inline(never)]
     fn read_joints(
         &self,
         state: &mut PipelineState,
         gain: f32,
         input_m_s2: [f32; 3],
+        settled: bool,
         y: &mut [f32; JOINT_OUTPUT_COUNT],
     ) -> usize {
         let count = self
             .joints
             .read_packed(&self.realization, &state.model, input_m_s2, y);
         if !self.joint_alerts.watches_any() {
-            state.joints.step(gain, &y[..count]);
+            state.joints.step(gain, &y[..count], settled);
         }
         count
     }
 
     /// With joint alerts set: one reading `y` (packed) of the joint outputs, at sample
-    /// `index`, taken into their exposure with `gain`, then into their alerts, whose
-    /// events go to `emit`. Out of line, as [`read_joints`](Self::read_joints).
+    /// `index`, taken into their exposure with `gain`, then, once `settled` (past the
+    /// warm-up), into their alerts, whose events go to `emit`: during the warm-up they
+    /// hold, nothing pending, as the head's levels. Out of line, as
+    /// [`read_joints`](Self::read_joints).
     #[inline(never)]
     fn step_joint_alerts(
         &self,
@@ -451,9 +463,13 @@ impl DeviceParams {
         gain: f32,
         y: &[f32],
         index: u32,
+        settled: bool,
         emit: &mut dyn FnMut(PipelineOutput),
     ) {
-        state.joints.step(gain, y);
+        state.joints.step(gain, y, settled);
+        if !settled {
+            return;
+        }
         let count = y.len();
         self.joint_alerts.step(
             &mut state.joint_alerts,

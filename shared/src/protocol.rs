@@ -214,8 +214,10 @@ pub struct Status {
     pub telemetry_sent: u32,
     /// Parameter uploads refused.
     pub uploads_rejected: u32,
-    /// SysTick ticks spent in the pipeline (model, exposure, alerts, frame encoding), not
-    /// waiting on the UART. Under QEMU `-icount shift=0` on mps2 one tick is 40 instructions.
+    /// Ticks of the board's SysTick (its core clock: 25 MHz on mps2-an386, 64 MHz on the
+    /// Black Pill) spent in the pipeline (model, exposure, alerts, frame encoding), not
+    /// waiting on the UART. Under QEMU `-icount shift=0` on mps2 one tick is 40
+    /// instructions; on the Black Pill one tick is a CPU cycle.
     pub busy_ticks: u64,
     /// Deepest stack use since boot (painted stack), bytes.
     pub stack_used_bytes: u32,
@@ -229,8 +231,8 @@ pub struct Status {
     /// Running rms (tau as the head's, 1 s by default) of each joint output the
     /// parameters read, m or rad, in [`Greeting::joint_outputs`] order.
     pub joint_running_rms: JointValues,
-    /// Largest absolute value of each joint output read since the pipeline started, m or
-    /// rad, in the same order.
+    /// Largest absolute value of each joint output read since the pipeline's warm-up
+    /// ended (0 before), m or rad, in the same order.
     pub joint_largest_excursion: JointValues,
 }
 

@@ -332,3 +332,44 @@ fn a_readout_encodes_as_its_fields_in_order_and_decodes_back() {
             .is_err()
     );
 }
+
+/// Every selection of the joint outputs (all 1,024 masks) taken from the readout of all
+/// ten is, bit for bit, the readout built for that selection from the modal analysis;
+/// and its Rust definition reads what the device's loops read (here the same code; on the
+/// device the self-test compares it with the assembly for every mask).
+#[test]
+fn every_selection_taken_from_the_full_readout_is_the_readout_built_for_it() {
+    use supine_core::test_vector::TestVector;
+    for model in models() {
+        let head = model.device_realization(500.0).unwrap();
+        let all = model
+            .device_joint_readout(500.0, &head, &JointOutput::ALL)
+            .unwrap();
+        let mut states = Vec::new();
+        let mut s = ModalState::<f32>::default();
+        for u in TestVector::new(5).take(40) {
+            states.push((s, u));
+            head.step(&mut s, u);
+        }
+        let mut shapes = std::collections::BTreeSet::new();
+        for mask in 0..1u16 << JOINT_OUTPUT_COUNT {
+            let wanted: Vec<JointOutput> = JointOutput::ALL
+                .into_iter()
+                .filter(|o| mask & (1 << o.index()) != 0)
+                .collect();
+            let built = model.device_joint_readout(500.0, &head, &wanted).unwrap();
+            let selected = all.select(&head, mask);
+            assert_eq!(selected, built, "mask {mask:#05x}");
+            assert_eq!(selected.mask(), mask);
+            shapes.insert(selected.groups.map(|g| g.row_count));
+            for (state, u) in &states {
+                let (mut a, mut b) = ([0.0; JOINT_OUTPUT_COUNT], [0.0; JOINT_OUTPUT_COUNT]);
+                let n = selected.read_packed(&head, state, *u, &mut a);
+                assert_eq!(selected.read_packed_by::<true>(&head, state, *u, &mut b), n);
+                assert_eq!(a.map(f32::to_bits), b.map(f32::to_bits));
+            }
+        }
+        // x reads 0-2 rows, y and z 0-4 each: every combination occurs.
+        assert_eq!(shapes.len(), 3 * 5 * 5);
+    }
+}

@@ -1,6 +1,7 @@
 //! Joint-motion alerts through the device pipeline: a sine of known amplitude raises the
-//! excursion alert at the first reading whose value, computed from the readout alone,
-//! passes the threshold; stamped with that sample, sent once, in sample order.
+//! excursion alert at the first reading after the head's warm-up whose value, computed
+//! from the readout alone, passes the threshold; stamped with that sample, sent once, in
+//! sample order.
 
 use core::f64::consts::TAU;
 
@@ -43,9 +44,11 @@ fn a_sine_raises_the_excursion_alert_at_the_first_reading_past_its_threshold() {
     let slot = packed_order(params.joints.mask())
         .position(|o| o == neck_z)
         .unwrap();
-    // 2 Hz vertical sine of 1 m/s^2 for 4 s.
+    // 2 Hz vertical sine of 1 m/s^2 for 8 s (the first 5 the warm-up).
     let (f_hz, amplitude_m_s2) = (2.0, 1.0);
-    let input: Vec<[f32; 3]> = (0..2_000u32)
+    let warmup = params.exposure.warmup_samples as usize;
+    assert_eq!(warmup, 2_500);
+    let input: Vec<[f32; 3]> = (0..4_000u32)
         .map(|n| {
             let s = amplitude_m_s2 * (TAU * f_hz * f64::from(n) / FS_HZ).sin();
             [0.0, 0.0, s as f32]
@@ -63,7 +66,7 @@ fn a_sine_raises_the_excursion_alert_at_the_first_reading_past_its_threshold() {
     let mut first = None;
     for (n, &x) in input.iter().enumerate() {
         let u = quantize_m_s2(x, full_scale);
-        if n % usize::from(DECIMATION) == 0 {
+        if n % usize::from(DECIMATION) == 0 && n >= warmup {
             let v = params.joints.read(&params.realization, &state, u)[neck_z.index()];
             if first.is_none() && v.abs() > threshold_m {
                 first = Some((n as u32, v.abs()));
@@ -102,11 +105,13 @@ fn a_sine_raises_the_excursion_alert_at_the_first_reading_past_its_threshold() {
         position(&|o| matches!(o, PipelineOutput::Telemetry(t) if t.sample_index == at));
     assert_eq!(alert_at.map(|i| i + 1), record_at);
 
-    // A threshold at the largest value read: never passed, no alert.
+    // A threshold at the largest value read after the warm-up: never passed, no alert.
     let largest = outputs
         .iter()
         .filter_map(|o| match o {
-            PipelineOutput::Telemetry(t) => Some(t.joints.as_slice()[slot].abs()),
+            PipelineOutput::Telemetry(t) if t.sample_index as usize >= warmup => {
+                Some(t.joints.as_slice()[slot].abs())
+            }
             _ => None,
         })
         .fold(0.0f32, f32::max);

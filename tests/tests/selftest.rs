@@ -1,11 +1,14 @@
 //! The self-test image in QEMU against the host's reference.
 //!
 //! The device runs the f32 realization it baked in at build time on the deterministic test
-//! vector; the host recomputes the same realization and the same inputs. Both sides
-//! execute the same IEEE-754 single-precision operations in the same order (Rust never
-//! fuses or reorders float arithmetic, and the step uses no libm), so the outputs must
-//! agree bit for bit; the f32 realization must also stay within 1e-4 m/s^2 of the
-//! unrounded f64 one.
+//! vector, through its FPU assembly; the host recomputes the same realization and the same
+//! inputs by the Rust definition. Both sides execute the same IEEE-754 single-precision
+//! operations in the same order (Rust never fuses or reorders float arithmetic, and the
+//! step uses no libm), so the outputs must agree bit for bit; the f32 realization must
+//! also stay within 1e-4 m/s^2 of the unrounded f64 one. On the device itself the
+//! assembly is compared with the Rust definitions compiled beside it for every row count
+//! (0-3 rows a step group, 0-4 a readout group), with groups of zero blocks, and for every
+//! selection of joint outputs.
 
 use std::sync::OnceLock;
 use std::time::Duration;
@@ -80,6 +83,31 @@ fn the_exposure_stage_fits_its_instruction_budget() {
     assert!(exposure >= 30 && pipeline > exposure && frame > 10);
     assert_eq!(stage_figure("exposure_stage_timed_after_warmup"), 1);
     assert!(exposure <= MAX_EXPOSURE_STAGE_INSTRUCTIONS);
+}
+
+/// Issue 32: the assembly equals its Rust definition on the device for every shape it
+/// can be given: the model step on 5 block layouts (as built, each group emptied in turn,
+/// x and y both empty) times 0-3 rows a group; the readout for all 1,024 selections of
+/// the joint outputs (every count of rows 0-2 in x, 0-4 in y and z) and, reading all ten,
+/// on the 4 layouts with an empty group.
+#[test]
+fn the_assembly_equals_the_rust_definition_for_every_row_count_and_selection() {
+    let checked = |key: &str| {
+        report();
+        let stdout = STDOUT.get().expect("the self-test ran");
+        stdout
+            .lines()
+            .find_map(|l| l.strip_prefix(key)?.strip_prefix(": ")?.strip_suffix(" ok"))
+            .and_then(|n| n.parse::<usize>().ok())
+            .unwrap_or_else(|| panic!("no `{key}: <n> ok` line"))
+    };
+    let layouts = 5;
+    assert_eq!(checked("asm_step_cases"), layouts * 4);
+    assert_eq!(
+        checked("asm_readout_selections"),
+        1 << supine_core::model::JOINT_OUTPUT_COUNT
+    );
+    assert_eq!(checked("asm_readout_layouts"), layouts - 1);
 }
 
 #[test]

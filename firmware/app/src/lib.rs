@@ -24,9 +24,9 @@ mod tx_ring;
 mod updates;
 
 pub use boot::Boot;
-pub use counter::TickCounter;
+pub use counter::{TickCounter, ticks_in_ms};
 pub use link::Link;
-pub use monitor::{App, IDLE_FLUSH_TICKS, MAX_LOST_SPAN_S};
+pub use monitor::{App, IDLE_FLUSH_MS, MAX_LOST_SPAN_S};
 pub use stack_gauge::StackGauge;
 pub use updates::NoUpdates;
 

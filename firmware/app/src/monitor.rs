@@ -12,13 +12,13 @@
 //!     Param*   -> Upload (RAM) -> HMAC, counter, blob checks -> the other flash slot
 //!                 -> ParamAck(Committed) + Greeting, pipeline restarted on the new blob;
 //!                 any refusal -> ParamNack(code), counted, nothing changed
-//!   RX idle for 100 ms (IDLE_FLUSH_TICKS) -> process what is buffered
+//!   RX idle for 100 ms (IDLE_FLUSH_MS) -> process what is buffered
 //!   drain the TX ring into the link
 //! ```
 //!
 //! Frames are encoded into a RAM ring while the pipeline runs and written to the link from
 //! the loop, so [`Status::busy_ticks`] (the tick counter around `process`, frame encoding
-//! included) excludes waiting on the link. Every byte of every input is handled without a
+//! included, in the board's clock: [`TickCounter`]) excludes waiting on the link. Every byte of every input is handled without a
 //! panic path: bad frames are counted and dropped, index gaps of up to a minute of samples
 //! counted as dropped samples, longer jumps and jumps back taken as a new stream (the
 //! pipeline's sensor checks raise the index-gap fault for every one).
@@ -30,12 +30,11 @@ use supine_core::protocol::{
     MAX_SAMPLES_PER_FRAME, PROTOCOL_VERSION, ParamAck, ParamsSource, SampleBatch, Status,
     UploadError, encode_frame,
 };
-use supine_core::timing::MPS2_AN386_SYSCLK_HZ;
 use supine_core::upload::{KEY_LEN, ParamFlash, Upload, last_counter};
 use supine_sensor::{ReplaySource, SampleSource};
 
 use crate::boot::Boot;
-use crate::counter::TickCounter;
+use crate::counter::{TickCounter, ticks_in_ms};
 use crate::input_stream::InputStream;
 use crate::link::{self, Link};
 use crate::stack_gauge::StackGauge;
@@ -54,12 +53,13 @@ const TX_HEADROOM: usize = 1280;
 /// would otherwise swamp `samples_dropped` when a stream restarts elsewhere.
 pub const MAX_LOST_SPAN_S: f32 = 60.0;
 
-/// Ticks (100 ms of mps2-an386's 25 MHz SysTick) without a received byte after which a
-/// partial block is processed: the host paused or the stream ended. Shorter waits would
-/// cut blocks between two sample frames, and partial blocks run one sample at a time
-/// (about twice the instructions per sample). Under QEMU -icount one tick is 40
-/// instructions of virtual time; an end of stream is flushed by `GetStatus` anyway.
-pub const IDLE_FLUSH_TICKS: u32 = MPS2_AN386_SYSCLK_HZ / 10;
+/// Time without a received byte after which a partial block is processed, ms, in the
+/// board's own clock ([`TickCounter::tick_rate_hz`]): the host paused or the stream
+/// ended. Shorter waits would cut blocks between two sample frames, and partial blocks
+/// run one sample at a time (about twice the instructions per sample). Under QEMU -icount
+/// this is virtual time (100 ms is 100 million instructions); an end of stream is flushed
+/// by `GetStatus` anyway.
+pub const IDLE_FLUSH_MS: u32 = 100;
 
 /// The running monitor, on the link `L`, timed by `C`, its stack measured by `S`,
 /// storing parameter updates in `F`.
@@ -79,6 +79,8 @@ pub struct App<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash = NoUpdates
     buffered: usize,
     next_index: Option<u32>,
     last_byte: u32,
+    /// [`IDLE_FLUSH_MS`] in the counter's ticks.
+    idle_flush_ticks: u32,
     replay: ReplaySource<MAX_SAMPLES_PER_FRAME>,
     input_stream: InputStream,
 }
@@ -115,6 +117,7 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
         boot: Boot,
         updates: Option<(F, &'static [u8; KEY_LEN])>,
     ) -> Self {
+        let idle_flush_ticks = ticks_in_ms(counter.tick_rate_hz(), IDLE_FLUSH_MS);
         Self {
             link,
             updates: updates.map(|(flash, key)| Updates {
@@ -135,6 +138,7 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
             buffered: 0,
             next_index: None,
             last_byte: 0,
+            idle_flush_ticks,
             replay: ReplaySource::new(),
             input_stream: InputStream::new(),
         }
@@ -169,7 +173,8 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
                 self.on_byte(byte);
             }
             None => {
-                if self.buffered > 0 && self.counter.ticks_since(self.last_byte) >= IDLE_FLUSH_TICKS
+                if self.buffered > 0
+                    && self.counter.ticks_since(self.last_byte) >= self.idle_flush_ticks
                 {
                     self.process_buffered();
                 }

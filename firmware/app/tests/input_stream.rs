@@ -6,7 +6,7 @@
 
 mod support;
 
-use supine_app::IDLE_FLUSH_TICKS;
+use supine_app::{IDLE_FLUSH_MS, ticks_in_ms};
 use supine_core::input_resolution::to_m_s2;
 use supine_core::pipeline::{BLOCK_LEN, PipelineState};
 use supine_core::protocol::{DeviceToHost, HostToDevice, MAX_INPUT_SAMPLES_PER_FRAME};
@@ -99,7 +99,7 @@ fn a_partial_block_is_streamed_and_stopping_the_stream_stops_it() {
     rig.send(&HostToDevice::StreamInput { enabled: true });
     rig.send_all(&sample_frames(0, &input[..21]));
     let mut messages = rig.run();
-    rig.advance_ticks(IDLE_FLUSH_TICKS);
+    rig.advance_ticks(ticks_in_ms(DEFAULT_TICK_RATE_HZ, IDLE_FLUSH_MS));
     messages.extend(rig.run());
     let (streamed, _, frames) = split(messages);
     let expected = pipeline_inputs(&params, &(0..40).collect::<Vec<u32>>(), &input);

@@ -6,7 +6,7 @@
 
 mod support;
 
-use supine_app::IDLE_FLUSH_TICKS;
+use supine_app::{IDLE_FLUSH_MS, ticks_in_ms};
 use supine_core::alerts::{AlertEvent, Level, SensorFault};
 use supine_core::pipeline::PipelineState;
 use supine_core::protocol::{
@@ -114,22 +114,59 @@ fn telemetry_and_alerts_are_the_pipelines_bit_for_bit_and_the_status_counts_them
     );
 }
 
+/// The pause is 100 ms of each board's own clock: its ticks at mps2-an386's 25 MHz
+/// SysTick, the Black Pill's 64 MHz core clock and a slow 32.768 kHz one, each written
+/// out here from 0.1 s times the rate (rounded up: never a shorter wait).
 #[test]
-fn a_pause_in_the_stream_processes_a_partial_block() {
+fn a_pause_of_100_ms_in_each_boards_clock_processes_a_partial_block() {
+    assert_eq!(IDLE_FLUSH_MS, 100);
     let params = boot_params();
-    let (mut rig, _) = Rig::boot(&encode(&params), false);
-    let input = samples(3, 5);
-    rig.send_all(&sample_frames(0, &input));
-    assert_eq!(rig.run(), [], "a partial block waits for more samples");
-    rig.advance_ticks(IDLE_FLUSH_TICKS - 1);
-    assert_eq!(rig.run(), [], "not yet a pause");
-    rig.advance_ticks(1);
-    let messages = rig.run();
-    assert_eq!(count_telemetry(&messages), 5);
-    assert_same_messages(
-        &messages,
-        &pipeline_messages(&params, &[0, 1, 2, 3, 4], &input),
+    for (rate_hz, pause_ticks) in [
+        (25_000_000, 2_500_000),
+        (64_000_000, 6_400_000),
+        (32_768, 3_277),
+    ] {
+        assert_eq!(ticks_in_ms(rate_hz, IDLE_FLUSH_MS), pause_ticks);
+        let (mut rig, _) = Rig::boot_at_rate(&encode(&params), rate_hz, 0);
+        let input = samples(3, 5);
+        rig.send_all(&sample_frames(0, &input));
+        assert_eq!(rig.run(), [], "a partial block waits for more samples");
+        rig.advance_ticks(pause_ticks - 1);
+        assert_eq!(rig.run(), [], "not yet a pause at {rate_hz} Hz");
+        rig.advance_ticks(1);
+        let messages = rig.run();
+        assert_eq!(count_telemetry(&messages), 5, "{rate_hz} Hz");
+        assert_same_messages(
+            &messages,
+            &pipeline_messages(&params, &[0, 1, 2, 3, 4], &input),
+        );
+    }
+}
+
+/// `Status::busy_ticks` counts the board's ticks around the pipeline only: on a clock
+/// that moves a tick each time it is read, and a host that pauses a second of that clock
+/// between frames, the busy time is a few ticks a block, never the pauses.
+#[test]
+fn busy_ticks_count_the_pipelines_ticks_and_never_the_wait_for_the_link() {
+    let params = boot_params();
+    let rate_hz = 64_000_000;
+    let (mut rig, _) = Rig::boot_at_rate(&encode(&params), rate_hz, 1);
+    let input = samples(4, 64);
+    let frames = sample_frames(0, &input);
+    for frame in &frames {
+        rig.send_all(std::slice::from_ref(frame));
+        rig.run();
+        rig.advance_ticks(rate_hz);
+    }
+    let (_, status) = rig.status();
+    assert_eq!(status.samples_processed, 64);
+    let waited = u64::from(rate_hz) * frames.len() as u64;
+    println!("busy_ticks {} while waiting {waited}", status.busy_ticks);
+    assert!(
+        status.busy_ticks > 0,
+        "the pipeline's own ticks are counted"
     );
+    assert!(status.busy_ticks < 1_000, "{}", status.busy_ticks);
 }
 
 #[test]

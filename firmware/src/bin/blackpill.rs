@@ -21,8 +21,8 @@ use stm32f4xx_hal::watchdog::IndependentWatchdog;
 use supine_app::{App, Boot};
 use supine_core::blob::BlobError;
 use supine_core::protocol::{PANIC_MESSAGE_LEN, ParamsSource, ResetCause};
-use supine_firmware::boards::blackpill::{BoardFlash, Usart1Link};
-use supine_firmware::cycles::InstructionCounter;
+use supine_firmware::boards::blackpill::{BoardFlash, SYSCLK_HZ, Usart1Link};
+use supine_firmware::cycles::SysTickCounter;
 use supine_firmware::param_flash::{self, ParamRegion};
 use supine_firmware::stack::PaintedStack;
 use supine_firmware::{panic_record, params};
@@ -43,7 +43,7 @@ fn main() -> ! {
     let mut watchdog = IndependentWatchdog::new(dp.IWDG);
     watchdog.start(250.millis());
 
-    let mut rcc = dp.RCC.freeze(Config::hse(25.MHz()).sysclk(64.MHz()));
+    let mut rcc = dp.RCC.freeze(Config::hse(25.MHz()).sysclk(SYSCLK_HZ.Hz()));
     let gpioa = dp.GPIOA.split(&mut rcc);
     let gpiob = dp.GPIOB.split(&mut rcc);
 
@@ -66,7 +66,8 @@ fn main() -> ! {
         &mut rcc,
     );
 
-    let counter = InstructionCounter::new(cp.SYST);
+    // SysTick counts the processor clock (HCLK): the monitor's waits are in its ticks.
+    let counter = SysTickCounter::new(cp.SYST, rcc.clocks.hclk().raw());
     // A panic resets through software after recording its message; the watchdog flag
     // alone means the loop hung.
     let reset_cause = if last_panic.is_some() {
@@ -119,10 +120,10 @@ struct BootState {
 #[inline(never)]
 fn monitor(
     link: Usart1Link,
-    counter: InstructionCounter,
+    counter: SysTickCounter,
     flash: BoardFlash,
     state: BootState,
-) -> App<Usart1Link, InstructionCounter, PaintedStack, BoardFlash> {
+) -> App<Usart1Link, SysTickCounter, PaintedStack, BoardFlash> {
     let mut loaded = Err(BlobError::Empty);
     let source = params::load_to(&flash, &mut loaded);
     let Ok(params) = loaded else {

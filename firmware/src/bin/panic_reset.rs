@@ -10,8 +10,8 @@
 use cortex_m_rt::entry;
 use supine_app::{App, Boot};
 use supine_core::protocol::ResetCause;
-use supine_firmware::boards::mps2_an386::Board;
-use supine_firmware::cycles::InstructionCounter;
+use supine_firmware::boards::mps2_an386::{Board, SYSCLK_HZ};
+use supine_firmware::cycles::SysTickCounter;
 use supine_firmware::stack::PaintedStack;
 use supine_firmware::{exit, panic_record, params};
 
@@ -37,7 +37,7 @@ fn main() -> ! {
     };
     App::new(
         board.uart0,
-        InstructionCounter::new(board.syst),
+        SysTickCounter::new(board.syst, SYSCLK_HZ),
         PaintedStack,
         boot,
     )

@@ -13,8 +13,8 @@ use cortex_m_rt::entry;
 use supine_app::{App, Boot};
 use supine_core::protocol::ResetCause;
 use supine_core::upload::{FlashError, ParamFlash, SLOT_LEN};
-use supine_firmware::boards::mps2_an386::{Board, SsramFlash};
-use supine_firmware::cycles::InstructionCounter;
+use supine_firmware::boards::mps2_an386::{Board, SYSCLK_HZ, SsramFlash};
+use supine_firmware::cycles::SysTickCounter;
 use supine_firmware::param_flash::{self, ParamRegion};
 use supine_firmware::stack::PaintedStack;
 use supine_firmware::{console, exit, host_file, params};
@@ -112,7 +112,7 @@ fn main() -> ! {
         slots,
         budget_bytes,
     };
-    let counter = InstructionCounter::new(board.syst);
+    let counter = SysTickCounter::new(board.syst, SYSCLK_HZ);
     App::with_updates(
         board.uart0,
         counter,

@@ -1,11 +1,16 @@
 //! The self-test image: runs the model core on the built-in test vector under QEMU.
 //!
 //! It decodes the built-in realization, runs [`SAMPLES`] samples of
-//! `TestVector::new(SEED)` through it and prints every output's f32 bits, checks the wire
-//! protocol's golden bytes (`supine_core::protocol::golden`: every message and the example
-//! blob must encode to exactly the bytes the host recorded, and decode back), then
-//! measures the instructions per model step and the stack high-water mark. The host test
-//! (`tests/tests/selftest.rs`) recomputes the same samples and compares bit for bit.
+//! `TestVector::new(SEED)` through the device's model step (the FPU assembly of
+//! `supine_core::model::fpu_loops`) and prints every output's f32 bits, compares that
+//! assembly with the Rust definitions compiled beside it (`DiscreteModal::step` and
+//! `JointReadout::read_packed_by::<true>`) bit for bit, for every row count the step and
+//! the readout take, with and without blocks, and for every selection of joint outputs,
+//! checks the wire protocol's golden bytes (`supine_core::protocol::golden`: every
+//! message and the example blob must encode to exactly the bytes the host recorded, and
+//! decode back), then measures the instructions per model step and the stack high-water
+//! mark. The host test (`tests/tests/selftest.rs`) recomputes the same samples and
+//! compares bit for bit.
 //!
 //! Output (semihosting stdout), one item per line:
 //! ```text
@@ -17,6 +22,9 @@
 //! samples: <n>
 //! y <index> <x bits> <y bits> <z bits>      (f32 bits, 8 hex digits each)
 //! stack_model_bytes: <n>                  (stack high-water mark after the model run)
+//! asm_step_cases: <n> ok                  (block layouts x row counts, assembly = Rust)
+//! asm_readout_selections: <n> ok          (joint-output masks, assembly = Rust)
+//! asm_readout_layouts: <n> ok             (block layouts with empty groups, all rows)
 //! golden_host_to_device: <n> ok
 //! golden_device_to_host: <n> ok
 //! golden_blob: <bytes> ok
@@ -48,13 +56,13 @@ use serde::Serialize;
 use serde::de::DeserializeOwned;
 use supine_core::blob::{DeviceParams, MAX_BLOB_LEN};
 use supine_core::fpu::sqrt_f32;
-use supine_core::model::{DeviceRealization, ModalState};
+use supine_core::model::{DeviceRealization, JOINT_OUTPUT_COUNT, JointReadout, ModalState};
 use supine_core::protocol::{FrameAccumulator, FrameEvent, MAX_FRAME_LEN, encode_frame, golden};
 use supine_core::test_vector::TestVector;
 use supine_core::timing::INSTRUCTIONS_PER_TICK;
-use supine_firmware::boards::mps2_an386::Board;
+use supine_firmware::boards::mps2_an386::{Board, SYSCLK_HZ};
 use supine_firmware::console::Console;
-use supine_firmware::cycles::InstructionCounter;
+use supine_firmware::cycles::SysTickCounter;
 use supine_firmware::{VERSION, exit, params, stack};
 
 /// Seed of the test vector; the host test reads it from the output.
@@ -72,8 +80,18 @@ enum Failure {
     Peripherals,
     Console,
     Params(params::ParamsError),
-    NotFinite { index: usize },
-    Golden { what: &'static str, index: usize },
+    NotFinite {
+        index: usize,
+    },
+    Golden {
+        what: &'static str,
+        index: usize,
+    },
+    Assembly {
+        what: &'static str,
+        case: usize,
+        sample: usize,
+    },
     Output,
 }
 
@@ -87,6 +105,10 @@ impl fmt::Display for Failure {
             Self::Golden { what, index } => {
                 write!(f, "golden {what} example {index} does not match its bytes")
             }
+            Self::Assembly { what, case, sample } => write!(
+                f,
+                "the assembly's {what} differs from its Rust definition in case {case} at sample {sample}"
+            ),
             Self::Output => f.write_str("writing to semihosting stdout failed"),
         }
     }
@@ -113,7 +135,7 @@ fn main() -> ! {
 
 fn run() -> Result<(), Failure> {
     let board = Board::take().ok_or(Failure::Peripherals)?;
-    let counter = InstructionCounter::new(board.syst);
+    let counter = SysTickCounter::new(board.syst, SYSCLK_HZ);
     let mut out = Console::stdout().map_err(|_| Failure::Console)?;
 
     writeln!(out, "selftest: supine-firmware {VERSION}")?;
@@ -126,6 +148,7 @@ fn run() -> Result<(), Failure> {
     run_test_vector(&realization, &mut out)?;
     // The stack so far: decoding the realization and running the model.
     writeln!(out, "stack_model_bytes: {}", stack::high_water_bytes())?;
+    compare_assembly(&mut out)?;
     check_golden(&mut out)?;
 
     writeln!(
@@ -152,13 +175,14 @@ fn run() -> Result<(), Failure> {
     Ok(())
 }
 
-/// Runs the test vector through the realization and prints every output's bits.
+/// Runs the test vector through the realization as the device steps it and prints every
+/// output's bits.
 fn run_test_vector(realization: &DeviceRealization, out: &mut Console) -> Result<(), Failure> {
     writeln!(out, "seed: {SEED}")?;
     writeln!(out, "samples: {SAMPLES}")?;
     let mut state = ModalState::<f32>::default();
     for (index, input) in TestVector::new(SEED).take(SAMPLES).enumerate() {
-        let y = realization.step(&mut state, input);
+        let y = realization.step_device(&mut state, input);
         writeln!(
             out,
             "y {index} {:08x} {:08x} {:08x}",
@@ -170,6 +194,136 @@ fn run_test_vector(realization: &DeviceRealization, out: &mut Console) -> Result
             return Err(Failure::NotFinite { index });
         }
     }
+    Ok(())
+}
+
+/// Samples each comparison of the assembly runs.
+const ASM_SAMPLES: usize = 48;
+/// Of those, the first ones only move the state away from rest before the readout is read.
+const ASM_SETTLE_SAMPLES: usize = 16;
+/// Block layouts compared: as built, then with each group's blocks given to its neighbour
+/// (a group of zero blocks), then with every block in the z group (x and y empty).
+const ASM_LAYOUTS: usize = 5;
+
+/// The built-in realization with its blocks regrouped by `layout` (see [`ASM_LAYOUTS`];
+/// the blocks themselves unchanged, so every one stays stable).
+fn regrouped(head: &DeviceRealization, layout: usize) -> DeviceRealization {
+    let mut r = *head;
+    let [x, y, z] = head.groups.map(|g| g.block_count);
+    let counts = match layout {
+        1 => [0, x + y, z],
+        2 => [x + y, 0, z],
+        3 => [x, y + z, 0],
+        4 => [0, 0, x + y + z],
+        _ => [x, y, z],
+    };
+    for (g, n) in r.groups.iter_mut().zip(counts) {
+        g.block_count = n;
+    }
+    r
+}
+
+/// `head` with every group's output rows set to `rows` (0-3): the rows it has are kept,
+/// a row it lacks is its first row halved (so nothing multiplies by zero).
+fn with_rows(head: &DeviceRealization, rows: u8) -> DeviceRealization {
+    let mut r = *head;
+    let mut first = 0;
+    for g in r.groups.iter_mut() {
+        let end = (first + usize::from(g.block_count)).min(r.blocks.len());
+        let built = usize::from(g.output_count);
+        for k in built.max(1)..3 {
+            g.feedthrough[k] = 0.5 * g.feedthrough[k - 1];
+            for block in &mut r.blocks[first..end] {
+                block.output[k] = block.output[k - 1].map(|c| 0.5 * c);
+            }
+        }
+        g.output_count = rows;
+        g.outputs = [0, 1, 2];
+        first = end;
+    }
+    r
+}
+
+/// The model step's assembly (`step_device`) against its Rust definition (`step`), in
+/// outputs and state, from rest over [`ASM_SAMPLES`] samples.
+fn compare_step(r: &DeviceRealization, case: usize) -> Result<(), Failure> {
+    let (mut asm, mut definition) = (ModalState::<f32>::default(), ModalState::<f32>::default());
+    let inputs = TestVector::new(SEED.wrapping_add(3)).take(ASM_SAMPLES);
+    for (sample, u) in inputs.enumerate() {
+        let a = black_box(r).step_device(&mut asm, u);
+        let d = black_box(r).step(&mut definition, u);
+        let same_state = asm
+            .blocks
+            .iter()
+            .zip(&definition.blocks)
+            .all(|(a, d)| a.map(f32::to_bits) == d.map(f32::to_bits));
+        if a.map(f32::to_bits) != d.map(f32::to_bits) || !same_state {
+            return Err(Failure::Assembly {
+                what: "model step",
+                case,
+                sample,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The readout's assembly (`read_packed`) against its Rust definition, on the states of
+/// `head` stepped over [`ASM_SAMPLES`] samples.
+fn compare_readout(
+    head: &DeviceRealization,
+    readout: &JointReadout,
+    case: usize,
+) -> Result<(), Failure> {
+    let mut state = ModalState::<f32>::default();
+    let inputs = TestVector::new(SEED.wrapping_add(4)).take(ASM_SAMPLES);
+    for (sample, u) in inputs.enumerate() {
+        if sample >= ASM_SETTLE_SAMPLES {
+            let (mut a, mut d) = ([0.0; JOINT_OUTPUT_COUNT], [0.0; JOINT_OUTPUT_COUNT]);
+            let n = black_box(readout).read_packed(head, &state, u, &mut a);
+            let m = black_box(readout).read_packed_by::<true>(head, &state, u, &mut d);
+            if n != m || a.map(f32::to_bits) != d.map(f32::to_bits) {
+                return Err(Failure::Assembly {
+                    what: "joint readout",
+                    case,
+                    sample,
+                });
+            }
+        }
+        head.step_device(&mut state, u);
+    }
+    Ok(())
+}
+
+/// The FPU assembly against the Rust definitions compiled beside it, bit for bit: the
+/// model step for 0 to 3 rows a group on every layout of [`ASM_LAYOUTS`]; the joint
+/// readout (1 to 4 rows a group, or none) for every selection of the built-in default's
+/// joint outputs, and for all of them on the layouts with empty groups (a loop over zero
+/// blocks).
+fn compare_assembly(out: &mut Console) -> Result<(), Failure> {
+    let failure = Failure::Golden {
+        what: "default blob",
+        index: 0,
+    };
+    let device = DeviceParams::decode(params::default_blob()).map_err(|_| failure)?;
+    let head = &device.realization;
+    let mut case = 0;
+    for layout in 0..ASM_LAYOUTS {
+        for rows in 0..=3 {
+            compare_step(&with_rows(&regrouped(head, layout), rows), case)?;
+            case += 1;
+        }
+    }
+    writeln!(out, "asm_step_cases: {case} ok")?;
+    let selections = 1u16 << JOINT_OUTPUT_COUNT;
+    for mask in 0..selections {
+        compare_readout(head, &device.joints.select(head, mask), usize::from(mask))?;
+    }
+    writeln!(out, "asm_readout_selections: {selections} ok")?;
+    for layout in 1..ASM_LAYOUTS {
+        compare_readout(&regrouped(head, layout), &device.joints, layout)?;
+    }
+    writeln!(out, "asm_readout_layouts: {} ok", ASM_LAYOUTS - 1)?;
     Ok(())
 }
 
@@ -243,7 +397,7 @@ fn check_frames<T: Serialize + DeserializeOwned + PartialEq>(
 
 /// SysTick ticks for `TIMING_ROUNDS` passes over `TIMING_INPUTS` inputs, with the model
 /// step and with the step replaced by a pass-through (the loop's own cost).
-fn time_steps(realization: &DeviceRealization, counter: &InstructionCounter) -> (u32, u32) {
+fn time_steps(realization: &DeviceRealization, counter: &SysTickCounter) -> (u32, u32) {
     let mut inputs = [[0.0_f32; 3]; TIMING_INPUTS];
     for (slot, input) in inputs.iter_mut().zip(TestVector::new(SEED.wrapping_add(1))) {
         *slot = input;
@@ -276,7 +430,7 @@ const STAGE_SAMPLES: usize = 1024;
 /// exposure and the alerts on 16-sample blocks of head accelerations), the whole
 /// `DeviceParams::process` with a no-op `emit`, one telemetry frame's encoding and one
 /// `libm::sqrtf` (the telemetry's six square roots are in software on this target).
-fn time_stages(counter: &InstructionCounter, out: &mut Console) -> Result<(), Failure> {
+fn time_stages(counter: &SysTickCounter, out: &mut Console) -> Result<(), Failure> {
     use supine_core::alerts::{AlertState, FaultFlags};
     use supine_core::exposure::{ExposureSample, ExposureState};
     use supine_core::pipeline::{BLOCK_LEN, PipelineState};

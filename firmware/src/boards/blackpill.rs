@@ -13,6 +13,16 @@ use supine_core::upload::{FlashError, ParamFlash, SLOT_COUNT, SLOT_LEN};
 
 use crate::param_flash::ParamRegion;
 
+/// Core clock the image sets up, Hz (from the 25 MHz crystal). SysTick counts it, so the
+/// monitor's ticks are CPU cycles here.
+pub const SYSCLK_HZ: u32 = 64_000_000;
+
+// The monitor's idle flush fits SysTick's 24-bit span at this clock.
+const _: () = assert!(crate::cycles::measurable(supine_app::ticks_in_ms(
+    SYSCLK_HZ,
+    supine_app::IDLE_FLUSH_MS
+)));
+
 /// Distance between the two parameter slots' starts, bytes: one 128 KiB flash sector each,
 /// so that either can be erased without touching the other.
 pub const PARAM_SLOT_STRIDE: usize = 128 * 1024;

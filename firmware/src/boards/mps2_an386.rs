@@ -17,6 +17,12 @@ use crate::param_flash::ParamRegion;
 /// Core and peripheral clock, Hz. SysTick counts at this rate from the core clock.
 pub const SYSCLK_HZ: u32 = supine_core::timing::MPS2_AN386_SYSCLK_HZ;
 
+// The monitor's idle flush fits SysTick's 24-bit span at this clock.
+const _: () = assert!(crate::cycles::measurable(supine_app::ticks_in_ms(
+    SYSCLK_HZ,
+    supine_app::IDLE_FLUSH_MS
+)));
+
 /// Base address of UART0, the one QEMU connects to its first `-serial`.
 pub const UART0_BASE: usize = 0x4000_4000;
 
@@ -34,7 +40,7 @@ pub type Uart = CmsdkUart;
 pub struct Board {
     /// UART0, the link to the host (QEMU's first serial port).
     pub uart0: Uart,
-    /// The SysTick timer, used to count instructions (see [`crate::cycles`]).
+    /// The SysTick timer, counting the core clock ([`SYSCLK_HZ`], see [`crate::cycles`]).
     pub syst: SYST,
 }
 

@@ -3,7 +3,10 @@
 //! excursion, with when it happened.
 //!
 //! No standard sets limits for a supine patient's spinal motion, so these are reported,
-//! not judged. The model runs in f64 at the evaluation rate from rest, as the head's does.
+//! not judged. The model runs in f64 at the evaluation rate from rest, as the head's does,
+//! and the statistics count from the end of the head's warm-up, as the device's do
+//! (`supine_core::joint_exposure`): the model's start-up transient on a ride that starts
+//! in motion is not motion of the ride. The running rms is primed during the warm-up.
 
 use anyhow::{Result, anyhow};
 use serde::Serialize;
@@ -21,11 +24,12 @@ pub struct JointReport {
     pub output: &'static str,
     /// `mm` or `deg`.
     pub unit: &'static str,
-    /// Rms over the whole ride (mean included: a steady deflection is motion too).
+    /// Rms over the ride after the warm-up (mean included: a steady deflection is motion
+    /// too).
     pub rms: f64,
-    /// Largest running rms (exponential, tau = 1 s).
+    /// Largest running rms (exponential, tau = 1 s) after the warm-up.
     pub max_running_rms: f64,
-    /// Largest |value|.
+    /// Largest |value| after the warm-up.
     pub largest_excursion: f64,
     /// When the largest excursion happened, s from the ride's start.
     pub largest_excursion_at_s: f64,
@@ -34,13 +38,16 @@ pub struct JointReport {
 pub use crate::io::wording::display_unit;
 
 /// The ten joint outputs followed sample by sample: the model in f64 from rest, each
-/// output's running rms, its overall rms and its largest excursion. One pass, so a report
-/// can take its chart series from the same run that gives its table.
+/// output's running rms, and from the end of the warm-up its overall rms, its largest
+/// running rms and its largest excursion. One pass, so a report can take its chart series
+/// from the same run that gives its table.
 pub struct JointTracker {
     realization: DiscreteModal<f64, JOINT_OUTPUT_COUNT>,
     state: ModalState<f64>,
     sample_rate_hz: f64,
     alpha: f64,
+    /// Samples of the warm-up: they only prime the running rms.
+    warmup_samples: usize,
     samples: usize,
     sum2: [f64; JOINT_OUTPUT_COUNT],
     ms: [f64; JOINT_OUTPUT_COUNT],
@@ -49,8 +56,10 @@ pub struct JointTracker {
 }
 
 impl JointTracker {
-    /// A tracker of `params`'s joints at `sample_rate_hz`, from rest.
-    pub fn new(params: &ModelParams, sample_rate_hz: f64) -> Result<Self> {
+    /// A tracker of `params`'s joints at `sample_rate_hz`, from rest, whose statistics
+    /// start after `warmup_samples` (the head's warm-up,
+    /// `supine_core::exposure::ExposureSettings::warmup_samples`).
+    pub fn new(params: &ModelParams, sample_rate_hz: f64, warmup_samples: usize) -> Result<Self> {
         let realization = Model::new(params)
             .and_then(|m| m.realization(sample_rate_hz, &JointOutput::ALL))
             .map_err(|e| anyhow!("the model does not discretize at {sample_rate_hz} Hz: {e}"))?;
@@ -59,6 +68,7 @@ impl JointTracker {
             state: ModalState::default(),
             sample_rate_hz,
             alpha: -(-1.0 / (RUNNING_RMS_TAU_S * sample_rate_hz)).exp_m1(),
+            warmup_samples,
             samples: 0,
             sum2: [0.0; JOINT_OUTPUT_COUNT],
             ms: [0.0; JOINT_OUTPUT_COUNT],
@@ -71,13 +81,16 @@ impl JointTracker {
     pub fn step(&mut self, platform_m_s2: [f64; 3]) {
         let y = self.realization.step(&mut self.state, platform_m_s2);
         let k = self.samples;
+        let settled = k >= self.warmup_samples;
         for (o, v) in y.iter().enumerate() {
             let v2 = v * v;
-            self.sum2[o] += v2;
             self.ms[o] += self.alpha * (v2 - self.ms[o]);
-            self.max_ms[o] = self.max_ms[o].max(self.ms[o]);
-            if v.abs() > self.peak[o].0 {
-                self.peak[o] = (v.abs(), k);
+            if settled {
+                self.sum2[o] += v2;
+                self.max_ms[o] = self.max_ms[o].max(self.ms[o]);
+                if v.abs() > self.peak[o].0 {
+                    self.peak[o] = (v.abs(), k);
+                }
             }
         }
         self.samples += 1;
@@ -93,9 +106,9 @@ impl JointTracker {
         out
     }
 
-    /// The statistics over every sample taken.
+    /// The statistics over every sample taken after the warm-up.
     pub fn report(&self) -> Vec<JointReport> {
-        let n = self.samples.max(1) as f64;
+        let n = self.samples.saturating_sub(self.warmup_samples).max(1) as f64;
         JointOutput::ALL
             .iter()
             .map(|&output| {
@@ -115,13 +128,14 @@ impl JointTracker {
 }
 
 /// The ten joint outputs' statistics for the support acceleration `platform_m_s2` (x, y,
-/// z per sample) at `sample_rate_hz`, from rest.
+/// z per sample) at `sample_rate_hz`, from rest, after `warmup_samples`.
 pub fn joint_motion(
     params: &ModelParams,
     sample_rate_hz: f64,
+    warmup_samples: usize,
     platform_m_s2: &[[f64; 3]],
 ) -> Result<Vec<JointReport>> {
-    let mut tracker = JointTracker::new(params, sample_rate_hz)?;
+    let mut tracker = JointTracker::new(params, sample_rate_hz, warmup_samples)?;
     for u in platform_m_s2 {
         tracker.step(*u);
     }

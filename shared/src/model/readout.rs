@@ -234,6 +234,34 @@ impl JointReadout {
         }
     }
 
+    /// The readout of those of its outputs that `mask` names (bit `i` for
+    /// [`JointOutput::ALL`]`[i]`), over the head realization `head` it reads: their rows,
+    /// in the same order, the rest zero. What [`new`](Self::new) builds for that
+    /// selection, without the modal analysis (the host tests compare every mask); the
+    /// device's self-test takes every selection's shape from the readout it ships.
+    pub fn select(&self, head: &DiscreteModal<f32, 3>, mask: u16) -> Self {
+        let mut out = Self::NONE;
+        let mut first = 0;
+        for ((slot, group), head_group) in out.groups.iter_mut().zip(&self.groups).zip(&head.groups)
+        {
+            let end = (first + usize::from(head_group.block_count)).min(MAX_BLOCKS);
+            for (r, &o) in group.outputs().iter().enumerate() {
+                if mask & 1u16.checked_shl(u32::from(o)).unwrap_or(0) == 0 {
+                    continue;
+                }
+                let k = usize::from(slot.row_count);
+                slot.outputs[k] = o;
+                slot.feedthrough[k] = group.feedthrough[r];
+                for (to, from) in out.rows[first..end].iter_mut().zip(&self.rows[first..end]) {
+                    to[k] = from[r];
+                }
+                slot.row_count += 1;
+            }
+            first = end;
+        }
+        out
+    }
+
     /// The outputs it reads, as a mask (bit `i` for [`JointOutput::ALL`]`[i]`).
     pub fn mask(&self) -> u16 {
         self.groups
@@ -313,9 +341,25 @@ impl JointReadout {
     /// [`read`](Self::read), packed: the outputs read, in
     /// [`packed_outputs`](Self::packed_outputs) order, written to the start of `out`;
     /// returns how many. What the device runs, once per telemetry record: out of line
-    /// and in loops over the rows in use, so it costs its flash once.
+    /// and in loops over the rows in use, so it costs its flash once. On the Cortex-M4F
+    /// the loops are `fpu_loops`' assembly.
     #[inline(never)]
     pub fn read_packed(
+        &self,
+        head: &DiscreteModal<f32, 3>,
+        state: &ModalState<f32>,
+        input_m_s2: [f32; 3],
+        out: &mut [f32; JOINT_OUTPUT_COUNT],
+    ) -> usize {
+        self.read_packed_by::<false>(head, state, input_m_s2, out)
+    }
+
+    /// [`read_packed`](Self::read_packed), its loops the Rust definition if `DEFINITION`
+    /// (on every target), else the device's (`fpu_loops`' assembly on the Cortex-M4F).
+    /// The definition is what the assembly must equal bit for bit, compiled beside it in
+    /// the device's self-test to compare (`firmware/src/bin/selftest.rs`).
+    #[inline(always)]
+    pub fn read_packed_by<const DEFINITION: bool>(
         &self,
         head: &DiscreteModal<f32, 3>,
         state: &ModalState<f32>,
@@ -337,13 +381,14 @@ impl JointReadout {
             // One copy of the loop per row count: its accumulators then stay in registers
             // and it is loads and multiply-adds only; a group read by none costs nothing.
             let d = &group.feedthrough;
+            let (x, b) = (block_rows, states);
             match out {
                 [] => {}
-                [a] => *a = accumulate::<1>(d, u, block_rows, states)[0],
-                [a, b] => [*a, *b] = accumulate::<2>(d, u, block_rows, states),
-                [a, b, c] => [*a, *b, *c] = accumulate::<3>(d, u, block_rows, states),
-                [a, b, c, e] => {
-                    [*a, *b, *c, *e] = accumulate::<MAX_JOINT_ROWS>(d, u, block_rows, states);
+                [a] => *a = accumulate::<1, DEFINITION>(d, u, x, b)[0],
+                [a, c] => [*a, *c] = accumulate::<2, DEFINITION>(d, u, x, b),
+                [a, c, e] => [*a, *c, *e] = accumulate::<3, DEFINITION>(d, u, x, b),
+                [a, c, e, f] => {
+                    [*a, *c, *e, *f] = accumulate::<MAX_JOINT_ROWS, DEFINITION>(d, u, x, b);
                 }
                 // `rows` is at most MAX_JOINT_ROWS.
                 _ => {}
@@ -397,26 +442,24 @@ impl JointReadout {
 
 /// The first `R` rows of one axis group at a sample: the direct term times the input `u`
 /// plus each block's rows (`block_rows`) times its state (`states`). On the Cortex-M4F
-/// `fpu_loops::accumulate` runs the same operations in the same order.
+/// `fpu_loops::accumulate` runs the same operations in the same order, unless
+/// `DEFINITION` asks for the Rust definition itself.
 #[inline(always)]
-fn accumulate<const R: usize>(
+fn accumulate<const R: usize, const DEFINITION: bool>(
     feedthrough: &[f32; MAX_JOINT_ROWS],
     u: f32,
     block_rows: &[[[f32; 2]; MAX_JOINT_ROWS]],
     states: &[[f32; 2]],
 ) -> [f32; R] {
     #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
-    {
-        super::fpu_loops::accumulate(feedthrough, u, block_rows, states)
+    if !DEFINITION {
+        return super::fpu_loops::accumulate(feedthrough, u, block_rows, states);
     }
-    #[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
-    {
-        let mut acc: [f32; R] = core::array::from_fn(|r| feedthrough[r % MAX_JOINT_ROWS] * u);
-        for (c, x) in block_rows.iter().zip(states) {
-            for (a, c) in acc.iter_mut().zip(c) {
-                *a += c[0] * x[0] + c[1] * x[1];
-            }
+    let mut acc: [f32; R] = core::array::from_fn(|r| feedthrough[r % MAX_JOINT_ROWS] * u);
+    for (c, x) in block_rows.iter().zip(states) {
+        for (a, c) in acc.iter_mut().zip(c) {
+            *a += c[0] * x[0] + c[1] * x[1];
         }
-        acc
     }
+    acc
 }

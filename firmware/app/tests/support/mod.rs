@@ -97,15 +97,28 @@ impl embedded_io::Write for MemLink {
     }
 }
 
-/// A counter that moves only when the test says.
-pub struct Clock(Rc<Cell<u32>>);
+/// The tick rate of the rig's clock unless a test picks another: mps2-an386's SysTick.
+pub const DEFAULT_TICK_RATE_HZ: u32 = 25_000_000;
+
+/// A counter at `rate_hz` that moves when the test says, and by `ticks_per_read` each
+/// time the monitor reads it (time passing while it works).
+pub struct Clock {
+    now: Rc<Cell<u32>>,
+    rate_hz: u32,
+    ticks_per_read: u32,
+}
 
 impl TickCounter for Clock {
+    fn tick_rate_hz(&self) -> u32 {
+        self.rate_hz
+    }
     fn now(&self) -> u32 {
-        self.0.get()
+        let now = self.now.get();
+        self.now.set(now.wrapping_add(self.ticks_per_read));
+        now
     }
     fn ticks_since(&self, start: u32) -> u32 {
-        self.0.get().wrapping_sub(start)
+        self.now.get().wrapping_sub(start)
     }
 }
 
@@ -250,6 +263,32 @@ impl Rig {
     /// A monitor booted from these slots as the firmware boots (the built-in parameters
     /// if no slot is usable), its flash failing as `faults` say. It has greeted.
     pub fn boot_flash(slots: &[Vec<u8>], faults: FlashFaults, slow: bool) -> (Self, Greeting) {
+        Self::boot_clocked(slots, faults, slow, (DEFAULT_TICK_RATE_HZ, 0))
+    }
+
+    /// [`boot`](Self::boot) on a board whose clock ticks at `tick_rate_hz`, moving on by
+    /// `ticks_per_read` each time the monitor reads it.
+    pub fn boot_at_rate(
+        boot_blob: &[u8],
+        tick_rate_hz: u32,
+        ticks_per_read: u32,
+    ) -> (Self, Greeting) {
+        Self::boot_clocked(
+            &plain_slot_a(boot_blob),
+            FlashFaults::default(),
+            false,
+            (tick_rate_hz, ticks_per_read),
+        )
+    }
+
+    /// [`boot_flash`](Self::boot_flash) with a clock of `tick_rate_hz`, moving on by
+    /// `ticks_per_read` each time it is read.
+    fn boot_clocked(
+        slots: &[Vec<u8>],
+        faults: FlashFaults,
+        slow: bool,
+        (tick_rate_hz, ticks_per_read): (u32, u32),
+    ) -> (Self, Greeting) {
         let slots: [Vec<u8>; SLOT_COUNT] = [slots[0].clone(), slots[1].clone()];
         let view = Rc::new(RefCell::new(FlashView {
             slots: slots.to_vec(),
@@ -280,7 +319,11 @@ impl Rig {
         let key: &'static [u8; KEY_LEN] = Box::leak(Box::new(development_key()));
         let app = App::with_updates(
             MemLink(Rc::clone(&wire)),
-            Clock(Rc::clone(&clock)),
+            Clock {
+                now: Rc::clone(&clock),
+                rate_hz: tick_rate_hz,
+                ticks_per_read,
+            },
             Gauge,
             boot,
             flash,
