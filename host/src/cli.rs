@@ -9,7 +9,6 @@ use std::process::ExitCode;
 use clap::{CommandFactory, Parser, Subcommand};
 
 use crate::commands;
-use crate::monitor::color::ColorChoice;
 
 /// What `supine --help` says first: what the tool is, and where to start.
 const ABOUT: &str = "supine: predicts the vibration reaching a supine patient's head from an \
@@ -27,9 +26,6 @@ and writes an HTML report.";
     after_help = ENVIRONMENT_HELP
 )]
 pub struct Cli {
-    /// Colour in the live panel: auto (a terminal, unless NO_COLOR is set), always, never.
-    #[arg(long, value_enum, global = true, default_value_t = ColorChoice::Auto)]
-    pub color: ColorChoice,
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
@@ -146,6 +142,7 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse_from(join_list_words(std::env::args_os()));
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
+        Err(err) if crate::io::stdout::is_reader_gone(&err) => ExitCode::SUCCESS,
         Err(err) => {
             eprintln!("supine: {}", one_line(&err));
             ExitCode::FAILURE
@@ -155,7 +152,6 @@ pub fn main() -> ExitCode {
 
 /// Runs one parsed command.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
-    let color = cli.color;
     match cli.command {
         Command::Model(args) => commands::model::run(&args),
         Command::Modes(args) => commands::modes::run(&args),
@@ -170,10 +166,10 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Ride(args) => commands::ride::run(&args),
         Command::Report(args) => commands::report::run(&args),
         Command::Replay(args) => commands::replay::run(&args),
-        Command::Monitor(args) => commands::monitor::run(&args, color),
+        Command::Monitor(args) => commands::monitor::run(&args),
         Command::Calibrate(args) => commands::calibrate::run(&args),
         Command::Flash(args) => commands::flash::run(&args),
-        Command::Demo(args) => commands::demo::run(&args, color),
+        Command::Demo(args) => commands::demo::run(&args),
         Command::Completions(args) => commands::completions::run(&args, Cli::command()),
     }
 }

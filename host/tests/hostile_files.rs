@@ -706,6 +706,29 @@ fn parameter_files(valid: &str) -> Vec<(String, Content, Expectation)> {
             Content::Bytes(absurd_height.into_bytes()),
             refused(&["line ", "height_m"]),
         ),
+        (
+            "an empty joint alert table (neck_z = { })".into(),
+            Content::Bytes(format!("{valid}\n[device.joint_alerts]\nneck_z = {{ }}\n").into_bytes()),
+            refused(&["line ", "joint_alerts.neck_z: an empty table sets no alert"]),
+        ),
+        (
+            "only [device] tables, no base".into(),
+            Content::Bytes(b"[device.joint_alerts]\nneck_z = { excursion_m = 0.01 }\n".to_vec()),
+            refused(&["missing field `subject`", "base = \"paper-litter\""]),
+        ),
+        (
+            "only [device] tables over base = \"paper-litter\" (valid)".into(),
+            Content::Bytes(
+                b"base = \"paper-litter\"\n[device.joint_alerts]\nneck_z = { excursion_m = 0.01 }\n"
+                    .to_vec(),
+            ),
+            Expectation::Accepted,
+        ),
+        (
+            "base naming no preset".into(),
+            Content::Bytes(b"base = \"paper-boat\"\n".to_vec()),
+            refused(&["line 1, column 1: base: expected a preset", "\"paper-boat\""]),
+        ),
     ]
 }
 
@@ -1127,4 +1150,275 @@ fn update_counter_files_read_by_supine_flash() {
         });
     }
     run_suite("update counter file (supine flash)", &cases);
+}
+
+/// A character device that fails every write as `/dev/full` does: a node of our own
+/// when this test may make one (root), so that a regression replaces the test's node
+/// and not the system's; else `/dev/full` itself (which a non-root run cannot replace).
+fn full_device(dir: &Path) -> PathBuf {
+    use nix::sys::stat::{Mode, SFlag, makedev, mknod};
+    let node = dir.join("full");
+    match mknod(
+        &node,
+        SFlag::S_IFCHR,
+        Mode::from_bits_truncate(0o666),
+        makedev(1, 7),
+    ) {
+        Ok(()) => node,
+        Err(_) => PathBuf::from("/dev/full"),
+    }
+}
+
+fn is_kind(path: &Path, want: fn(&std::fs::FileType) -> bool) -> bool {
+    std::fs::symlink_metadata(path).is_ok_and(|m| want(&m.file_type()))
+}
+
+#[test]
+fn outputs_that_are_devices_pipes_folders_or_a_full_disk() {
+    use std::os::unix::fs::FileTypeExt as _;
+    let dir = tempfile::tempdir().expect("temp dir");
+    let cwd = dir.path().to_path_buf();
+    let full = full_device(dir.path());
+    let mut cases = Vec::new();
+    for (command, extra) in [
+        ("ride", vec!["--profile", "lab", "--duration-s", "10"]),
+        ("model", vec!["--preset", "paper-litter"]),
+        ("weighting", vec!["--weighting", "wk"]),
+    ] {
+        let mut args: Vec<OsString> = os(&[&command]);
+        args.extend(extra.iter().map(OsString::from));
+        args.extend(os(&[&"--out", &full]));
+        cases.push(Case {
+            cwd: cwd.clone(),
+            name: format!("{command} --out a full device"),
+            args,
+            file: full.clone(),
+            env: Vec::new(),
+            expect: Expect::Refused(vec![": cannot write: No space left on device".to_string()]),
+        });
+    }
+    let folder = dir.path().join("a_folder.csv");
+    std::fs::create_dir(&folder).expect("folder");
+    cases.push(Case {
+        cwd: cwd.clone(),
+        name: "ride --out a folder".to_string(),
+        args: os(&[&"ride", &"--profile", &"lab", &"--out", &rel(&folder)]),
+        file: folder.clone(),
+        env: Vec::new(),
+        expect: Expect::Refused(vec!["is a folder".to_string()]),
+    });
+    // A tiny mass, echoed in exponent form within the README's limit.
+    let ride = dir.path().join("ride.csv");
+    std::fs::write(&ride, valid_ride(dir.path())).expect("ride");
+    cases.push(Case {
+        cwd: cwd.clone(),
+        name: "--mass-kg=1e-320 echoed short".to_string(),
+        args: os(&[
+            &"exposure",
+            &"--preset",
+            &"paper-litter",
+            &"--input",
+            &rel(&ride),
+            &"--mass-kg=1e-320",
+        ]),
+        file: PathBuf::from("--mass-kg"),
+        env: Vec::new(),
+        expect: Expect::Refused(vec!["--mass-kg 1e-320: expected".to_string()]),
+    });
+    // A QEMU that never opens its UART: given up on, not waited for forever.
+    let hang = dir.path().join("hanging-qemu");
+    std::fs::write(&hang, "#!/bin/sh\nexec sleep 600\n").expect("script");
+    let mut mode = std::fs::metadata(&hang).expect("script").permissions();
+    std::os::unix::fs::PermissionsExt::set_mode(&mut mode, 0o755);
+    std::fs::set_permissions(&hang, mode).expect("chmod");
+    cases.push(Case {
+        cwd: cwd.clone(),
+        name: "SUPINE_QEMU that never opens the UART".to_string(),
+        args: os(&[
+            &"replay",
+            &"--qemu",
+            &"--preset",
+            &"paper-litter",
+            &"--input",
+            &rel(&ride),
+            &"--out",
+            &"replayed.csv",
+        ]),
+        file: hang.clone(),
+        env: vec![("SUPINE_QEMU".to_string(), hang.clone())],
+        expect: Expect::Refused(vec!["did not open its UART socket within 20 s".to_string()]),
+    });
+    // A dead run's staging file beside an output is swept by the next write there.
+    let stale = dir.path().join(".swept.csv.2147483647.partial");
+    std::fs::write(&stale, "half").expect("stale");
+    cases.push(Case {
+        cwd: cwd.clone(),
+        name: "a dead run's .partial beside --out (swept)".to_string(),
+        args: os(&[
+            &"ride",
+            &"--profile",
+            &"lab",
+            &"--duration-s",
+            &"10",
+            &"--out",
+            &"swept.csv",
+        ]),
+        file: stale.clone(),
+        env: Vec::new(),
+        expect: Expect::Accepted,
+    });
+    // synth into a folder where a file it writes cannot be: it leaves nothing of its own.
+    let half = dir.path().join("half_made");
+    std::fs::create_dir_all(half.join("s1_rigid.csv")).expect("blocking folder");
+    cases.push(Case {
+        cwd: cwd.clone(),
+        name: "synth that fails half-way (--force)".to_string(),
+        args: os(&[
+            &"synth",
+            &"--out",
+            &rel(&half),
+            &"--subjects",
+            &"1",
+            &"--duration-s",
+            &"30",
+            &"--force",
+        ]),
+        file: half.join("s1_rigid.csv"),
+        env: Vec::new(),
+        expect: Expect::Refused(vec!["is a folder".to_string()]),
+    });
+    run_suite(
+        "outputs (devices, folders, a full disk, QEMU, leftovers)",
+        &cases,
+    );
+    // What the cases must leave behind.
+    assert!(
+        is_kind(&full, |t| t.is_char_device()),
+        "{} replaced",
+        full.display()
+    );
+    assert!(!stale.exists(), "the dead run's staging file stays");
+    let left: Vec<String> = std::fs::read_dir(&half)
+        .expect("folder")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(left, ["s1_rigid.csv"], "synth left a half-made dataset");
+}
+
+#[test]
+fn fifos_are_written_through_not_replaced() {
+    use std::os::unix::fs::FileTypeExt as _;
+    let dir = tempfile::tempdir().expect("temp dir");
+    let mut held = 0;
+    for (k, command) in [
+        vec!["ride", "--profile", "lab", "--duration-s", "10"],
+        vec!["model", "--preset", "paper-litter"],
+        vec!["weighting", "--weighting", "wk"],
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let fifo = dir.path().join(format!("pipe_{k}"));
+        nix::unistd::mkfifo(&fifo, nix::sys::stat::Mode::S_IRWXU).expect("mkfifo");
+        let reader = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || std::fs::read(fifo).expect("read the FIFO"))
+        };
+        let out = Command::new(env!("CARGO_BIN_EXE_supine"))
+            .args(&command)
+            .arg("--out")
+            .arg(&fifo)
+            .output()
+            .expect("supine");
+        let got = reader.join().expect("reader");
+        let ok = out.status.success() && got.len() > 100 && is_kind(&fifo, |t| t.is_fifo());
+        println!(
+            "FIFO | {} --out a FIFO | {} | {} bytes through",
+            command[0],
+            if ok { "held" } else { "BROKE" },
+            got.len()
+        );
+        assert!(
+            ok,
+            "{command:?}: {:?} {}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        );
+        held += 1;
+    }
+    println!("FIFO: tried 3, held {held}");
+}
+
+#[test]
+fn a_closed_stdout_ends_every_printing_command_quietly() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let ride = dir.path().join("ride.csv");
+    std::fs::write(&ride, valid_ride(dir.path())).expect("ride");
+    let ride = ride.to_string_lossy().into_owned();
+    let commands: Vec<Vec<&str>> = vec![
+        vec!["params", "--preset", "paper-litter"],
+        vec!["modes", "--preset", "paper-litter"],
+        vec!["completions", "bash"],
+        vec!["calibrate", "--at-rest-m-s2", "0.1,-0.2,9.8"],
+        vec!["exposure", "--preset", "paper-litter", "--input", &ride],
+        vec![
+            "exposure",
+            "--preset",
+            "paper-litter",
+            "--input",
+            &ride,
+            "--json",
+        ],
+        vec!["--help"],
+    ];
+    let mut held = 0;
+    for args in &commands {
+        // The reader goes away before supine writes: every write meets a closed pipe.
+        let (read_end, write_end) = nix::unistd::pipe().expect("pipe");
+        drop(read_end);
+        let out = Command::new(env!("CARGO_BIN_EXE_supine"))
+            .args(args)
+            .stdout(Stdio::from(write_end))
+            .stderr(Stdio::piped())
+            .output()
+            .expect("supine");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        let quiet = matches!(out.status.code(), Some(0) | Some(141)) && stderr.is_empty();
+        println!(
+            "closed stdout | supine {} | {} | {:?} {}",
+            args.join(" "),
+            if quiet { "held" } else { "BROKE" },
+            out.status.code(),
+            first_chars(&stderr, 120)
+        );
+        if quiet {
+            held += 1;
+        }
+    }
+    // A full disk behind stdout is an error that names stdout.
+    let full = full_device(dir.path());
+    let out = Command::new(env!("CARGO_BIN_EXE_supine"))
+        .args(["params", "--preset", "paper-litter"])
+        .stdout(
+            std::fs::OpenOptions::new()
+                .write(true)
+                .open(&full)
+                .expect("open"),
+        )
+        .output()
+        .expect("supine");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let named = out.status.code() == Some(1)
+        && stderr == "supine: stdout: cannot write: No space left on device (os error 28)\n";
+    println!(
+        "closed stdout | supine params > a full device | {} | {}",
+        if named { "held" } else { "BROKE" },
+        stderr.trim_end()
+    );
+    if named {
+        held += 1;
+    }
+    let tried = commands.len() + 1;
+    println!("closed or full stdout: tried {tried}, held {held}");
+    assert_eq!(held, tried);
 }

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 
 /// Each folder (or top file) of `host/src` and what it may use besides itself.
 const ALLOWED: &[(&str, &[&str])] = &[
-    ("cli", &["commands", "monitor"]),
+    ("cli", &["commands"]),
     (
         "commands",
         &[

@@ -536,7 +536,7 @@ impl ExposureSettings {
             if block_n >= BLOCK_SAMPLES {
                 let [s0, s1, s2] = block_sq;
                 let [q0, q1, q2, q3] = block_q;
-                total_q_v = fold(s0, s1, s2, q0, q1, q2, q3, &mut state.totals);
+                total_q_v = fold(s0, s1, s2, q0, q1, q2, q3, total_q_v, &mut state.totals);
                 block_sq = [0.0; 3];
                 block_q = [0.0; 4];
                 block_n = 0;
@@ -608,10 +608,26 @@ impl ExposureSettings {
 /// f64 totals, every [`BLOCK_SAMPLES`] samples, and returns the vector's fourth-power
 /// total as f32 for the per-sample dose. Scalars, not arrays, so that the caller's
 /// accumulators stay in registers.
+///
+/// The dose never falls: within a block the per-sample dose `(total + block sum) dt` only
+/// grows (f32 addition and multiplication round monotonically), and the total returned
+/// here is at least `previous + q3` as the last sample computed it in f32, which the f64
+/// total rounded to f32 can be one step below. Below [`DOSE_TOTAL_CAP`] (no real dose
+/// comes near it) it therefore never falls, at no cost per sample (`docs/exposure.md`).
 #[cold]
 #[inline(never)]
 #[allow(clippy::too_many_arguments)]
-fn fold(s0: f32, s1: f32, s2: f32, q0: f32, q1: f32, q2: f32, q3: f32, totals: &mut Totals) -> f32 {
+fn fold(
+    s0: f32,
+    s1: f32,
+    s2: f32,
+    q0: f32,
+    q1: f32,
+    q2: f32,
+    q3: f32,
+    previous: f32,
+    totals: &mut Totals,
+) -> f32 {
     for (t, b) in totals.sq.iter_mut().zip([s0, s1, s2]) {
         *t += b as f64;
     }
@@ -623,12 +639,18 @@ fn fold(s0: f32, s1: f32, s2: f32, q0: f32, q1: f32, q2: f32, q3: f32, totals: &
     // run (a blob's gains are bounded so that a block's sum is under 1e32); no real dose
     // comes near it.
     let total = totals.q[3];
-    // A comparison, not f64::min: no NaN to handle, and no soft-float call on the device.
-    (if total > DOSE_TOTAL_CAP {
+    // Comparisons, not f64::min/max: no NaN to handle, and no soft-float call on the device.
+    let rounded = (if total > DOSE_TOTAL_CAP {
         DOSE_TOTAL_CAP
     } else {
         total
-    }) as f32
+    }) as f32;
+    let reported = previous + q3;
+    if reported > rounded && (reported as f64) <= DOSE_TOTAL_CAP {
+        reported
+    } else {
+        rounded
+    }
 }
 
 /// Largest fourth-power total handed to f32 (half of `f32::MAX`).

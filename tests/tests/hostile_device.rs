@@ -332,3 +332,114 @@ fn a_sample_of_bit_flips_in_the_blob_boots_the_built_in_parameters_with_the_reas
         );
     }
 }
+
+/// Replaces, in the telemetry CSV at `log`, the cell of `column` in the data row `row`
+/// (from 0) with `value`.
+fn edit_cell(log: &std::path::Path, row: usize, column: &str, value: &str) {
+    let text = std::fs::read_to_string(log).expect("log");
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let at = lines[0]
+        .split(',')
+        .position(|c| c == column)
+        .unwrap_or_else(|| panic!("no column {column}"));
+    let mut cells: Vec<String> = lines[row + 1].split(',').map(str::to_string).collect();
+    cells[at] = value.to_string();
+    lines[row + 1] = cells.join(",");
+    std::fs::write(log, lines.join("\n") + "\n").expect("write");
+}
+
+#[test]
+fn a_tampered_monitor_log_is_caught_by_the_device_check() {
+    use supine_qemu_tests::{rough_ride, run_supine};
+    firmware(PRODUCT_BINARY);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let s = |p: &std::path::Path| p.to_str().expect("utf-8").to_owned();
+    let ride = rough_ride(dir.path());
+    let log = dir.path().join("log.csv");
+    let (ok, _, stderr) = run_supine(&[
+        "monitor",
+        "--qemu",
+        "--preset",
+        "paper-litter",
+        "--input",
+        &s(&ride),
+        "--log",
+        &s(&log),
+    ]);
+    assert!(ok, "monitor: {stderr}");
+    let pristine = std::fs::read_to_string(&log).expect("log");
+    let report = |out: &str| {
+        run_supine(&[
+            "report",
+            "--input",
+            &s(&log),
+            "--preset",
+            "paper-litter",
+            "--json",
+            "--out",
+            &s(&dir.path().join(out)),
+        ])
+    };
+    let (ok, stdout, stderr) = report("clean");
+    assert!(ok, "{stderr}");
+    let json: serde_json::Value = serde_json::from_str(&stdout).expect("JSON");
+    assert_eq!(
+        json["device_check"]["agree"], true,
+        "{}",
+        json["device_check"]
+    );
+    // Each value the device reports, changed in one record late in the ride: the check
+    // says they differ and names what (the battery changed VDV, rms and level).
+    let rows = pristine.lines().count() - 1;
+    let (mut tried, mut held) = (0, 0);
+    for (column, value, name) in [
+        ("vdv_m_s175", "99", "vdv_m_s175"),
+        ("running_rms_vector_m_s2", "3.5", "running_rms_vector_m_s2"),
+        ("running_rms_z_m_s2", "2.5", "running_rms_z_m_s2"),
+        ("alert_level", "alarm", "alert_level"),
+    ] {
+        std::fs::write(&log, &pristine).expect("restore");
+        edit_cell(&log, rows - 10, column, value);
+        let (ok, stdout, stderr) = report(column);
+        tried += 1;
+        let json: serde_json::Value = serde_json::from_str(&stdout).unwrap_or_default();
+        let check = &json["device_check"];
+        let caught = ok
+            && check["agree"] == false
+            && check["differing_values"]
+                .as_array()
+                .is_some_and(|d| d.iter().any(|v| v == name));
+        println!(
+            "tampered log | {column} = {value} | {} | {check}",
+            if caught { "held" } else { "BROKE" }
+        );
+        held += usize::from(caught);
+        assert!(caught, "{column}: {check} {stderr}");
+        let page = std::fs::read_to_string(dir.path().join(column).join("report.html"))
+            .expect("report.html");
+        assert!(page.contains("the device and the host DIFFER") && page.contains(name));
+    }
+    // The session file's patient edited: refused, naming the file and the patient.
+    std::fs::write(&log, &pristine).expect("restore");
+    let session = dir.path().join("log.session.json");
+    let text = std::fs::read_to_string(&session).expect("session");
+    let mut value: serde_json::Value = serde_json::from_str(&text).expect("session JSON");
+    for (height_m, mass_kg) in [(1.6, 52.0), (1e9, 81.0)] {
+        value["height_m"] = serde_json::json!(height_m);
+        value["mass_kg"] = serde_json::json!(mass_kg);
+        std::fs::write(&session, value.to_string()).expect("write");
+        let (ok, _, stderr) = report("patient");
+        tried += 1;
+        let caught = !ok
+            && stderr.contains("log.session.json: patient")
+            && stderr.trim().lines().count() == 1;
+        println!(
+            "tampered log | patient {height_m} m, {mass_kg} kg | {} | {}",
+            if caught { "held" } else { "BROKE" },
+            stderr.trim()
+        );
+        held += usize::from(caught);
+        assert!(caught, "{stderr}");
+    }
+    println!("tampered monitor logs: tried {tried}, held {held}");
+}

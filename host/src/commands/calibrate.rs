@@ -11,6 +11,7 @@ use supine_core::mounting::Mounting;
 use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
 use crate::io::params_file::mounting_toml;
+use crate::io::stdout::print_text;
 
 /// Arguments of `supine calibrate`.
 #[derive(Debug, clap::Args)]
@@ -71,10 +72,9 @@ pub fn run(args: &Args) -> Result<()> {
             "mounting": mounting,
         }));
     }
-    print!(
+    print_text(&format!(
         "# Mounting calibration from a reading at rest of ({x}, {y}, {z}) m/s^2 (sensor axes).\n\
          # Rows of sensor_to_litter: the litter's x (toward the head), y, z (up) in sensor axes.\n{}",
         mounting_toml(mounting)?
-    );
-    Ok(())
+    ))
 }

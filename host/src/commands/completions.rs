@@ -4,6 +4,8 @@
 use anyhow::Result;
 use clap_complete::Shell;
 
+use crate::io::stdout::print_text;
+
 /// Arguments of `supine completions`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -15,6 +17,7 @@ pub struct Args {
 /// Prints the script for `command` (the whole `supine` definition, which `cli` passes in)
 /// on standard output.
 pub fn run(args: &Args, mut command: clap::Command) -> Result<()> {
-    clap_complete::generate(args.shell, &mut command, "supine", &mut std::io::stdout());
-    Ok(())
+    let mut script = Vec::new();
+    clap_complete::generate(args.shell, &mut command, "supine", &mut script);
+    print_text(&String::from_utf8_lossy(&script))
 }

@@ -14,13 +14,17 @@ use crate::demo::demo_ride::DemoProfile;
 use crate::demo::summary::Summary;
 use crate::demo::{self, DEFAULT_OUT_DIR, DemoConfig};
 use crate::io::params_file::{self, ParamFile, PresetArg};
+use crate::io::stdout::{print_line, print_text};
 use crate::io::subject_args::SubjectArgs;
-use crate::monitor::color::ColorChoice;
+use crate::monitor::color::ColorFlag;
 use crate::monitor::view::{LiveView, PlainView, View};
 
 /// Arguments of `supine demo`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
+    /// `--color`.
+    #[command(flatten)]
+    pub color: ColorFlag,
     /// Output folder: report.html and the CSV files it was made from. A folder holding
     /// files the demo did not write is refused (see --force).
     #[arg(long, value_name = "DIR", default_value = DEFAULT_OUT_DIR)]
@@ -62,7 +66,8 @@ pub struct Args {
 
 /// Runs the demo: step lines and the summary on standard output, the live view on
 /// standard error; Ctrl-C stops QEMU and removes its folder.
-pub fn run(args: &Args, color: ColorChoice) -> Result<()> {
+pub fn run(args: &Args) -> Result<()> {
+    let color = args.color.color;
     // Ctrl-C, SIGTERM and SIGHUP: QEMU stopped and its folder removed on the way out.
     let stop = crate::device::signals::stop_flag();
     let (model, model_name) = match (&args.params, args.preset) {
@@ -95,7 +100,8 @@ pub fn run(args: &Args, color: ColorChoice) -> Result<()> {
         if json {
             eprintln!("{line}");
         } else {
-            println!("{line}");
+            // A failure here shows again, and is reported, when the summary is printed.
+            let _ = print_line(line);
         }
     };
     let outcome = demo::run(&config, &mut announce, view.as_mut(), &stop);
@@ -104,9 +110,11 @@ pub fn run(args: &Args, color: ColorChoice) -> Result<()> {
     if json {
         return json_output::print(&summary_json(&outcome.summary, args, &outcome.report));
     }
-    print!("{}", outcome.summary.to_text(&outcome.data));
-    println!("report: {}", outcome.report.display());
-    Ok(())
+    print_text(&format!(
+        "{}report: {}\n",
+        outcome.summary.to_text(&outcome.data),
+        outcome.report.display()
+    ))
 }
 
 /// The summary as the `--json` object.
@@ -134,6 +142,7 @@ fn summary_json(summary: &Summary, args: &Args, report: &std::path::Path) -> ser
         "head_diff_f32_m_s2": s.head_diff_f32_m_s2,
         "head_diff_f64_m_s2": s.head_diff_f64_m_s2,
         "running_rms_diff_m_s2": s.rms_diff_m_s2,
+        "differing_values": s.differing_values,
         "events_agree": s.events_agree,
         "records_complete": s.records_complete,
     })

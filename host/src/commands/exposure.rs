@@ -13,7 +13,7 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use anyhow::{Result, anyhow};
+use anyhow::Result;
 use clap::{ArgGroup, ValueEnum};
 use supine_core::mounting::Mounting;
 
@@ -22,6 +22,7 @@ use crate::exposure::channel_exposure::evaluate_channel;
 use crate::exposure::model_exposure::evaluate_model;
 use crate::io::params_file::{ModelSource, PresetArg};
 use crate::io::ride_input::RideInputArgs;
+use crate::io::stdout::stdout_error;
 use crate::io::subject_args::SubjectArgs;
 
 /// Arguments of `supine exposure`.
@@ -96,7 +97,8 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
         }
     };
     out.write_all(text.as_bytes())
-        .map_err(|e| anyhow!("writing the report: {e}"))
+        .and_then(|()| out.flush())
+        .map_err(stdout_error)
 }
 
 /// Evaluates and prints the report on standard output.

@@ -150,14 +150,19 @@ pub fn run(args: &Args) -> Result<()> {
         Err(e) => {
             // The report folder was claimed before the wait: a failed fit leaves no trace.
             if let Some(folder) = report_folder {
-                folder.abandon();
+                folder.undo();
             }
             return Err(e);
         }
     };
-    workflow::write_outputs(&fitted, &request, &args.out, args.report.as_deref())?;
-    if let Some(folder) = &report_folder {
-        folder.record_new_entries()?;
+    let written = workflow::write_outputs(&fitted, &request, &args.out, args.report.as_deref());
+    match (report_folder, written) {
+        (Some(folder), Ok(())) => folder.write_or_undo(|f| f.record_new_entries())?,
+        (Some(folder), Err(e)) => {
+            folder.undo();
+            return Err(e);
+        }
+        (None, written) => written?,
     }
     eprintln!("{}", fitted.summary());
     let unknown = fitted.params_with(Determination::NoEffect);

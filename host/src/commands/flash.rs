@@ -11,6 +11,7 @@ use crate::device::device_params::identity_hex;
 use crate::device::flash::{self, UploadOutcome};
 use crate::device::image::{DEVELOPMENT_KEY_NOTICE, ProductImage};
 use crate::io::params_file::ModelSource;
+use crate::io::stdout::print_line;
 use crate::io::subject_args::SubjectArgs;
 use crate::monitor::json::subject_json;
 use crate::monitor::patient_text;
@@ -152,12 +153,7 @@ pub fn run(args: &Args) -> Result<()> {
         let outcome = flash::upload_qemu(&kernel, &params, &blob, &key, counter, timeout)?;
         report(&outcome, "QEMU", counter, args.key.is_none())
     };
-    if args.json {
-        println!("{json}");
-    } else {
-        println!("{text}");
-    }
-    Ok(())
+    print_line(&if args.json { json.to_string() } else { text })
 }
 
 /// The signing key: `--key`, or the public development key, said so on standard error.

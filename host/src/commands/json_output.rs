@@ -4,6 +4,8 @@
 use anyhow::{Result, anyhow};
 use serde::Serialize;
 
+use crate::io::stdout::print_line;
+
 /// The `--json` flag, the same help on every command.
 #[derive(Clone, Copy, Debug, Default, clap::Args)]
 pub struct JsonFlag {
@@ -15,6 +17,5 @@ pub struct JsonFlag {
 /// Prints `value` as one line of JSON on standard output.
 pub fn print(value: &impl Serialize) -> Result<()> {
     let text = serde_json::to_string(value).map_err(|e| anyhow!("rendering JSON: {e}"))?;
-    println!("{text}");
-    Ok(())
+    print_line(&text)
 }

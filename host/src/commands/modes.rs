@@ -5,6 +5,7 @@ use supine_core::model::{DEFAULT_SAMPLE_RATE_HZ, Model};
 
 use crate::commands::json_output::{self, JsonFlag};
 use crate::io::params_file::ModelSource;
+use crate::io::stdout::print_text;
 
 /// Arguments of `supine modes`.
 #[derive(Debug, clap::Args)]
@@ -48,13 +49,12 @@ pub fn run(args: &Args) -> Result<()> {
             },
         }));
     }
-    print!("{}", table(&model));
-    println!(
-        "device realization at {DEFAULT_SAMPLE_RATE_HZ} Hz: {} modal blocks (2 states each), {} multiply-adds per sample for head x, y, z",
+    print_text(&format!(
+        "{}device realization at {DEFAULT_SAMPLE_RATE_HZ} Hz: {} modal blocks (2 states each), {} multiply-adds per sample for head x, y, z\n",
+        table(&model),
         device.block_count,
         device.multiply_adds_per_sample()
-    );
-    Ok(())
+    ))
 }
 
 /// The modes table as text.

@@ -15,7 +15,7 @@ use crate::device::scratch::ScratchDir;
 use crate::io::params_file::{ModelSource, PresetArg};
 use crate::io::ride_input::{RideInputArgs, open_stream};
 use crate::io::subject_args::SubjectArgs;
-use crate::monitor::color::ColorChoice;
+use crate::monitor::color::ColorFlag;
 use crate::monitor::json::{JsonlView, summary_json};
 use crate::monitor::log::{LogFiles, MonitorLog};
 use crate::monitor::session::{Ending, QemuRun, run_qemu, run_serial};
@@ -25,6 +25,9 @@ use crate::monitor::view::{LiveView, PlainView, View};
 #[derive(Debug, clap::Args)]
 #[command(group(ArgGroup::new("target").required(true).args(["serial", "qemu"])))]
 pub struct Args {
+    /// `--color`.
+    #[command(flatten)]
+    pub color: ColorFlag,
     /// A real device on this serial port (e.g. /dev/ttyUSB0); only listens.
     #[arg(long, value_name = "PORT")]
     pub serial: Option<String>,
@@ -85,7 +88,8 @@ pub struct Args {
 }
 
 /// Runs the monitor until the ride ends (QEMU), Ctrl-C, or the link fails.
-pub fn run(args: &Args, color: ColorChoice) -> Result<()> {
+pub fn run(args: &Args) -> Result<()> {
+    let color = args.color.color;
     let greeting_timeout = values::timeout("--timeout-s", args.timeout_s)?;
     let qemu_run = if args.qemu {
         Some(prepare_qemu(args, greeting_timeout)?)

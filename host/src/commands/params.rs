@@ -6,6 +6,7 @@ use anyhow::Result;
 
 use crate::io::device_table::commented_defaults;
 use crate::io::params_file::ModelSource;
+use crate::io::stdout::print_text;
 
 /// Arguments of `supine params`.
 #[derive(Debug, clap::Args)]
@@ -18,9 +19,10 @@ pub struct Args {
 /// Prints the parameters as TOML on standard output.
 pub fn run(args: &Args) -> Result<()> {
     let file = args.source.load()?;
-    print!("{}", file.to_toml()?);
+    let mut text = file.to_toml()?;
     if file.device.is_none() {
-        print!("\n{}", commented_defaults());
+        text.push('\n');
+        text.push_str(&commented_defaults());
     }
-    Ok(())
+    print_text(&text)
 }

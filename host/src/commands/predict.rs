@@ -13,6 +13,7 @@ use crate::identify::fit::band::{BAND_QUANTILES, ExposureBand, head_exposure_ban
 use crate::identify::validate::{predict, predict_joints, write_prediction};
 use crate::io::params_file::ModelSource;
 use crate::io::recording::Recording;
+use crate::io::stdout::print_text;
 use crate::io::subject_args::SubjectArgs;
 
 /// Arguments of `supine predict`.
@@ -93,8 +94,8 @@ pub fn run(args: &Args) -> Result<()> {
         }));
     }
     eprintln!("wrote {} ({} samples)", args.out.display(), recording.len());
-    if let Some(band) = &band {
-        print!("{}", band_table(band));
+    match &band {
+        Some(band) => print_text(&band_table(band)),
+        None => Ok(()),
     }
-    Ok(())
 }

@@ -14,6 +14,7 @@ use crate::device::replay::replay;
 use crate::device::scratch::ScratchDir;
 use crate::io::params_file::ModelSource;
 use crate::io::ride_input::{RideInputArgs, open_stream};
+use crate::io::stdout::{print_line, print_text};
 use crate::io::subject_args::SubjectArgs;
 use crate::io::telemetry_csv::{events_path, write_events, write_telemetry_streamed};
 use crate::monitor::json::subject_json;
@@ -134,17 +135,18 @@ pub fn run(args: &Args) -> Result<()> {
         if args.icount {
             object["instructions_per_sample"] = json!(s.instructions_per_sample());
         }
-        println!("{object}");
-        return Ok(());
+        return print_line(&object.to_string());
     }
+    let mut printed = String::new();
     if args.icount {
-        println!(
-            "instructions_per_sample: {:.0}",
+        printed += &format!(
+            "instructions_per_sample: {:.0}\n",
             s.instructions_per_sample()
         );
     }
     // The device's own stack high-water mark: with the statics, its whole RAM use.
-    println!("stack_used_bytes: {}", s.status().stack_used_bytes);
+    printed += &format!("stack_used_bytes: {}\n", s.status().stack_used_bytes);
+    print_text(&printed)?;
     eprintln!(
         "replayed {} samples in {elapsed_s:.1} s ({:.1}x real time) for a {}: {} telemetry records, frames lost {}, bad {}, alerts raised {}; wrote {} and {}",
         result.samples,

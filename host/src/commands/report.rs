@@ -5,13 +5,14 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use anyhow::{Context as _, Result, anyhow, bail};
+use anyhow::{Context as _, Result, bail};
 use clap::ValueEnum as _;
 
 use crate::commands::band_args::{BandArgs, band_threads};
 use crate::io::output::write_atomically;
 use crate::io::params_file::ModelSource;
 use crate::io::ride_input::RideInputArgs;
+use crate::io::stdout::stdout_error;
 use crate::io::subject_args::SubjectArgs;
 use crate::io::wording::count;
 use crate::report::device_check::DeviceLog;
@@ -98,8 +99,8 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
                 args.ride.labels.len()
             );
         }
-        for (leg, label) in report.legs.iter_mut().zip(&args.ride.labels) {
-            leg.label = Some(label.clone());
+        for (index, (leg, label)) in report.legs.iter_mut().zip(&args.ride.labels).enumerate() {
+            leg.label = report::mission::named_leg_label(index, label, args.compare);
         }
     }
     let device = match &logged {
@@ -132,20 +133,25 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
         }
         let text = serde_json::to_string(&json)? + "\n";
         out.write_all(text.as_bytes())
-            .map_err(|e| anyhow!("writing the JSON: {e}"))?;
+            .and_then(|()| out.flush())
+            .map_err(stdout_error)?;
     }
-    eprintln!(
-        "wrote {}: {}, {:.1} s, mission VDV {:.3} m/s^1.75, highest level {}",
-        path.display(),
-        if args.compare {
-            format!("{} compared", count(report.legs.len(), "ride"))
-        } else {
-            count(report.legs.len(), "leg")
-        },
-        report.mission.duration_s,
-        report.mission.vector.vdv_m_s175,
-        report.mission.max_level
-    );
+    let summary = if args.compare {
+        let [a, b] = [&report.legs[0], &report.legs[1]];
+        format!(
+            "2 rides compared: VDV A {:.3}, B {:.3} m/s^1.75; highest level A {}, B {}",
+            a.vector.vdv_m_s175, b.vector.vdv_m_s175, a.max_level, b.max_level
+        )
+    } else {
+        format!(
+            "{}, {:.1} s, mission VDV {:.3} m/s^1.75, highest level {}",
+            count(report.legs.len(), "leg"),
+            report.mission.duration_s,
+            report.mission.vector.vdv_m_s175,
+            report.mission.max_level
+        )
+    };
+    eprintln!("wrote {}: {summary}", path.display());
     Ok(())
 }
 
@@ -160,6 +166,7 @@ fn device_check_json(log: &DeviceLog) -> serde_json::Value {
         "head_diff_f32_m_s2": finite(c.head_diff_f32_m_s2),
         "head_diff_f64_m_s2": finite(c.head_diff_f64_m_s2),
         "rms_diff_m_s2": finite(c.rms_diff_m_s2),
+        "differing_values": c.differing_values,
         "events_agree": c.events_agree,
         "records_complete": c.records_complete,
         "device_records": log.pass.device_records,

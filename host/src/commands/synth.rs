@@ -68,11 +68,15 @@ pub fn run(args: &Args) -> Result<()> {
         indicatif::ProgressStyle::with_template("synth {bar:30} {pos}/{len} recordings")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
-    let subjects = write_dataset(&args.out, &settings, |done, _| {
-        bar.set_position(done as u64)
-    })?;
+    let subjects = folder.write_or_undo(|folder| {
+        let subjects = write_dataset(&args.out, &settings, |done, _| {
+            bar.set_position(done as u64)
+        })?;
+        folder.record_new_entries()?;
+        Ok(subjects)
+    });
     bar.finish_and_clear();
-    folder.record_new_entries()?;
+    let subjects = subjects?;
     if args.json.json {
         return json_output::print(&serde_json::json!({
             "out": args.out,

@@ -201,6 +201,22 @@ pub fn run(
         );
     }
     let (files, folder) = prepare_folder(&config.out_dir, config.force)?;
+    // Listed before they are written, so that what a killed run leaves is known as the
+    // demo's; a run that fails removes what it wrote.
+    folder.write_or_undo(|folder| {
+        folder.record(&files.all())?;
+        run_in(config, &files, announce, view, stop)
+    })
+}
+
+/// The demo's steps, writing into the claimed folder's `files`.
+fn run_in(
+    config: &DemoConfig,
+    files: &DemoFiles,
+    announce: &mut dyn FnMut(&str),
+    view: &mut dyn View,
+    stop: &Arc<AtomicBool>,
+) -> Result<DemoOutcome> {
     let mut steps = Steps {
         announce,
         times: Vec::new(),
@@ -267,7 +283,7 @@ pub fn run(
         greeting_timeout: Duration::from_secs(20),
         thresholds: params.alerts.config,
     };
-    let monitor = run_device(&qemu_run, &files, view, stop)?;
+    let monitor = run_device(&qemu_run, files, view, stop)?;
 
     steps.start(
         "host reference",
@@ -276,8 +292,8 @@ pub fn run(
             files.host.display()
         ),
     );
-    host_reference(&params, &qemu_run.samples, &files)?;
-    let (pass, session) = device_pass(&params, &file, &qemu_run.samples, &files)?;
+    host_reference(&params, &qemu_run.samples, files)?;
+    let (pass, session) = device_pass(&params, &file, &qemu_run.samples, files)?;
 
     steps.start("report", &format!("report: {}", files.report.display()));
     let report = report::build(
@@ -300,12 +316,11 @@ pub fn run(
     write_report(&files.report, &report, &log)?;
     let data = DemoData { info, report, log };
     let summary = Summary::new(&data);
-    folder.record(&files.all())?;
     (steps.announce)(&format!("[{STEPS}/{STEPS}] summary"));
     Ok(DemoOutcome {
         data,
         summary,
-        report: files.report,
+        report: files.report.clone(),
     })
 }
 

@@ -12,7 +12,7 @@ use supine_core::exposure::AxisValues;
 
 use super::data::DemoData;
 use crate::exposure::reported_values::AxisReport;
-use crate::report::device_check::{Check, difference};
+use crate::report::device_check::{Check, difference, differing_text};
 
 /// What the demo found.
 #[derive(Clone, Debug, PartialEq)]
@@ -139,10 +139,11 @@ impl Summary {
         );
         let _ = writeln!(
             s,
-            "  device vs host: head max |diff| {} with the same f32 code, {} vs the f64 model; running rms {}; events {}",
+            "  device vs host: head max |diff| {} with the same f32 code, {} vs the f64 model; running rms {}; other values {}; events {}",
             difference(c.head_diff_f32_m_s2, "m/s^2"),
             difference(c.head_diff_f64_m_s2, "m/s^2"),
             difference(c.rms_diff_m_s2, "m/s^2"),
+            differing_text(&c.differing_values),
             if c.events_agree {
                 "identical"
             } else {

@@ -36,6 +36,11 @@ pub const PARAMS_MAX_BYTES: u64 = crate::device::memory_map::PARAMS_LENGTH_BYTES
 
 /// How often a waiting run checks on QEMU.
 const POLL: Duration = Duration::from_millis(5);
+/// Longest a run waits for QEMU to open its UART (or monitor) socket, which it does at
+/// start-up, well within a second: a program that never opens it (a `SUPINE_QEMU` that
+/// is not a QEMU, or one that hangs) is given up on after this, whatever the run's own
+/// deadline (the README's "Environment" gives the same figure).
+pub const SOCKET_OPEN_TIMEOUT: Duration = Duration::from_secs(20);
 
 /// How to run an image.
 #[derive(Debug, Clone)]
@@ -153,6 +158,15 @@ pub enum QemuError {
         /// Its stderr on one line.
         stderr: String,
     },
+    /// The program did not open its socket within [`SOCKET_OPEN_TIMEOUT`]; it was killed.
+    #[error(
+        "{program} did not open its UART socket within {} (QEMU does at start-up) and was stopped: expected {QEMU_ENV} to name a qemu-system-arm",
+        crate::device::link::format_duration(SOCKET_OPEN_TIMEOUT)
+    )]
+    NoSocket {
+        /// The program run.
+        program: String,
+    },
     /// The deadline passed; QEMU was killed.
     #[error("QEMU did not finish within {} and was killed; last output: {}", crate::device::link::format_duration(*timeout), last_line(stdout))]
     Timeout {
@@ -175,6 +189,10 @@ pub struct Qemu {
     stderr: Option<JoinHandle<String>>,
     deadline: Instant,
     timeout: Duration,
+    /// The program run (for messages).
+    program: String,
+    /// When it was started.
+    started: Instant,
     // Dropped after `Drop::drop` has killed QEMU, so the socket goes with the folder.
     dir: ScratchDir,
 }
@@ -198,7 +216,8 @@ impl Qemu {
                 program: program.to_string_lossy().into_owned(),
                 source,
             })?;
-        let deadline = Instant::now() + config.timeout;
+        let started = Instant::now();
+        let deadline = started + config.timeout;
         let stdout = child.stdout.take().map(collect_stdout);
         let stderr = child.stderr.take().map(collect_stderr);
         let mut qemu = Self {
@@ -209,6 +228,8 @@ impl Qemu {
             stderr,
             deadline,
             timeout: config.timeout,
+            program: program.to_string_lossy().into_owned(),
+            started,
             dir,
         };
         if config.uart {
@@ -412,6 +433,12 @@ impl Qemu {
             }
             if Instant::now() >= self.deadline {
                 return Err(self.kill_for_timeout());
+            }
+            if self.started.elapsed() >= SOCKET_OPEN_TIMEOUT {
+                let _ = self.kill();
+                return Err(QemuError::NoSocket {
+                    program: self.program.clone(),
+                });
             }
             thread::sleep(POLL);
         }

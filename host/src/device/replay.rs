@@ -475,9 +475,9 @@ pub fn replay(
         && g.params_identity != params.identity
     {
         bail!(
-            "the device runs parameters {} instead of the blob sent ({:?})",
+            "the device runs parameters {} instead of the blob sent: they come from {}",
             device_params::identity_hex(&g.params_identity),
-            g.params_source
+            crate::monitor::state::params_source_text(g.params_source)
         );
     }
     Ok(ReplayResult {

@@ -239,6 +239,8 @@ pub fn psd_svg(recording: &Recording, predicted: &[Vec<f64>; 9]) -> Result<Strin
             x_label: "frequency (Hz)".into(),
             y_label: "PSD ((m/s^2)^2/Hz)".into(),
             log_y: true,
+            log_x: false,
+            x_range: None,
             y_range: None,
             series: vec![
                 Series::line(band(&measured), "#000000", 1.4, Some("measured")),

@@ -86,9 +86,10 @@ fn escape_free(text: &str) -> bool {
 }
 
 /// A number read from the input as a message shows it: Rust's shortest form, in exponent
-/// form from 1e15 on, so that 1e300 does not print as 301 digits.
+/// form from 1e15 on and below 1e-6, so that neither 1e300 nor 1e-320 prints as hundreds
+/// of digits (at most 24 characters).
 pub fn number(v: f64) -> String {
-    if v.is_finite() && v.abs() >= 1e15 {
+    if v.is_finite() && (v.abs() >= 1e15 || (v != 0.0 && v.abs() < 1e-6)) {
         format!("{v:e}")
     } else {
         format!("{v}")
@@ -224,6 +225,9 @@ mod tests {
         assert_eq!(number(1e300), "1e300");
         assert_eq!(number(-2.5e20), "-2.5e20");
         assert_eq!(number(f64::NAN), "NaN");
+        assert_eq!(number(1e-320), "1e-320");
+        assert_eq!(number(-2.5e-7), "-2.5e-7");
+        assert_eq!(number(0.0), "0");
     }
 
     #[test]

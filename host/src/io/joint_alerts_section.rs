@@ -64,7 +64,7 @@ impl OutputThresholds {
 /// `[device.joint_alerts]`: per joint output ([`JointOutput::ALL`] order) its thresholds,
 /// and the running-rms alerts' hysteresis and dwell (the head's defaults).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(from = "JointAlertsTable", into = "JointAlertsTable")]
+#[serde(try_from = "JointAlertsTable", into = "JointAlertsTable")]
 pub struct JointAlertsSection {
     /// Each output's keys.
     pub outputs: [OutputThresholds; JOINT_OUTPUT_COUNT],
@@ -201,14 +201,30 @@ impl JointAlertsTable {
     }
 }
 
-impl From<JointAlertsTable> for JointAlertsSection {
-    fn from(t: JointAlertsTable) -> Self {
-        Self {
+impl TryFrom<JointAlertsTable> for JointAlertsSection {
+    type Error = String;
+
+    /// Refuses an output's table that sets nothing (`neck_z = { }`): it reads as an
+    /// alert asked for, and would silently be none.
+    fn try_from(t: JointAlertsTable) -> Result<Self, String> {
+        for (output, keys) in JointOutput::ALL.iter().zip(t.outputs()) {
+            if keys == Some(OutputThresholds::default()) {
+                let si = match output.unit() {
+                    JointUnit::Metre => "m",
+                    JointUnit::Radian => "rad",
+                };
+                return Err(format!(
+                    "joint_alerts.{output}: an empty table sets no alert; expected \
+                     running_rms_{si} and/or excursion_{si} (in {si}), or leave {output} out"
+                ));
+            }
+        }
+        Ok(Self {
             outputs: t.outputs().map(Option::unwrap_or_default),
             hysteresis: t.hysteresis,
             raise_dwell_s: t.raise_dwell_s,
             clear_dwell_s: t.clear_dwell_s,
-        }
+        })
     }
 }
 

@@ -17,6 +17,7 @@
 //! - [`h_csv`]: the transmissibility CSV of `supine model` and `supine transmissibility`.
 //! - [`telemetry_csv`]: a device's telemetry and alert events as CSV (replay, monitor, demo).
 //! - [`monitor_session`]: the input and session files beside a monitor log, for re-analysis.
+//! - [`stdout`]: printing on standard output; a closed pipe ends the command quietly.
 //! - [`wording`]: counts with their noun in printed summaries.
 
 pub mod csv_lines;
@@ -33,6 +34,7 @@ pub mod recording;
 pub mod ride_input;
 pub mod ride_rows;
 pub mod small_file;
+pub mod stdout;
 pub mod subject_args;
 pub mod telemetry_csv;
 pub mod text_position;

@@ -6,13 +6,19 @@
 //! folder naming every file and folder it wrote there. A later run may replace exactly
 //! those; any other entry (a user's `ride.csv`, notes, another tool's output) is named
 //! in the refusal. An empty or missing folder needs no manifest.
+//!
+//! What a killed run leaves is supine's own too: a listed file's live-log name
+//! (`device.csv.partial`, `crate::monitor::log`) and a dead run's staging file
+//! (`.NAME.PID.partial`, [`is_stale_staging`]); the claim removes the staging files.
+//! A run that fails calls [`OutputFolder::undo`], which removes what it added, so a
+//! failure leaves nothing half-made.
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Result, anyhow, bail};
 
-use crate::io::output::write_atomically;
+use crate::io::output::{is_stale_staging, write_atomically};
 use crate::io::small_file::read_text;
 
 /// The manifest's file name (hidden: it is bookkeeping, not output).
@@ -42,12 +48,18 @@ pub fn claim(dir: &Path, command: &str, flag: &str, force: bool) -> Result<Outpu
     std::fs::create_dir_all(dir)
         .map_err(|e| anyhow!("{}: {flag}: cannot create: {e}", dir.display()))?;
     let listed_before = listed(dir)?;
+    for stale in entries(dir)?.iter().filter(|name| is_stale_staging(name)) {
+        let _ = std::fs::remove_file(dir.join(stale));
+    }
     let entries_before = entries(dir)?;
-    if !force
-        && let Some(foreign) = entries_before
-            .iter()
-            .find(|name| *name != MANIFEST && !listed_before.contains(*name))
-    {
+    let own = |name: &String| {
+        name == MANIFEST
+            || listed_before.contains(name)
+            || name
+                .strip_suffix(".partial")
+                .is_some_and(|stem| listed_before.contains(stem))
+    };
+    if !force && let Some(foreign) = entries_before.iter().find(|name| !own(name)) {
         bail!(
             "{flag} {}: the folder holds {}, which supine did not write there; choose an empty or new folder, or give --force to write beside it",
             dir.display(),
@@ -69,12 +81,38 @@ impl OutputFolder {
         &self.dir
     }
 
-    /// For a run that failed: removes the folder if this claim created it and nothing was
-    /// written into it since, so a failure leaves no empty folder behind.
-    pub fn abandon(self) {
+    /// For a run that failed: removes every entry that appeared in the folder since the
+    /// claim (files and folders this run began; the manifest too if this run wrote the
+    /// first), and the folder if this claim created it and it is then empty, so that a
+    /// failure leaves nothing half-made. A file an earlier run wrote and this one
+    /// replaced stays: each file is written whole ([`write_atomically`]).
+    pub fn undo(self) {
+        if let Ok(now) = entries(&self.dir) {
+            for name in now.difference(&self.entries_before) {
+                let path = self.dir.join(name);
+                let is_dir = std::fs::symlink_metadata(&path).is_ok_and(|m| m.is_dir());
+                let _ = if is_dir {
+                    std::fs::remove_dir_all(&path)
+                } else {
+                    std::fs::remove_file(&path)
+                };
+            }
+        }
         if self.created {
             // Fails, and keeps the folder, when something is in it.
             let _ = std::fs::remove_dir(&self.dir);
+        }
+    }
+
+    /// Runs `write` (this run's writing into the folder); on failure [`undo`](Self::undo)s
+    /// what it added, and returns the error.
+    pub fn write_or_undo<T>(self, write: impl FnOnce(&Self) -> Result<T>) -> Result<T> {
+        match write(&self) {
+            Ok(value) => Ok(value),
+            Err(e) => {
+                self.undo();
+                Err(e)
+            }
         }
     }
 
@@ -152,23 +190,56 @@ mod tests {
     use super::*;
 
     #[test]
-    fn an_abandoned_claim_removes_only_the_empty_folder_it_created() {
+    fn an_undone_claim_removes_what_it_added_and_the_folder_it_created() {
         let tmp = tempfile::tempdir().unwrap();
         let dir = tmp.path().join("report");
-        claim(&dir, "supine fit", "--report", false)
-            .unwrap()
-            .abandon();
+        claim(&dir, "supine fit", "--report", false).unwrap().undo();
         assert!(!dir.exists(), "the empty folder it created stays");
         std::fs::create_dir(&dir).unwrap();
-        claim(&dir, "supine fit", "--report", false)
-            .unwrap()
-            .abandon();
+        claim(&dir, "supine fit", "--report", false).unwrap().undo();
         assert!(dir.is_dir(), "a folder that was there is removed");
         std::fs::remove_dir(&dir).unwrap();
         let folder = claim(&dir, "supine fit", "--report", false).unwrap();
         std::fs::write(dir.join("fit.html"), "written").unwrap();
-        folder.abandon();
-        assert!(dir.join("fit.html").is_file(), "a written file is removed");
+        std::fs::create_dir(dir.join("plots")).unwrap();
+        std::fs::write(dir.join("plots").join("a.svg"), "half").unwrap();
+        folder.undo();
+        assert!(!dir.exists(), "a half-made folder stays");
+        // In a folder of an earlier run's: its files stay, this run's new ones go.
+        let folder = claim(&dir, "supine fit", "--report", false).unwrap();
+        std::fs::write(dir.join("fit.html"), "whole").unwrap();
+        folder.record(&[dir.join("fit.html")]).unwrap();
+        let err = claim(&dir, "supine fit", "--report", false)
+            .unwrap()
+            .write_or_undo(|f| -> Result<()> {
+                std::fs::write(f.dir().join("extra.csv"), "half").unwrap();
+                bail!("disk full")
+            })
+            .unwrap_err();
+        assert_eq!(err.to_string(), "disk full");
+        let mut left: Vec<String> = entries(&dir).unwrap().into_iter().collect();
+        left.sort();
+        assert_eq!(left, [MANIFEST, "fit.html"]);
+    }
+
+    #[test]
+    fn what_a_killed_run_left_is_recognized_as_supines_own() {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path();
+        let folder = claim(dir, "supine demo", "--out", false).unwrap();
+        folder.record(&[dir.join("device.csv")]).unwrap();
+        // A killed monitor's live log of a listed file, and a dead run's staging file.
+        std::fs::write(dir.join("device.csv.partial"), "half").unwrap();
+        let stale = ".report.html.2147483647.partial";
+        std::fs::write(dir.join(stale), "half").unwrap();
+        claim(dir, "supine demo", "--out", false).unwrap();
+        assert!(!dir.join(stale).exists(), "the stale staging file stays");
+        // A user's file of the same shape but unlisted is still foreign.
+        std::fs::write(dir.join("notes.csv.partial"), "mine").unwrap();
+        let err = claim(dir, "supine demo", "--out", false)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("holds notes.csv.partial"), "{err}");
     }
 
     #[test]

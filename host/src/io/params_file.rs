@@ -3,6 +3,10 @@
 //!
 //! Errors name the file, the line and column, and the field, in one line. A file is at
 //! most [`MAX_FILE_BYTES`] long (see [`crate::io::small_file`]).
+//!
+//! A file may start from a preset and give only what differs: `base = "paper-litter"`
+//! at its top takes every table and key from the preset, and the file's own tables and
+//! keys replace the preset's one by one ([`BASE_KEY`]).
 
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -40,6 +44,12 @@ pub struct ParamFile {
     /// the documented defaults where absent.
     pub device: Option<DeviceSection>,
 }
+
+/// The top-level key naming a preset the file starts from.
+pub const BASE_KEY: &str = "base";
+
+/// What a "missing field" error adds: how to give only what differs.
+const MISSING_FIELD_HINT: &str = "a file may start from a preset and give only what differs: put base = \"paper-litter\" (or \"paper-rigid\") on its first line";
 
 /// The on-disk layout: ModelParams' tables at top level, then `[fit]`.
 #[derive(Serialize, Deserialize)]
@@ -96,14 +106,44 @@ impl ParamFile {
 
     /// Parses and validates a file's text; `path` only names it in errors.
     pub fn from_toml(text: &str, path: &Path) -> Result<Self> {
-        let repr: FileRepr = toml::from_str(text).map_err(|e| {
+        let parse_error = |e: toml::de::Error| {
             let (line, column) = e.span().map_or((1, 1), |s| line_column(text, s.start));
+            let message = bound_quoted_parts(e.message().trim());
+            let hint = if message.starts_with("missing field") {
+                format!("; {MISSING_FIELD_HINT}")
+            } else {
+                String::new()
+            };
             anyhow!(
-                "{}: line {line}, column {column}: {}",
+                "{}: line {line}, column {column}: {message}{hint}",
                 path.display(),
-                bound_quoted_parts(e.message().trim())
             )
-        })?;
+        };
+        let table: toml::Table = toml::from_str(text).map_err(parse_error)?;
+        let repr: FileRepr = match table.get(BASE_KEY) {
+            None => toml::from_str(text).map_err(parse_error)?,
+            Some(base) => {
+                let preset = base_preset(base).map_err(|why| {
+                    let (line, column) = key_position(text, BASE_KEY);
+                    anyhow!(
+                        "{}: line {line}, column {column}: base: {why}",
+                        path.display()
+                    )
+                })?;
+                let mut merged = preset_table(preset)?;
+                let mut own = table;
+                own.remove(BASE_KEY);
+                merge(&mut merged, own);
+                FileRepr::deserialize(toml::Value::Table(merged)).map_err(|e| {
+                    anyhow!(
+                        "{}: {} (over base = \"{}\")",
+                        path.display(),
+                        bound_quoted_parts(e.message().trim()),
+                        preset.name()
+                    )
+                })?
+            }
+        };
         let params = ModelParams {
             subject: repr.subject,
             joints: repr.joints,
@@ -122,6 +162,50 @@ impl ParamFile {
             device: repr.device,
         })
     }
+}
+
+/// The preset `base = "NAME"` names.
+fn base_preset(value: &toml::Value) -> Result<Preset, String> {
+    let names = Preset::ALL.map(Preset::name).join(", ");
+    match value.as_str() {
+        Some(name) => Preset::from_name(name).ok_or_else(|| {
+            format!(
+                "expected a preset ({names}), found \"{}\"",
+                crate::io::excerpt::name(name)
+            )
+        }),
+        None => Err(format!("expected a preset's name in quotes ({names})")),
+    }
+}
+
+/// The preset's file as a TOML table (what `supine params --preset NAME` prints).
+fn preset_table(preset: Preset) -> Result<toml::Table> {
+    let text = ParamFile::preset(preset).to_toml()?;
+    toml::from_str(&text).context("reading back a preset's parameter file")
+}
+
+/// Replaces `into`'s keys with `over`'s, table by table: a table in both is merged, any
+/// other value replaced.
+fn merge(into: &mut toml::Table, over: toml::Table) {
+    for (key, value) in over {
+        match (into.get_mut(&key), value) {
+            (Some(toml::Value::Table(inner)), toml::Value::Table(value)) => merge(inner, value),
+            (_, value) => {
+                into.insert(key, value);
+            }
+        }
+    }
+}
+
+/// Line and column of the top-level `key = ...` (1, 1 when not found).
+fn key_position(text: &str, key: &str) -> (usize, usize) {
+    text.lines()
+        .position(|l| {
+            l.trim_start()
+                .strip_prefix(key)
+                .is_some_and(|rest| rest.trim_start().starts_with('='))
+        })
+        .map_or((1, 1), |i| (i + 1, 1))
 }
 
 /// Reads and validates a parameter file.
@@ -290,5 +374,55 @@ impl ModelSource {
             return Ok(ParamFile::preset(Preset::PaperLitter));
         }
         self.load()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_file_on_a_base_preset_gives_only_what_differs() {
+        let text = "base = \"paper-litter\"\n\n[subject]\nheight_m = 1.6\n\n\
+                    [device.joint_alerts]\nneck_z = { excursion_m = 0.01 }\n";
+        let file = ParamFile::from_toml(text, Path::new("p.toml")).unwrap();
+        let mut want = ModelParams::preset(Preset::PaperLitter);
+        want.subject.height_m = 1.6;
+        assert_eq!(file.params, want);
+        assert_eq!(
+            file.device.unwrap().joint_alerts.outputs[2].excursion_m,
+            Some(0.01)
+        );
+        // The same file without the base is refused, and the error says how.
+        let err = ParamFile::from_toml(
+            &text.replace("base = \"paper-litter\"\n", ""),
+            Path::new("p.toml"),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("missing field `mass_kg`"), "{err}");
+        assert!(err.contains("base = \"paper-litter\""), "{err}");
+    }
+
+    #[test]
+    fn an_unknown_base_or_key_is_refused_with_its_place() {
+        let err = ParamFile::from_toml("\nbase = \"paper-boat\"\n", Path::new("p.toml"))
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            err,
+            "p.toml: line 2, column 1: base: expected a preset (paper-rigid, paper-litter), found \"paper-boat\""
+        );
+        let err = ParamFile::from_toml(
+            "base = \"paper-rigid\"\n[subject]\nheight_mm = 1.6\n",
+            Path::new("p.toml"),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            err.starts_with("p.toml: unknown field `height_mm`"),
+            "{err}"
+        );
+        assert!(err.ends_with("(over base = \"paper-rigid\")"), "{err}");
     }
 }

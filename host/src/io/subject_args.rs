@@ -7,6 +7,7 @@ use supine_core::model::params::{HEIGHT_RANGE_M, MASS_RANGE_KG};
 
 use supine_core::model::ModelParams;
 
+use crate::io::excerpt::number;
 use crate::io::params_file::{ModelSource, ParamFile};
 
 /// The patient's height and mass, where given (else the parameters' subject).
@@ -35,6 +36,7 @@ impl SubjectArgs {
             ("--mass-kg", self.mass_kg, MASS_RANGE_KG, "kg"),
         ] {
             if let Some(v) = value.filter(|v| !(lo..=hi).contains(v)) {
+                let v = number(v);
                 bail!("{flag} {v}: expected {lo} to {hi} {unit}, the model's range");
             }
         }

@@ -1,6 +1,14 @@
 //! When the live panel (and the demo's, which is the same) uses colour: `--color` and
 //! NO_COLOR (<https://no-color.org>).
 
+/// `--color`, on the commands that draw the live panel (`monitor`, `demo`) and only there.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::Args)]
+pub struct ColorFlag {
+    /// Colour in the live panel: auto (a terminal, unless NO_COLOR is set), always, never.
+    #[arg(long, value_enum, default_value_t = ColorChoice::Auto)]
+    pub color: ColorChoice,
+}
+
 /// When the live panel uses colour.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
 pub enum ColorChoice {

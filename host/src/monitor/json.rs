@@ -12,7 +12,7 @@ use supine_core::model::JointUnit;
 use supine_core::pipeline::Telemetry;
 
 use super::state::{Monitor, Notice, fault_names};
-use super::view::View;
+use super::view::{View, output_error};
 
 /// One telemetry record as a JSON object, its time at `sample_rate_hz`.
 pub fn telemetry_json(t: &Telemetry, sample_rate_hz: f64, joint_mask: u16) -> Value {
@@ -152,7 +152,7 @@ impl<W: Write> JsonlView<W> {
     }
 
     fn line(&mut self, value: &Value) -> Result<()> {
-        writeln!(self.out, "{value}").map_err(|e| anyhow!("writing the monitor's output: {e}"))
+        writeln!(self.out, "{value}").map_err(output_error)
     }
 
     /// Writes the telemetry record and the events that arrived since the last call (the

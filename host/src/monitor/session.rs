@@ -20,7 +20,7 @@ use anyhow::{Context, Result, anyhow, bail};
 use supine_core::protocol::{DeviceToHost, Greeting, HostToDevice};
 
 use super::log::MonitorLog;
-use super::state::{Monitor, device_line};
+use super::state::{Monitor, device_line, params_source_text};
 use super::view::View;
 use crate::device::device_params::{self, identity_hex};
 use crate::device::link::{FrameReader, FrameWriter, check_protocol, format_duration};
@@ -249,9 +249,9 @@ fn talk(
         .context("the firmware in QEMU did not start")?;
     if greeting.params_identity != run.identity {
         bail!(
-            "the device runs parameters {} instead of the blob sent ({:?})",
+            "the device runs parameters {} instead of the blob sent: they come from {}",
             identity_hex(&greeting.params_identity),
-            greeting.params_source
+            params_source_text(greeting.params_source)
         );
     }
     if let Some(log) = log.as_deref_mut() {

@@ -6,6 +6,7 @@ use std::collections::VecDeque;
 
 use anyhow::Result;
 use supine_core::alerts::{AlertConfig, AlertEvent, Criterion, FaultFlags, Level};
+use supine_core::blob::BlobError;
 use supine_core::model::JointOutput;
 use supine_core::protocol::{DeviceToHost, Greeting, ParamsSource, Status, Telemetry};
 
@@ -449,11 +450,28 @@ impl Monitor {
     }
 }
 
-/// Where the parameters came from, in words.
+/// Where the parameters came from, in words a medic reading the panel can act on: the
+/// flash slot as the README names it (A, B), or why the device fell back to its built-in
+/// parameters and what to do (the blob error's code last, for the technician).
 pub fn params_source_text(source: ParamsSource) -> String {
     match source {
+        ParamsSource::Flash { slot: 0 } => "flash slot A".to_string(),
+        ParamsSource::Flash { slot: 1 } => "flash slot B".to_string(),
         ParamsSource::Flash { slot } => format!("flash slot {slot}"),
-        ParamsSource::BuiltInDefault { reason } => format!("built-in default ({reason})"),
+        ParamsSource::BuiltInDefault { reason } => {
+            let why = match reason {
+                BlobError::Empty => "no parameters were ever put on this device",
+                BlobError::Truncated | BlobError::BadCrc => {
+                    "the last parameter update did not finish (power lost while writing?)"
+                }
+                _ => "the parameters in flash are not ones this firmware accepts",
+            };
+            format!(
+                "the built-in parameters, which may not be this patient's: {why}; alerts \
+                 still work; put the patient's parameters on again (blob error {})",
+                reason.code()
+            )
+        }
     }
 }
 

@@ -186,7 +186,8 @@ fn joint_lines(m: &Monitor, t: &Telemetry) -> Vec<String> {
     for (k, output) in packed_order(mask).enumerate() {
         place[output.index()] = Some(k);
     }
-    let row = |label: &str, values: &[f32]| -> Vec<String> {
+    // The live values carry their sign; running rms and largest excursion are sizes.
+    let row = |label: &str, values: &[f32], signed: bool| -> Vec<String> {
         ["neck", "low back"]
             .iter()
             .enumerate()
@@ -197,7 +198,10 @@ fn joint_lines(m: &Monitor, t: &Telemetry) -> Vec<String> {
                         let (_, scale) = display_unit(o);
                         let name = &o.name()[o.name().rfind('_').map_or(0, |i| i + 1)..];
                         match place[o.index()].and_then(|k| values.get(k)) {
-                            Some(&v) => format!("{name} {:+7.2}", f64::from(v) * scale),
+                            Some(&v) if signed => {
+                                format!("{name} {:+7.2}", f64::from(v) * scale)
+                            }
+                            Some(&v) => format!("{name} {:7.2}", f64::from(v) * scale),
                             None => format!("{name} {:>7}", "-"),
                         }
                     })
@@ -211,10 +215,10 @@ fn joint_lines(m: &Monitor, t: &Telemetry) -> Vec<String> {
             })
             .collect()
     };
-    let mut lines = row("", t.joints.as_slice());
+    let mut lines = row("", t.joints.as_slice(), true);
     if let Some(s) = m.status() {
-        lines.extend(row("rms", s.joint_running_rms.as_slice()));
-        lines.extend(row("max", s.joint_largest_excursion.as_slice()));
+        lines.extend(row("rms", s.joint_running_rms.as_slice(), false));
+        lines.extend(row("max", s.joint_largest_excursion.as_slice(), false));
     }
     lines
 }
@@ -392,6 +396,16 @@ pub struct PlainView<W: Write> {
     last_line: Instant,
 }
 
+/// An error writing the monitor's lines: a closed pipe (`supine monitor ... | head`) ends
+/// the session quietly ([`crate::io::stdout::ReaderGone`]); anything else is reported.
+pub fn output_error(error: io::Error) -> anyhow::Error {
+    if error.kind() == io::ErrorKind::BrokenPipe {
+        crate::io::stdout::ReaderGone.into()
+    } else {
+        anyhow!("writing the monitor's output: {error}")
+    }
+}
+
 impl<W: Write> PlainView<W> {
     /// Writes to `out`.
     pub fn new(out: W) -> Self {
@@ -409,7 +423,7 @@ impl<W: Write> PlainView<W> {
     fn line(&mut self, text: &str) -> Result<()> {
         writeln!(self.out, "{text}")
             .and_then(|()| self.out.flush())
-            .map_err(|e| anyhow!("writing the monitor's output: {e}"))
+            .map_err(output_error)
     }
 }
 
@@ -509,6 +523,30 @@ mod tests {
         assert!(text.iter().any(|l| l.starts_with("low back ")), "{text:?}");
         // Without a status yet, no running rms or largest excursion lines.
         assert!(!text.iter().any(|l| l.starts_with("neck rms")), "{text:?}");
+        // With one, they are sizes: no sign.
+        let values = |v: &[f32]| supine_core::joint_exposure::JointValues::from_slice(v);
+        m.on_message(&DeviceToHost::Status(supine_core::protocol::Status {
+            joint_running_rms: values(&[0.0012, 0.004]).expect("two"),
+            joint_largest_excursion: values(&[0.003, 0.02]).expect("two"),
+            ..Default::default()
+        }))
+        .expect("status");
+        let text: Vec<String> = panel_lines(&m)
+            .iter()
+            .map(|l| l.iter().map(|s| s.text.as_str()).collect())
+            .collect();
+        let line = |start: &str| {
+            text.iter()
+                .find(|l| l.starts_with(start))
+                .unwrap_or_else(|| panic!("no {start} line in {text:?}"))
+                .clone()
+        };
+        let (rms, max) = (line("neck rms"), line("neck max"));
+        assert!(
+            rms.contains("x    1.20") && rms.contains("ry    0.23"),
+            "{rms}"
+        );
+        assert!(max.contains("x    3.00") && !max.contains('+'), "{max}");
     }
 
     fn find(lines: &[Vec<Span>], text: &str) -> Span {
@@ -524,7 +562,7 @@ mod tests {
     fn the_panel_shows_values_and_highlights_level_faults_losses_and_events() {
         let lines = panel_lines(&monitor());
         assert!(
-            find(&lines, "params abababab (flash slot 0)")
+            find(&lines, "params abababab (flash slot A)")
                 .severity
                 .is_none()
         );

@@ -49,6 +49,10 @@ pub struct Panel {
     pub y_label: String,
     /// Logarithmic y axis (non-positive values are dropped).
     pub log_y: bool,
+    /// Logarithmic x axis (non-positive values are dropped): a spectrum over decades.
+    pub log_x: bool,
+    /// Fixed x range, else the data's; points outside it are dropped.
+    pub x_range: Option<(f64, f64)>,
     /// Fixed y range, else from the data; points outside it break the line.
     pub y_range: Option<(f64, f64)>,
     /// The lines, drawn in order.
@@ -62,7 +66,11 @@ const TOP_PX: u32 = 56;
 
 impl Panel {
     fn usable(&self, &(x, y): &(f64, f64)) -> bool {
-        x.is_finite() && y.is_finite() && (!self.log_y || y > 0.0)
+        x.is_finite()
+            && y.is_finite()
+            && (!self.log_y || y > 0.0)
+            && (!self.log_x || x > 0.0)
+            && self.x_range.is_none_or(|(a, b)| (a..=b).contains(&x))
     }
 
     /// The x and y ranges: the data's (y padded by 5 %, of log10 y on a log axis), or the
@@ -84,6 +92,9 @@ impl Panel {
         if !x0.is_finite() {
             (x0, x1) = (0.0, 1.0);
             (y0, y1) = if self.log_y { (0.1, 1.0) } else { (0.0, 1.0) };
+        }
+        if let Some((a, b)) = self.x_range {
+            (x0, x1) = (a, b);
         }
         if x1 <= x0 {
             x1 = x0 + 1.0;
@@ -126,14 +137,16 @@ impl Panel {
     }
 }
 
-fn draw_panel<DB, Y>(
+fn draw_panel<DB, X, Y>(
     area: &DrawingArea<DB, plotters::coord::Shift>,
     panel: &Panel,
-    x: Range<f64>,
+    x: X,
     y: Y,
 ) -> Result<()>
 where
     DB: DrawingBackend,
+    X: AsRangedCoord<Value = f64>,
+    X::CoordDescType: ValueFormatter<f64>,
     Y: AsRangedCoord<Value = f64>,
     Y::CoordDescType: ValueFormatter<f64>,
 {
@@ -158,6 +171,9 @@ where
         .axis_desc_style(("sans-serif", 11));
     if panel.log_y {
         mesh.y_label_formatter(&|v| log_tick(*v));
+    }
+    if panel.log_x {
+        mesh.x_label_formatter(&|v| format!("{}", (v * 100.0).round() / 100.0));
     }
     mesh.draw().map_err(plot_error)?;
     for s in &panel.series {
@@ -225,10 +241,11 @@ pub fn figure_svg(title: &str, panels: &[Panel], columns: usize) -> Result<Strin
         let areas = body.split_evenly((rows, columns));
         for (panel, area) in panels.iter().zip(&areas) {
             let (x, y) = panel.ranges();
-            if panel.log_y {
-                draw_panel(area, panel, x, y.log_scale())?;
-            } else {
-                draw_panel(area, panel, x, y)?;
+            match (panel.log_x, panel.log_y) {
+                (true, true) => draw_panel(area, panel, x.log_scale(), y.log_scale())?,
+                (true, false) => draw_panel(area, panel, x.log_scale(), y)?,
+                (false, true) => draw_panel(area, panel, x, y.log_scale())?,
+                (false, false) => draw_panel(area, panel, x, y)?,
             }
         }
         root.present().map_err(plot_error)?;
@@ -246,6 +263,8 @@ mod tests {
             x_label: "frequency (Hz)".into(),
             y_label: "|H|".into(),
             log_y,
+            log_x: false,
+            x_range: None,
             y_range: None,
             series: vec![Series::line(points, "#d62728", 1.8, Some("fitted model"))],
         }

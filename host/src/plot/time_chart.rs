@@ -50,17 +50,40 @@ pub const LEVEL_COLORS: [Rgb; 4] = [
 ];
 
 /// Threshold lines for the advisory, warning and alarm `values`, each labelled with its
-/// level's name, value and `unit`.
-pub fn alert_thresholds(values: [f32; 3], unit: &str) -> Vec<Threshold> {
+/// level's name and value (the unit is the y axis's: a label must fit the right margin).
+pub fn alert_thresholds(values: [f32; 3]) -> Vec<Threshold> {
     Level::RAISED
         .iter()
         .zip(values)
         .map(|(level, v)| Threshold {
             y: f64::from(v),
             color: LEVEL_COLORS[*level as usize],
-            label: format!("{} {v} {unit}", level.name()),
+            label: format!("{} {v}", level.name()),
         })
         .collect()
+}
+
+/// Vertical spacing of threshold labels, px: a 13 px line and a gap.
+const THRESHOLD_LABEL_GAP_PX: i32 = 15;
+
+/// Label positions for lines at pixel rows `ys` (any order), each as near its line as
+/// possible, at least `gap` apart, and all within `top..=bottom` (when they fit):
+/// labels are pushed down past their upper neighbour, then back up from the bottom.
+pub fn spread_labels(ys: &[i32], gap: i32, top: i32, bottom: i32) -> Vec<i32> {
+    let mut order: Vec<usize> = (0..ys.len()).collect();
+    order.sort_by_key(|&i| ys[i]);
+    let mut placed = vec![0; ys.len()];
+    let mut next = top;
+    for &i in &order {
+        placed[i] = ys[i].max(next);
+        next = placed[i] + gap;
+    }
+    let mut limit = bottom;
+    for &i in order.iter().rev() {
+        placed[i] = placed[i].min(limit);
+        limit = placed[i] - gap;
+    }
+    placed
 }
 
 /// A shaded stretch of time (a road surface), labelled at its top.
@@ -283,10 +306,22 @@ impl Chart {
                     )))
                     .map_err(plot_error)?;
             }
-            for th in &self.thresholds {
-                if !(y0..=y1).contains(&th.y) {
-                    continue;
-                }
+            let shown: Vec<&Threshold> = self
+                .thresholds
+                .iter()
+                .filter(|th| (y0..=y1).contains(&th.y))
+                .collect();
+            let rows: Vec<i32> = shown
+                .iter()
+                .map(|th| chart.backend_coord(&(x1, th.y)).1)
+                .collect();
+            let (top, bottom) = (
+                chart.backend_coord(&(x1, y1)).1,
+                chart.backend_coord(&(x1, y0)).1,
+            );
+            // Text is drawn from its top: 7 px above the line centres it on it.
+            let label_rows = spread_labels(&rows, THRESHOLD_LABEL_GAP_PX, top + 7, bottom - 7);
+            for (th, label_y) in shown.into_iter().zip(label_rows) {
                 let color = RGBColor::from(th.color);
                 chart
                     .draw_series(DashedLineSeries::new(
@@ -297,10 +332,10 @@ impl Chart {
                     ))
                     .map_err(plot_error)?;
                 // The label sits in the right margin, beside the line's end.
-                let (px, py) = chart.backend_coord(&(x1, th.y));
+                let (px, _) = chart.backend_coord(&(x1, th.y));
                 root.draw(&Text::new(
                     th.label.clone(),
-                    (px + 6, py - 7),
+                    (px + 6, label_y - 7),
                     ("sans-serif", 13).into_font().color(&color),
                 ))
                 .map_err(plot_error)?;
@@ -515,9 +550,49 @@ mod tests {
 
     #[test]
     fn thresholds_carry_their_values_and_level_colours() {
-        let t = alert_thresholds([0.5, 0.8, 1.25], "m/s^2");
-        assert_eq!(t[2].label, "alarm 1.25 m/s^2");
+        let t = alert_thresholds([0.5, 0.8, 1.25]);
+        assert_eq!(t[2].label, "alarm 1.25");
         assert_eq!(t[2].y, 1.25);
         assert_eq!(t[0].color, LEVEL_COLORS[1]);
+    }
+
+    #[test]
+    fn threshold_labels_never_overlap_and_stay_in_the_plot() {
+        let gap = THRESHOLD_LABEL_GAP_PX;
+        let cases: [(&[i32], i32, i32); 5] = [
+            // Far apart: each at its line.
+            (&[100, 200, 300], 10, 400),
+            // Two lines 4 px apart (0.5 and 0.8 on a tall range): pushed apart.
+            (&[250, 246, 120], 10, 400),
+            // All three on one row.
+            (&[50, 50, 50], 10, 400),
+            // At the bottom edge: pushed back up inside.
+            (&[398, 399, 400], 10, 400),
+            // At the top edge.
+            (&[10, 11, 12], 10, 400),
+        ];
+        for (ys, top, bottom) in cases {
+            let placed = spread_labels(ys, gap, top, bottom);
+            let mut sorted = placed.clone();
+            sorted.sort();
+            assert!(
+                sorted.windows(2).all(|w| w[1] - w[0] >= gap),
+                "{ys:?} -> {placed:?}"
+            );
+            assert!(
+                placed.iter().all(|&y| (top..=bottom).contains(&y)),
+                "{ys:?} -> {placed:?}"
+            );
+            // The order of the lines is kept, and a label far from others is on its line.
+            for (i, j) in [(0, 1), (1, 2), (0, 2)] {
+                if ys[i] != ys[j] {
+                    assert_eq!(ys[i] < ys[j], placed[i] < placed[j], "{ys:?}");
+                }
+            }
+        }
+        assert_eq!(
+            spread_labels(&[100, 200, 300], gap, 10, 400),
+            [100, 200, 300]
+        );
     }
 }

@@ -3,7 +3,6 @@
 
 use std::fmt::Write as _;
 
-use crate::report::charts::leg_label;
 use crate::report::markup::escape;
 use crate::report::mission::Leg;
 use crate::report::prediction_band::ReportBand;
@@ -25,8 +24,7 @@ pub fn html(band: &ReportBand, legs: &[Leg], total: &str) -> String {
     );
     let labels = legs
         .iter()
-        .enumerate()
-        .map(|(i, leg)| leg_label(i, leg))
+        .map(|leg| leg.label.clone())
         .chain([total.to_string()]);
     for (label, row) in labels.zip(band.legs.iter().chain([&band.mission])) {
         let _ = write!(h, "<tr><td>{}</td>", escape(&label));

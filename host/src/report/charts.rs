@@ -12,6 +12,7 @@ use crate::plot::time_chart::{
 };
 use crate::plot::{Panel, Rgb, Series, figure_svg};
 use crate::report::mission::{LEVEL_NAMES, Leg};
+use crate::report::third_octave;
 
 /// Alternating shades of the legs.
 const LEG_COLORS: [Rgb; 2] = [Rgb(120, 160, 220), Rgb(180, 180, 180)];
@@ -26,24 +27,13 @@ const HEAD_COLOR: &str = "#d62728";
 /// Predicted head, weighted.
 const WEIGHTED_COLOR: &str = "#2ca02c";
 
-/// The name a leg is shown by: its number and `--label`, or its file name.
-pub fn leg_label(index: usize, leg: &Leg) -> String {
-    let file_name = || {
-        std::path::Path::new(&leg.input)
-            .file_name()
-            .map_or_else(|| leg.input.clone(), |n| n.to_string_lossy().into_owned())
-    };
-    let name = leg.label.clone().unwrap_or_else(file_name);
-    format!("leg {}: {name}", index + 1)
-}
-
 fn bands(legs: &[Leg]) -> Vec<Band> {
     legs.iter()
         .enumerate()
         .map(|(i, l)| Band {
             start_s: l.start_s,
             end_s: l.start_s + l.duration_s,
-            label: leg_label(i, l),
+            label: l.label.clone(),
             color: LEG_COLORS[i % 2],
         })
         .collect()
@@ -210,7 +200,7 @@ pub fn running_rms(legs: &[Leg], config: &AlertConfig, layout: Layout) -> Chart 
         y_range: y_range(&all, &th[..1], true),
         height_px: 300,
         bands: bands_for(legs, layout),
-        thresholds: alert_thresholds(config.running_rms_m_s2, "m/s^2"),
+        thresholds: alert_thresholds(config.running_rms_m_s2),
         lines,
         markers,
         ..Chart::default()
@@ -224,7 +214,10 @@ pub fn vdv(legs: &[Leg], config: &AlertConfig, layout: Layout) -> Chart {
         layout,
         |l| l.series.vdv_m_s175.clone(),
         VECTOR_COLOR,
-        "the leg's VDV",
+        match layout {
+            Layout::Mission => "the leg's VDV",
+            Layout::Compare => "the ride's VDV",
+        },
     );
     let mut before = Vec::new();
     let mission: Vec<Line> = legs
@@ -271,7 +264,7 @@ pub fn vdv(legs: &[Leg], config: &AlertConfig, layout: Layout) -> Chart {
         y_range: y_range(&all, &th[..1], true),
         height_px: 300,
         bands: bands_for(legs, layout),
-        thresholds: alert_thresholds(config.vdv_m_s175, "m/s^1.75"),
+        thresholds: alert_thresholds(config.vdv_m_s175),
         lines,
         ..Chart::default()
     }
@@ -335,8 +328,9 @@ pub fn levels(legs: &[Leg], layout: Layout) -> Chart {
     }
 }
 
-/// A leg's spectra: one panel per axis, input, head and weighted head, log density.
-pub fn spectra_svg(index: usize, leg: &Leg) -> Result<String> {
+/// A leg's spectra: one panel per axis, input, head and weighted head, log density over
+/// log frequency.
+pub fn spectra_svg(leg: &Leg) -> Result<String> {
     let axes = ["x (along the body)", "y (lateral)", "z (vertical)"];
     let panels: Vec<Panel> = leg
         .spectra
@@ -356,6 +350,10 @@ pub fn spectra_svg(index: usize, leg: &Leg) -> Result<String> {
                 x_label: "frequency, Hz".into(),
                 y_label: "PSD, (m/s^2)^2/Hz".into(),
                 log_y: true,
+                // Over the one-third-octave bands ISO 2631-1 weights (0.5-80 Hz), in
+                // decades: the model's 0.5-20 Hz is most of the width, not its left fifth.
+                log_x: true,
+                x_range: Some(third_octave::span_hz()),
                 y_range: None,
                 series: vec![
                     Series::line(pts(&s.input), INPUT_COLOR, 1.0, Some("litter input")),
@@ -370,7 +368,7 @@ pub fn spectra_svg(index: usize, leg: &Leg) -> Result<String> {
             }
         })
         .collect();
-    figure_svg(&format!("Spectra of {}", leg_label(index, leg)), &panels, 3)
+    figure_svg(&format!("Spectra of {}", leg.label), &panels, 3)
 }
 
 /// Colours of a joint's x (along the spine), y (lateral) and z (anteroposterior) motion.

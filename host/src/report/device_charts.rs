@@ -138,7 +138,7 @@ pub fn vector_rms(log: &DeviceLog, alerts: &AlertConfig, warmup_s: f64) -> Chart
         y_range: y,
         height_px: 340,
         bands: bands_with_warmup(log, warmup_s),
-        thresholds: alert_thresholds(th, "m/s^2"),
+        thresholds: alert_thresholds(th),
         lines: vec![
             line(
                 d.vector_rms_m_s2.clone(),
@@ -211,7 +211,7 @@ pub fn vdv(log: &DeviceLog, alerts: &AlertConfig, warmup_s: f64) -> Chart {
         y_range: y,
         height_px: 280,
         bands: bands_with_warmup(log, warmup_s),
-        thresholds: alert_thresholds(th, "m/s^1.75"),
+        thresholds: alert_thresholds(th),
         lines: vec![
             line(d.vdv_m_s175.clone(), VECTOR_COLOR, 2, false, "device"),
             line(h.vdv_m_s175.clone(), HOST_COLOR, 1, true, "host"),

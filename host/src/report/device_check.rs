@@ -112,6 +112,10 @@ pub struct Check {
     pub head_diff_f64_m_s2: f64,
     /// Largest |device - host| vector running rms, m/s^2.
     pub rms_diff_m_s2: f64,
+    /// The values of the telemetry, other than the head acceleration, in which some
+    /// device record differs from the host's in the same position, by their names in the
+    /// telemetry CSV (in [`COMPARED_VALUES`] order); empty when all are the same.
+    pub differing_values: Vec<&'static str>,
     /// The device's and the host's alert events are the same (sample, kind, name).
     pub events_agree: bool,
     /// Position (from 0) of the first event where the device and the host differ, one
@@ -122,12 +126,52 @@ pub struct Check {
     pub records_complete: bool,
 }
 
+/// Every value of a telemetry record the check compares besides the head acceleration
+/// and the sample index, by its column in the telemetry CSV (`joints`: any joint column).
+pub const COMPARED_VALUES: [&str; 9] = [
+    "running_rms_x_m_s2",
+    "running_rms_y_m_s2",
+    "running_rms_z_m_s2",
+    "running_rms_vector_m_s2",
+    "vdv_m_s175",
+    "alert_level",
+    "fault_flags",
+    "valid",
+    "joints",
+];
+
 impl Check {
-    /// The device and the host agree: the same head bit for bit, the same events, every
-    /// record there.
+    /// The device and the host agree: the same head bit for bit, every other value the
+    /// device reports the same, the same events, every record there.
     pub fn agree(&self) -> bool {
-        self.events_agree && self.head_diff_f32_m_s2 == 0.0 && self.records_complete
+        self.events_agree
+            && self.head_diff_f32_m_s2 == 0.0
+            && self.differing_values.is_empty()
+            && self.records_complete
     }
+}
+
+/// Which of [`COMPARED_VALUES`] differ between the device's record `d` and the host's
+/// `h` (bit for bit: the device runs the host's f32 code), as flags in that order.
+pub fn differing(d: &Telemetry, h: &Telemetry) -> [bool; COMPARED_VALUES.len()] {
+    let same = |a: f32, b: f32| a.to_bits() == b.to_bits();
+    let joints_differ = d.joints.as_slice().len() != h.joints.as_slice().len()
+        || d.joints
+            .as_slice()
+            .iter()
+            .zip(h.joints.as_slice())
+            .any(|(a, b)| !same(*a, *b));
+    [
+        !same(d.running_rms_m_s2[0], h.running_rms_m_s2[0]),
+        !same(d.running_rms_m_s2[1], h.running_rms_m_s2[1]),
+        !same(d.running_rms_m_s2[2], h.running_rms_m_s2[2]),
+        !same(d.vector_running_rms_m_s2, h.vector_running_rms_m_s2),
+        !same(d.vdv_m_s175, h.vdv_m_s175),
+        d.alert_level != h.alert_level,
+        d.fault_flags != h.fault_flags,
+        d.valid != h.valid,
+        joints_differ,
+    ]
 }
 
 fn same_event(x: &EventRow, y: &EventRow) -> bool {
@@ -148,6 +192,7 @@ pub struct CheckBuilder {
     head_diff_f32_m_s2: f64,
     head_diff_f64_m_s2: f64,
     rms_diff_m_s2: f64,
+    differing: [bool; COMPARED_VALUES.len()],
     first_event_difference: Option<usize>,
     records_complete: bool,
     device_records: usize,
@@ -169,6 +214,7 @@ impl Default for CheckBuilder {
             head_diff_f32_m_s2: 0.0,
             head_diff_f64_m_s2: 0.0,
             rms_diff_m_s2: 0.0,
+            differing: [false; COMPARED_VALUES.len()],
             first_event_difference: None,
             records_complete: true,
             device_records: 0,
@@ -217,6 +263,9 @@ impl CheckBuilder {
         let rms =
             (f64::from(d.vector_running_rms_m_s2) - f64::from(h.vector_running_rms_m_s2)).abs();
         self.rms_diff_m_s2 = self.rms_diff_m_s2.max(rms);
+        for (seen, now) in self.differing.iter_mut().zip(differing(d, h)) {
+            *seen |= now;
+        }
     }
 
     /// The next device event and the host's in the same position (either may be missing).
@@ -276,10 +325,25 @@ impl CheckBuilder {
             head_diff_f32_m_s2: when_differ(self.head_diff_f32_m_s2),
             head_diff_f64_m_s2: self.head_diff_f64_m_s2,
             rms_diff_m_s2: when_differ(self.rms_diff_m_s2),
+            differing_values: COMPARED_VALUES
+                .iter()
+                .zip(self.differing)
+                .filter(|(_, differ)| *differ)
+                .map(|(name, _)| *name)
+                .collect(),
             events_agree: self.first_event_difference.is_none(),
             first_event_difference: self.first_event_difference,
             records_complete: self.records_complete && !counts_differ && samples_covered,
         }
+    }
+}
+
+/// The values that differ, for a sentence: `identical`, or `DIFFER: vdv_m_s175, alert_level`.
+pub fn differing_text(names: &[&str]) -> String {
+    if names.is_empty() {
+        "identical".to_string()
+    } else {
+        format!("DIFFER: {}", names.join(", "))
     }
 }
 

@@ -314,6 +314,17 @@ mod tests {
             rms_diff_m_s2: max_diff(&|t| [f64::from(t.vector_running_rms_m_s2); 3], &|i| {
                 [f64::from(host[i].vector_running_rms_m_s2); 3]
             }),
+            differing_values: crate::report::device_check::COMPARED_VALUES
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| {
+                    device
+                        .iter()
+                        .zip(host)
+                        .any(|(d, h)| crate::report::device_check::differing(d, h)[*k])
+                })
+                .map(|(_, name)| *name)
+                .collect(),
             events_agree: same,
             first_event_difference: None,
             records_complete: device.len() == host.len()
@@ -429,6 +440,45 @@ mod tests {
         assert!(!missing.check.records_complete && !missing.check.agree());
         assert!(missing.check.head_diff_f32_m_s2.is_infinite());
         assert_eq!(missing.device_records + 1, missing.host_records);
+    }
+
+    #[test]
+    fn every_value_the_device_reports_is_compared_and_named_when_it_differs() {
+        let f = fixture(7000);
+        let i = f.host.len() - 3;
+        type Edit = (&'static str, fn(&mut Telemetry));
+        let edits: [Edit; 6] = [
+            ("vdv_m_s175", |t| {
+                t.vdv_m_s175 = f32::from_bits(t.vdv_m_s175.to_bits() - 1)
+            }),
+            ("running_rms_y_m_s2", |t| t.running_rms_m_s2[1] += 0.25),
+            ("running_rms_vector_m_s2", |t| {
+                t.vector_running_rms_m_s2 += 0.25
+            }),
+            ("alert_level", |t| {
+                t.alert_level = if t.alert_level == Level::Alarm {
+                    Level::Normal
+                } else {
+                    Level::Alarm
+                }
+            }),
+            ("valid", |t| t.valid = !t.valid),
+            ("joints", |t| {
+                let mut v = t.joints.as_slice().to_vec();
+                v[0] = -v[0] - 1e-3;
+                t.joints = supine_core::joint_exposure::JointValues::from_slice(&v).unwrap();
+            }),
+        ];
+        for (name, edit) in edits {
+            let mut device = f.host.clone();
+            edit(&mut device[i]);
+            let p = pass(&f, &device, &f.host_events);
+            assert_eq!(p.check.differing_values, [name], "{name}");
+            assert!(!p.check.agree(), "{name}: said to agree");
+            // The head and the events are untouched: only the named value tells.
+            assert_eq!(p.check.head_diff_f32_m_s2, 0.0);
+            assert!(p.check.events_agree && p.check.records_complete);
+        }
     }
 
     #[test]

@@ -10,7 +10,7 @@ use supine_core::alerts::{AlertConfig, Level};
 
 use crate::io::telemetry_csv::level_from_name;
 use crate::report::device_charts;
-use crate::report::device_check::{Check, DeviceLog, difference};
+use crate::report::device_check::{Check, DeviceLog, difference, differing_text};
 use crate::report::markup::{escape, figure, tag};
 
 /// Most device alert events listed (all are in the events CSV).
@@ -44,7 +44,7 @@ pub fn check(h: &mut String, log: &DeviceLog, check: &Check) {
         h,
         "<p>Check against the host: {} Head acceleration: largest |device &minus; host| {} \
          with the host running the same f32 code, {} against the f64 model; running rms {}; \
-         alert events {}. Link: {} frames, {} lost, {} bad. Sensor faults: {}.</p>\n\
+         the other values the device reports {}; alert events {}. Link: {} frames, {} lost, {} bad. Sensor faults: {}.</p>\n\
          <p>The device's own exposure values (vector sum): largest running rms (MTVV) {:.4} m/s&sup2;, \
          final VDV {:.4} m/s<sup>1.75</sup>; the leg's table below gives the host's.</p></div>",
         if check.agree() {
@@ -55,6 +55,14 @@ pub fn check(h: &mut String, log: &DeviceLog, check: &Check) {
         difference(check.head_diff_f32_m_s2, "m/s&sup2;"),
         difference(check.head_diff_f64_m_s2, "m/s&sup2;"),
         difference(check.rms_diff_m_s2, "m/s&sup2;"),
+        if check.differing_values.is_empty() {
+            differing_text(&check.differing_values)
+        } else {
+            format!(
+                "<span class=\"bad\">{}</span>",
+                differing_text(&check.differing_values)
+            )
+        },
         match (check.events_agree, check.first_event_difference) {
             (true, _) => "identical".to_string(),
             (false, Some(i)) => format!(

@@ -33,7 +33,9 @@ pub fn section(
          extension, rz lateral bending, in degrees. Each leg counts from the end of its \
          warm-up, as the head's values do. <strong>No standard sets limits for a \
          supine patient's spinal motion</strong>: these values are reported, not judged, and \
-         any threshold is a medical director's to set (see the project's docs/exposure.md).</p>\n",
+         any threshold is a medical director's to set (the device ships none; thresholds \
+         set in the parameters raise joint alerts, which are then listed with the others). \
+         They are a model's prediction from the litter's motion, not measured.</p>\n",
     );
     if layout == Layout::Mission {
         mission_table(h, mission);
@@ -88,8 +90,8 @@ fn mission_table(h: &mut String, mission: &[MissionJoint]) {
 
 fn legs_table(h: &mut String, legs: &[Leg], mission: &[MissionJoint]) {
     h.push_str("<table><tr><th class=\"text\">largest excursion</th>");
-    for (i, leg) in legs.iter().enumerate() {
-        let _ = write!(h, "<th>{}</th>", escape(&charts::leg_label(i, leg)));
+    for leg in legs {
+        let _ = write!(h, "<th>{}</th>", escape(&leg.label));
     }
     h.push_str("</tr>\n");
     for (o, j) in mission.iter().enumerate() {

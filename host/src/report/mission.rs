@@ -32,6 +32,7 @@ use crate::io::telemetry_csv::level_from_name;
 use crate::io::wording::display_unit;
 use crate::report::mission_joints::{LegJoints, MissionJoint, mission_joints};
 use crate::report::spectrum::{AxisSpectrum, LegSpectra};
+use crate::report::third_octave::{HeadBand, head_weighted_bands};
 
 /// Rate of the time series kept for the charts, Hz: the running rms has a 1 s time
 /// constant and the VDV only grows, so 10 points a second draw them exactly enough.
@@ -126,9 +127,9 @@ pub struct LegSeries {
 pub struct Leg {
     /// The file.
     pub input: String,
-    /// The leg's name (`--label`), shown instead of the file's.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub label: Option<String>,
+    /// How the report names it: `leg 1: ambulance.csv` in a mission, `ride A: ...` in a
+    /// comparison of two rides ([`leg_label`]).
+    pub label: String,
     /// Its length, s.
     pub duration_s: f64,
     /// Start within the mission, s.
@@ -157,6 +158,8 @@ pub struct Leg {
     /// Spectra of input and predicted head per axis.
     #[serde(skip)]
     pub spectra: Vec<AxisSpectrum>,
+    /// The weighted head's one-third-octave band values, 0.5 to 80 Hz.
+    pub third_octave_bands: Vec<HeadBand>,
     /// The dose rate at the leg's end, for the projection.
     #[serde(skip)]
     pub recent_dose: RecentDose,
@@ -224,12 +227,31 @@ pub struct MissionTotals {
     pub joints: Vec<MissionJoint>,
 }
 
-/// Evaluates one leg (`source`, starting at `start_s` in the mission) with `file`, in
-/// one pass over its rows.
+/// The name of the ride `input`, the `index`-th given (from 0): `leg 1: NAME` in a
+/// mission, `ride A: NAME` when two rides are `compared`.
+pub fn leg_label(index: usize, input: &str, compared: bool) -> String {
+    let name = std::path::Path::new(input)
+        .file_name()
+        .map_or_else(|| input.to_string(), |n| n.to_string_lossy().into_owned());
+    named_leg_label(index, &name, compared)
+}
+
+/// [`leg_label`] with the leg's own `name` (its `--label`) in place of its file's.
+pub fn named_leg_label(index: usize, name: &str, compared: bool) -> String {
+    if compared {
+        format!("ride {}: {name}", ["A", "B"][index % 2])
+    } else {
+        format!("leg {}: {name}", index + 1)
+    }
+}
+
+/// Evaluates one leg (`source`, the `index`-th ride, starting at `start_s` in the
+/// mission, or one of two `compared` rides) with `file`, in one pass over its rows.
 pub fn evaluate_leg(
     source: &RideSource,
     file: &ParamFile,
     model: &str,
+    (index, compared): (usize, bool),
     start_s: f64,
 ) -> Result<Leg> {
     let input = EvaluationInput::new(source, None)?;
@@ -302,9 +324,10 @@ pub fn evaluate_leg(
                 series.push(k, rms, vdv, level, input_m_s2[2], joints);
             }
         })?;
+    let spectra = spectra.finish(&params)?;
     Ok(Leg {
+        label: leg_label(index, &exposure.input, compared),
         input: exposure.input.clone(),
-        label: None,
         duration_s: exposure.duration_s,
         start_s,
         axes: exposure.head,
@@ -315,7 +338,8 @@ pub fn evaluate_leg(
         max_level: exposure.max_level,
         joints: exposure.joints.clone(),
         series: series.finish(),
-        spectra: spectra.finish(&params)?,
+        third_octave_bands: head_weighted_bands(&spectra),
+        spectra,
         recent_dose: dose.finish(),
         exposure,
     })

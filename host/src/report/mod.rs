@@ -7,7 +7,8 @@
 //! 1. The numbers (this module's [`MissionReport`], the `--json` data model; no markup):
 //!    - [`mission`]: the legs, alerts with their criteria, time at each level, the
 //!      mission's combination and the projection.
-//!    - [`spectrum`]: the power spectral densities of input and predicted head.
+//!    - [`spectrum`]: the power spectral densities of input and predicted head;
+//!      [`third_octave`] their one-third-octave band values.
 //!    - [`mission_joints`]: the neck and lower-back motion combined over the legs.
 //!    - [`prediction_band`]: with `--band N`, the prediction band of the head's vector values.
 //!    - [`device_check`], [`device_pass`], [`device_series`]: with a device log (what a
@@ -40,6 +41,7 @@ pub mod page;
 pub mod prediction_band;
 pub mod quality_section;
 pub mod spectrum;
+pub mod third_octave;
 
 use std::path::PathBuf;
 
@@ -86,6 +88,9 @@ pub struct ComparedValue {
     pub difference: f64,
     /// `100 (b - a) / a`, when `a` is not zero.
     pub change_percent: Option<f64>,
+    /// Whether more of it is worse for the patient (vibration, time at a raised level),
+    /// better (time at normal), or neither (the duration): how the difference is coloured.
+    pub more_is_worse: Option<bool>,
 }
 
 /// Two rides side by side.
@@ -135,10 +140,11 @@ pub fn build(
     }
     let mut legs = Vec::with_capacity(inputs.len());
     let mut start_s = 0.0;
-    for path in inputs {
+    for (index, path) in inputs.iter().enumerate() {
         let ride = rides.open_ride(path)?;
         // Compared rides share one time axis from zero; legs follow each other.
-        let leg = evaluate_leg(&ride, file, model, if compare { 0.0 } else { start_s })?;
+        let start = if compare { 0.0 } else { start_s };
+        let leg = evaluate_leg(&ride, file, model, (index, compare), start)?;
         start_s += leg.duration_s;
         legs.push(leg);
     }
@@ -166,16 +172,18 @@ pub fn build(
 
 fn compare_rides(a: &Leg, b: &Leg) -> Comparison {
     let mut rows = Vec::new();
-    let mut push = |quantity: String, a: f64, b: f64| {
+    let mut push_as = |quantity: String, a: f64, b: f64, more_is_worse: Option<bool>| {
         rows.push(ComparedValue {
             quantity,
             a,
             b,
             difference: b - a,
             change_percent: (a != 0.0).then(|| 100.0 * (b - a) / a),
+            more_is_worse,
         });
     };
-    push("duration, s".into(), a.duration_s, b.duration_s);
+    push_as("duration, s".into(), a.duration_s, b.duration_s, None);
+    let mut push = |quantity: String, a: f64, b: f64| push_as(quantity, a, b, Some(true));
     let names = ["x", "y", "z", "vector"];
     let axes_a = a.axes.iter().chain([&a.vector]);
     let axes_b = b.axes.iter().chain([&b.vector]);
@@ -192,7 +200,8 @@ fn compare_rides(a: &Leg, b: &Leg) -> Comparison {
     let at_a = a.time_at_level_s.as_array();
     let at_b = b.time_at_level_s.as_array();
     for (i, name) in mission::LEVEL_NAMES.iter().enumerate() {
-        push(format!("time at {name}, s"), at_a[i], at_b[i]);
+        // More time at normal is better; at any raised level, worse.
+        push_as(format!("time at {name}, s"), at_a[i], at_b[i], Some(i > 0));
     }
     Comparison { rows }
 }

@@ -17,6 +17,7 @@ use supine_core::blob::DeviceParams;
 
 use crate::device::device_params::{self, identity_hex};
 use crate::device::link::LinkStats;
+use crate::io::excerpt::number as excerpt_number;
 use crate::io::monitor_session::{SessionInfo, input_path, session_path};
 use crate::io::params_file::ParamFile;
 use crate::io::ride_rows::RideSource;
@@ -84,6 +85,22 @@ pub fn open(log: &Path, file: &ParamFile) -> Result<LoggedSession> {
             session.params_identity,
             session.height_m,
             session.mass_kg,
+            params.patient.height_m,
+            params.patient.mass_kg,
+        );
+    }
+    // The identity covers the parameters and the patient; the patient the session file
+    // states is the one the report prints, so it must be the one the numbers are for.
+    let same = |stated: f64, built: f32| stated.is_finite() && stated as f32 == built;
+    if !same(session.height_m, params.patient.height_m)
+        || !same(session.mass_kg, params.patient.mass_kg)
+    {
+        bail!(
+            "{}: patient {} m, {} kg, but the device's parameters (identity {ours}) are for \
+             {} m, {} kg: expected the patient of the device's greeting",
+            session_file.display(),
+            excerpt_number(session.height_m),
+            excerpt_number(session.mass_kg),
             params.patient.height_m,
             params.patient.mass_kg,
         );
@@ -208,4 +225,67 @@ pub fn device_log(
         .to_vec(),
     };
     Ok(pass.into_log(run, &session, Vec::new(), Vec::new()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use supine_core::model::Preset;
+
+    /// A session file for the preset's parameters at 500 Hz, stating `height_m`, `mass_kg`.
+    fn session_stating(dir: &Path, height_m: f64, mass_kg: f64) -> PathBuf {
+        let file = ParamFile::preset(Preset::PaperLitter);
+        let params = device_params::build(&file, 500.0).unwrap();
+        let log = dir.join("log.csv");
+        std::fs::write(input_path(&log), "").unwrap();
+        SessionInfo {
+            protocol_version: 6,
+            firmware_version: "test".into(),
+            params_identity: identity_hex(&params.identity),
+            sample_rate_hz: 500.0,
+            height_m,
+            mass_kg,
+            params_changed: false,
+            input_frames: 10,
+            input_samples: 1000,
+            input_samples_lost: 0,
+            input_frames_bad: 0,
+            first_input_sample: Some(0),
+            status: None,
+            link_frames: 10,
+            link_lost_frames: 0,
+            link_bad_frames: 0,
+            link_reordered_frames: 0,
+        }
+        .write(&session_path(&log))
+        .unwrap();
+        log
+    }
+
+    #[test]
+    fn the_session_files_patient_must_be_the_one_the_parameters_are_for() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = ParamFile::preset(Preset::PaperLitter);
+        let own = file.params.subject;
+        let log = session_stating(
+            dir.path(),
+            f64::from(own.height_m as f32),
+            f64::from(own.mass_kg as f32),
+        );
+        open(&log, &file).unwrap();
+        for (height_m, mass_kg, shown) in [
+            (1.6, own.mass_kg, "patient 1.6 m"),
+            (own.height_m, 52.0, "kg"),
+            (1e9, own.mass_kg, "patient 1000000000 m"),
+        ] {
+            let log = session_stating(dir.path(), height_m, mass_kg);
+            let err = open(&log, &file).err().expect("refused").to_string();
+            assert!(err.contains("log.session.json: patient"), "{err}");
+            assert!(err.contains(shown), "{err}");
+            assert!(
+                err.contains("expected the patient of the device's greeting"),
+                "{err}"
+            );
+        }
+    }
 }

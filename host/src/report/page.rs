@@ -40,7 +40,7 @@ td.text, th.text { text-align: left; }
 figure { margin: 14px 0 4px; } figcaption { font-size: 13px; color: #444; margin-top: 2px; }
 svg { display: block; max-width: 100%; height: auto; }
 .caveat { background: #fff7e0; border: 1px solid #e8d28a; padding: 8px 14px; }
-.more { color: #c62828; } .less { color: #2e7d32; }
+.worse { color: #c62828; } .better { color: #2e7d32; }
 .ok { color: #2e7d32; font-weight: 600; } .bad { color: #c62828; font-weight: 600; }
 dl { display: grid; grid-template-columns: max-content auto; gap: 3px 16px; } dt { font-weight: 600; } dd { margin: 0; }
 dt, dd { font-size: 14px; line-height: 1.45; }
@@ -142,14 +142,18 @@ pub fn render(report: &MissionReport, device: Option<&DeviceLog>) -> Result<Stri
     ] {
         let _ = writeln!(h, "<figure>{}</figure>", chart.to_svg()?);
     }
-    h.push_str(
+    h.push_str(if report.comparison.is_some() {
+        "<p>Both rides are drawn from their own start, ride A solid, ride B dashed. Each \
+         starts from a fresh device state, with its own 5 s warm-up of the weighting \
+         filters.</p>\n"
+    } else {
         "<p>The legs are shaded and named along one time axis. Each leg starts from a fresh \
          device state, so every leg has its own 5 s warm-up of the weighting filters; the \
-         mission's VDV adds the legs' fourth powers.</p>\n",
-    );
+         mission's VDV adds the legs' fourth powers.</p>\n"
+    });
     joints_section::section(&mut h, legs, &report.mission.joints, layout)?;
-    for (i, leg) in legs.iter().enumerate() {
-        leg_section(&mut h, i, leg)?;
+    for leg in legs {
+        leg_section(&mut h, leg, report.comparison.is_some())?;
     }
     if let (Some(log), Some(leg)) = (device, legs.first()) {
         device_section::charts(&mut h, log, config, leg.exposure.warmup_s)?;
@@ -215,12 +219,12 @@ fn mission(h: &mut String, report: &MissionReport) {
         let _ = write!(h, "<th>at {name}</th>");
     }
     h.push_str("<th>highest</th></tr>\n");
-    for (i, leg) in report.legs.iter().enumerate() {
+    for leg in &report.legs {
         let v = &leg.vector;
         let _ = write!(
             h,
             "<tr><td>{}</td><td>{}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td><td>{:.2}</td>",
-            escape(&charts::leg_label(i, leg)),
+            escape(&leg.label),
             duration(leg.duration_s),
             v.rms_m_s2,
             v.mtvv_m_s2,
@@ -272,15 +276,17 @@ fn comparison(h: &mut String, legs: &[Leg], c: &Comparison) {
     let [a, b] = [&legs[0], &legs[1]];
     let _ = write!(
         h,
-        "<h2>Comparison</h2><p>Ride A is {}, ride B is {}. Differences are B &minus; A; a \
-         red value is more vibration in B, a green one less.</p>\n<table><tr><th>predicted head</th><th>A</th><th>B</th><th>B &minus; A</th><th>change</th></tr>\n",
+        "<h2>Comparison of two rides</h2><p>Ride A is {}, ride B is {}: two rides of the same \
+         patient side by side, not one journey. Differences are B &minus; A; red is worse for \
+         the patient in B (more vibration, more time at a raised level), green better (less \
+         vibration, more time at normal).</p>\n<table><tr><th>predicted head</th><th>A</th><th>B</th><th>B &minus; A</th><th>change</th></tr>\n",
         escape(&a.input),
         escape(&b.input)
     );
     for row in &c.rows {
-        let class = match row.difference {
-            d if d > 0.0 => "more",
-            d if d < 0.0 => "less",
+        let class = match (row.more_is_worse, row.difference) {
+            (Some(worse), d) if d > 0.0 => ["better", "worse"][usize::from(worse)],
+            (Some(worse), d) if d < 0.0 => ["worse", "better"][usize::from(worse)],
             _ => "",
         };
         let _ = writeln!(
@@ -325,15 +331,22 @@ fn axis_row(h: &mut String, label: &str, a: &AxisReport) {
     );
 }
 
-fn leg_section(h: &mut String, index: usize, leg: &Leg) -> Result<()> {
+fn leg_section(h: &mut String, leg: &Leg, compared: bool) -> Result<()> {
     let e = &leg.exposure;
+    let when = if compared {
+        duration(leg.duration_s)
+    } else {
+        format!(
+            "{} from {} into the mission",
+            duration(leg.duration_s),
+            duration(leg.start_s)
+        )
+    };
     let _ = writeln!(
         h,
-        "<section class=\"leg\"><h2>{}</h2><p>{} from {} into the mission; {} samples at {} Hz; \
+        "<section class=\"leg\"><h2>{}</h2><p>{when}; {} samples at {} Hz; \
          evaluated {:.1} s after the {} s warm-up{}. Litter input rms (unweighted) x {:.3}, y {:.3}, z {:.3} m/s<sup>2</sup>.</p>",
-        escape(&charts::leg_label(index, leg)),
-        duration(leg.duration_s),
-        duration(leg.start_s),
+        escape(&leg.label),
         e.samples,
         rate_hz(e.sample_rate_hz),
         e.evaluated_s,
@@ -354,15 +367,33 @@ fn leg_section(h: &mut String, index: usize, leg: &Leg) -> Result<()> {
     axis_row(h, "vector", &leg.vector);
     h.push_str("</table>\n");
     if leg.alerts.is_empty() {
-        h.push_str("<p>No alert in this leg.</p>\n");
+        h.push_str(if compared {
+            "<p>No alert in this ride.</p>\n"
+        } else {
+            "<p>No alert in this leg.</p>\n"
+        });
     } else {
-        h.push_str("<table><tr><th>mission time</th><th>leg time</th><th class=\"text\">event</th><th class=\"text\">criterion</th><th>value</th><th>running rms, m/s<sup>2</sup></th><th>VDV, m/s<sup>1.75</sup></th></tr>\n");
+        let _ = writeln!(
+            h,
+            "<table><tr>{}<th class=\"text\">event</th><th class=\"text\">criterion</th><th>value</th><th>running rms, m/s<sup>2</sup></th><th>VDV, m/s<sup>1.75</sup></th></tr>",
+            if compared {
+                "<th>time</th>"
+            } else {
+                "<th>mission time</th><th>leg time</th>"
+            }
+        );
         for a in leg.alerts.iter().take(MAX_EVENT_ROWS) {
+            let when = if compared {
+                format!("<td>{:.1} s</td>", a.leg_time_s)
+            } else {
+                format!(
+                    "<td>{:.1} s</td><td>{:.1} s</td>",
+                    a.mission_time_s, a.leg_time_s
+                )
+            };
             let _ = writeln!(
                 h,
-                "<tr><td>{:.1} s</td><td>{:.1} s</td><td class=\"text\">{} {}</td><td class=\"text\">{}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td></tr>",
-                a.mission_time_s,
-                a.leg_time_s,
+                "<tr>{when}<td class=\"text\">{} {}</td><td class=\"text\">{}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td></tr>",
                 a.kind,
                 escape(&a.event),
                 a.criterion,
@@ -383,15 +414,38 @@ fn leg_section(h: &mut String, index: usize, leg: &Leg) -> Result<()> {
     let _ = writeln!(
         h,
         "<figure>{}<figcaption>Power spectral density (Welch, Hann, 50 % overlap, {:.2} Hz bins) of the litter input, \
-         the predicted head, and the head weighted as the device weights it: the weighted curve is what the exposure values integrate.</figcaption></figure></section>",
-        charts::spectra_svg(index, leg)?,
+         the predicted head, and the head weighted as the device weights it, on a logarithmic frequency axis over \
+         0.5-80 Hz, the range ISO 2631-1 weights: the weighted curve is what the exposure values integrate.</figcaption></figure>",
+        charts::spectra_svg(leg)?,
         leg.spectra
             .first()
             .and_then(|s| s.freqs_hz.get(1))
             .copied()
             .unwrap_or(0.0)
     );
+    third_octave_table(h, leg);
+    h.push_str("</section>\n");
     Ok(())
+}
+
+/// The weighted head's one-third-octave band values, as a meter lists them.
+fn third_octave_table(h: &mut String, leg: &Leg) {
+    h.push_str(
+        "<h3>One-third-octave bands of the weighted head</h3>\n<p>The rms of the predicted head, \
+         weighted, in each one-third-octave band (ISO 8041-1 band centres; the band's share of the \
+         spectrum above; below about 2 Hz a band is narrower than the spectrum's bins and is \
+         interpolated). The JSON gives the same values (<code>third_octave_bands</code>).</p>\n\
+         <table class=\"bands\"><tr><th>centre, Hz</th><th>x, m/s<sup>2</sup></th><th>y, m/s<sup>2</sup></th><th>z, m/s<sup>2</sup></th></tr>\n",
+    );
+    for b in &leg.third_octave_bands {
+        let [x, y, z] = b.head_weighted_m_s2;
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td>{x:.4}</td><td>{y:.4}</td><td>{z:.4}</td></tr>",
+            b.centre_hz
+        );
+    }
+    h.push_str("</table>\n");
 }
 
 #[cfg(test)]

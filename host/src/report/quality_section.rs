@@ -19,7 +19,7 @@ pub fn section(h: &mut String, legs: &[Leg]) {
         return;
     }
     h.push_str("<h2>Data quality</h2>\n");
-    for (i, leg, q) in &accounts {
+    for (_, leg, q) in &accounts {
         let class = match q.verdict {
             "good" => "normal",
             "usable with caveats" => "advisory",
@@ -27,9 +27,8 @@ pub fn section(h: &mut String, legs: &[Leg]) {
         };
         let _ = writeln!(
             h,
-            "<p class=\"verdict lvl-{class}\"><b>Leg {} ({}):</b> <span class=\"tag tag-{class}\">{}</span>{}</p>",
-            i + 1,
-            escape(leg.label.as_deref().unwrap_or(&leg.input)),
+            "<p class=\"verdict lvl-{class}\"><b>{}:</b> <span class=\"tag tag-{class}\">{}</span>{}</p>",
+            escape(&leg.label),
             q.verdict,
             if q.reasons.is_empty() {
                 String::new()

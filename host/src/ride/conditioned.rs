@@ -141,10 +141,7 @@ impl Conditioned {
 
     /// Every sample: time (s, the stretch's start plus the sample's place), litter x, y, z
     /// (m/s^2), read from `rows` as they are taken.
-    pub fn samples<'a>(
-        &'a self,
-        rows: &'a dyn RawRows,
-    ) -> Result<TimedSamples<'a>> {
+    pub fn samples<'a>(&'a self, rows: &'a dyn RawRows) -> Result<TimedSamples<'a>> {
         let kept = Rc::new(RefCell::new(KeptRows {
             rows: rows.open_rows()?,
             cleaner: Cleaner::new(self.conditioning.max_gap_s),
