@@ -681,6 +681,21 @@ mod tests {
                 path.display()
             )
         );
+        // A header with two fields of the named column's name: refused, not the first taken.
+        std::fs::write(&path, "Time (ms);AccX;AccY;AccZ;AccX\n0;0;0;0;1\n").unwrap();
+        let args = RideInputArgs {
+            columns: Some(ColumnNames::parse("time=Time (ms),x=AccX,y=AccY,z=AccZ").unwrap()),
+            ..RideInputArgs::default()
+        };
+        let err = error(args.read(&path, &Mounting::LEVEL));
+        assert_eq!(
+            err,
+            format!(
+                "{}: line 1: --columns x=: the header has fields 2 and 5 both named \"AccX\": \
+                 expected a name that appears once (rename one in the file)",
+                path.display()
+            )
+        );
         // An unrecognized header: the columns found and the --columns to give.
         std::fs::write(&path, "time,x,y,z\n0,0,0,0\n").unwrap();
         let err = error(RideInputArgs::default().read(&path, &Mounting::LEVEL));
@@ -698,7 +713,7 @@ mod tests {
         let own = err.strip_prefix(&format!("{}: ", path.display())).unwrap();
         assert!(own.chars().count() <= 200, "{}: {own}", own.chars().count());
         assert!(
-            own.contains("(3000 bytes)") && own.contains("time=NAME,x=b,"),
+            own.contains("(2 fields)") && own.contains("time=NAME,x=b,"),
             "{own}"
         );
     }
@@ -847,6 +862,7 @@ mod tests {
             ("time=t,x=X,y=Y,w=Z", "expected one of the keys"),
             ("time=t,x,y=Y,z=Z", "expected KEY=NAME"),
             ("time=,x=X,y=Y,z=Z", "expected a column name"),
+            ("time=t,x=A,y=A,z=Z", "x= and y= name the same column \"A\""),
         ] {
             let err = ColumnNames::parse(bad).unwrap_err();
             assert!(err.contains(says), "{bad}: {err}");

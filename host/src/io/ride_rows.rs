@@ -99,6 +99,20 @@ impl ColumnNames {
                 return Err(format!("{key}= given twice: expected each key once"));
             }
         }
+        for a in 0..4 {
+            for b in a + 1..4 {
+                if let (Some(first), Some(second)) = (&names[a], &names[b])
+                    && first == second
+                {
+                    return Err(format!(
+                        "{}= and {}= name the same column {}: expected a column of its own for each",
+                        COLUMN_KEYS[a],
+                        COLUMN_KEYS[b],
+                        excerpt(first)
+                    ));
+                }
+            }
+        }
         let missing: Vec<&str> = (0..4)
             .filter(|&k| names[k].is_none())
             .map(|k| COLUMN_KEYS[k])
@@ -169,6 +183,19 @@ impl ForeignRows {
         let width = header.len();
         let mut index = [0usize; 4];
         for (k, wanted) in format.columns.names.iter().enumerate() {
+            let mut same_name = header
+                .iter()
+                .enumerate()
+                .filter(|(_, c)| *c == wanted)
+                .map(|(i, _)| i + 1);
+            if let (Some(first), Some(second)) = (same_name.next(), same_name.next()) {
+                bail!(
+                    "{shown}: line 1: --columns {}=: the header has fields {first} and {second} \
+                     both named {}: expected a name that appears once (rename one in the file)",
+                    COLUMN_KEYS[k],
+                    quoted_name(wanted),
+                );
+            }
             index[k] = header.iter().position(|c| c == wanted).ok_or_else(|| {
                 let fields = listed_fields(header.iter().map(String::as_bytes), width);
                 anyhow!(
@@ -308,7 +335,7 @@ pub fn read_header(path: &Path) -> Result<(u8, Vec<String>)> {
     ))
 }
 
-/// The header's fields as an error lists them: quoted, within [`MAX_LISTED_CHARS`]
+/// The header's fields as an error lists them: quoted, within `MAX_LISTED_CHARS`
 /// including the `... (N fields)` that ends a list cut short.
 pub fn listed_fields<'a>(cells: impl Iterator<Item = &'a [u8]>, width: usize) -> Vec<String> {
     let length = |fields: &[String]| fields.iter().map(|f| f.chars().count() + 2).sum::<usize>();
