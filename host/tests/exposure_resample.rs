@@ -3,7 +3,7 @@
 
 use std::f64::consts::PI;
 
-use supine_host::exposure::resample::{PASSBAND_FRACTION, Resampler, resample};
+use supine_host::ride::resample::{PASSBAND_FRACTION, Resampler, resample};
 
 /// Least-squares amplitude and phase of `y[m] ~ A sin(2 pi f t_m + phi)` over `m` in `range`.
 fn fit_sine(y: &[f64], fs: f64, f: f64, range: std::ops::Range<usize>) -> (f64, f64) {

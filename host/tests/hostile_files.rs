@@ -209,8 +209,19 @@ fn file_name(path: &Path) -> String {
         .into_owned()
 }
 
+/// Held by every test that starts children: `RUSAGE_CHILDREN` is the whole test binary's,
+/// so the suites run one at a time and each reads the peak of its own children only.
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
+    ONE_AT_A_TIME
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
 /// Runs every case, prints one line each and the count, and fails listing what broke.
 fn run_suite(category: &str, cases: &[Case]) {
+    let _one_at_a_time = one_at_a_time();
     let mut broken = Vec::new();
     for case in cases {
         let outcome = run(case);
@@ -236,8 +247,14 @@ fn run_suite(category: &str, cases: &[Case]) {
         cases.len(),
         cases.len() - broken.len()
     );
-    if max_rss_kb > MAX_RSS_KB {
-        broken.push(format!("a child's peak RSS was {max_rss_kb} KiB"));
+    // A child starts as a copy of this test binary (its pages count in the child's resident
+    // set until it execs supine), so the bound is the limit above this binary's own peak:
+    // other tests running beside this one can raise that peak.
+    let own_peak_kb = peak_rss_kb(std::process::id()).unwrap_or(0);
+    if max_rss_kb > MAX_RSS_KB + own_peak_kb {
+        broken.push(format!(
+            "a child's peak RSS was {max_rss_kb} KiB (this test binary's own: {own_peak_kb} KiB)"
+        ));
     }
     assert!(broken.is_empty(), "{category}:\n{}", broken.join("\n"));
 }
@@ -406,7 +423,13 @@ fn csv_files(header: &str, valid: &str) -> Vec<(&'static str, Content, Expectati
         (
             "1e300 s (time)",
             Content::Bytes(format!("{header}\n{}\n{next_line}\n", far_time.join(",")).into_bytes()),
-            refused(&["line 3", "column time_s", "after 1e300 s"]),
+            if header.split(',').count() == 4 {
+                // A ride: the next row steps back from 1e300 s and is dropped and counted,
+                // as the ride reader drops every backward step, which leaves one sample.
+                refused(&["expected at least 2 samples, found 1"])
+            } else {
+                refused(&["line 3", "column time_s", "after 1e300 s"])
+            },
         ),
     ]
 }
@@ -1307,6 +1330,7 @@ fn outputs_that_are_devices_pipes_folders_or_a_full_disk() {
 
 #[test]
 fn fifos_are_written_through_not_replaced() {
+    let _one_at_a_time = one_at_a_time();
     use std::os::unix::fs::FileTypeExt as _;
     let dir = tempfile::tempdir().expect("temp dir");
     let mut held = 0;
@@ -1351,6 +1375,7 @@ fn fifos_are_written_through_not_replaced() {
 
 #[test]
 fn a_closed_stdout_ends_every_printing_command_quietly() {
+    let _one_at_a_time = one_at_a_time();
     let dir = tempfile::tempdir().expect("temp dir");
     let ride = dir.path().join("ride.csv");
     std::fs::write(&ride, valid_ride(dir.path())).expect("ride");

@@ -396,8 +396,8 @@ fn a_report_file_that_cannot_be_replaced_leaves_no_parameter_file() {
     let ds = small_dataset(dir.path());
     let out = dir.path().join("rigid.toml");
     let report = dir.path().join("report");
-    // summary.md is a folder: staging succeeds, renaming onto it fails; the parameter
-    // file is renamed last, so it is not written.
+    // summary.md is a folder: the report refuses to write over it; the parameter file is
+    // written last, so it is not written.
     std::fs::create_dir_all(report.join("summary.md").join("x")).unwrap();
     let mut args = quick_fit_args(&ds, &out, &report);
     // The folder holds what supine did not write (summary.md as a folder): --force.
@@ -407,7 +407,7 @@ fn a_report_file_that_cannot_be_replaced_leaves_no_parameter_file() {
     let line = supine_host::cli::one_line(&err);
     assert!(
         line.starts_with(&format!(
-            "{}: cannot write:",
+            "{}: is a folder",
             report.join("summary.md").display()
         )),
         "{line}"

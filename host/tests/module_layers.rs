@@ -12,11 +12,12 @@ use std::path::{Path, PathBuf};
 
 /// Each folder (or top file) of `host/src` and what it may use besides itself.
 const ALLOWED: &[(&str, &[&str])] = &[
-    ("cli", &["commands"]),
+    ("cli", &["commands", "io"]),
     (
         "commands",
         &[
-            "demo", "report", "monitor", "exposure", "identify", "device", "io", "plot", "parallel",
+            "demo", "report", "monitor", "exposure", "identify", "device", "io", "plot",
+            "parallel", "ride",
         ],
     ),
     (
@@ -25,14 +26,17 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ),
     (
         "report",
-        &["exposure", "identify", "device", "plot", "io", "parallel"],
+        &[
+            "exposure", "identify", "device", "plot", "io", "parallel", "ride",
+        ],
     ),
     ("monitor", &["exposure", "device", "io"]),
-    ("exposure", &["device", "io"]),
+    ("exposure", &["device", "io", "ride"]),
     ("identify", &["plot", "io", "parallel"]),
     ("device", &["io"]),
     ("plot", &[]),
-    ("io", &["parallel"]),
+    ("io", &["parallel", "ride"]),
+    ("ride", &[]),
     ("parallel", &[]),
 ];
 
@@ -49,9 +53,16 @@ const REPORT_LAYERS: &[&[&str]] = &[
         "device_pass",
         "device_series",
         "monitor_log",
+        "third_octave",
     ],
     &["charts", "device_charts"],
-    &["page", "joints_section", "band_section", "device_section"],
+    &[
+        "page",
+        "joints_section",
+        "band_section",
+        "device_section",
+        "quality_section",
+    ],
 ];
 
 fn src() -> PathBuf {

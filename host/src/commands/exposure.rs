@@ -6,7 +6,7 @@
 //!   weighted and evaluated without a model.
 //!
 //! The recording's own sample rate is used; `--fs HZ` converts it first with the
-//! band-limited, zero-phase resampler of [`crate::exposure::resample`]. The ride is read
+//! band-limited, zero-phase resampler of [`crate::ride::resample`]. The ride is read
 //! row by row ([`crate::io::ride_rows`]): memory does not grow with its length, with
 //! `--fs` too.
 

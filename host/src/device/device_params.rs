@@ -6,9 +6,9 @@
 
 use anyhow::{Result, anyhow};
 use sha2::{Digest, Sha256};
-use supine_core::blob::{DeviceParams, MAX_BLOB_LEN, Patient};
+use supine_core::blob::{BlobError, DeviceParams, MAX_BLOB_LEN, Patient};
 use supine_core::model::Model;
-use supine_core::protocol::{IDENTITY_LEN, ParamsIdentity};
+use supine_core::protocol::{IDENTITY_LEN, ParamsIdentity, ParamsSource};
 use supine_core::sample_rate::SampleRate;
 
 use crate::io::device_table::check;
@@ -88,4 +88,29 @@ pub fn encode(params: &DeviceParams) -> Result<Vec<u8>> {
         .map_err(|e| anyhow!("encoding the blob: {e}"))?;
     buf.truncate(len);
     Ok(buf)
+}
+
+/// Where the parameters came from, in words a medic reading the panel can act on: the
+/// flash slot as the README names it (A, B), or why the device fell back to its built-in
+/// parameters and what to do (the blob error's code last, for the technician).
+pub fn params_source_text(source: ParamsSource) -> String {
+    match source {
+        ParamsSource::Flash { slot: 0 } => "flash slot A".to_string(),
+        ParamsSource::Flash { slot: 1 } => "flash slot B".to_string(),
+        ParamsSource::Flash { slot } => format!("flash slot {slot}"),
+        ParamsSource::BuiltInDefault { reason } => {
+            let why = match reason {
+                BlobError::Empty => "no parameters were ever put on this device",
+                BlobError::Truncated | BlobError::BadCrc => {
+                    "the last parameter update did not finish (power lost while writing?)"
+                }
+                _ => "the parameters in flash are not ones this firmware accepts",
+            };
+            format!(
+                "the built-in parameters, which may not be this patient's: {why}; alerts \
+                 still work; put the patient's parameters on again (blob error {})",
+                reason.code()
+            )
+        }
+    }
 }

@@ -477,7 +477,7 @@ pub fn replay(
         bail!(
             "the device runs parameters {} instead of the blob sent: they come from {}",
             device_params::identity_hex(&g.params_identity),
-            crate::monitor::state::params_source_text(g.params_source)
+            device_params::params_source_text(g.params_source)
         );
     }
     Ok(ReplayResult {

@@ -1,6 +1,6 @@
 //! A ride at the rate it is evaluated at. Every evaluation needs a sample rate the device
 //! supports ([`SampleRate`]); a ride at another rate is converted first by the
-//! band-limited [`crate::exposure::resample`] (zero phase), at the user's request only,
+//! band-limited [`crate::ride::resample`] (zero phase), at the user's request only,
 //! as it is read ([`Resampler::stream`]).
 //!
 //! Rides come from [`RideSource`] (opened by [`crate::io::ride_input`]), which also
@@ -10,8 +10,8 @@
 use anyhow::{Result, bail};
 use supine_core::sample_rate::{SampleRate, SampleRateError};
 
-use crate::exposure::resample::Resampler;
 use crate::io::ride_rows::RideSource;
+use crate::ride::resample::Resampler;
 
 /// A ride at the rate it is evaluated at, read sample by sample.
 pub struct EvaluationInput<'a> {
@@ -28,7 +28,7 @@ pub struct EvaluationInput<'a> {
 }
 
 impl<'a> EvaluationInput<'a> {
-    /// `source` at `fs_hz` if given (band-limited, see [`crate::exposure::resample`]),
+    /// `source` at `fs_hz` if given (band-limited, see [`crate::ride::resample`]),
     /// else at its own rate, which must be one the device supports.
     pub fn new(source: &'a RideSource, fs_hz: Option<f64>) -> Result<Self> {
         let own_hz = source.sample_rate_hz();

@@ -3,7 +3,6 @@
 //!
 //! - [`ride`]: realistic litter-frame accelerations (`supine ride`).
 //! - [`weighting_response`]: the device's weighting filters against the analog ones.
-//! - [`resample`]: band-limited sample-rate conversion of recordings.
 //! - [`evaluation_input`]: a ride at the rate it is evaluated at (resampled on request).
 //! - [`model_run`]: the device pipeline over a ride, sample by sample.
 //! - [`model_exposure`]: `supine exposure`'s model form (the device chain over a ride).
@@ -21,7 +20,6 @@ pub mod model_exposure;
 pub mod model_run;
 pub mod reference;
 pub mod reported_values;
-pub mod resample;
 pub mod ride;
 pub mod timed_event;
 pub mod weighting_response;

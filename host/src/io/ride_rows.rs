@@ -17,8 +17,7 @@ use std::io::Read as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Result, anyhow, bail};
-use clap::ValueEnum;
-use supine_core::mounting::{Mounting, STANDARD_GRAVITY_M_S2};
+use supine_core::mounting::Mounting;
 
 use crate::io::csv_lines::{CsvLines, MAX_LINE_BYTES};
 use crate::io::excerpt::{excerpt, quoted_name};
@@ -35,34 +34,7 @@ const MAX_LISTED_CHARS: usize = 40;
 
 pub use crate::ride::clock::TimeUnit;
 
-/// Unit of the acceleration columns.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
-pub enum AccelUnit {
-    /// Metres per second squared.
-    #[default]
-    #[value(name = "m/s2")]
-    MS2,
-    /// Standard gravity, 9.80665 m/s^2.
-    G,
-}
-
-impl AccelUnit {
-    /// m/s^2 per unit.
-    pub const fn to_m_s2(self) -> f64 {
-        match self {
-            AccelUnit::MS2 => 1.0,
-            AccelUnit::G => STANDARD_GRAVITY_M_S2,
-        }
-    }
-
-    /// The unit's name, as errors and reports say it.
-    pub fn name(self) -> &'static str {
-        match self {
-            AccelUnit::MS2 => "m/s^2",
-            AccelUnit::G => "g",
-        }
-    }
-}
+pub use crate::ride::units::AccelUnit;
 
 /// The four header names of another logger's file (`--columns`), in the order time, x,
 /// y, z of the litter.

@@ -6,11 +6,11 @@ use std::collections::VecDeque;
 
 use anyhow::Result;
 use supine_core::alerts::{AlertConfig, AlertEvent, Criterion, FaultFlags, Level};
-use supine_core::blob::BlobError;
 use supine_core::model::JointOutput;
-use supine_core::protocol::{DeviceToHost, Greeting, ParamsSource, Status, Telemetry};
+use supine_core::protocol::{DeviceToHost, Greeting, Status, Telemetry};
 
 use crate::device::device_params::identity_hex;
+pub use crate::device::device_params::params_source_text;
 use crate::device::link::{LinkStats, check_protocol};
 use crate::io::wording::joint_alert_text;
 
@@ -450,31 +450,6 @@ impl Monitor {
     }
 }
 
-/// Where the parameters came from, in words a medic reading the panel can act on: the
-/// flash slot as the README names it (A, B), or why the device fell back to its built-in
-/// parameters and what to do (the blob error's code last, for the technician).
-pub fn params_source_text(source: ParamsSource) -> String {
-    match source {
-        ParamsSource::Flash { slot: 0 } => "flash slot A".to_string(),
-        ParamsSource::Flash { slot: 1 } => "flash slot B".to_string(),
-        ParamsSource::Flash { slot } => format!("flash slot {slot}"),
-        ParamsSource::BuiltInDefault { reason } => {
-            let why = match reason {
-                BlobError::Empty => "no parameters were ever put on this device",
-                BlobError::Truncated | BlobError::BadCrc => {
-                    "the last parameter update did not finish (power lost while writing?)"
-                }
-                _ => "the parameters in flash are not ones this firmware accepts",
-            };
-            format!(
-                "the built-in parameters, which may not be this patient's: {why}; alerts \
-                 still work; put the patient's parameters on again (blob error {})",
-                reason.code()
-            )
-        }
-    }
-}
-
 /// The device in one line: firmware, parameters and their source, sample rate, patient.
 pub fn device_line(g: &Greeting) -> String {
     let source = params_source_text(g.params_source);
@@ -503,7 +478,7 @@ fn peak_of(peak: f32, value: f32) -> f32 {
 mod tests {
     use super::*;
     use supine_core::alerts::SensorFault;
-    use supine_core::protocol::{PROTOCOL_VERSION, ResetCause};
+    use supine_core::protocol::{PROTOCOL_VERSION, ParamsSource, ResetCause};
 
     pub(crate) fn greeting(protocol_version: u16) -> Greeting {
         Greeting {

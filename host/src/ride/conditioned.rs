@@ -17,10 +17,10 @@ use std::rc::Rc;
 use anyhow::Result;
 use supine_core::mounting::Mounting;
 
-use crate::exposure::resample::Resampler;
 use crate::ride::level::Levelling;
 use crate::ride::quality::{DataQuality, Scan};
 use crate::ride::regular::{Cleaner, GridSamples, RowFate, grid_len};
+use crate::ride::resample::Resampler;
 
 /// Rates closer than this (relative) are taken as the same: no rate conversion.
 pub const SAME_RATE_TOLERANCE: f64 = 0.01;

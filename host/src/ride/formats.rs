@@ -11,8 +11,8 @@
 //!   as date-time text (`2018-10-03 17:23:55.4640`, iOS) or a clock time.
 //! - The project's own ride (`time_s,platform_x,platform_y,platform_z`), s and m/s^2.
 
-use crate::io::ride_rows::AccelUnit;
 use crate::ride::clock::TimeUnit;
+use crate::ride::units::AccelUnit;
 
 /// A recognized export: its name and where its time and x, y, z are.
 #[derive(Clone, Copy, Debug, PartialEq)]

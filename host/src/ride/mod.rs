@@ -8,6 +8,8 @@
 //!   interpolation onto a uniform grid.
 //! - [`level`]: levelling by the ride's own gravity.
 //! - [`quality`]: the data-quality account and its verdict.
+//! - [`units`]: the acceleration columns' unit.
+//! - [`resample`]: the band-limited, zero-phase resampler.
 //! - [`conditioned`]: the passes over a ride that give its uniform, levelled samples.
 
 pub mod clock;
@@ -16,3 +18,5 @@ pub mod formats;
 pub mod level;
 pub mod quality;
 pub mod regular;
+pub mod resample;
+pub mod units;
