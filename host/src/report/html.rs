@@ -34,7 +34,8 @@ pub fn escape(text: &str) -> String {
     out
 }
 
-const STYLE: &str = "
+/// The pages' style sheet (the mission report and the fleet view share it).
+pub const STYLE: &str = "
 body { font-family: system-ui, -apple-system, 'Segoe UI', Helvetica, Arial, sans-serif; color: #222; margin: 0; background: #f6f6f4; }
 main { max-width: 1120px; margin: 0 auto; padding: 20px 24px 48px; background: #fff; }
 h1 { font-size: 26px; margin: 4px 0 2px; }
