@@ -253,15 +253,13 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
     match &args.command {
         Command::Add(a) => {
             let meta = a.meta.resolve()?;
-            let (_, found, report) =
-                mission_report(&a.input, &a.ride, &a.model, &a.subject, false)?;
+            // A monitor log is one leg (its input stream), hashed as the log file itself.
+            let (_, _, report) = mission_report(&a.input, &a.ride, &a.model, &a.subject, false)?;
             let rides = a
                 .input
                 .iter()
                 .map(|p| RideFile::read(p, a.copy_rides))
                 .collect::<Result<Vec<_>>>()?;
-            // A monitor log is one leg: its ride is the log's input stream.
-            debug_assert_eq!(found.rides.len(), rides.len());
             let record = MissionRecord::new(&report, rides, meta)?;
             let archive = Archive::open(&location)?;
             let id = archive.run(store::add(&archive, &record))?;
