@@ -17,11 +17,11 @@ use rand_chacha::ChaCha8Rng;
 use sqlx::Row as _;
 use supine_host::archive::db::{Archive, Backend};
 use supine_host::archive::fleet::{self, DIMENSIONS};
+use supine_host::archive::fleet_html;
 use supine_host::archive::location::Location;
 use supine_host::archive::meta::MissionMeta;
 use supine_host::archive::record::{MissionRecord, RideFile};
 use supine_host::archive::store::{self, Filter};
-use supine_host::archive::fleet_html;
 use supine_host::commands::report::mission_report;
 use supine_host::exposure::ride::{Profile, generate, write_ride};
 use supine_host::io::params_file::{ModelSource, PresetArg};
@@ -39,7 +39,10 @@ const ROUTES: [(&str, Profile); 6] = [
 ];
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).filter(|a| a != "--bench").collect();
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| a != "--bench")
+        .collect();
     let missions: usize = args.first().and_then(|a| a.parse().ok()).unwrap_or(10_000);
     let location = Location::resolve(args.get(1).map(String::as_str)).unwrap();
     let out = PathBuf::from(args.get(2).map_or("target/archive-bench", String::as_str));
@@ -64,11 +67,15 @@ fn main() {
             profile = Profile::RoughRoad;
         }
         let duration_s = 30.0 + 60.0 * rng.random::<f64>();
-        let start = year_start + (i as i64 * 365 * 86_400) / missions.max(1) as i64
+        let start = year_start
+            + (i as i64 * 365 * 86_400) / missions.max(1) as i64
             + rng.random_range(0..3_600);
         let path = rides_dir.path().join("ride.csv");
-        write_ride(&path, &generate(profile, duration_s, 200.0, 10_000 + i as u64).unwrap())
-            .unwrap();
+        write_ride(
+            &path,
+            &generate(profile, duration_s, 200.0, 10_000 + i as u64).unwrap(),
+        )
+        .unwrap();
         let t = Instant::now();
         let (_, _, report) = mission_report(
             std::slice::from_ref(&path),
@@ -100,7 +107,9 @@ fn main() {
     }
     let n = archive.run(store::count(&archive)).unwrap();
     let t = Instant::now();
-    let rows = archive.run(store::fleet_rows(&archive, &Filter::default())).unwrap();
+    let rows = archive
+        .run(store::fleet_rows(&archive, &Filter::default()))
+        .unwrap();
     let view = fleet::build(&rows, &DIMENSIONS, None);
     let page = fleet_html::render(&view);
     std::fs::write(out.join("fleet.html"), &page).unwrap();
@@ -155,5 +164,9 @@ fn main() {
         fleet_s,
         page.len() as f64 / 1e3
     );
-    println!("per-vehicle query (V03, {} missions): {:.1} ms", one.len(), 1e3 * vehicle_s);
+    println!(
+        "per-vehicle query (V03, {} missions): {:.1} ms",
+        one.len(),
+        1e3 * vehicle_s
+    );
 }

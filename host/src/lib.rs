@@ -10,9 +10,9 @@
 //! layer ([`plot`]), jobs over the cores ([`parallel`]), and
 //! the command line ([`cli`], [`commands`]) on top of them all.
 
+pub mod archive;
 pub mod cli;
 pub mod commands;
-pub mod archive;
 pub mod demo;
 pub mod device;
 pub mod exposure;

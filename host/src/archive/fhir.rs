@@ -80,17 +80,24 @@ pub fn bundle(m: &MissionSummary) -> Result<Value> {
         }
         o
     };
-    let ucum = |value: f64, unit: &str, code: &str| {
-        json!({"value": value, "unit": unit, "system": UCUM, "code": code})
-    };
+    let ucum = |value: f64, unit: &str, code: &str| json!({"value": value, "unit": unit, "system": UCUM, "code": code});
     let mut observations = Vec::new();
-    let mut rms = base("head-weighted-rms", "Head vibration, frequency-weighted vector rms (ISO 2631-1)");
+    let mut rms = base(
+        "head-weighted-rms",
+        "Head vibration, frequency-weighted vector rms (ISO 2631-1)",
+    );
     rms["valueQuantity"] = ucum(number(&["vector", "rms_m_s2"])?, "m/s2", "m/s2");
     observations.push(rms);
-    let mut mtvv = base("head-mtvv", "Head vibration, maximum transient vibration value (ISO 2631-1)");
+    let mut mtvv = base(
+        "head-mtvv",
+        "Head vibration, maximum transient vibration value (ISO 2631-1)",
+    );
     mtvv["valueQuantity"] = ucum(number(&["vector", "mtvv_m_s2"])?, "m/s2", "m/s2");
     observations.push(mtvv);
-    let mut vdv = base("head-vdv", "Head vibration, vibration dose value (ISO 2631-1)");
+    let mut vdv = base(
+        "head-vdv",
+        "Head vibration, vibration dose value (ISO 2631-1)",
+    );
     // m/s^1.75: no UCUM code (UCUM has integer exponents only): a unit text alone.
     vdv["valueQuantity"] = json!({"value": number(&["vector", "vdv_m_s175"])?, "unit": "m/s^1.75"});
     observations.push(vdv);
@@ -112,7 +119,10 @@ pub fn bundle(m: &MissionSummary) -> Result<Value> {
     );
     observations.push(levels);
     if let Some(joints) = mission["joints"].as_array().filter(|j| !j.is_empty()) {
-        let mut excursions = base("joint-largest-excursion", "Largest predicted spinal joint excursions");
+        let mut excursions = base(
+            "joint-largest-excursion",
+            "Largest predicted spinal joint excursions",
+        );
         excursions["component"] = Value::Array(
             joints
                 .iter()

@@ -137,13 +137,15 @@ impl Side {
     pub fn parse(text: &str) -> Result<Self> {
         let mut parts = text.split(',');
         let first = parts.next().unwrap_or_default();
-        let (by, key) = first
-            .split_once('=')
-            .ok_or_else(|| anyhow!("--compare {text:?}: expected FIELD=VALUE[,since=DATE][,until=DATE]"))?;
+        let (by, key) = first.split_once('=').ok_or_else(|| {
+            anyhow!("--compare {text:?}: expected FIELD=VALUE[,since=DATE][,until=DATE]")
+        })?;
         let by = DIMENSIONS
             .into_iter()
             .find(|d| *d == by.trim())
-            .ok_or_else(|| anyhow!("--compare {text:?}: {by:?} is not one of vehicle, crew, driver, route"))?;
+            .ok_or_else(|| {
+                anyhow!("--compare {text:?}: {by:?} is not one of vehicle, crew, driver, route")
+            })?;
         let mut side = Self {
             by,
             key: key.trim().to_string(),
@@ -273,7 +275,8 @@ pub fn build(rows: &[FleetRow], dims: &[&'static str], compare: Option<[Side; 2]
         these.sort_by(|a, b| b.missions.cmp(&a.missions).then(a.key.cmp(&b.key)));
         groups.extend(these);
     }
-    let mut ranked: Vec<(&FleetRow, f64)> = rows.iter().filter_map(|r| Some((r, rate(r)?))).collect();
+    let mut ranked: Vec<(&FleetRow, f64)> =
+        rows.iter().filter_map(|r| Some((r, rate(r)?))).collect();
     ranked.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.id.cmp(&b.0.id)));
     let worst = ranked
         .iter()
@@ -302,7 +305,9 @@ pub fn build(rows: &[FleetRow], dims: &[&'static str], compare: Option<[Side; 2]
             })
         })
         .collect();
-    let compare = compare.or_else(|| default_sides(&groups, dims)).map(|[a, b]| compared(rows, a, b));
+    let compare = compare
+        .or_else(|| default_sides(&groups, dims))
+        .map(|[a, b]| compared(rows, a, b));
     FleetView {
         missions: rows.len(),
         hours: rows.iter().map(|r| r.duration_s).sum::<f64>() / 3600.0,
@@ -413,7 +418,10 @@ fn weeks(timeline: &[TimePoint]) -> Vec<Week> {
         let day = (p.start_epoch_s / DAY_S as f64).floor() as i64;
         // 1970-01-01 was a Thursday: Monday-based weeks start 3 days earlier.
         let monday = day - (day + 3).rem_euclid(7);
-        by_week.entry(monday).or_default().push(p.vdv_per_hour_m_s175);
+        by_week
+            .entry(monday)
+            .or_default()
+            .push(p.vdv_per_hour_m_s175);
     }
     by_week
         .into_iter()

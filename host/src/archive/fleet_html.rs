@@ -192,7 +192,10 @@ fn timeline(h: &mut String, view: &FleetView) {
         view.weeks
             .iter()
             .max_by_key(|w| w.missions)
-            .map_or(String::new(), |w| format!("week of {} with {} missions", w.week_of, w.missions))
+            .map_or(String::new(), |w| format!(
+                "week of {} with {} missions",
+                w.week_of, w.missions
+            ))
     );
 }
 
@@ -346,8 +349,10 @@ fn dimension(h: &mut String, by: &str, groups: &[&Group]) {
 fn compare(h: &mut String, view: &FleetView) {
     h.push_str("<h2>Compare</h2>\n");
     let Some(c) = &view.compare else {
-        h.push_str("<p>Nothing to compare: give <code>--compare FIELD=VALUE</code> twice, or \
-                    archive missions of two groups.</p>\n");
+        h.push_str(
+            "<p>Nothing to compare: give <code>--compare FIELD=VALUE</code> twice, or \
+                    archive missions of two groups.</p>\n",
+        );
         return;
     };
     h.push_str("<table><tr><th class=\"text\">group</th><th>missions</th><th>VDV/h median [95&nbsp;%]</th><th>quartiles</th></tr>\n");
@@ -366,7 +371,11 @@ fn compare(h: &mut String, view: &FleetView) {
                 );
             }
             None => {
-                let _ = writeln!(h, "<tr><td>{}</td><td>0</td><td></td><td></td></tr>", escape(&side.label));
+                let _ = writeln!(
+                    h,
+                    "<tr><td>{}</td><td>0</td><td></td><td></td></tr>",
+                    escape(&side.label)
+                );
             }
         }
     }
@@ -432,7 +441,11 @@ mod tests {
     fn ticks_are_round_and_cover_the_range() {
         let t = ticks(0.0, 1.0);
         assert_eq!(t.len(), 6);
-        assert!(t.iter().zip([0.0, 0.2, 0.4, 0.6, 0.8, 1.0]).all(|(a, b)| (a - b).abs() < 1e-12));
+        assert!(
+            t.iter()
+                .zip([0.0, 0.2, 0.4, 0.6, 0.8, 1.0])
+                .all(|(a, b)| (a - b).abs() < 1e-12)
+        );
         let t = ticks(3.0, 47.0);
         assert_eq!(t.first().copied(), Some(10.0));
         assert_eq!(t.last().copied(), Some(40.0));

@@ -21,9 +21,9 @@ impl Location {
             Some(url) if url.starts_with("postgres://") || url.starts_with("postgresql://") => {
                 Ok(Self::Postgres(url.to_string()))
             }
-            Some(other) if other.contains("://") => bail!(
-                "--archive {other}: expected a file path or a postgres:// URL"
-            ),
+            Some(other) if other.contains("://") => {
+                bail!("--archive {other}: expected a file path or a postgres:// URL")
+            }
             Some(path) => Ok(Self::Sqlite(PathBuf::from(path))),
             None => Ok(Self::Sqlite(default_path()?)),
         }

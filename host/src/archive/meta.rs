@@ -127,7 +127,10 @@ mod tests {
     #[test]
     fn times_need_an_offset_and_dates_are_utc_midnight() {
         let t = parse_start("2026-11-28T06:00:00+01:00").unwrap();
-        assert_eq!(t.as_second(), parse_start("2026-11-28T05:00:00Z").unwrap().as_second());
+        assert_eq!(
+            t.as_second(),
+            parse_start("2026-11-28T05:00:00Z").unwrap().as_second()
+        );
         assert!(parse_start("2026-11-28T05:00:00").is_err());
         assert_eq!(
             parse_bound("2026-11-28").unwrap(),

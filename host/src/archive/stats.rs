@@ -81,7 +81,8 @@ pub fn median_interval_ranks(n: usize, level: f64) -> Option<(usize, usize)> {
     }
     let b = Binomial::new(0.5, n as u64).ok()?;
     // P(X_(k) <= median <= X_(n+1-k)) = P(k <= B <= n - k), B ~ Bin(n, 1/2).
-    let coverage = |k: usize| b.cdf((n - k) as u64) - if k == 0 { 0.0 } else { b.cdf(k as u64 - 1) };
+    let coverage =
+        |k: usize| b.cdf((n - k) as u64) - if k == 0 { 0.0 } else { b.cdf(k as u64 - 1) };
     let mut best = None;
     for k in 1..=n.div_ceil(2) {
         if n < 2 * k {
@@ -200,7 +201,10 @@ mod tests {
         let y = [3.0, 4.0, 4.0, 5.0, 5.0, 6.0, 7.0, 7.0, 8.0];
         let t = mann_whitney(&x, &y).unwrap();
         assert_eq!(t.u, 7.5);
-        assert!((t.p_value - 0.006_373_133_838_085_873).abs() < 1e-9, "{t:?}");
+        assert!(
+            (t.p_value - 0.006_373_133_838_085_873).abs() < 1e-9,
+            "{t:?}"
+        );
         assert!(t.z < 0.0);
         assert!(mann_whitney(&[1.0], &[]).is_none());
         assert!(mann_whitney(&[1.0, 1.0], &[1.0]).is_none());

@@ -191,7 +191,12 @@ pub async fn add(archive: &Archive, record: &MissionRecord<'_>) -> Result<i64> {
             id,
             0,
             (j.output, j.unit),
-            [j.rms, j.max_running_rms, j.largest_excursion, j.largest_excursion_at_mission_s],
+            [
+                j.rms,
+                j.max_running_rms,
+                j.largest_excursion,
+                j.largest_excursion_at_mission_s,
+            ],
         )
         .await?;
     }
@@ -253,7 +258,12 @@ pub async fn add(archive: &Archive, record: &MissionRecord<'_>) -> Result<i64> {
                 id,
                 n,
                 (j.output, j.unit),
-                [j.rms, j.max_running_rms, j.largest_excursion, j.largest_excursion_at_s],
+                [
+                    j.rms,
+                    j.max_running_rms,
+                    j.largest_excursion,
+                    j.largest_excursion_at_s,
+                ],
             )
             .await?;
         }
@@ -274,7 +284,9 @@ pub async fn add(archive: &Archive, record: &MissionRecord<'_>) -> Result<i64> {
         .ok()
         .and_then(|v| v.parse::<u64>().ok())
     {
-        eprintln!("supine: archive: holding mission {id}'s transaction open for {ms} ms ({STALL_ENV})");
+        eprintln!(
+            "supine: archive: holding mission {id}'s transaction open for {ms} ms ({STALL_ENV})"
+        );
         tokio::time::sleep(Duration::from_millis(ms)).await;
     }
     tx.commit().await.context("committing the mission")?;

@@ -358,7 +358,11 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
             let bundle = fhir::bundle(&m.summary)?;
             let text = serde_json::to_string_pretty(&bundle)? + "\n";
             write_atomically(&a.fhir, |w| Ok(w.write_all(text.as_bytes())?))?;
-            eprintln!("wrote {}: mission {} as a FHIR R4 Bundle", a.fhir.display(), a.id);
+            eprintln!(
+                "wrote {}: mission {} as a FHIR R4 Bundle",
+                a.fhir.display(),
+                a.id
+            );
         }
     }
     Ok(())

@@ -119,8 +119,13 @@ pub fn mission_report(
 
 /// Builds the report, writes `report.html`, and the JSON to `out` with `--json`.
 pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
-    let (file, found, mut report) =
-        mission_report(&args.input, &args.ride, &args.model, &args.subject, args.compare)?;
+    let (file, found, mut report) = mission_report(
+        &args.input,
+        &args.ride,
+        &args.model,
+        &args.subject,
+        args.compare,
+    )?;
     let band = args.band.request(&args.model, &file)?;
     let mounting = file.device.unwrap_or_default().mounting;
     let rides = args.ride.opener(mounting);

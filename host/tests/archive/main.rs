@@ -174,14 +174,19 @@ fn stored_values_equal_report_json_on_both_databases() {
             .zip(shown["seconds"].as_array().unwrap())
         {
             let rows = seconds["rows"].as_array().unwrap();
-            assert_eq!(rows.len() as f64, leg["duration_s"].as_f64().unwrap().ceil());
+            assert_eq!(
+                rows.len() as f64,
+                leg["duration_s"].as_f64().unwrap().ceil()
+            );
             assert_eq!(seconds["columns"][1], "vdv_m_s175");
             let last_vdv = rows.last().unwrap()[1].as_f64().unwrap();
             let vdv = leg["vector"]["vdv_m_s175"].as_f64().unwrap();
             assert!((last_vdv - vdv).abs() <= 1e-5 * vdv, "{last_vdv} {vdv}");
         }
         // The same ride again: refused, naming the mission that has it; nothing added.
-        let again = add(&db, &legs[1..], MetaArgs::default()).unwrap_err().to_string();
+        let again = add(&db, &legs[1..], MetaArgs::default())
+            .unwrap_err()
+            .to_string();
         assert!(
             again.contains(&format!("already archived as leg 2 of mission {id}")),
             "{again}"
@@ -299,10 +304,19 @@ fn fleet_statistics_equal_an_independent_computation_from_list_json() {
             let mut rates: Vec<f64> = members.iter().map(|m| independent::rate(m)).collect();
             rates.sort_by(f64::total_cmp);
             let d = &g["vdv_per_hour_m_s175"];
-            for (name, q) in [("p10", 0.1), ("p25", 0.25), ("median", 0.5), ("p75", 0.75), ("p90", 0.9)] {
+            for (name, q) in [
+                ("p10", 0.1),
+                ("p25", 0.25),
+                ("median", 0.5),
+                ("p75", 0.75),
+                ("p90", 0.9),
+            ] {
                 let want = independent::quantile(&rates, q);
                 let got = d[name].as_f64().unwrap();
-                assert!((got - want).abs() <= 1e-12 * want.abs().max(1.0), "{by} {key} {name}: {got} {want}");
+                assert!(
+                    (got - want).abs() <= 1e-12 * want.abs().max(1.0),
+                    "{by} {key} {name}: {got} {want}"
+                );
             }
             match independent::ci_rank(rates.len()) {
                 Some(k) => {
@@ -328,7 +342,9 @@ fn fleet_statistics_equal_an_independent_computation_from_list_json() {
             assert!((g["hours"].as_f64().unwrap() - hours).abs() < 1e-12);
             let reaching = members
                 .iter()
-                .filter(|m| ["warning", "alarm"].contains(&m["mission"]["max_level"].as_str().unwrap()))
+                .filter(|m| {
+                    ["warning", "alarm"].contains(&m["mission"]["max_level"].as_str().unwrap())
+                })
                 .count();
             assert_eq!(g["missions_reaching_warning"], reaching);
             for j in g["joints"].as_array().unwrap() {
@@ -347,9 +363,15 @@ fn fleet_statistics_equal_an_independent_computation_from_list_json() {
                     })
                     .collect();
                 v.sort_by(f64::total_cmp);
-                assert_eq!(j["largest_excursion"]["max"].as_f64().unwrap(), *v.last().unwrap());
+                assert_eq!(
+                    j["largest_excursion"]["max"].as_f64().unwrap(),
+                    *v.last().unwrap()
+                );
                 let median = independent::quantile(&v, 0.5);
-                assert!((j["largest_excursion"]["median"].as_f64().unwrap() - median).abs() <= 1e-12 * median.max(1.0));
+                assert!(
+                    (j["largest_excursion"]["median"].as_f64().unwrap() - median).abs()
+                        <= 1e-12 * median.max(1.0)
+                );
             }
             checked += 1;
         }
@@ -390,7 +412,13 @@ fn fleet_statistics_equal_an_independent_computation_from_list_json() {
             .filter(|m| m["vehicle"] == "B" && m["start"].as_str().unwrap() >= "2026-10-05")
             .count();
         assert_eq!(view["missions"], expect);
-        assert!(view["groups"].as_array().unwrap().iter().all(|g| g["by"] == "route"));
+        assert!(
+            view["groups"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .all(|g| g["by"] == "route")
+        );
         assert_eq!(view["compare"]["a"]["side"]["key"], "hills");
     }
 }
@@ -401,10 +429,18 @@ fn supine() -> Command {
 
 fn add_command(db: &str, input: &Path, stall_ms: u64) -> Command {
     let mut c = supine();
-    c.args(["archive", "--archive", db, "add", "--preset", "paper-litter", "--input"])
-        .arg(input)
-        .args(["--vehicle", "A1"])
-        .env(STALL_ENV, stall_ms.to_string());
+    c.args([
+        "archive",
+        "--archive",
+        db,
+        "add",
+        "--preset",
+        "paper-litter",
+        "--input",
+    ])
+    .arg(input)
+    .args(["--vehicle", "A1"])
+    .env(STALL_ENV, stall_ms.to_string());
     c
 }
 
@@ -416,11 +452,21 @@ fn two_concurrent_adds_both_land_and_a_killed_add_leaves_no_half_mission() {
     let c = ride(dir.path(), Profile::RoughRoad, 20.0, 9);
     for db in archives(dir.path()) {
         // Each holds its transaction open for 1.5 s, so the two overlap.
-        let first = add_command(&db, &a, 1500).stderr(Stdio::piped()).spawn().unwrap();
-        let second = add_command(&db, &b, 1500).stderr(Stdio::piped()).spawn().unwrap();
+        let first = add_command(&db, &a, 1500)
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let second = add_command(&db, &b, 1500)
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
         for child in [first, second] {
             let out = child.wait_with_output().unwrap();
-            assert!(out.status.success(), "{db}: {}", String::from_utf8_lossy(&out.stderr));
+            assert!(
+                out.status.success(),
+                "{db}: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
         }
         assert_eq!(list(&db).len(), 2, "{db}");
         // An add killed inside its transaction.
@@ -430,7 +476,10 @@ fn two_concurrent_adds_both_land_and_a_killed_add_leaves_no_half_mission() {
             .unwrap();
         let mut lines = BufReader::new(child.stderr.take().unwrap()).lines();
         let held = lines.find(|l| l.as_ref().is_ok_and(|l| l.contains("holding mission")));
-        assert!(held.is_some(), "{db}: the add never reached its transaction");
+        assert!(
+            held.is_some(),
+            "{db}: the add never reached its transaction"
+        );
         child.kill().unwrap();
         child.wait().unwrap();
         let archive = open(&db);
@@ -440,7 +489,11 @@ fn two_concurrent_adds_both_land_and_a_killed_add_leaves_no_half_mission() {
         drop(archive);
         // Nothing of it is left in the way: the same ride adds now.
         let out = add_command(&db, &c, 0).output().unwrap();
-        assert!(out.status.success(), "{db}: {}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "{db}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         assert_eq!(list(&db).len(), 3, "{db}");
     }
 }
@@ -471,7 +524,14 @@ fn the_fhir_bundle_validates_against_the_r4_schema() {
         )
         .unwrap();
         let file = dir.path().join("bundle.json");
-        run(&db, Sub::Export(archive::ExportArgs { id, fhir: file.clone() })).unwrap();
+        run(
+            &db,
+            Sub::Export(archive::ExportArgs {
+                id,
+                fhir: file.clone(),
+            }),
+        )
+        .unwrap();
         let bundle: Value = serde_json::from_slice(&std::fs::read(&file).unwrap()).unwrap();
         let errors: Vec<String> = fhir_schema()
             .iter_errors(&bundle)
@@ -491,9 +551,15 @@ fn the_fhir_bundle_validates_against_the_r4_schema() {
                 .clone()
         };
         let vdv = find("head-vdv");
-        assert_eq!(vdv["valueQuantity"]["value"], mission["vector"]["vdv_m_s175"]);
+        assert_eq!(
+            vdv["valueQuantity"]["value"],
+            mission["vector"]["vdv_m_s175"]
+        );
         assert_eq!(vdv["valueQuantity"]["unit"], "m/s^1.75");
-        assert!(vdv["valueQuantity"].get("code").is_none() && vdv["valueQuantity"].get("system").is_none());
+        assert!(
+            vdv["valueQuantity"].get("code").is_none()
+                && vdv["valueQuantity"].get("system").is_none()
+        );
         let rms = find("head-weighted-rms");
         assert_eq!(rms["valueQuantity"]["code"], "m/s2");
         assert_eq!(rms["valueQuantity"]["system"], "http://unitsofmeasure.org");
@@ -502,7 +568,10 @@ fn the_fhir_bundle_validates_against_the_r4_schema() {
         assert_eq!(rms["effectivePeriod"]["start"], "2026-11-28T05:00:00Z");
         assert_eq!(rms["effectivePeriod"]["end"], "2026-11-28T05:00:30Z");
         let joints = find("joint-largest-excursion");
-        assert_eq!(joints["component"].as_array().unwrap().len(), mission["joints"].as_array().unwrap().len());
+        assert_eq!(
+            joints["component"].as_array().unwrap().len(),
+            mission["joints"].as_array().unwrap().len()
+        );
         // The validator is not vacuous: a bad status, a text value and a missing status fail.
         let mut bad = bundle.clone();
         bad["entry"][0]["resource"]["status"] = "done".into();
@@ -514,10 +583,21 @@ fn the_fhir_bundle_validates_against_the_r4_schema() {
         bad["type"] = "pile".into();
         assert!(!fhir_schema().is_valid(&bad));
         // Without an identifier there is nothing to refer to: refused.
-        let other = add(&db, &[ride(dir.path(), Profile::Lab, 20.0, 22)], MetaArgs::default()).unwrap();
-        let err = run(&db, Sub::Export(archive::ExportArgs { id: other, fhir: file.clone() }))
-            .unwrap_err()
-            .to_string();
+        let other = add(
+            &db,
+            &[ride(dir.path(), Profile::Lab, 20.0, 22)],
+            MetaArgs::default(),
+        )
+        .unwrap();
+        let err = run(
+            &db,
+            Sub::Export(archive::ExportArgs {
+                id: other,
+                fhir: file.clone(),
+            }),
+        )
+        .unwrap_err()
+        .to_string();
         assert!(err.contains("no patient or encounter identifier"), "{err}");
         let _ = std::fs::remove_file(&file);
     }
@@ -588,10 +668,16 @@ fn an_archive_of_the_previous_schema_is_migrated_and_a_newer_one_refused() {
         for (i, m) in listed.iter().enumerate() {
             assert_eq!(m["vehicle"], format!("V{i}"));
             assert_eq!(m["mission"], report["mission"]);
-            assert_eq!(show(&db, m["id"].as_i64().unwrap())["legs"][0], report["legs"][0]);
+            assert_eq!(
+                show(&db, m["id"].as_i64().unwrap())["legs"][0],
+                report["legs"][0]
+            );
         }
         let archive = open(&db);
-        assert_eq!(archive.run(schema::version(&archive)).unwrap(), schema::CURRENT_VERSION);
+        assert_eq!(
+            archive.run(schema::version(&archive)).unwrap(),
+            schema::CURRENT_VERSION
+        );
         // Version 2's tables are there and usable.
         assert_eq!(count(&archive, "segment_passes"), 0);
         archive

@@ -86,8 +86,14 @@ fn start() -> Server {
     }
     let data = dir.join("data");
     let mut init = as_server_user(&bin.join("initdb"));
-    init.args(["--auth=trust", "--username=postgres", "--encoding=UTF8", "--no-sync", "-D"])
-        .arg(&data);
+    init.args([
+        "--auth=trust",
+        "--username=postgres",
+        "--encoding=UTF8",
+        "--no-sync",
+        "-D",
+    ])
+    .arg(&data);
     run(init, "initdb");
     let port = TcpListener::bind("127.0.0.1:0")
         .and_then(|l| l.local_addr())
@@ -134,7 +140,15 @@ pub fn database() -> String {
         DATABASES.fetch_add(1, Ordering::SeqCst)
     );
     let mut c = Command::new(server.bin.join("createdb"));
-    c.args(["-h", "127.0.0.1", "-p", &server.port.to_string(), "-U", "postgres", &name]);
+    c.args([
+        "-h",
+        "127.0.0.1",
+        "-p",
+        &server.port.to_string(),
+        "-U",
+        "postgres",
+        &name,
+    ]);
     run(c, "createdb");
     format!("postgres://postgres@127.0.0.1:{}/{name}", server.port)
 }
