@@ -22,7 +22,7 @@ use supine_host::report::build;
 use supine_host::report::device_check::CheckBuilder;
 use supine_host::report::device_check::{DeviceLog, DeviceRun, PassResult};
 use supine_host::report::device_series::{DeviceSeries, TraceSeriesBuilder};
-use supine_host::report::html::render;
+use supine_host::report::page::render;
 
 fn ride(dir: &Path, profile: Profile, duration_s: f64, seed: u64) -> PathBuf {
     let path = dir.join(format!("{}-{seed}.csv", profile.name()));

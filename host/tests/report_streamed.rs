@@ -11,7 +11,8 @@ use supine_core::mounting::Mounting;
 use supine_core::pipeline::{PipelineOutput, PipelineState};
 
 use supine_host::device::device_params;
-use supine_host::exposure::report::{MAX_LISTED_EVENTS, evaluate_model};
+use supine_host::exposure::model_exposure::evaluate_model;
+use supine_host::exposure::model_run::MAX_LISTED_EVENTS;
 use supine_host::exposure::ride::{Profile, generate, write_ride};
 use supine_host::io::params_file::ParamFile;
 use supine_host::io::recording::{PLATFORM_HEADER_LINE, read_input};
@@ -165,7 +166,7 @@ fn a_leg_read_row_by_row_gives_the_whole_rides_spectra_levels_alerts_and_project
             .fold(f64::MAX, f64::min),
         z_min
     );
-    let page = supine_host::report::html::render(&report, None).unwrap();
+    let page = supine_host::report::page::render(&report, None).unwrap();
     assert!(page.contains("litter z (vertical), max per 0.1 s"));
 }
 

@@ -663,5 +663,24 @@ fn axis_values(
     }
 }
 
+/// The VDV of exposures in sequence (the legs of a mission), m/s^1.75: ISO 2631-1 adds
+/// the fourth powers, `(sum VDV_i^4)^(1/4)`, because the VDV is the fourth root of an
+/// integral over time. In f64: the host combines reported values, the device never does.
+pub fn combined_vdv_m_s175(vdv_m_s175: &[f64]) -> f64 {
+    let sum: f64 = vdv_m_s175.iter().map(|v| (v * v) * (v * v)).sum();
+    libm::pow(sum, 0.25)
+}
+
+/// The rms of exposures in sequence, m/s^2: energy-equivalent, as ISO 2631-1 combines
+/// periods of different magnitude, `sqrt(sum a_i^2 T_i / sum T_i)` over `(a_i, T_i)`
+/// pairs of rms (m/s^2) and evaluated duration (s). Zero when no time was evaluated.
+pub fn combined_rms_m_s2(rms_and_duration: &[(f64, f64)]) -> f64 {
+    let total_s: f64 = rms_and_duration.iter().map(|(_, t)| t).sum();
+    if total_s <= 0.0 {
+        return 0.0;
+    }
+    libm::sqrt(rms_and_duration.iter().map(|(a, t)| a * a * t).sum::<f64>() / total_s)
+}
+
 #[cfg(test)]
 mod tests;

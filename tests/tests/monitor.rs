@@ -51,7 +51,7 @@ fn test_params_file() -> ParamFile {
             },
             sensor_checks: SensorCheckConfig::DEFAULT,
             mounting: Mounting::LEVEL,
-            joint_outputs: supine_host::io::device_section::JointSelection::ALL,
+            joint_outputs: supine_host::io::device_table::JointSelection::ALL,
             joint_alerts: Default::default(),
             telemetry_decimation: Some(1),
         }),
@@ -564,7 +564,7 @@ fn a_panic_resets_the_device_and_the_next_greeting_names_it() {
 fn the_devices_joint_outputs_match_the_f64_model_over_a_minute_of_a_rough_ride() {
     use supine_core::joint_exposure::packed_order;
     use supine_core::model::{JointOutput, JointUnit};
-    use supine_host::demo::ride::{DemoProfile, make};
+    use supine_host::demo::demo_ride::{DemoProfile, make};
     let fs = 500.0;
     let input = make(DemoProfile::RoughRoad, 60.0, fs, 7)
         .expect("a rough ride")

@@ -55,7 +55,7 @@ fn file(preset: Preset) -> ParamFile {
             },
             sensor_checks: SensorCheckConfig::DEFAULT,
             mounting: Mounting::LEVEL,
-            joint_outputs: supine_host::io::device_section::JointSelection::ALL,
+            joint_outputs: supine_host::io::device_table::JointSelection::ALL,
             joint_alerts: Default::default(),
             telemetry_decimation: Some(1),
         }),

@@ -7,7 +7,9 @@ use jiff::Timestamp;
 
 use crate::archive::fleet::{DIMENSIONS, FleetView, Group, SIGNIFICANCE};
 use crate::archive::stats::Distribution;
-use crate::report::html::{STYLE, escape, tag};
+use crate::report::markup::{escape, tag as level_tag};
+use crate::report::mission::level_named;
+use crate::report::page::STYLE;
 
 const LEVEL_COLOURS: [(&str, &str); 4] = [
     ("normal", "#2e8b57"),
@@ -15,6 +17,11 @@ const LEVEL_COLOURS: [(&str, &str); 4] = [
     ("warning", "#e65a00"),
     ("alarm", "#c80000"),
 ];
+
+/// A level's name as the page's coloured tag.
+fn tag(level: &str) -> String {
+    level_tag(level_named(level))
+}
 
 fn level_colour(level: &str) -> &'static str {
     LEVEL_COLOURS

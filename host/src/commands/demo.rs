@@ -10,7 +10,7 @@ use supine_core::model::Preset;
 
 use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
-use crate::demo::ride::DemoProfile;
+use crate::demo::demo_ride::DemoProfile;
 use crate::demo::summary::Summary;
 use crate::demo::{self, DEFAULT_OUT_DIR, DemoConfig};
 use crate::io::params_file::{self, ParamFile, PresetArg};

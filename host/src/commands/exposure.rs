@@ -1,7 +1,7 @@
 //! `supine exposure`: ISO 2631-1 exposure of a recording, in two forms.
 //! - Model form (`--preset NAME | --params FILE`): the predicted head exposure of a ride,
 //!   the device's own pipeline over the recording's platform columns, with the alert
-//!   timeline (see [`crate::exposure::report::evaluate_model`]).
+//!   timeline (see [`crate::exposure::model_exposure::evaluate_model`]).
 //! - Channel form (`--channel COLUMN --weighting wk|wd|wj`): one recorded channel,
 //!   weighted and evaluated without a model.
 //!
@@ -19,7 +19,8 @@ use supine_core::mounting::Mounting;
 
 use crate::commands::values;
 use crate::commands::weighting::Kind;
-use crate::exposure::report::{evaluate_channel, evaluate_model};
+use crate::exposure::channel_exposure::evaluate_channel;
+use crate::exposure::model_exposure::evaluate_model;
 use crate::io::params_file::{ModelSource, PresetArg};
 use crate::io::ride_input::RideInputArgs;
 use crate::io::subject_args::SubjectArgs;

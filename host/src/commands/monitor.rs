@@ -10,7 +10,7 @@ use clap::ArgGroup;
 
 use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
-use crate::demo::ride::{DemoProfile, make};
+use crate::demo::demo_ride::{DemoProfile, make};
 use crate::device::scratch::ScratchDir;
 use crate::io::params_file::{ModelSource, PresetArg};
 use crate::io::ride_input::{RideInputArgs, open_stream};

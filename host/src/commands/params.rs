@@ -4,7 +4,7 @@
 
 use anyhow::Result;
 
-use crate::io::device_section::commented_defaults;
+use crate::io::device_table::commented_defaults;
 use crate::io::params_file::ModelSource;
 
 /// Arguments of `supine params`.

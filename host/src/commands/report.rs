@@ -15,7 +15,7 @@ use crate::io::ride_input::RideInputArgs;
 use crate::io::subject_args::SubjectArgs;
 use crate::io::wording::count;
 use crate::report::device_check::DeviceLog;
-use crate::report::{self, html, monitor_log};
+use crate::report::{self, monitor_log, page};
 
 /// Arguments of `supine report`.
 #[derive(Debug, clap::Args)]
@@ -141,7 +141,7 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
         None => None,
     };
     if let Some(request) = &band {
-        report.band = Some(report::band::build(
+        report.band = Some(report::prediction_band::build(
             &inputs,
             rides,
             &file,
@@ -151,7 +151,7 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
             band_threads(),
         )?);
     }
-    let page = html::render(&report, device.as_ref())?;
+    let page = page::render(&report, device.as_ref())?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("{}: cannot create the folder", args.out.display()))?;
     let path = args.out.join("report.html");

@@ -8,7 +8,7 @@ use anyhow::Result;
 
 use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
-use crate::demo::ride::{DemoProfile, make};
+use crate::demo::demo_ride::{DemoProfile, make};
 use crate::exposure::ride::write_ride;
 
 /// Arguments of `supine ride`.

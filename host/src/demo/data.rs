@@ -1,7 +1,7 @@
 //! What the demo's summary and report are made from: how the run was made, the mission
 //! report of the ride it streamed, and the device's log of that ride beside the host's.
 
-use super::ride::DemoProfile;
+use super::demo_ride::DemoProfile;
 use crate::report::MissionReport;
 use crate::report::device_check::DeviceLog;
 

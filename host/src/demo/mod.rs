@@ -19,7 +19,7 @@
 //! so a failed run never leaves an older report that looks like this run's.
 
 pub mod data;
-pub mod ride;
+pub mod demo_ride;
 pub mod summary;
 
 use std::path::{Path, PathBuf};
@@ -51,9 +51,9 @@ use crate::plot::time_chart::{Band, Moment};
 use crate::report::device_check::PassResult;
 use crate::report::device_check::{DeviceLog, DeviceRun};
 use crate::report::device_pass::{self, Session};
-use crate::report::{self, MissionReport, html};
+use crate::report::{self, MissionReport, page};
 use data::{DemoData, RunInfo};
-use ride::{DemoProfile, DemoRide};
+use demo_ride::{DemoProfile, DemoRide};
 use summary::Summary;
 
 /// The output folder when none is given.
@@ -329,7 +329,7 @@ fn prepare_folder(dir: &Path, force: bool) -> Result<(DemoFiles, OutputFolder)> 
 /// 1e-6 m/s^2): the device gets exactly that, so that `supine replay` of the file
 /// reproduces device.csv.
 fn make_ride(config: &DemoConfig, path: &Path) -> Result<DemoRide> {
-    let mut ride = ride::make(
+    let mut ride = demo_ride::make(
         config.profile,
         config.duration_s,
         SAMPLE_RATE_HZ,
@@ -567,7 +567,7 @@ fn shocks(ride: &DemoRide) -> Vec<Moment> {
 
 /// Renders the report and writes it, whole or not at all.
 fn write_report(path: &Path, report: &MissionReport, log: &DeviceLog) -> Result<()> {
-    let page = html::render(report, Some(log))?;
+    let page = page::render(report, Some(log))?;
     crate::io::output::write_atomically(path, |w| {
         use std::io::Write as _;
         w.write_all(page.as_bytes())

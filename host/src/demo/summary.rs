@@ -11,7 +11,7 @@ use supine_core::alerts::Level;
 use supine_core::exposure::AxisValues;
 
 use super::data::DemoData;
-use crate::exposure::report::AxisReport;
+use crate::exposure::reported_values::AxisReport;
 use crate::report::device_check::{Check, difference};
 
 /// What the demo found.

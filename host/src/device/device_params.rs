@@ -11,7 +11,7 @@ use supine_core::model::Model;
 use supine_core::protocol::{IDENTITY_LEN, ParamsIdentity};
 use supine_core::sample_rate::SampleRate;
 
-use crate::io::device_section::check;
+use crate::io::device_table::check;
 use crate::io::params_file::ParamFile;
 
 /// The identity the device reports for these parameters.

@@ -4,12 +4,24 @@
 //! - [`ride`]: realistic litter-frame accelerations (`supine ride`).
 //! - [`weighting_response`]: the device's weighting filters against the analog ones.
 //! - [`resample`]: band-limited sample-rate conversion of recordings.
-//! - [`report`]: exposure reports of recordings (`supine exposure`).
+//! - [`evaluation_input`]: a ride at the rate it is evaluated at (resampled on request).
+//! - [`model_run`]: the device pipeline over a ride, sample by sample.
+//! - [`model_exposure`]: `supine exposure`'s model form (the device chain over a ride).
+//! - [`channel_exposure`]: its channel form (one recorded channel weighted, no model).
+//! - [`reported_values`], [`timed_event`]: the values and alert timeline they report.
+//! - [`exposure_text`]: their readable text.
+//! - [`joints`]: the predicted neck and lower-back motion of a ride.
 //! - [`reference`](mod@reference): what the device must produce for given inputs (f32 pipeline, f64 model).
 
+pub mod channel_exposure;
+pub mod evaluation_input;
+pub mod exposure_text;
 pub mod joints;
+pub mod model_exposure;
+pub mod model_run;
 pub mod reference;
-pub mod report;
+pub mod reported_values;
 pub mod resample;
 pub mod ride;
+pub mod timed_event;
 pub mod weighting_response;

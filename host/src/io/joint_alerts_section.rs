@@ -19,7 +19,7 @@ use supine_core::alerts::{AlertConfig, JointAlertConfig};
 use supine_core::joint_exposure::packed_order;
 use supine_core::model::{JOINT_OUTPUT_COUNT, JointOutput, JointUnit};
 
-use crate::io::device_section::Refusal;
+use crate::io::device_table::Refusal;
 
 /// One output's keys as written (each optional; a key in the other unit is kept, to be
 /// refused with its name).

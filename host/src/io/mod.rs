@@ -7,7 +7,7 @@
 //! - [`small_file`]: reading a file that cannot legitimately be large, with a size limit.
 //! - [`csv_lines`]: reading a CSV file line by line, each line bounded.
 //! - [`params_file`]: the parameter file (`--params`), TOML.
-//! - [`device_section`]: its `[device]` table, and which key the device would refuse;
+//! - [`device_table`]: its `[device]` table, and which key the device would refuse;
 //!   [`joint_alerts_section`] its `[device.joint_alerts]`.
 //! - [`dataset`]: a dataset folder (`dataset.toml` and its recordings).
 //! - [`recording`]: the recording CSV (13 columns, or the platform columns of a ride).
@@ -21,7 +21,7 @@
 
 pub mod csv_lines;
 pub mod dataset;
-pub mod device_section;
+pub mod device_table;
 pub mod excerpt;
 pub mod h_csv;
 pub mod joint_alerts_section;

@@ -16,8 +16,8 @@ use supine_core::model::{ModelParams, ParamError, Preset, Subject, device_realiz
 use supine_core::mounting::Mounting;
 use supine_core::sample_rate::SampleRate;
 
-pub use crate::io::device_section::DeviceSection;
-use crate::io::device_section::{check, locate};
+pub use crate::io::device_table::DeviceSection;
+use crate::io::device_table::{check, locate};
 
 use crate::io::excerpt::bound_quoted_parts;
 use crate::io::output::write_atomically;
@@ -175,7 +175,7 @@ fn check_device(
         .iter()
         .filter_map(|r| locate(text, &r.key).map(|at| (at, r)))
         .min_by_key(|((line, column, _), _)| (*line, *column));
-    let key = |r: &crate::io::device_section::Refusal| {
+    let key = |r: &crate::io::device_table::Refusal| {
         if r.key.is_empty() {
             "device".to_string()
         } else {

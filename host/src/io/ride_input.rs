@@ -299,7 +299,7 @@ fn gravity_verdict(path: &Path, vertical: &str, mean: f64, removed: bool) -> Res
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::exposure::report::evaluate_model;
+    use crate::exposure::model_exposure::evaluate_model;
     use crate::exposure::ride::{Profile, generate, write_ride};
     use crate::io::params_file::ParamFile;
     use supine_core::model::Preset;

@@ -4,8 +4,8 @@
 
 use anyhow::Result;
 use supine_core::alerts::AlertConfig;
+use supine_core::exposure::combined_vdv_m_s175;
 
-use crate::exposure::report::combined_vdv_m_s175;
 use crate::plot::downsample::min_max;
 use crate::plot::time_chart::{
     Band, Chart, LEVEL_COLORS, Line, Marker, PLOT_COLUMNS, alert_thresholds, y_range,

@@ -11,7 +11,7 @@ use supine_core::alerts::{AlertConfig, Level};
 use crate::io::telemetry_csv::level_from_name;
 use crate::report::device_charts;
 use crate::report::device_check::{Check, DeviceLog, difference};
-use crate::report::html::{escape, figure, tag};
+use crate::report::markup::{escape, figure, tag};
 
 /// Most device alert events listed (all are in the events CSV).
 pub const MAX_DEVICE_EVENT_ROWS: usize = 40;
@@ -26,16 +26,12 @@ pub fn check(h: &mut String, log: &DeviceLog, check: &Check) {
          <div class=\"verdict lvl-{}\"><div class=\"big\">The device's highest alert level: {}",
         escape(&log.run.account),
         lvl.name(),
-        tag(lvl.name())
+        tag(lvl)
     );
     if let Some(t) = check.highest_at_s {
         let _ = write!(h, " first reached at {t:.1} s");
     }
-    let _ = write!(
-        h,
-        "; at the end of the ride: {}",
-        tag(check.final_level.name())
-    );
+    let _ = write!(h, "; at the end of the ride: {}", tag(check.final_level));
     if check.final_level == Level::Normal
         && lvl > Level::Normal
         && let Some(t) = check.cleared_at_s
@@ -115,7 +111,7 @@ fn events_table(h: &mut String, log: &DeviceLog) {
             ("level", Some(l)) => format!(
                 "{} {}",
                 if e.raised { "raised to" } else { "lowered to" },
-                tag(l.name())
+                tag(l)
             ),
             _ => escape(&e.text()),
         };

@@ -16,18 +16,21 @@
 use anyhow::Result;
 use serde::Serialize;
 use supine_core::alerts::{AlertConfig, Criterion, Level};
+use supine_core::exposure::{combined_rms_m_s2, combined_vdv_m_s175};
 use supine_core::model::JOINT_OUTPUT_COUNT;
 
 use crate::device::device_params;
+use crate::exposure::evaluation_input::EvaluationInput;
 use crate::exposure::joints::JointReport;
-use crate::exposure::report::{
-    AxisReport, EvaluationInput, MAX_LISTED_EVENTS, ModelExposure, Step, TimedEvent,
-    combined_rms_m_s2, combined_vdv_m_s175, evaluate_model_with,
-};
+use crate::exposure::model_exposure::{ModelExposure, evaluate_model_with};
+use crate::exposure::model_run::{MAX_LISTED_EVENTS, Step};
+use crate::exposure::reported_values::AxisReport;
+use crate::exposure::timed_event::TimedEvent;
 use crate::io::params_file::ParamFile;
 use crate::io::ride_rows::RideSource;
+use crate::io::telemetry_csv::level_from_name;
 use crate::io::wording::display_unit;
-use crate::report::joints::{MissionJoint, mission_joints};
+use crate::report::mission_joints::{LegJoints, MissionJoint, mission_joints};
 use crate::report::spectrum::{AxisSpectrum, LegSpectra};
 
 /// Rate of the time series kept for the charts, Hz: the running rms has a 1 s time
@@ -134,7 +137,7 @@ pub struct Leg {
     /// Alert events with their criteria (the first [`MAX_LISTED_EVENTS`]).
     pub alerts: Vec<AlertRow>,
     /// Events after the listed ones, counted only (absent when none).
-    #[serde(skip_serializing_if = "crate::exposure::report::none_omitted")]
+    #[serde(skip_serializing_if = "crate::exposure::model_exposure::none_omitted")]
     pub alerts_omitted: usize,
     /// Seconds at each level.
     pub time_at_level_s: TimeAtLevel,
@@ -471,7 +474,16 @@ pub fn totals(legs: &[Leg], config: &AlertConfig) -> MissionTotals {
         time_at_level_s: TimeAtLevel::from_array(at_level),
         max_level: LEVEL_NAMES[max_level],
         projection: projection(legs.last(), mission_vdv, config),
-        joints: mission_joints(legs),
+        joints: mission_joints(
+            &legs
+                .iter()
+                .map(|l| LegJoints {
+                    start_s: l.start_s,
+                    duration_s: l.duration_s,
+                    joints: &l.joints,
+                })
+                .collect::<Vec<_>>(),
+        ),
     }
 }
 
@@ -508,9 +520,9 @@ fn projection(last: Option<&Leg>, mission_vdv: f64, config: &AlertConfig) -> Pro
     }
 }
 
-/// The level's index in [`LEVEL_NAMES`] (normal for an unknown name).
-pub fn level_index(name: &str) -> usize {
-    LEVEL_NAMES.iter().position(|n| *n == name).unwrap_or(0)
+/// The level named `name` (normal for an unknown name).
+pub fn level_named(name: &str) -> Level {
+    level_from_name(name).unwrap_or_default()
 }
 
 /// The core's level for a name.

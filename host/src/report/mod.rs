@@ -2,32 +2,42 @@
 //! device's own pipeline for a given patient, combined as ISO 2631-1 combines exposures in
 //! sequence, and written as one self-contained HTML page and one JSON object.
 //!
-//! - [`mission`]: the numbers (legs, alerts with their criteria, time at each level, the
-//!   mission's combination and the projection).
-//! - [`spectrum`]: the power spectral densities of input and predicted head.
-//! - [`charts`]: what each chart shows.
-//! - [`joints`]: the neck and lower-back section (per leg and for the mission).
-//! - [`html`]: the page.
-//! - [`band`]: with `--band N`, the prediction band of the head's vector values.
-//! - [`device_check`], [`device_charts`], [`device_section`], [`trace`]: with a device
-//!   log (what a device sent for the ride, as `supine demo` has it), the device's own
-//!   account beside the host's: the largest difference of each output, identical events.
-//! - [`monitor_log`]: a session logged by `supine monitor --log` as the input: its input
-//!   stream is the ride, its telemetry and events the device log.
+//! Three layers, each importing only the ones before it, and one leaf of markup helpers:
+//!
+//! 1. The numbers (this module's [`MissionReport`], the `--json` data model; no markup):
+//!    - [`mission`]: the legs, alerts with their criteria, time at each level, the
+//!      mission's combination and the projection.
+//!    - [`spectrum`]: the power spectral densities of input and predicted head.
+//!    - [`mission_joints`]: the neck and lower-back motion combined over the legs.
+//!    - [`prediction_band`]: with `--band N`, the prediction band of the head's vector values.
+//!    - [`device_check`], [`device_pass`], [`device_series`]: with a device log (what a
+//!      device sent for the ride, as `supine demo` has it), the device's own account
+//!      beside the host's: the largest difference of each output, identical events.
+//!    - [`monitor_log`]: a session logged by `supine monitor --log` as the input: its
+//!      input stream is the ride, its telemetry and events the device log.
+//! 2. The charts, built on the numbers: [`charts`] (what each chart of the legs shows),
+//!    [`device_charts`] (the device's telemetry over the host's).
+//! 3. The sections of the page, built on the charts: [`page`] (the page and the legs'
+//!    sections), [`joints_section`], [`band_section`], [`device_section`].
+//!
+//! [`markup`] (escaping, a level's tag, a chart as a figure) is the leaf every section uses.
 //!
 //! The JSON's key names are the contract of `--json` (`docs/exposure.md#mission-report`).
 
-pub mod band;
+pub mod band_section;
 pub mod charts;
 pub mod device_charts;
 pub mod device_check;
 pub mod device_pass;
 pub mod device_section;
 pub mod device_series;
-pub mod html;
-pub mod joints;
+pub mod joints_section;
+pub mod markup;
 pub mod mission;
+pub mod mission_joints;
 pub mod monitor_log;
+pub mod page;
+pub mod prediction_band;
 pub mod spectrum;
 
 use std::path::PathBuf;
@@ -37,7 +47,7 @@ use serde::Serialize;
 use supine_core::alerts::AlertConfig;
 
 use crate::device::device_params;
-use crate::exposure::report::ThresholdsReport;
+use crate::exposure::reported_values::ThresholdsReport;
 use crate::io::params_file::ParamFile;
 use crate::io::ride_rows::OpenRide;
 use mission::{Leg, MissionTotals, evaluate_leg, totals};
@@ -100,7 +110,7 @@ pub struct MissionReport {
     pub comparison: Option<Comparison>,
     /// The prediction band (`--band N`), when asked for.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub band: Option<band::ReportBand>,
+    pub band: Option<prediction_band::ReportBand>,
     /// The alert thresholds.
     #[serde(skip)]
     pub thresholds: AlertConfig,

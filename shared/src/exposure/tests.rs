@@ -505,3 +505,20 @@ fn a_block_of_32_samples_gives_bit_for_bit_what_32_single_steps_give() {
     }
     assert_eq!(s.values(rate(FS), &one), s.values(rate(FS), &block));
 }
+
+#[test]
+fn legs_in_sequence_combine_as_one_exposure_of_their_joined_time() {
+    // Closed forms: n equal legs give VDV n^(1/4) times one leg's and the same rms; a leg
+    // of twice the duration weighs twice in the mean square.
+    let n = 16;
+    assert!((combined_vdv_m_s175(&vec![1.5; n]) - 1.5 * 2.0).abs() < 1e-12);
+    assert!((combined_rms_m_s2(&vec![(0.7, 30.0); n]) - 0.7).abs() < 1e-12);
+    let rms = combined_rms_m_s2(&[(1.0, 20.0), (2.0, 10.0)]);
+    assert!((rms - ((1.0 * 20.0 + 4.0 * 10.0) / 30.0_f64).sqrt()).abs() < 1e-12);
+    // The VDV's fourth power is an integral over time, so it adds across legs.
+    let vdv = combined_vdv_m_s175(&[1.0, 2.0, 3.0]);
+    assert!((vdv.powi(4) - (1.0 + 16.0 + 81.0)).abs() < 1e-9);
+    // Nothing evaluated: nothing to combine.
+    assert_eq!(combined_rms_m_s2(&[(3.0, 0.0)]), 0.0);
+    assert_eq!(combined_vdv_m_s175(&[]), 0.0);
+}

@@ -4,7 +4,7 @@
 //! head acceleration evaluated like the device does (docs/exposure.md: the recumbent
 //! axes' frequency weightings, overall weighted rms after the warm-up), and the band is the
 //! 2.5 to 97.5 percentile of each value over the draws. The drawing, the parallel
-//! evaluation and the quantiles are shared with `supine report`'s band (`report::band`),
+//! evaluation and the quantiles are shared with `supine report`'s band (`report::prediction_band`),
 //! which evaluates each draw through the device's pipeline instead.
 //!
 //! What it covers and what it does not: docs/model.md#uncertainty-of-a-fit.

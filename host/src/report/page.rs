@@ -6,33 +6,17 @@
 use std::fmt::Write as _;
 
 use anyhow::Result;
-use supine_core::alerts::AlertConfig;
+use supine_core::alerts::{AlertConfig, Level};
 
-use crate::exposure::report::AxisReport;
-use crate::plot::time_chart::Chart;
+use crate::exposure::reported_values::AxisReport;
 use crate::report::device_check::DeviceLog;
-use crate::report::mission::{LEVEL_NAMES, Leg, level_index};
+use crate::report::markup::{escape, tag};
+use crate::report::mission::{LEVEL_NAMES, Leg, level_named};
 use crate::report::{Comparison, MissionReport};
-use crate::report::{band, charts, device_section, joints};
+use crate::report::{band_section, charts, device_section, joints_section};
 
 /// Most alert events listed per leg (the JSON has them all).
 pub const MAX_EVENT_ROWS: usize = 60;
-
-/// Escapes text for HTML element content and attribute values.
-pub fn escape(text: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    for c in text.chars() {
-        match c {
-            '&' => out.push_str("&amp;"),
-            '<' => out.push_str("&lt;"),
-            '>' => out.push_str("&gt;"),
-            '"' => out.push_str("&quot;"),
-            '\'' => out.push_str("&#39;"),
-            c => out.push(c),
-        }
-    }
-    out
-}
 
 /// The pages' style sheet (the mission report and the fleet view share it).
 pub const STYLE: &str = "
@@ -71,23 +55,6 @@ code { background: #f2f2f2; padding: 0 4px; border-radius: 3px; font-size: 13px;
   .leg { break-before: page; page-break-before: always; }
 }
 ";
-
-/// A level's name as a coloured tag.
-pub fn tag(level: &str) -> String {
-    let level = LEVEL_NAMES[level_index(level)];
-    format!("<span class=\"tag tag-{level}\">{level}</span>")
-}
-
-/// A chart as a figure, with its caption when there is one.
-pub fn figure(h: &mut String, chart: &Chart, caption: &str) -> Result<()> {
-    let svg = chart.to_svg()?;
-    let _ = write!(h, "<figure>\n{svg}\n");
-    if !caption.is_empty() {
-        let _ = writeln!(h, "<figcaption>{caption}</figcaption>");
-    }
-    h.push_str("</figure>\n");
-    Ok(())
-}
 
 /// A duration in words, with no-break spaces so that a table cell never splits it.
 fn duration(s: f64) -> String {
@@ -155,7 +122,7 @@ pub fn render(report: &MissionReport, device: Option<&DeviceLog>) -> Result<Stri
         } else {
             "mission"
         };
-        h.push_str(&band::html(b, legs, total));
+        h.push_str(&band_section::html(b, legs, total));
     }
     if let Some(log) = device {
         device_section::check(&mut h, log, &log.pass.check);
@@ -180,7 +147,7 @@ pub fn render(report: &MissionReport, device: Option<&DeviceLog>) -> Result<Stri
          device state, so every leg has its own 5 s warm-up of the weighting filters; the \
          mission's VDV adds the legs' fourth powers.</p>\n",
     );
-    joints::section(&mut h, legs, &report.mission.joints, layout)?;
+    joints_section::section(&mut h, legs, &report.mission.joints, layout)?;
     for (i, leg) in legs.iter().enumerate() {
         leg_section(&mut h, i, leg)?;
     }
@@ -213,16 +180,16 @@ fn level_meanings(h: &mut String, config: &AlertConfig) {
          point to be set per mission in the parameter file, not limits established for patients; and the head acceleration is \
          a model's prediction from the litter's, not a measurement. Use the alerts to compare rides and to slow down, not as \
          a diagnosis.</p></section>\n",
-        tag("normal"),
+        tag(Level::Normal),
         rms[0],
         vdv[0],
-        tag("advisory"),
+        tag(Level::Advisory),
         rms[0],
         vdv[0],
-        tag("warning"),
+        tag(Level::Warning),
         rms[1],
         vdv[1],
-        tag("alarm"),
+        tag(Level::Alarm),
         rms[2],
         vdv[2],
         (100.0 * (1.0 - config.hysteresis)).round(),
@@ -237,8 +204,8 @@ fn mission(h: &mut String, report: &MissionReport) {
         "<div class=\"verdict lvl-{0}\"><div class=\"big\">Highest alert level: {1}</div>\
          <p>Mission VDV {2:.3} m/s<sup>1.75</sup> (the legs combined as (&Sigma; VDV<sub>i</sub><sup>4</sup>)<sup>1/4</sup>); \
          rms {3:.3} m/s<sup>2</sup> (energy-equivalent over the evaluated time); largest MTVV {4:.3} m/s<sup>2</sup>.</p></div>",
-        LEVEL_NAMES[level_index(m.max_level)],
-        tag(m.max_level),
+        level_named(m.max_level).name(),
+        tag(level_named(m.max_level)),
         m.vector.vdv_m_s175,
         m.vector.rms_m_s2,
         m.vector.mtvv_m_s2
@@ -264,7 +231,7 @@ fn mission(h: &mut String, report: &MissionReport) {
         for t in leg.time_at_level_s.as_array() {
             let _ = write!(h, "<td>{}</td>", duration(t));
         }
-        let _ = writeln!(h, "<td>{}</td></tr>", tag(leg.max_level));
+        let _ = writeln!(h, "<td>{}</td></tr>", tag(level_named(leg.max_level)));
     }
     let _ = write!(
         h,
@@ -277,7 +244,7 @@ fn mission(h: &mut String, report: &MissionReport) {
     for t in m.time_at_level_s.as_array() {
         let _ = write!(h, "<th>{}</th>", duration(t));
     }
-    let _ = writeln!(h, "<th>{}</th></tr></table>", tag(m.max_level));
+    let _ = writeln!(h, "<th>{}</th></tr></table>", tag(level_named(m.max_level)));
     let p = &m.projection;
     let _ = write!(
         h,
@@ -294,7 +261,7 @@ fn mission(h: &mut String, report: &MissionReport) {
         let _ = write!(
             h,
             "<tr><td>{}</td><td>{:.2}</td><td class=\"text\">{when}</td></tr>",
-            tag(t.level),
+            tag(level_named(t.level)),
             t.vdv_m_s175
         );
     }
@@ -430,15 +397,6 @@ fn leg_section(h: &mut String, index: usize, leg: &Leg) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn escaping_covers_markup_and_quotes() {
-        assert_eq!(
-            escape("<script>alert(\"x\") & 'y'</script>"),
-            "&lt;script&gt;alert(&quot;x&quot;) &amp; &#39;y&#39;&lt;/script&gt;"
-        );
-        assert_eq!(escape("0.1.0+qemu"), "0.1.0+qemu");
-    }
 
     #[test]
     fn durations_hold_together_and_rates_read_as_written() {

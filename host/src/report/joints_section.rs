@@ -1,75 +1,17 @@
 //! The report's "Neck and lower back" section: the predicted joint motion of each leg (the
-//! values `supine exposure` gives) and of the mission (`docs/exposure.md`, "Neck and lower
-//! back").
+//! values `supine exposure` gives) and of the mission ([`crate::report::mission_joints`];
+//! `docs/exposure.md`, "Neck and lower back").
 //!
 //! No standard sets limits for a supine patient's spinal motion, so the section reports and
 //! does not judge: no thresholds, no levels.
 
 use std::fmt::Write as _;
 
-use anyhow::Result;
-use serde::Serialize;
-
-use crate::exposure::report::combined_rms_m_s2;
 use crate::report::charts::{self, Layout};
-use crate::report::html::{escape, figure};
+use crate::report::markup::{escape, figure};
 use crate::report::mission::Leg;
-
-/// One joint output over the whole mission.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct MissionJoint {
-    /// The output, e.g. `neck_z`.
-    pub output: &'static str,
-    /// `mm` or `deg`.
-    pub unit: &'static str,
-    /// Rms over the legs' whole time, combined energy-equivalently (each leg's mean square
-    /// weighted by its duration).
-    pub rms: f64,
-    /// The largest 1 s running rms of any leg.
-    pub max_running_rms: f64,
-    /// The largest |value| of any leg.
-    pub largest_excursion: f64,
-    /// When, s from the mission's start.
-    pub largest_excursion_at_mission_s: f64,
-    /// In which leg (1-based).
-    pub largest_excursion_leg: usize,
-}
-
-/// The legs' joint motion combined. Empty when there are no legs.
-pub fn mission_joints(legs: &[Leg]) -> Vec<MissionJoint> {
-    let Some(first) = legs.first() else {
-        return Vec::new();
-    };
-    (0..first.joints.len())
-        .map(|o| {
-            let mut rms_and_duration = Vec::with_capacity(legs.len());
-            let mut max_running_rms = 0.0_f64;
-            let mut peak = (0.0_f64, 0.0, 1);
-            for (i, leg) in legs.iter().enumerate() {
-                let Some(j) = leg.joints.get(o) else { continue };
-                rms_and_duration.push((j.rms, leg.duration_s));
-                max_running_rms = max_running_rms.max(j.max_running_rms);
-                if j.largest_excursion > peak.0 {
-                    peak = (
-                        j.largest_excursion,
-                        leg.start_s + j.largest_excursion_at_s,
-                        i + 1,
-                    );
-                }
-            }
-            MissionJoint {
-                output: first.joints[o].output,
-                unit: first.joints[o].unit,
-                // The head's energy-equivalent combination; the formula holds for any unit.
-                rms: combined_rms_m_s2(&rms_and_duration),
-                max_running_rms,
-                largest_excursion: peak.0,
-                largest_excursion_at_mission_s: peak.1,
-                largest_excursion_leg: peak.2,
-            }
-        })
-        .collect()
-}
+use crate::report::mission_joints::MissionJoint;
+use anyhow::Result;
 
 /// The section: what the numbers are, the mission table (not for two compared rides,
 /// which are not one mission), the legs' largest excursions side by side, and the running
