@@ -121,7 +121,13 @@ fn start() -> Server {
         data = data.display(),
         dir = dir.display()
     );
-    let mut watcher = as_server_user(Path::new("/bin/sh"));
+    // In a session of its own (setsid), so that a signal to this test's process group
+    // (Ctrl-C, a timeout) does not take the watcher with it.
+    let mut watcher = Command::new("setsid");
+    watcher.arg(if is_root() { "runuser" } else { "sh" });
+    if is_root() {
+        watcher.args(["-u", "postgres", "--", "/bin/sh"]);
+    }
     watcher
         .args(["-c", &script])
         .stdin(Stdio::null())
