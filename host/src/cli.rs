@@ -103,8 +103,10 @@ pub enum Command {
         after_help = "Example:\n  supine monitor --qemu --preset paper-litter --profile road-trip"
     )]
     Monitor(commands::monitor::Args),
-    /// Print the `[device.mounting]` calibration for an accelerometer reading at rest.
-    #[command(after_help = "Example:\n  supine calibrate --at-rest-m-s2 0.12, -0.05, 9.80")]
+    /// Print the `[device.mounting]` table for a reading at rest, or `[device.calibration]` from a tumble test.
+    #[command(
+        after_help = "Examples:\n  supine calibrate --at-rest-m-s2 0.12, -0.05, 9.80\n  supine calibrate --tumble tumble.csv --by \"A. Tech\" --date 2026-11-28"
+    )]
     Calibrate(commands::calibrate::Args),
     /// Put parameters on a device: QEMU region image, signed upload over serial, probe-rs.
     #[command(after_help = "Example:\n  supine flash --preset paper-litter --qemu")]

@@ -65,8 +65,8 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
     let mut file = args.model.load()?;
     args.subject.apply(&mut file)?;
     let band = args.band.request(&args.model, &file)?;
-    let mounting = file.device.unwrap_or_default().mounting;
-    let rides = args.ride.opener(mounting);
+    let frame = file.device.unwrap_or_default().sensor_frame();
+    let rides = args.ride.opener(frame);
     let logged = match args.input.as_slice() {
         [one] if monitor_log::is_monitor_log(one) => Some((one, monitor_log::open(one, &file)?)),
         inputs => {
@@ -90,9 +90,14 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
         &model_name(&args.model),
         args.compare,
     )?;
+    if let Some((_, session)) = &logged
+        && let Some(calibration) = session_calibration(&session.session)?
+    {
+        report.calibration = calibration;
+    }
     let device = match &logged {
         Some((log, session)) => {
-            let ride = args.ride.open(&session.ride, &mounting)?;
+            let ride = args.ride.open(&session.ride, &frame)?;
             Some(monitor_log::device_log(log, session, &file, &ride)?)
         }
         None => None,
@@ -135,6 +140,26 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
         report.mission.max_level
     );
     Ok(())
+}
+
+/// The calibration a monitor session's device ran on, with its age on the day the session
+/// started, if the session file recorded both (a log written before they were recorded
+/// has neither: the report then states the parameter file's as of the report's date).
+fn session_calibration(
+    session: &crate::io::monitor_session::SessionInfo,
+) -> Result<Option<report::calibration::CalibrationReport>> {
+    let (Some(started), Some(table)) = (&session.started_utc, session.calibration) else {
+        return Ok(None);
+    };
+    let date = crate::io::calibration_section::parse_date(started)
+        .map_err(|e| anyhow!("the session file's started_utc: {e}"))?;
+    let started = report::calibration::calendar(date)
+        .ok_or_else(|| anyhow!("the session file's started_utc: {started} is not a date"))?;
+    Ok(Some(report::calibration::CalibrationReport::new(
+        &table.into(),
+        started,
+        "the session's start",
+    )))
 }
 
 /// The device-versus-host check of a monitor log, for `--json`: largest differences

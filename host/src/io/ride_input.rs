@@ -13,14 +13,16 @@
 //! [`GRAVITY_MARGIN_M_S2`] of +-g is a raw accelerometer reading with gravity in it, which
 //! the model would take for a steady 1 g push and report nonsense from. `--remove-gravity`
 //! converts every sample as the device converts its sensor's readings
-//! ([`Mounting::to_litter_m_s2`]: the parameters' `[device.mounting]` rotation, then
+//! ([`SensorFrame::to_litter_m_s2`]: the parameters' `[device.calibration]` sensitivity
+//! and offset, their `[device.mounting]` rotation, then
 //! gravity off the vertical), in the device's f32.
 
 use std::io::Write as _;
 use std::path::Path;
 
 use anyhow::{Result, anyhow, bail};
-use supine_core::mounting::{Mounting, STANDARD_GRAVITY_M_S2};
+use supine_core::calibration::SensorFrame;
+use supine_core::mounting::STANDARD_GRAVITY_M_S2;
 
 use crate::io::csv_lines::CsvLines;
 use crate::io::excerpt::quoted_name;
@@ -51,7 +53,8 @@ pub struct RideInputArgs {
     #[arg(long, value_enum, value_name = "UNIT", requires = "columns")]
     pub units: Option<AccelUnit>,
     /// The file is a raw accelerometer's, with gravity: convert it as the device does
-    /// (the parameters' [device.mounting] rotation, then gravity off the vertical).
+    /// (the parameters' [device.calibration] and [device.mounting], then gravity off the
+    /// vertical).
     #[arg(long)]
     pub remove_gravity: bool,
 }
@@ -75,14 +78,14 @@ impl RideInputArgs {
     }
 
     /// Reads the ride at `path` whole: the project's formats, or another logger's with
-    /// `--columns`; then gravity removed (`mounting`, with `--remove-gravity`) and checked.
-    pub fn read(&self, path: &Path, mounting: &Mounting) -> Result<(Recording, Layout)> {
+    /// `--columns`; then gravity removed (`frame`, with `--remove-gravity`) and checked.
+    pub fn read(&self, path: &Path, frame: &SensorFrame) -> Result<(Recording, Layout)> {
         let (mut recording, layout) = match self.foreign_format() {
             Some(format) => (read_foreign(path, &format)?, Layout::PlatformOnly),
             None => read_own(path)?,
         };
         if self.remove_gravity {
-            remove_gravity(&mut recording, mounting);
+            remove_gravity(&mut recording, frame);
         }
         check_gravity(&recording, self.vertical(), self.remove_gravity)?;
         Ok((recording, layout))
@@ -91,8 +94,8 @@ impl RideInputArgs {
     /// Opens the ride at `path` to be read row by row, with the checks of
     /// [`read`](Self::read) and the same errors: every row checked (two passes), then the
     /// gravity check on the converted rows (one more). Memory holds a line.
-    pub fn open(&self, path: &Path, mounting: &Mounting) -> Result<RideSource> {
-        let removal = self.remove_gravity.then_some(*mounting);
+    pub fn open(&self, path: &Path, frame: &SensorFrame) -> Result<RideSource> {
+        let removal = self.remove_gravity.then_some(*frame);
         let source = match self.foreign_format() {
             Some(format) => RideSource::foreign(path, format, removal)?,
             None => RideSource::own(PlatformStream::open(path).map_err(own_error)?, removal),
@@ -108,11 +111,11 @@ impl RideInputArgs {
         Ok(source)
     }
 
-    /// The rides as `report` opens them: row by row, with these options and `mounting`.
-    pub fn opener(&self, mounting: Mounting) -> RideOpener<'_> {
+    /// The rides as `report` opens them: row by row, with these options and `frame`.
+    pub fn opener(&self, frame: SensorFrame) -> RideOpener<'_> {
         RideOpener {
             args: self,
-            mounting,
+            frame,
         }
     }
 }
@@ -121,12 +124,12 @@ impl RideInputArgs {
 #[derive(Clone, Copy, Debug)]
 pub struct RideOpener<'a> {
     args: &'a RideInputArgs,
-    mounting: Mounting,
+    frame: SensorFrame,
 }
 
 impl OpenRide for RideOpener<'_> {
     fn open_ride(&self, path: &Path) -> Result<RideSource> {
-        self.args.open(path, &self.mounting)
+        self.args.open(path, &self.frame)
     }
 }
 
@@ -138,7 +141,7 @@ impl OpenRide for RideOpener<'_> {
 pub fn open_stream(
     args: &RideInputArgs,
     path: &Path,
-    mounting: &Mounting,
+    frame: &SensorFrame,
     scratch: &Path,
 ) -> Result<PlatformStream> {
     if args.columns.is_none() && !args.remove_gravity {
@@ -146,7 +149,7 @@ pub fn open_stream(
         check_gravity_streamed(&stream)?;
         return Ok(stream);
     }
-    let source = args.open(path, mounting)?;
+    let source = args.open(path, frame)?;
     let converted = scratch.join("ride.csv");
     write_atomically(&converted, |w| {
         writeln!(w, "{PLATFORM_HEADER_LINE}")?;
@@ -227,11 +230,11 @@ fn read_foreign(path: &Path, format: &ForeignFormat) -> Result<Recording> {
 }
 
 /// Converts every platform sample from sensor axes with gravity to litter axes without,
-/// as the device converts its sensor's readings (f32).
-pub fn remove_gravity(recording: &mut Recording, mounting: &Mounting) {
+/// calibration applied, as the device converts its sensor's readings (the same f32 calls).
+pub fn remove_gravity(recording: &mut Recording, frame: &SensorFrame) {
     let [x, y, z] = &mut recording.platform_m_s2;
     for k in 0..z.len() {
-        let litter = mounting.to_litter_m_s2([x[k] as f32, y[k] as f32, z[k] as f32]);
+        let litter = frame.to_litter_m_s2([x[k] as f32, y[k] as f32, z[k] as f32]);
         x[k] = f64::from(litter[0]);
         y[k] = f64::from(litter[1]);
         z[k] = f64::from(litter[2]);
@@ -351,7 +354,7 @@ mod tests {
     fn another_loggers_file_gives_the_values_of_the_same_ride_in_the_projects_format() {
         let dir = tempfile::tempdir().unwrap();
         let (own, foreign) = two_files(dir.path());
-        let level = Mounting::LEVEL;
+        let level = SensorFrame::LEVEL;
         let (a, _) = RideInputArgs::default().read(&own, &level).unwrap();
         let (b, layout) = foreign_args().read(&foreign, &level).unwrap();
         assert_eq!(layout, Layout::PlatformOnly);
@@ -388,7 +391,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let (own, _) = two_files(dir.path());
         let (clean, _) = RideInputArgs::default()
-            .read(&own, &Mounting::LEVEL)
+            .read(&own, &SensorFrame::LEVEL)
             .unwrap();
         // The same ride from a sensor mounted upside down about x: z reads -(a_z + g).
         let mut text = String::from("time_s,platform_x,platform_y,platform_z\n");
@@ -404,7 +407,7 @@ mod tests {
         }
         let raw = dir.path().join("raw.csv");
         std::fs::write(&raw, text).unwrap();
-        let err = error(RideInputArgs::default().read(&raw, &Mounting::LEVEL));
+        let err = error(RideInputArgs::default().read(&raw, &SensorFrame::LEVEL));
         assert!(
             err.contains("raw.csv: column platform_z: mean -9.8"),
             "{err}"
@@ -414,7 +417,7 @@ mod tests {
             "{err}"
         );
         assert!(!err.contains('\n'));
-        let upside_down = Mounting {
+        let upside_down: SensorFrame = supine_core::mounting::Mounting {
             sensor_to_litter: [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]],
             gravity_m_s2: g as f32,
         };
@@ -423,7 +426,7 @@ mod tests {
             ..RideInputArgs::default()
         };
         // The level calibration leaves -2 g in z: still refused, with what to check.
-        let err = error(removing.read(&raw, &Mounting::LEVEL));
+        let err = error(removing.read(&raw, &SensorFrame::LEVEL));
         assert!(
             err.contains("mean -19.6") && err.contains("after --remove-gravity"),
             "{err}"
@@ -457,7 +460,7 @@ mod tests {
             columns: Some(ColumnNames::parse("time=t,x=ax,y=ay,z=az").unwrap()),
             ..RideInputArgs::default()
         };
-        let err = error(args.read(&path, &Mounting::LEVEL));
+        let err = error(args.read(&path, &SensorFrame::LEVEL));
         assert!(
             err.contains("column az: mean 1.01,") && err.contains("--units g"),
             "{err}"
@@ -473,7 +476,7 @@ mod tests {
             columns: Some(ColumnNames::parse("time=Time (ms),x=Acc X,y=AccY,z=AccZ").unwrap()),
             ..RideInputArgs::default()
         };
-        let err = error(args.read(&path, &Mounting::LEVEL));
+        let err = error(args.read(&path, &SensorFrame::LEVEL));
         assert_eq!(
             err,
             format!(
@@ -485,7 +488,7 @@ mod tests {
         );
         // The project's format with a wrong header says what other files need.
         std::fs::write(&path, "time,x,y,z\n0,0,0,0\n").unwrap();
-        let err = error(RideInputArgs::default().read(&path, &Mounting::LEVEL));
+        let err = error(RideInputArgs::default().read(&path, &SensorFrame::LEVEL));
         assert!(
             err.contains("line 1, column 1: expected \"time_s\"")
                 && err.ends_with("found \"time\""),
@@ -497,7 +500,7 @@ mod tests {
         );
         // A header field of 3000 bytes: the error stays short, the field cut.
         std::fs::write(&path, format!("{},b\n0,0\n", "A".repeat(3000))).unwrap();
-        let err = error(RideInputArgs::default().read(&path, &Mounting::LEVEL));
+        let err = error(RideInputArgs::default().read(&path, &SensorFrame::LEVEL));
         let own = err.strip_prefix(&format!("{}: ", path.display())).unwrap();
         assert!(own.chars().count() <= 160, "{}: {own}", own.chars().count());
         assert!(own.ends_with("(3000 bytes)"), "{own}");
@@ -514,20 +517,20 @@ mod tests {
             units: Some(AccelUnit::G),
             remove_gravity: false,
         };
-        let err = error(args.read(&path, &Mounting::LEVEL));
+        let err = error(args.read(&path, &SensorFrame::LEVEL));
         assert!(
             err.ends_with("line 4: expected 4 ','-separated cells as in the header, found 5"),
             "{err}"
         );
         std::fs::write(&path, "t,a x,a y,a z\n0,0,0,0\n2,0,0\u{1b}x,0\n").unwrap();
-        let err = error(args.read(&path, &Mounting::LEVEL));
+        let err = error(args.read(&path, &SensorFrame::LEVEL));
         assert!(
             err.ends_with("line 3, column a y: expected an acceleration in g (a finite number), found \"0\\u{1b}x\""),
             "{err}"
         );
         args.units = None;
         std::fs::write(&path, "t,a x,a y,a z\n0,0,0,0\n2,0,0,0\n2,0,0,0\n").unwrap();
-        let err = error(args.read(&path, &Mounting::LEVEL));
+        let err = error(args.read(&path, &SensorFrame::LEVEL));
         assert!(err.ends_with("line 4, column t: expected a time after 0.002 s (strictly increasing), found 0.002 s"), "{err}");
     }
 
@@ -536,7 +539,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let (own, foreign) = two_files(dir.path());
         let scratch = tempfile::tempdir().unwrap();
-        let level = Mounting::LEVEL;
+        let level = SensorFrame::LEVEL;
         let stream = open_stream(&foreign_args(), &foreign, &level, scratch.path()).unwrap();
         let (read, _) = foreign_args().read(&foreign, &level).unwrap();
         let samples: Vec<[f32; 3]> = stream.samples().unwrap().map(Result::unwrap).collect();
@@ -573,8 +576,8 @@ mod tests {
     fn a_ride_opened_row_by_row_gives_the_read_rides_rows_and_errors() {
         let dir = tempfile::tempdir().unwrap();
         let (own, foreign) = two_files(dir.path());
-        let level = Mounting::LEVEL;
-        let upside_down = Mounting {
+        let level = SensorFrame::LEVEL;
+        let upside_down: SensorFrame = supine_core::mounting::Mounting {
             sensor_to_litter: [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]],
             gravity_m_s2: STANDARD_GRAVITY_M_S2 as f32,
         };

@@ -18,7 +18,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Result, anyhow, bail};
 use clap::ValueEnum;
-use supine_core::mounting::{Mounting, STANDARD_GRAVITY_M_S2};
+use supine_core::calibration::SensorFrame;
+use supine_core::mounting::STANDARD_GRAVITY_M_S2;
 
 use crate::io::csv_lines::{CsvLines, MAX_LINE_BYTES};
 use crate::io::excerpt::{excerpt, number, quoted_name};
@@ -322,7 +323,7 @@ pub struct RideSource {
     sample_rate_hz: f64,
     start_s: f64,
     origin: Origin,
-    gravity_removal: Option<Mounting>,
+    gravity_removal: Option<SensorFrame>,
 }
 
 /// One row of a ride: time, s, then the 12 acceleration columns of the recording format,
@@ -346,8 +347,8 @@ impl RideSource {
 
     /// A file in the project's formats, checked by [`PlatformStream::open`]; with
     /// `gravity_removal`, every platform sample converted as the device converts its
-    /// sensor's readings ([`Mounting::to_litter_m_s2`], f32).
-    pub fn own(stream: PlatformStream, gravity_removal: Option<Mounting>) -> Self {
+    /// sensor's readings ([`SensorFrame::to_litter_m_s2`], f32).
+    pub fn own(stream: PlatformStream, gravity_removal: Option<SensorFrame>) -> Self {
         Self {
             path: stream.path().to_path_buf(),
             layout: stream.layout(),
@@ -365,7 +366,7 @@ impl RideSource {
     pub fn foreign(
         path: &Path,
         format: ForeignFormat,
-        gravity_removal: Option<Mounting>,
+        gravity_removal: Option<SensorFrame>,
     ) -> Result<Self> {
         let mut rows = ForeignRows::open(path, &format)?;
         let (mut samples, mut first_s, mut last_s) = (0usize, None, None);
@@ -457,10 +458,10 @@ impl RideSource {
         };
         Ok(match self.gravity_removal {
             None => rows,
-            Some(mounting) => Box::new(rows.map(move |r| {
+            Some(frame) => Box::new(rows.map(move |r| {
                 r.map(|mut row| {
                     let litter =
-                        mounting.to_litter_m_s2([row[1], row[2], row[3]].map(|v| v as f32));
+                        frame.to_litter_m_s2([row[1], row[2], row[3]].map(|v| v as f32));
                     for (cell, v) in row[1..4].iter_mut().zip(litter) {
                         *cell = f64::from(v);
                     }

@@ -9,6 +9,7 @@
 //! - [`joints`]: the neck and lower-back section (per leg and for the mission).
 //! - [`html`]: the page.
 //! - [`band`]: with `--band N`, the prediction band of the head's vector values.
+//! - [`calibration`]: the sensor's calibration record, its age and whether it is flagged.
 //! - [`device_check`], [`device_charts`], [`device_section`], [`trace`]: with a device
 //!   log (what a device sent for the ride, as `supine demo` has it), the device's own
 //!   account beside the host's: the largest difference of each output, identical events.
@@ -18,6 +19,7 @@
 //! The JSON's key names are the contract of `--json` (`docs/exposure.md#mission-report`).
 
 pub mod band;
+pub mod calibration;
 pub mod charts;
 pub mod device_charts;
 pub mod device_check;
@@ -101,6 +103,9 @@ pub struct MissionReport {
     /// The prediction band (`--band N`), when asked for.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub band: Option<band::ReportBand>,
+    /// The sensor's calibration, its age and verdict: the parameter file's as of the
+    /// report's date, or, for a monitor session, the device's as of the session's start.
+    pub calibration: calibration::CalibrationReport,
     /// The alert thresholds.
     #[serde(skip)]
     pub thresholds: AlertConfig,
@@ -131,7 +136,8 @@ pub fn build(
         start_s += leg.duration_s;
         legs.push(leg);
     }
-    let config = file.device.unwrap_or_default().alerts;
+    let device = file.device.unwrap_or_default();
+    let config = device.alerts;
     let mission = totals(&legs, &config);
     let identity = device_params::identity_hex(&device_params::identity(file)?);
     let comparison = compare.then(|| compare_rides(&legs[0], &legs[1]));
@@ -149,6 +155,11 @@ pub fn build(
         mission,
         comparison,
         band: None,
+        calibration: calibration::CalibrationReport::new(
+            &device.calibration,
+            calibration::today(),
+            "the report's date",
+        ),
         thresholds: config,
     })
 }
