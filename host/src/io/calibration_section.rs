@@ -128,7 +128,9 @@ impl Serialize for DateText {
 impl<'de> Deserialize<'de> for DateText {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let text = String::deserialize(d)?;
-        parse_date(&text).map(Self).map_err(serde::de::Error::custom)
+        parse_date(&text)
+            .map(Self)
+            .map_err(serde::de::Error::custom)
     }
 }
 
@@ -246,7 +248,10 @@ mod tests {
     #[test]
     fn bad_values_say_what_was_expected() {
         let err = read("date = \"2025-02-30\"").unwrap_err();
-        assert!(err.contains("expected a date YYYY-MM-DD, found 2025-02-30"), "{err}");
+        assert!(
+            err.contains("expected a date YYYY-MM-DD, found 2025-02-30"),
+            "{err}"
+        );
         let err = read("date = \"28/10/2025\"").unwrap_err();
         assert!(err.contains("expected a date YYYY-MM-DD"), "{err}");
         let err = read("method = \"guess\"").unwrap_err();

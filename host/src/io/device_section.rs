@@ -19,11 +19,11 @@ use supine_core::alerts::{
     AlertConfig, AlertSettings, JointAlertSettings, SensorCheckConfig, SensorCheckSettings,
 };
 use supine_core::blob::{DeviceParams, Patient, TelemetryConfig};
+use supine_core::calibration::{SensorCalibration, SensorFrame};
 use supine_core::exposure::{AxisMapping, AxisWeighting, ExposureConfig, ExposureSettings};
 use supine_core::model::{
     DeviceRealization, JOINT_OUTPUT_COUNT, JointOutput, JointReadout, Subject,
 };
-use supine_core::calibration::{SensorCalibration, SensorFrame};
 use supine_core::mounting::Mounting;
 use supine_core::sample_rate::SampleRate;
 use supine_core::weighting::WeightingKind;

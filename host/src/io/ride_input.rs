@@ -113,10 +113,7 @@ impl RideInputArgs {
 
     /// The rides as `report` opens them: row by row, with these options and `frame`.
     pub fn opener(&self, frame: SensorFrame) -> RideOpener<'_> {
-        RideOpener {
-            args: self,
-            frame,
-        }
+        RideOpener { args: self, frame }
     }
 }
 
@@ -417,10 +414,10 @@ mod tests {
             "{err}"
         );
         assert!(!err.contains('\n'));
-        let upside_down: SensorFrame = supine_core::mounting::Mounting {
+        let upside_down = SensorFrame::from(supine_core::mounting::Mounting {
             sensor_to_litter: [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]],
             gravity_m_s2: g as f32,
-        };
+        });
         let removing = RideInputArgs {
             remove_gravity: true,
             ..RideInputArgs::default()
@@ -577,10 +574,10 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let (own, foreign) = two_files(dir.path());
         let level = SensorFrame::LEVEL;
-        let upside_down: SensorFrame = supine_core::mounting::Mounting {
+        let upside_down = SensorFrame::from(supine_core::mounting::Mounting {
             sensor_to_litter: [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]],
             gravity_m_s2: STANDARD_GRAVITY_M_S2 as f32,
-        };
+        });
         let removing = RideInputArgs {
             remove_gravity: true,
             ..foreign_args()

@@ -39,7 +39,10 @@ pub fn read(path: &Path) -> Result<TumbleReadings> {
 }
 
 fn parse(text: &str) -> Result<TumbleReadings> {
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
     match lines.next() {
         Some((_, header)) if header.trim() == TUMBLE_HEADER => {}
         Some((n, header)) => bail!(
@@ -72,12 +75,16 @@ fn parse(text: &str) -> Result<TumbleReadings> {
             .zip(["x_m_s2", "y_m_s2", "z_m_s2"])
             .enumerate()
         {
-            let v: f64 = cell.parse().ok().filter(|v: &f64| v.is_finite()).ok_or_else(|| {
-                anyhow!(
-                    "line {line_no}, {name}: expected a number in m/s^2, found {}",
-                    value(cell)
-                )
-            })?;
+            let v: f64 = cell
+                .parse()
+                .ok()
+                .filter(|v: &f64| v.is_finite())
+                .ok_or_else(|| {
+                    anyhow!(
+                        "line {line_no}, {name}: expected a number in m/s^2, found {}",
+                        value(cell)
+                    )
+                })?;
             sums[k][axis] += v;
         }
         rows[k] += 1;

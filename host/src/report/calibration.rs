@@ -6,8 +6,8 @@ use serde::Serialize;
 use supine_core::calibration::{CalibrationDate, CalibrationMethod, SensorCalibration};
 use time::{Date, Month};
 
-pub use crate::io::calibration_section::today;
 use crate::io::calibration_section::date_text;
+pub use crate::io::calibration_section::today;
 use crate::report::html::escape;
 
 /// The calibration record with its age and verdict.
@@ -88,7 +88,10 @@ impl CalibrationReport {
                     CalibrationMethod::Tumble => "static tumble test at +-1 g",
                     CalibrationMethod::Datasheet => "datasheet nominal values",
                 };
-                let who = by.as_deref().map(|b| format!(" by {b}")).unwrap_or_default();
+                let who = by
+                    .as_deref()
+                    .map(|b| format!(" by {b}"))
+                    .unwrap_or_default();
                 let verdict = if overdue {
                     format!(
                         "OVERDUE: older than its {interval}-month interval; recalibrate the sensor"
