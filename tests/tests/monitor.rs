@@ -54,6 +54,7 @@ fn test_params_file() -> ParamFile {
             joint_outputs: supine_host::io::device_section::JointSelection::ALL,
             joint_alerts: Default::default(),
             telemetry_decimation: Some(1),
+            calibration: Default::default(),
         }),
     }
 }

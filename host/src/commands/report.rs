@@ -190,3 +190,68 @@ fn device_check_json(log: &DeviceLog) -> serde_json::Value {
 pub fn run(args: &Args) -> Result<()> {
     run_to(args, &mut std::io::stdout().lock())
 }
+
+#[cfg(test)]
+mod calibration_tests {
+    use super::*;
+    use crate::io::monitor_session::SessionInfo;
+    use supine_core::calibration::{CalibrationDate, CalibrationMethod, SensorCalibration};
+
+    fn session(started: Option<&str>, calibration: Option<SensorCalibration>) -> SessionInfo {
+        SessionInfo {
+            protocol_version: 7,
+            firmware_version: "0.1.0".into(),
+            params_identity: "00".into(),
+            sample_rate_hz: 500.0,
+            height_m: 1.75,
+            mass_kg: 70.0,
+            params_changed: false,
+            input_frames: 0,
+            input_samples: 0,
+            input_samples_lost: 0,
+            input_frames_bad: 0,
+            first_input_sample: None,
+            status: None,
+            link_frames: 0,
+            link_lost_frames: 0,
+            link_bad_frames: 0,
+            link_reordered_frames: 0,
+            started_utc: started.map(str::to_string),
+            calibration: calibration.map(Into::into),
+        }
+    }
+
+    /// A session whose device ran on a calibration 13 months old: its report says so,
+    /// counted to the session's start, not to the day the report is made.
+    #[test]
+    fn a_session_with_a_13_month_old_calibration_is_reported_overdue() {
+        let calibration = SensorCalibration {
+            method: CalibrationMethod::Shaker,
+            date: CalibrationDate {
+                year: 2024,
+                month: 5,
+                day: 2,
+            },
+            by: SensorCalibration::by_field("Lab 3").unwrap(),
+            ..SensorCalibration::DATASHEET
+        };
+        let info = session(Some("2025-06-10"), Some(calibration));
+        // Through JSON, as the session file is read back.
+        let text = serde_json::to_string(&info).unwrap();
+        let info: SessionInfo = serde_json::from_str(&text).unwrap();
+        let report = session_calibration(&info).unwrap().expect("a calibration");
+        assert_eq!(report.age_months, Some(13));
+        assert!(report.overdue && report.flagged);
+        assert!(
+            report
+                .statement
+                .contains("13 months old on 2025-06-10 (the session's start)")
+                && report.statement.contains("OVERDUE"),
+            "{}",
+            report.statement
+        );
+        assert!(report.html().contains("OVERDUE"));
+        // A log from before the record was kept: none from the session.
+        assert_eq!(session_calibration(&session(None, None)).unwrap(), None);
+    }
+}
