@@ -248,7 +248,7 @@ fn a_session_counts_lost_and_bad_frames_logs_everything_and_ends_on_ctrl_c() {
     );
     assert!(
         stderr.contains(&format!(
-            "supine monitor: firmware 0.1.0+board, protocol {PROTOCOL_VERSION}, parameters {} from flash slot 1, 200 Hz",
+            "supine monitor: firmware 0.1.0+board, protocol {PROTOCOL_VERSION}, parameters {} from flash slot B, 200 Hz",
             "5a".repeat(16)
         )),
         "{stderr}"
