@@ -288,6 +288,22 @@ pub fn rough_ride(dir: &std::path::Path) -> PathBuf {
     ride
 }
 
+/// `supine monitor --qemu` of `ride` with the paper-litter preset, logging to `log`: the
+/// session the monitor and re-analysis tests read back. Returns `run_supine`'s result.
+pub fn monitor_to_log(ride: &std::path::Path, log: &std::path::Path) -> (bool, String, String) {
+    let s = |p: &std::path::Path| p.to_str().expect("utf-8 path").to_owned();
+    run_supine(&[
+        "monitor",
+        "--qemu",
+        "--preset",
+        "paper-litter",
+        "--input",
+        &s(ride),
+        "--log",
+        &s(log),
+    ])
+}
+
 /// The process ids of `pid`'s children (Linux `/proc`).
 pub fn child_pids(pid: u32) -> Vec<u32> {
     let mut out = Vec::new();

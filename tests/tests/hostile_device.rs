@@ -350,22 +350,13 @@ fn edit_cell(log: &std::path::Path, row: usize, column: &str, value: &str) {
 
 #[test]
 fn a_tampered_monitor_log_is_caught_by_the_device_check() {
-    use supine_qemu_tests::{rough_ride, run_supine};
+    use supine_qemu_tests::{monitor_to_log, rough_ride, run_supine};
     firmware(PRODUCT_BINARY);
     let dir = tempfile::tempdir().expect("temp dir");
     let s = |p: &std::path::Path| p.to_str().expect("utf-8").to_owned();
     let ride = rough_ride(dir.path());
     let log = dir.path().join("log.csv");
-    let (ok, _, stderr) = run_supine(&[
-        "monitor",
-        "--qemu",
-        "--preset",
-        "paper-litter",
-        "--input",
-        &s(&ride),
-        "--log",
-        &s(&log),
-    ]);
+    let (ok, _, stderr) = monitor_to_log(&ride, &log);
     assert!(ok, "monitor: {stderr}");
     let pristine = std::fs::read_to_string(&log).expect("log");
     let report = |out: &str| {

@@ -14,7 +14,7 @@ use supine_host::io::params_file::ParamFile;
 use supine_host::io::recording::read_input;
 use supine_host::io::telemetry_csv::{EVENTS_HEADER, TELEMETRY_HEADER};
 use supine_qemu_tests::{
-    firmware, qemu_cmdline, rough_ride, run_supine, signal_and_wait, supine_binary,
+    firmware, monitor_to_log, qemu_cmdline, rough_ride, signal_and_wait, supine_binary,
     wait_for_qemu_child,
 };
 
@@ -28,17 +28,7 @@ fn monitor_logs_what_the_host_pipeline_predicts_for_a_scripted_ride() {
     let dir = tempfile::tempdir().expect("temp dir");
     let ride = rough_ride(dir.path());
     let log = dir.path().join("log.csv");
-    let s = |p: &Path| p.to_str().expect("utf-8 path").to_owned();
-    let (ok, stdout, stderr) = run_supine(&[
-        "monitor",
-        "--qemu",
-        "--preset",
-        "paper-litter",
-        "--input",
-        &s(&ride),
-        "--log",
-        &s(&log),
-    ]);
+    let (ok, stdout, stderr) = monitor_to_log(&ride, &log);
     println!("stdout:\n{stdout}\nstderr:\n{stderr}");
     assert!(ok, "monitor failed: {stderr}");
 

@@ -9,7 +9,7 @@
 use std::path::Path;
 
 use supine_host::io::recording::read_input;
-use supine_qemu_tests::{firmware, rough_ride, run_supine};
+use supine_qemu_tests::{firmware, monitor_to_log, rough_ride, run_supine};
 
 fn s(p: &Path) -> String {
     p.to_str().expect("utf-8 path").to_owned()
@@ -21,16 +21,7 @@ fn a_monitor_log_re_analysed_by_report_matches_the_device_bit_for_bit() {
     let dir = tempfile::tempdir().expect("temp dir");
     let ride = rough_ride(dir.path());
     let log = dir.path().join("log.csv");
-    let (ok, stdout, stderr) = run_supine(&[
-        "monitor",
-        "--qemu",
-        "--preset",
-        "paper-litter",
-        "--input",
-        &s(&ride),
-        "--log",
-        &s(&log),
-    ]);
+    let (ok, stdout, stderr) = monitor_to_log(&ride, &log);
     println!("stdout:\n{stdout}\nstderr:\n{stderr}");
     assert!(ok, "monitor failed: {stderr}");
     let input = dir.path().join("log.input.csv");
