@@ -31,7 +31,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
         ],
     ),
     ("monitor", &["exposure", "device", "io"]),
-    ("exposure", &["device", "io", "ride"]),
+    ("exposure", &["device", "io", "parallel", "ride"]),
     ("identify", &["plot", "io", "parallel"]),
     ("device", &["io"]),
     ("plot", &[]),
