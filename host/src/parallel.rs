@@ -38,26 +38,6 @@ pub fn in_parallel<T: Send>(
     on_pool(threads, || (0..jobs).into_par_iter().map(work).collect())
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn results_come_in_job_order_whatever_the_threads() {
-        for threads in [0, 1, 2, 5] {
-            let squares = in_parallel(100, threads, |k| k * k);
-            assert_eq!(squares, (0..100).map(|k| k * k).collect::<Vec<_>>());
-        }
-        assert!(in_parallel(0, 2, |k| k).is_empty());
-    }
-
-    #[test]
-    fn zero_threads_means_one_per_core() {
-        assert_eq!(thread_count(3), 3);
-        assert!(thread_count(0) >= 1);
-    }
-}
-
 /// Items handed from the reading thread to the computing one at a time.
 const READ_AHEAD_CHUNK: usize = 4096;
 /// Chunks read ahead of the computation at most: memory stays bounded whatever the
@@ -121,4 +101,71 @@ where
         }
         Ok(())
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn results_come_in_job_order_whatever_the_threads() {
+        for threads in [0, 1, 2, 5] {
+            let squares = in_parallel(100, threads, |k| k * k);
+            assert_eq!(squares, (0..100).map(|k| k * k).collect::<Vec<_>>());
+        }
+        assert!(in_parallel(0, 2, |k| k).is_empty());
+    }
+
+    #[test]
+    fn zero_threads_means_one_per_core() {
+        assert_eq!(thread_count(3), 3);
+        assert!(thread_count(0) >= 1);
+    }
+
+    #[test]
+    fn read_ahead_hands_every_item_in_order_and_stops_at_the_first_error() {
+        let n = 3 * super::READ_AHEAD_CHUNK + 17;
+        let mut seen = Vec::new();
+        super::read_ahead(
+            || Ok((0..n).map(anyhow::Ok)),
+            |k| {
+                seen.push(k);
+                Ok(())
+            },
+        )
+        .unwrap();
+        assert_eq!(seen, (0..n).collect::<Vec<_>>());
+        // The stream's error, after the items before it.
+        let mut seen = 0;
+        let err = super::read_ahead(
+            || {
+                Ok((0..n).map(|k| {
+                    if k == 5000 {
+                        Err(anyhow::anyhow!("bad row {k}"))
+                    } else {
+                        Ok(k)
+                    }
+                }))
+            },
+            |_| {
+                seen += 1;
+                Ok(())
+            },
+        )
+        .unwrap_err();
+        assert_eq!((err.to_string(), seen), ("bad row 5000".to_string(), 5000));
+        // The consumer's error stops the reading of an endless stream.
+        let err = super::read_ahead(
+            || Ok((0..).map(anyhow::Ok)),
+            |k: u64| {
+                if k == 10 {
+                    anyhow::bail!("enough")
+                } else {
+                    Ok(())
+                }
+            },
+        )
+        .unwrap_err();
+        assert_eq!(err.to_string(), "enough");
+    }
 }
