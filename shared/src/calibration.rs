@@ -110,7 +110,12 @@ impl CalibrationDate {
 }
 
 /// The sensor's calibration record: the correction and where it came from.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+///
+/// In the blob and on the wire it is one byte string of [`ENCODED_LEN`] bytes
+/// ([`to_bytes`](Self::to_bytes)), not serde's field-by-field form: serde's code for six
+/// f32s, a date and a 16-byte name cost the image about 2.5 KB, the fixed layout a few
+/// hundred bytes.
+#[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SensorCalibration {
     /// Indicated per true acceleration, per sensor axis (1: the datasheet's scale).
@@ -139,7 +144,7 @@ pub enum CalibrationError {
     Offset,
     /// A date that does not exist, or a measured calibration without a date.
     Date,
-    /// The name is not UTF-8 (or has a zero before its end).
+    /// The name has a zero before its end (not zero-padded).
     Name,
     /// An interval of 0 or over [`MAX_INTERVAL_MONTHS`].
     Interval,
@@ -155,7 +160,7 @@ impl fmt::Display for CalibrationError {
                 "calibration: the date must exist (YYYY-MM-DD), and a shaker or tumble \
                  calibration must have one"
             }
-            CalibrationError::Name => "calibration: the name must be UTF-8, at most 16 bytes",
+            CalibrationError::Name => "calibration: the name must be at most 16 bytes, zero-padded",
             CalibrationError::Interval => "calibration: the interval must be 1-120 months",
         })
     }
@@ -178,7 +183,9 @@ impl SensorCalibration {
         interval_months: Self::DEFAULT_INTERVAL_MONTHS,
     };
 
-    /// Checks a stored record.
+    /// Checks a stored record: what the device relies on. The name's bytes are only
+    /// carried by the device, so it checks their padding, not their UTF-8 (the host's
+    /// [`by_name`](Self::by_name) does, where they are read).
     pub fn validate(&self) -> Result<(), CalibrationError> {
         let numbers = self.sensitivity.iter().chain(&self.offset_m_s2);
         if !numbers.clone().all(|v| v.is_finite()) {
@@ -195,7 +202,8 @@ impl SensorCalibration {
         if !self.date.is_valid() || (measured && self.date.is_undated()) {
             return Err(CalibrationError::Date);
         }
-        if self.by_name().is_none() {
+        let len = self.by_len();
+        if self.by[len..].iter().any(|&b| b != 0) {
             return Err(CalibrationError::Name);
         }
         if !(1..=MAX_INTERVAL_MONTHS).contains(&self.interval_months) {
@@ -204,13 +212,17 @@ impl SensorCalibration {
         Ok(())
     }
 
-    /// Who calibrated, if the bytes are a name (UTF-8, zero-padded, no zero inside).
-    pub fn by_name(&self) -> Option<&str> {
-        let len = self
-            .by
+    /// Bytes of the name before its padding.
+    fn by_len(&self) -> usize {
+        self.by
             .iter()
             .position(|&b| b == 0)
-            .unwrap_or(CALIBRATED_BY_LEN);
+            .unwrap_or(CALIBRATED_BY_LEN)
+    }
+
+    /// Who calibrated, if the bytes are a name (UTF-8, zero-padded, no zero inside).
+    pub fn by_name(&self) -> Option<&str> {
+        let len = self.by_len();
         if self.by[len..].iter().any(|&b| b != 0) {
             return None;
         }
@@ -237,6 +249,78 @@ impl SensorCalibration {
             (reading_m_s2[1] - o[1]) / s[1],
             (reading_m_s2[2] - o[2]) / s[2],
         ]
+    }
+}
+
+/// Bytes of a calibration record's encoding: sensitivity and offset (6 f32, little-endian),
+/// year (u16 LE), month, day, method, interval (u8 each), then the name.
+pub const ENCODED_LEN: usize = 6 * 4 + 2 + 4 + CALIBRATED_BY_LEN;
+
+impl SensorCalibration {
+    /// The record's fixed layout ([`ENCODED_LEN`] bytes).
+    pub fn to_bytes(&self) -> [u8; ENCODED_LEN] {
+        let mut out = [0; ENCODED_LEN];
+        let numbers = self.sensitivity.iter().chain(&self.offset_m_s2);
+        for (chunk, v) in out.chunks_exact_mut(4).zip(numbers) {
+            chunk.copy_from_slice(&v.to_le_bytes());
+        }
+        out[24..26].copy_from_slice(&self.date.year.to_le_bytes());
+        out[26] = self.date.month;
+        out[27] = self.date.day;
+        out[28] = self.method as u8;
+        out[29] = self.interval_months;
+        out[30..].copy_from_slice(&self.by);
+        out
+    }
+
+    /// The record in `bytes` ([`to_bytes`](Self::to_bytes)'s layout), if its length is
+    /// right and its method one of [`CalibrationMethod::ALL`]; its values are checked by
+    /// [`validate`](Self::validate).
+    pub fn from_bytes(bytes: &[u8]) -> Option<Self> {
+        let bytes: &[u8; ENCODED_LEN] = bytes.try_into().ok()?;
+        let f32_at = |k: usize| {
+            let mut word = [0; 4];
+            word.copy_from_slice(&bytes[4 * k..4 * k + 4]);
+            f32::from_le_bytes(word)
+        };
+        let mut by = [0; CALIBRATED_BY_LEN];
+        by.copy_from_slice(&bytes[30..]);
+        Some(Self {
+            sensitivity: [f32_at(0), f32_at(1), f32_at(2)],
+            offset_m_s2: [f32_at(3), f32_at(4), f32_at(5)],
+            date: CalibrationDate {
+                year: u16::from_le_bytes([bytes[24], bytes[25]]),
+                month: bytes[26],
+                day: bytes[27],
+            },
+            method: *CalibrationMethod::ALL.get(usize::from(bytes[28]))?,
+            interval_months: bytes[29],
+            by,
+        })
+    }
+}
+
+impl Serialize for SensorCalibration {
+    /// One byte string (postcard: its length, then the bytes).
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_bytes(&self.to_bytes())
+    }
+}
+
+impl<'de> Deserialize<'de> for SensorCalibration {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Record;
+        impl serde::de::Visitor<'_> for Record {
+            type Value = SensorCalibration;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("a calibration record of 46 bytes")
+            }
+            fn visit_bytes<E: serde::de::Error>(self, bytes: &[u8]) -> Result<Self::Value, E> {
+                SensorCalibration::from_bytes(bytes)
+                    .ok_or_else(|| E::invalid_value(serde::de::Unexpected::Bytes(bytes), &self))
+            }
+        }
+        deserializer.deserialize_bytes(Record)
     }
 }
 
@@ -359,6 +443,34 @@ mod tests {
     }
 
     #[test]
+    fn the_fixed_layout_round_trips_and_refuses_a_wrong_length_or_method() {
+        let cal = SensorCalibration {
+            sensitivity: [1.02, 0.97, 1.5],
+            offset_m_s2: [0.3, -0.2, 0.05],
+            date: CalibrationDate {
+                year: 2026,
+                month: 3,
+                day: 31,
+            },
+            method: CalibrationMethod::Shaker,
+            by: SensorCalibration::by_field("Lab 3").unwrap(),
+            interval_months: 6,
+        };
+        let bytes = cal.to_bytes();
+        assert_eq!(SensorCalibration::from_bytes(&bytes), Some(cal));
+        assert_eq!(bytes[24..30], [0xEA, 0x07, 3, 31, 1, 6]);
+        assert_eq!(&bytes[30..35], b"Lab 3");
+        assert_eq!(SensorCalibration::from_bytes(&bytes[1..]), None);
+        let mut bad = bytes;
+        bad[28] = 3;
+        assert_eq!(SensorCalibration::from_bytes(&bad), None);
+        let mut buf = [0u8; 64];
+        let wire = postcard::to_slice(&cal, &mut buf).unwrap();
+        assert_eq!(wire[0] as usize, ENCODED_LEN);
+        assert_eq!(postcard::from_bytes::<SensorCalibration>(wire), Ok(cal));
+    }
+
+    #[test]
     fn bad_records_are_refused_each_for_its_reason() {
         let base = SensorCalibration {
             method: CalibrationMethod::Tumble,
@@ -384,8 +496,12 @@ mod tests {
         assert_eq!(refused(&|c| c.date.year = 2023), E::Date);
         assert_eq!(refused(&|c| c.date.month = 13), E::Date);
         assert_eq!(refused(&|c| c.date = CalibrationDate::UNDATED), E::Date);
-        assert_eq!(refused(&|c| c.by = [0xFF; CALIBRATED_BY_LEN]), E::Name);
         assert_eq!(refused(&|c| c.by[3] = 0), E::Name);
+        // Not UTF-8: carried by the device, refused where the host reads it as a name.
+        let mut not_utf8 = base;
+        not_utf8.by = [0xFF; CALIBRATED_BY_LEN];
+        assert_eq!(not_utf8.validate(), Ok(()));
+        assert_eq!(not_utf8.by_name(), None);
         assert_eq!(refused(&|c| c.interval_months = 0), E::Interval);
         assert_eq!(refused(&|c| c.interval_months = 121), E::Interval);
         assert!(SensorCalibration::by_field("a name far too long for it").is_none());
