@@ -523,8 +523,7 @@ impl RideSource {
             None => rows,
             Some(frame) => Box::new(rows.map(move |r| {
                 r.map(|mut row| {
-                    let litter =
-                        frame.to_litter_m_s2([row[1], row[2], row[3]].map(|v| v as f32));
+                    let litter = frame.to_litter_m_s2([row[1], row[2], row[3]].map(|v| v as f32));
                     for (cell, v) in row[1..4].iter_mut().zip(litter) {
                         *cell = f64::from(v);
                     }

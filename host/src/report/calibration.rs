@@ -131,7 +131,6 @@ impl CalibrationReport {
             statement,
         }
     }
-
 }
 
 #[cfg(test)]

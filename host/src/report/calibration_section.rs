@@ -50,13 +50,19 @@ mod tests {
             &mut h,
             &CalibrationReport::new(&cal, day(Month::November), "the session's start"),
         );
-        assert!(h.contains("class=\"warn\"") && h.contains("13 months old"), "{h}");
+        assert!(
+            h.contains("class=\"warn\"") && h.contains("13 months old"),
+            "{h}"
+        );
         assert!(h.contains("A. Tech &amp; Co"), "{h}");
         let mut h = String::new();
         section(
             &mut h,
             &CalibrationReport::new(&cal, day(Month::March), "the report's date"),
         );
-        assert!(h.contains("class=\"sub\"") && h.contains("5 months old"), "{h}");
+        assert!(
+            h.contains("class=\"sub\"") && h.contains("5 months old"),
+            "{h}"
+        );
     }
 }
