@@ -119,9 +119,12 @@ fn every_test_passes_at_100_hz_and_the_report_is_written() {
     assert!(out.join("conformance.json").exists());
 }
 
+/// At 500 Hz, the shipping rate. At 100 Hz the same move changes the response less (the
+/// pole sits nearer the origin already) and only the reference check (+-4 %) catches it,
+/// the one-third-octave points staying inside +12/-11 %.
 #[test]
 fn a_weighting_with_one_pole_moved_5_percent_fails_the_frequency_response() {
-    let c = verify(&[100.0], Variant::DetunedWk, &[Group::Response]);
+    let c = verify(&[500.0], Variant::DetunedWk, &[Group::Response]);
     let failed = failures(&c);
     assert!(!c.pass, "the detuned weighting passed");
     assert!(
