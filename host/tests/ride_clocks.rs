@@ -543,7 +543,7 @@ fn a_corrupt_stamp_far_ahead_is_refused_by_its_line_and_a_few_rows_behind_one_ar
         &rows(&|k| if k == 1000 { 1e300 } else { k as f64 / 200.0 }),
     );
     let err = RideInputArgs::default()
-        .open(&corrupt, &Mounting::LEVEL)
+        .open(&corrupt, &SensorFrame::LEVEL)
         .map(|_| ())
         .unwrap_err()
         .to_string();
