@@ -8,11 +8,12 @@
 //! emulated device's flash region and never uploaded). Its weighting, exposure and
 //! sensor checks are the shipping ones (Wk on x, Wd on y, Wj on z, so each signal tests
 //! all three at once; tau 1 s; the LIS3DH's +-4 g full scale), with telemetry every
-//! sample. Expected values and limits come from the standard ([`reference`]), never from
-//! the product's output.
+//! sample. Expected values and limits come from the standard
+//! ([`reference`](mod@reference)), never from the product's output.
 //!
 //! - [`plan`]: the test signals and how each result is read from the telemetry.
-//! - [`reference`]: the definitions' values (analog weighting, running rms, MTVV, VDV).
+//! - [`reference`](mod@reference): the definitions' values (analog weighting, running
+//!   rms, MTVV, VDV).
 //! - [`html`]: the conformance report.
 //!
 //! [`ModelParams`]: supine_core::model::ModelParams
