@@ -103,9 +103,7 @@ pub enum Command {
     )]
     Monitor(commands::monitor::Args),
     /// Print the `[device.mounting]` table for a reading at rest, or `[device.calibration]` from a tumble test.
-    #[command(
-        after_help = "Examples:\n  supine calibrate --at-rest-m-s2 0.12, -0.05, 9.80\n  supine calibrate --tumble tumble.csv --by \"A. Tech\" --date 2026-11-28"
-    )]
+    #[command(after_help = "Example:\n  supine calibrate --at-rest-m-s2 0.12, -0.05, 9.80")]
     Calibrate(commands::calibrate::Args),
     /// Put parameters on a device: QEMU region image, signed upload over serial, probe-rs.
     #[command(after_help = "Example:\n  supine flash --preset paper-litter --qemu")]
