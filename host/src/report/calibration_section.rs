@@ -18,7 +18,7 @@ pub fn section(h: &mut String, calibration: &CalibrationReport) {
     let _ = writeln!(
         h,
         "<p class=\"{class}\"><strong>Calibration.</strong> {} Sensitivity (x, y, z) {}; \
-         offset {} m/s^2.</p>",
+         offset {} m/s<sup>2</sup>.</p>",
         escape(&calibration.statement),
         axes(calibration.sensitivity),
         axes(calibration.offset_m_s2)
