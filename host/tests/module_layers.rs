@@ -17,9 +17,10 @@ const ALLOWED: &[(&str, &[&str])] = &[
         "commands",
         &[
             "demo", "report", "monitor", "exposure", "identify", "device", "io", "plot",
-            "parallel", "ride",
+            "parallel", "ride", "verify",
         ],
     ),
+    ("verify", &["report", "device", "io"]),
     (
         "demo",
         &["report", "monitor", "exposure", "device", "plot", "io"],
@@ -54,6 +55,7 @@ const REPORT_LAYERS: &[&[&str]] = &[
         "device_series",
         "monitor_log",
         "third_octave",
+        "calibration",
     ],
     &["charts", "device_charts"],
     &[
@@ -62,6 +64,7 @@ const REPORT_LAYERS: &[&[&str]] = &[
         "band_section",
         "device_section",
         "quality_section",
+        "calibration_section",
     ],
 ];
 

@@ -17,7 +17,7 @@ use std::io::Read as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Result, anyhow, bail};
-use supine_core::mounting::Mounting;
+use supine_core::calibration::SensorFrame;
 
 use crate::io::csv_lines::{CsvLines, MAX_LINE_BYTES};
 use crate::io::excerpt::{excerpt, quoted_name};
@@ -367,7 +367,7 @@ pub struct RideSource {
     sample_rate_hz: f64,
     start_s: f64,
     origin: Origin,
-    gravity_removal: Option<Mounting>,
+    gravity_removal: Option<SensorFrame>,
     quality: Option<DataQuality>,
 }
 
@@ -426,8 +426,8 @@ impl RideSource {
 
     /// A file in the project's formats, checked by [`PlatformStream::open`]; with
     /// `gravity_removal`, every platform sample converted as the device converts its
-    /// sensor's readings ([`Mounting::to_litter_m_s2`], f32).
-    pub fn own(stream: PlatformStream, gravity_removal: Option<Mounting>) -> Self {
+    /// sensor's readings ([`SensorFrame::to_litter_m_s2`], f32).
+    pub fn own(stream: PlatformStream, gravity_removal: Option<SensorFrame>) -> Self {
         Self {
             path: stream.path().to_path_buf(),
             layout: stream.layout(),
@@ -528,10 +528,9 @@ impl RideSource {
         };
         Ok(match self.gravity_removal {
             None => rows,
-            Some(mounting) => Box::new(rows.map(move |r| {
+            Some(frame) => Box::new(rows.map(move |r| {
                 r.map(|mut row| {
-                    let litter =
-                        mounting.to_litter_m_s2([row[1], row[2], row[3]].map(|v| v as f32));
+                    let litter = frame.to_litter_m_s2([row[1], row[2], row[3]].map(|v| v as f32));
                     for (cell, v) in row[1..4].iter_mut().zip(litter) {
                         *cell = f64::from(v);
                     }
