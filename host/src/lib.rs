@@ -7,8 +7,8 @@
 //! identification of the model from measurements ([`identify`]), exposure of rides
 //! ([`exposure`]), the device and the ways to reach it ([`device`]), the live monitor
 //! ([`monitor`]), the end-to-end demo ([`demo`]), the mission report ([`report`]), the one plotting
-//! layer ([`plot`]), jobs over the cores ([`parallel`]), and
-//! the command line ([`cli`], [`commands`]) on top of them all.
+//! layer ([`plot`]), jobs over the cores ([`parallel`]), the names every output uses
+//! ([`schema`]), and the command line ([`cli`], [`commands`]) on top of them all.
 
 pub mod cli;
 pub mod commands;
@@ -22,3 +22,4 @@ pub mod parallel;
 pub mod plot;
 pub mod report;
 pub mod ride;
+pub mod schema;

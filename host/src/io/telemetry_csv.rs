@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Result, anyhow, bail};
 use supine_core::alerts::{AlertEvent, Criterion, FaultFlags, JointCriterion, Level};
 use supine_core::joint_exposure::{JointValues, packed_order};
-use supine_core::model::{JOINT_OUTPUT_COUNT, JointOutput, JointUnit};
+use supine_core::model::{JOINT_OUTPUT_COUNT, JointOutput};
 use supine_core::protocol::Telemetry;
 
 use super::csv_lines::CsvLines;
@@ -31,15 +31,7 @@ pub fn joint_columns(joint_mask: u16) -> Vec<String> {
 }
 
 fn joint_column(output: JointOutput) -> String {
-    format!("{}_{}", output.name(), si_unit(output))
-}
-
-/// A joint output's SI unit as the CSVs name it: `m` or `rad`.
-fn si_unit(output: JointOutput) -> &'static str {
-    match output.unit() {
-        JointUnit::Metre => "m",
-        JointUnit::Radian => "rad",
-    }
+    format!("{}_{}", output.name(), output.unit().si_suffix())
 }
 
 /// The telemetry CSV's header for a device reporting the joint outputs of `joint_mask`:
@@ -299,7 +291,7 @@ fn telemetry_record(cells: &[&str], at: &str, joint_count: usize) -> Result<Tele
             excerpt(cells[0])
         )
     })?;
-    let alert_level = level_from_name(cells[10]).ok_or_else(|| {
+    let alert_level = Level::from_name(cells[10]).ok_or_else(|| {
         anyhow!(
             "{at}, column alert_level: expected normal, advisory, warning or alarm, found {}",
             excerpt(cells[10])
@@ -352,13 +344,6 @@ fn joints_of(cells: &[&str], at: &str) -> Result<JointValues> {
     Ok(JointValues::packed(cells.len(), values))
 }
 
-/// The level named `name` (`normal`, `advisory`, `warning`, `alarm`).
-pub fn level_from_name(name: &str) -> Option<Level> {
-    [Level::Normal, Level::Advisory, Level::Warning, Level::Alarm]
-        .into_iter()
-        .find(|l| l.name() == name)
-}
-
 /// One row of an events CSV ([`EVENTS_HEADER`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct EventRow {
@@ -409,7 +394,11 @@ impl EventRow {
     pub fn to_line(&self) -> String {
         let (criterion, value, unit) = match (&self.criterion, &self.joint, self.joint_output()) {
             (Some(c), ..) => (c.name(), c.value().to_string(), c.unit()),
-            (_, Some(c), Some(o)) => (c.name(), c.value_m_or_rad().to_string(), si_unit(o)),
+            (_, Some(c), Some(o)) => (
+                c.name(),
+                c.value_m_or_rad().to_string(),
+                o.unit().si_suffix(),
+            ),
             _ => ("", String::new(), ""),
         };
         format!(
@@ -567,10 +556,10 @@ fn joint_from_cells(
             excerpt(other)
         ),
     };
-    if unit != si_unit(output) {
+    if unit != output.unit().si_suffix() {
         bail!(
             "{at}, column unit: expected {} for {output}, found {}",
-            si_unit(output),
+            output.unit().si_suffix(),
             excerpt(unit)
         );
     }
