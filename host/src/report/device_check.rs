@@ -132,7 +132,7 @@ pub const COMPARED_VALUES: [&str; 9] = [
     "running_rms_x_m_s2",
     "running_rms_y_m_s2",
     "running_rms_z_m_s2",
-    "running_rms_vector_m_s2",
+    "vector_running_rms_m_s2",
     "vdv_m_s175",
     "alert_level",
     "fault_flags",

@@ -453,7 +453,7 @@ mod tests {
                 t.vdv_m_s175 = f32::from_bits(t.vdv_m_s175.to_bits() - 1)
             }),
             ("running_rms_y_m_s2", |t| t.running_rms_m_s2[1] += 0.25),
-            ("running_rms_vector_m_s2", |t| {
+            ("vector_running_rms_m_s2", |t| {
                 t.vector_running_rms_m_s2 += 0.25
             }),
             ("alert_level", |t| {

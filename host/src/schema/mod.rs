@@ -6,7 +6,9 @@
 //! - names are lower-case ASCII `snake_case`;
 //! - a number with a unit carries the unit as the name's suffix, one of
 //!   [`UNIT_SUFFIXES`] (`time_s`, `vdv_m_s175`, `neck_x_mm`); a number without one is a
-//!   count, an index or a ratio named in [`UNITLESS`];
+//!   count, an index or a ratio ([`UNITLESS`], [`UNITLESS_SUFFIXES`]), or sits in an object
+//!   whose key has the unit (`"rms_m_s2": {"x": ..}`) or that names it in a `unit` field
+//!   (a joint output's `rms` in `mm` or `deg`, an events CSV's `value`);
 //! - a quantity has one name everywhere: the vector running rms is
 //!   `vector_running_rms_m_s2` (wire, telemetry CSV, `--jsonl`), a level is named by
 //!   [`Level`](supine_core::alerts::Level)'s own serialization (`normal`, `advisory`,
@@ -17,32 +19,56 @@
 
 pub mod event;
 
-/// The unit suffixes a numeric name may end with, longest first where one ends another.
+/// The unit suffixes a numeric name may end with.
 pub const UNIT_SUFFIXES: &[&str] = &[
-    "_m_s175",
-    "_m_s2",
-    "_m_s",
-    "_hz",
-    "_kg",
-    "_mm",
-    "_deg",
-    "_rad",
-    "_m",
-    "_s",
-    "_bytes",
-    "_db",
-    "_n_m",
-    "_n_s_m",
-    "_n_m_s_rad",
-    "_n_m_rad",
-    "_n_m2",
-    "_kg_m2",
-    "_percent",
+    "_m_s175", "_m_s2", "_hz", "_kg", "_mm", "_deg", "_rad", "_m", "_s", "_bytes",
 ];
 
-/// Numeric names that have no unit: counts, indices, ratios, seeds and versions. Any
-/// other numeric name must end in a unit ([`UNIT_SUFFIXES`]).
-pub const UNITLESS: &[&str] = &[];
+/// Numeric names without a unit: counts, indices, seeds and dimensionless ratios. Any
+/// other numeric name must end in a unit ([`UNIT_SUFFIXES`]) or in one of
+/// [`UNITLESS_SUFFIXES`].
+pub const UNITLESS: &[&str] = &[
+    "sample",
+    "samples",
+    "rows",
+    "gaps",
+    "seed",
+    "shocks",
+    "subjects",
+    "cases",
+    "segments",
+    "frequencies",
+    "components",
+    "residuals",
+    "evaluations",
+    "iterations",
+    "best_start",
+    "modal_blocks",
+    "frames",
+    "fault_flags",
+    "sensor_to_litter",
+    "magnitude",
+    // Flags, written 1 or 0 in a CSV.
+    "valid",
+    "raised",
+];
+
+/// Endings of numeric names without a unit: counts of a thing (`dropped_samples`,
+/// `lost_frames`), ratios (`vdv_ratio`, `crest_factor`), a fit's cost (a sum of squared
+/// log ratios).
+pub const UNITLESS_SUFFIXES: &[&str] = &[
+    "_samples",
+    "_frames",
+    "_records",
+    "_events",
+    "_raised",
+    "_per_sample",
+    "_ratio",
+    "_fraction",
+    "_factor",
+    "_magnitude",
+    "_cost",
+];
 
 /// An f32 as the shortest decimal that reads back as it (`1.82`, not
 /// `1.8200000524520874`), as an f64 for serde: for numbers a person typed or reads.
@@ -64,7 +90,11 @@ pub fn is_snake_case(name: &str) -> bool {
 
 /// Whether a numeric value may be named `name`: with a unit suffix, or a unitless name.
 pub fn names_a_number(name: &str) -> bool {
-    UNIT_SUFFIXES.iter().any(|u| name.ends_with(u)) || UNITLESS.contains(&name)
+    UNIT_SUFFIXES
+        .iter()
+        .chain(UNITLESS_SUFFIXES)
+        .any(|u| name.ends_with(u))
+        || UNITLESS.contains(&name)
 }
 
 #[cfg(test)]
