@@ -196,7 +196,7 @@ fn every_commands_json_and_every_csv_header_follow_the_naming_rules() {
                 "--subjects",
                 "3",
                 "--duration-s",
-                "20",
+                "30",
                 "--json",
             ]),
         ),
@@ -341,9 +341,9 @@ fn the_rules_catch_a_number_without_a_unit_and_a_name_that_is_not_snake_case() {
     let csv = dir.path().join("t.csv");
     std::fs::write(
         &csv,
-        "sample,time_s,head_x,alert_level\n1,0.002,0.5,normal\n",
+        "sample,time_s,head_accel,alert_level\n1,0.002,0.5,normal\n",
     )
     .unwrap();
     csv_problems(&csv, &mut problems);
-    assert!(problems.contains(&"t.csv: column head_x: a number without a unit".to_string()));
+    assert!(problems.contains(&"t.csv: column head_accel: a number without a unit".to_string()));
 }
