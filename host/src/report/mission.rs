@@ -31,6 +31,7 @@ use crate::io::ride_rows::RideSource;
 use crate::report::mission_joints::{LegJoints, MissionJoint, mission_joints};
 use crate::report::spectrum::{AxisSpectrum, LegSpectra};
 use crate::report::third_octave::{HeadBand, head_weighted_bands};
+use crate::ride::quality::DataQuality;
 use crate::schema::event::{EventCriterion, criterion_fields};
 
 /// Rate of the time series kept for the charts, Hz: the running rms has a 1 s time
@@ -148,6 +149,9 @@ pub struct Leg {
     pub max_level: Level,
     /// The predicted neck and lower-back motion (as `supine exposure --json` gives it).
     pub joints: Vec<JointReport>,
+    /// The ride's data-quality account (a logger's file; null for a recording), as
+    /// `supine exposure --json` gives it.
+    pub data_quality: Option<DataQuality>,
     /// Everything `supine exposure --json` gives for this file.
     #[serde(skip)]
     pub exposure: ModelExposure,
@@ -319,6 +323,7 @@ pub fn evaluate_leg(
         time_at_level_s: TimeAtLevel::from_array(at_level.map(|c| c as f64 / fs)),
         max_level: exposure.max_level,
         joints: exposure.joints.clone(),
+        data_quality: exposure.data_quality.clone(),
         series: series.finish(),
         third_octave_bands: head_weighted_bands(&spectra),
         spectra,
