@@ -17,7 +17,7 @@ use supine_core::pipeline::Telemetry;
 use supine_host::io::recording::COLUMNS;
 use supine_host::io::telemetry_csv::{write_events, write_telemetry};
 use supine_host::monitor::json::{event_json, telemetry_json};
-use supine_host::schema::{is_snake_case, names_a_number};
+use supine_host::schema::names;
 
 fn supine(args: &[&str]) -> String {
     let out = Command::new(env!("CARGO_BIN_EXE_supine"))
@@ -37,62 +37,19 @@ fn s(p: &Path) -> &str {
     p.to_str().expect("utf-8 path")
 }
 
-/// The names in `value` (at `path`) that break the rules; `unit_given` when an enclosing
-/// key or a `unit` field states the unit of the numbers below.
-fn json_problems(value: &Value, path: &str, unit_given: bool, out: &mut Vec<String>) {
-    match value {
-        Value::Object(map) => {
-            let unit_here = unit_given || map.get("unit").is_some_and(Value::is_string);
-            for (key, v) in map {
-                let at = format!("{path}.{key}");
-                if !is_snake_case(key) {
-                    out.push(format!("{at}: not snake_case"));
-                }
-                let numeric = v.is_number()
-                    || v.as_array()
-                        .is_some_and(|a| !a.is_empty() && a.iter().all(numeric_or_array));
-                if numeric && !unit_here && !names_a_number(key) {
-                    out.push(format!("{at}: a number without a unit in its name"));
-                }
-                let carries_unit = unit_here || (names_a_number(key) && !v.is_number());
-                json_problems(v, &at, carries_unit, out);
-            }
-        }
-        Value::Array(items) => {
-            for (i, v) in items.iter().enumerate() {
-                json_problems(v, &format!("{path}[{i}]"), unit_given, out);
-            }
-        }
-        _ => {}
-    }
+/// The names in `value` that break the rules, each with where it is.
+fn json_problems(value: &Value, path: &str, _unit_given: bool, out: &mut Vec<String>) {
+    out.extend(names::json_problems(value, path));
 }
 
-fn numeric_or_array(v: &Value) -> bool {
-    v.is_number() || v.is_null() || v.as_array().is_some_and(|a| a.iter().all(numeric_or_array))
-}
-
-/// The header names of `csv` that break the rules: a column whose first value is a
-/// number must carry a unit (or be unitless, or have a `unit` column beside it).
+/// The header names of `csv` that break the rules.
 fn csv_problems(csv: &Path, out: &mut Vec<String>) {
     let text = std::fs::read_to_string(csv).expect("a CSV written");
-    let mut lines = text.lines().filter(|l| !l.starts_with('#'));
-    let header: Vec<&str> = lines.next().expect("a header").split(',').collect();
-    let first: Vec<&str> = lines.next().map_or(vec![], |l| l.split(',').collect());
-    let unit_column = header.contains(&"unit");
     let name = csv.file_name().unwrap().to_string_lossy();
-    for (k, column) in header.iter().enumerate() {
-        if !is_snake_case(column) {
-            out.push(format!("{name}: column {column}: not snake_case"));
-        }
-        let numeric = first.get(k).is_some_and(|v| v.parse::<f64>().is_ok());
-        // The recording and ride formats (docs/fitting.md) are in m/s^2 by definition and
-        // keep their names for the files already written (the ride reader's rewrite may
-        // rename them); nothing else may go without a unit.
-        let recording_column = COLUMNS.contains(column);
-        if numeric && !unit_column && !recording_column && !names_a_number(column) {
-            out.push(format!("{name}: column {column}: a number without a unit"));
-        }
-    }
+    // The recording and ride formats (docs/fitting.md) are in m/s^2 by definition and
+    // keep their names for the files already written (the ride reader's rewrite may rename
+    // them); nothing else may go without a unit.
+    out.extend(names::csv_problems(&text, &name, &COLUMNS));
 }
 
 fn csv_files(dir: &Path) -> Vec<PathBuf> {
@@ -321,29 +278,4 @@ fn the_device_records_follow_the_naming_rules() {
         csv_problems(&events, &mut problems);
     }
     assert!(problems.is_empty(), "{}", problems.join("\n"));
-}
-
-/// The rules can fail: names a script would trip on are caught.
-#[test]
-fn the_rules_catch_a_number_without_a_unit_and_a_name_that_is_not_snake_case() {
-    let mut problems = Vec::new();
-    let bad = serde_json::json!({"head_x": 1.0, "Level": "alarm", "rms_m_s2": {"x": 1.0},
-        "joints": [{"unit": "mm", "rms": 2.0}]});
-    json_problems(&bad, "bad", false, &mut problems);
-    assert_eq!(
-        problems,
-        [
-            "bad.Level: not snake_case",
-            "bad.head_x: a number without a unit in its name"
-        ]
-    );
-    let dir = tempfile::tempdir().unwrap();
-    let csv = dir.path().join("t.csv");
-    std::fs::write(
-        &csv,
-        "sample,time_s,head_accel,alert_level\n1,0.002,0.5,normal\n",
-    )
-    .unwrap();
-    csv_problems(&csv, &mut problems);
-    assert!(problems.contains(&"t.csv: column head_accel: a number without a unit".to_string()));
 }

@@ -18,6 +18,7 @@
 //!   decimal of their f32 ([`shortest`]).
 
 pub mod event;
+pub mod names;
 
 /// The unit suffixes a numeric name may end with.
 pub const UNIT_SUFFIXES: &[&str] = &[
@@ -51,6 +52,9 @@ pub const UNITLESS: &[&str] = &[
     // Flags, written 1 or 0 in a CSV.
     "valid",
     "raised",
+    // Settings that count samples or name a slot.
+    "telemetry_decimation",
+    "slot",
 ];
 
 /// Endings of numeric names without a unit: counts of a thing (`dropped_samples`,
