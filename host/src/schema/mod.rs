@@ -52,9 +52,10 @@ pub const UNITLESS: &[&str] = &[
     // Flags, written 1 or 0 in a CSV.
     "valid",
     "raised",
-    // Settings that count samples or name a slot.
+    // Settings that count samples, name a flash slot, or number an upload.
     "telemetry_decimation",
     "slot",
+    "counter",
 ];
 
 /// Endings of numeric names without a unit: counts of a thing (`dropped_samples`,
