@@ -10,6 +10,7 @@
 //! layer ([`plot`]), jobs over the cores ([`parallel`]), and
 //! the command line ([`cli`], [`commands`]) on top of them all.
 
+pub mod archive;
 pub mod cli;
 pub mod commands;
 pub mod demo;

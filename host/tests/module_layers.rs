@@ -16,10 +16,11 @@ const ALLOWED: &[(&str, &[&str])] = &[
     (
         "commands",
         &[
-            "demo", "report", "monitor", "exposure", "identify", "device", "io", "plot",
+            "archive", "demo", "report", "monitor", "exposure", "identify", "device", "io", "plot",
             "parallel", "ride",
         ],
     ),
+    ("archive", &["report"]),
     (
         "demo",
         &["report", "monitor", "exposure", "device", "plot", "io"],
