@@ -6,7 +6,6 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{Context as _, Result, bail};
-use clap::ValueEnum as _;
 
 use crate::commands::band_args::{BandArgs, band_threads};
 use crate::io::output::write_atomically;
@@ -48,17 +47,6 @@ pub struct Args {
     /// instead of the legs of one mission.
     #[arg(long)]
     pub compare: bool,
-}
-
-/// The name the model is reported by.
-pub fn model_name(source: &ModelSource) -> String {
-    match (&source.params, source.preset) {
-        (Some(p), _) => p.display().to_string(),
-        (None, Some(p)) => p
-            .to_possible_value()
-            .map_or_else(|| format!("{p:?}"), |v| v.get_name().to_string()),
-        (None, None) => "paper-litter".to_string(),
-    }
 }
 
 /// The rides a report evaluates: `inputs` themselves, or the ride inside a monitor log
@@ -112,7 +100,7 @@ pub fn mission_report(
         &found.rides,
         ride.opener(mounting),
         &file,
-        &model_name(model),
+        &model.model_name(),
         compare,
     )?;
     if !ride.labels.is_empty() {

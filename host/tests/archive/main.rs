@@ -161,6 +161,25 @@ fn stored_values_equal_report_json_on_both_databases() {
         assert_eq!(shown["model"]["identity"], expected["model"]["identity"]);
         assert_eq!(shown["start"], "2026-11-28T05:00:00Z");
         assert_eq!(shown["tags"], serde_json::json!(["night", "rain"]));
+        // Each leg's data-quality account, kept in its own column too.
+        let a = open(&db);
+        for (i, leg) in expected["legs"].as_array().unwrap().iter().enumerate() {
+            let stored: Option<String> = a
+                .run(
+                    sqlx::query(
+                        "SELECT data_quality_json FROM legs WHERE mission_id = $1 AND leg = $2",
+                    )
+                    .bind(id)
+                    .bind(i as i64 + 1)
+                    .fetch_one(a.pool()),
+                )
+                .unwrap()
+                .try_get("data_quality_json")
+                .unwrap();
+            let stored: Value = stored.map_or(Value::Null, |t| serde_json::from_str(&t).unwrap());
+            assert_eq!(stored, leg["data_quality"], "{db} leg {}", i + 1);
+        }
+        drop(a);
         let listed = list(&db);
         assert_eq!(listed.len(), 1);
         assert_eq!(listed[0]["mission"], expected["mission"]);
