@@ -16,6 +16,7 @@ use jiff::Timestamp;
 use serde::Serialize;
 
 use crate::archive::meta::parse_bound;
+use crate::archive::road::RoadSegment;
 use crate::archive::stats::{Distribution, MannWhitney, mann_whitney};
 use crate::archive::store::FleetRow;
 
@@ -251,13 +252,19 @@ pub struct FleetView {
     pub worst: Vec<WorstMission>,
     /// The compare, when there are two groups to compare.
     pub compare: Option<Comparison>,
-    /// Road segments with their passes and exposure: none until rides carry positions.
-    pub road_segments: Vec<serde_json::Value>,
+    /// The places passed, with their passes and the head's exposure there, worst first
+    /// (none when no ride has positions).
+    pub road_segments: Vec<RoadSegment>,
 }
 
 /// The view of `rows`, grouped by `dims`, comparing `compare` (or, when `None`, the two
 /// largest groups of the first dimension).
-pub fn build(rows: &[FleetRow], dims: &[&'static str], compare: Option<[Side; 2]>) -> FleetView {
+pub fn build(
+    rows: &[FleetRow],
+    road_segments: Vec<RoadSegment>,
+    dims: &[&'static str],
+    compare: Option<[Side; 2]>,
+) -> FleetView {
     let rate = |r: &FleetRow| vdv_per_hour_m_s175(r.vdv_m_s175, r.duration_s);
     let mut groups = Vec::new();
     for &by in dims {
@@ -317,7 +324,7 @@ pub fn build(rows: &[FleetRow], dims: &[&'static str], compare: Option<[Side; 2]
         groups,
         worst,
         compare,
-        road_segments: Vec::new(),
+        road_segments,
     }
 }
 

@@ -93,13 +93,7 @@ pub fn render(view: &FleetView) -> String {
     }
     compare(&mut h, view);
     worst(&mut h, view);
-    h.push_str("<h2>Road segments</h2>\n");
-    if view.road_segments.is_empty() {
-        h.push_str(
-            "<p>No mission in this view has positions, so there is no map of road segments. \
-             It appears once rides carry GPS positions.</p>\n",
-        );
-    }
+    road(&mut h, view);
     h.push_str("</main>\n</body>\n</html>\n");
     h
 }
@@ -435,6 +429,97 @@ fn worst(h: &mut String, view: &FleetView) {
             m.vdv_per_hour_m_s175,
             tag(&m.max_level),
             id = m.id
+        );
+    }
+    h.push_str("</table>\n");
+}
+
+/// Most places drawn on the map (the worst); the table lists [`ROAD_LISTED`].
+const ROAD_DRAWN: usize = 5000;
+/// Places in the table of the worst.
+const ROAD_LISTED: usize = 10;
+
+/// A place's colour: green to red over the drawn places' rms, lowest to highest.
+fn rms_colour(rms: f64, low: f64, high: f64) -> String {
+    let t = if high > low {
+        ((rms - low) / (high - low)).clamp(0.0, 1.0)
+    } else {
+        1.0
+    };
+    format!("hsl({:.0},80%,40%)", 120.0 * (1.0 - t))
+}
+
+fn road(h: &mut String, view: &FleetView) {
+    h.push_str("<h2>Road segments</h2>\n");
+    let places = &view.road_segments[..view.road_segments.len().min(ROAD_DRAWN)];
+    if places.is_empty() {
+        h.push_str(
+            "<p>No mission in this view has positions, so there is no map of road segments. \
+             It appears once rides carry GPS positions.</p>\n",
+        );
+        return;
+    }
+    // An equirectangular map around the places' middle latitude: one scale both ways.
+    let (mut lat0, mut lat1, mut lon0, mut lon1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for p in places {
+        lat0 = lat0.min(p.lat_deg);
+        lat1 = lat1.max(p.lat_deg);
+        lon0 = lon0.min(p.lon_deg);
+        lon1 = lon1.max(p.lon_deg);
+    }
+    let k = ((lat0 + lat1) / 2.0).to_radians().cos();
+    let (w, pad) = (1060.0, 12.0);
+    let span_x = ((lon1 - lon0) * k).max(1e-6);
+    let span_y = (lat1 - lat0).max(1e-6);
+    let scale = ((w - 2.0 * pad) / span_x).min(600.0 / span_y);
+    let ht = span_y * scale + 2.0 * pad;
+    let rms = places.iter().map(|p| p.rms_m_s2);
+    let low = rms.clone().fold(f64::MAX, f64::min);
+    let high = rms.fold(f64::MIN, f64::max);
+    let _ = write!(
+        h,
+        "<figure><svg viewBox=\"0 0 {w} {ht:.0}\" width=\"{w}\" height=\"{ht:.0}\" \
+         role=\"img\" aria-label=\"Map of road segments\">\n"
+    );
+    // The worst last, so they are drawn on top.
+    for p in places.iter().rev() {
+        let x = pad + (p.lon_deg - lon0) * k * scale;
+        let y = pad + (lat1 - p.lat_deg) * scale;
+        let r = 2.0 + (p.passes as f64).log2().min(4.0);
+        let _ = writeln!(
+            h,
+            "<circle cx=\"{x:.1}\" cy=\"{y:.1}\" r=\"{r:.1}\" fill=\"{}\"><title>{:.5}, \
+             {:.5}: rms {:.3} m/s^2 over {} passes ({} missions)</title></circle>",
+            rms_colour(p.rms_m_s2, low, high),
+            p.lat_deg,
+            p.lon_deg,
+            p.rms_m_s2,
+            p.passes,
+            p.missions
+        );
+    }
+    let _ = writeln!(
+        h,
+        "</svg><figcaption>{} places of about 50&nbsp;m passed{}; each coloured by the \
+         head's weighted rms over all its passes, from green ({low:.3} m/s^2) to red \
+         ({high:.3} m/s^2), larger with more passes.</figcaption></figure>",
+        view.road_segments.len(),
+        if view.road_segments.len() > ROAD_DRAWN {
+            format!(" (the {ROAD_DRAWN} worst drawn)")
+        } else {
+            String::new()
+        }
+    );
+    h.push_str(
+        "<table><tr><th>latitude</th><th>longitude</th><th>passes</th><th>missions</th>\
+         <th>rms, m/s^2</th><th>largest pass rms, m/s^2</th></tr>\n",
+    );
+    for p in places.iter().take(ROAD_LISTED) {
+        let _ = writeln!(
+            h,
+            "<tr><td>{:.5}</td><td>{:.5}</td><td>{}</td><td>{}</td><td>{:.3}</td>\
+             <td>{:.3}</td></tr>",
+            p.lat_deg, p.lon_deg, p.passes, p.missions, p.rms_m_s2, p.max_rms_m_s2
         );
     }
     h.push_str("</table>\n");

@@ -7,6 +7,7 @@
 //! - [`schema`]: the versioned migrations.
 //! - [`meta`]: a mission's metadata (flags and `--meta FILE.toml`).
 //! - [`record`]: what `add` stores of a mission report.
+//! - [`road`]: road segments across missions (places and passes).
 //! - [`series`]: the per-second series kept for each leg.
 //! - [`store`]: adding, listing, showing and removing missions.
 //! - [`stats`]: quantiles, the median's interval and the two-group test.
@@ -20,6 +21,7 @@ pub mod fleet_html;
 pub mod location;
 pub mod meta;
 pub mod record;
+pub mod road;
 pub mod schema;
 pub mod series;
 pub mod stats;

@@ -12,6 +12,7 @@ use serde_json::Value;
 use sha2::{Digest, Sha256};
 
 use crate::archive::meta::MissionMeta;
+use crate::archive::road::{self, Pass};
 use crate::archive::series::SecondSeries;
 use crate::report::MissionReport;
 
@@ -75,6 +76,8 @@ pub struct LegRecord {
     pub data_quality: Option<Value>,
     /// Its per-second series.
     pub seconds: SecondSeries,
+    /// Its passes over road segments (none without positions).
+    pub passes: Vec<Pass>,
 }
 
 /// A mission as stored.
@@ -109,13 +112,17 @@ impl<'a> MissionRecord<'a> {
             .iter()
             .zip(rides)
             .zip(legs_json)
-            .map(|((leg, ride), json)| LegRecord {
-                data_quality: json.get("data_quality").cloned(),
-                seconds: SecondSeries::of_leg(leg),
-                ride,
-                json,
+            .enumerate()
+            .map(|(i, ((leg, ride), json))| {
+                Ok(LegRecord {
+                    data_quality: json.get("data_quality").cloned(),
+                    seconds: SecondSeries::of_leg(leg),
+                    passes: road::passes(&json).map_err(|e| anyhow!("leg {}: {e}", i + 1))?,
+                    ride,
+                    json,
+                })
             })
-            .collect();
+            .collect::<Result<_>>()?;
         let start = meta.start_time()?;
         Ok(Self {
             report,

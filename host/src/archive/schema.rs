@@ -121,44 +121,37 @@ const V1: &[&str] = &[
     )",
 ];
 
-/// Version 2: each leg's data-quality account, and the tables for where it happened
-/// (positions, road segments keyed by their ends' positions, and each pass of a mission
-/// over a segment with the head's exposure there).
+/// Version 2: each leg's data-quality account, and where it happened: places (road
+/// segments keyed by a cell of about 50 m, `archive::road`) and each pass of a leg over
+/// one with the head's exposure there (`report --json`'s `"route"` segments).
 const V2: &[&str] = &[
     "ALTER TABLE legs ADD COLUMN data_quality_json TEXT",
-    "CREATE TABLE positions (
-        mission_id BIGINT NOT NULL REFERENCES missions (id) ON DELETE CASCADE,
-        leg BIGINT NOT NULL,
-        t_s {real} NOT NULL,
+    "CREATE TABLE road_segments (
+        cell_lat BIGINT NOT NULL,
+        cell_lon BIGINT NOT NULL,
         lat_deg {real} NOT NULL,
         lon_deg {real} NOT NULL,
-        PRIMARY KEY (mission_id, leg, t_s)
-    )",
-    "CREATE TABLE road_segments (
-        start_lat_e5 BIGINT NOT NULL,
-        start_lon_e5 BIGINT NOT NULL,
-        end_lat_e5 BIGINT NOT NULL,
-        end_lon_e5 BIGINT NOT NULL,
-        length_m {real} NOT NULL,
-        PRIMARY KEY (start_lat_e5, start_lon_e5, end_lat_e5, end_lon_e5)
+        PRIMARY KEY (cell_lat, cell_lon)
     )",
     "CREATE TABLE segment_passes (
         mission_id BIGINT NOT NULL REFERENCES missions (id) ON DELETE CASCADE,
         leg BIGINT NOT NULL,
-        enter_s {real} NOT NULL,
-        exit_s {real} NOT NULL,
-        start_lat_e5 BIGINT NOT NULL,
-        start_lon_e5 BIGINT NOT NULL,
-        end_lat_e5 BIGINT NOT NULL,
-        end_lon_e5 BIGINT NOT NULL,
-        head_rms_m_s2 {real} NOT NULL,
-        head_vdv_m_s175 {real} NOT NULL,
-        PRIMARY KEY (mission_id, leg, enter_s),
-        FOREIGN KEY (start_lat_e5, start_lon_e5, end_lat_e5, end_lon_e5)
-            REFERENCES road_segments (start_lat_e5, start_lon_e5, end_lat_e5, end_lon_e5)
+        seq BIGINT NOT NULL,
+        cell_lat BIGINT NOT NULL,
+        cell_lon BIGINT NOT NULL,
+        start_s {real} NOT NULL,
+        end_s {real} NOT NULL,
+        lat_deg {real} NOT NULL,
+        lon_deg {real} NOT NULL,
+        length_m {real} NOT NULL,
+        speed_m_s {real} NOT NULL,
+        rms_m_s2 {real} NOT NULL,
+        vdv_m_s175 {real} NOT NULL,
+        max_running_rms_m_s2 {real} NOT NULL,
+        PRIMARY KEY (mission_id, leg, seq),
+        FOREIGN KEY (cell_lat, cell_lon) REFERENCES road_segments (cell_lat, cell_lon)
     )",
-    "CREATE INDEX segment_passes_segment ON segment_passes
-        (start_lat_e5, start_lon_e5, end_lat_e5, end_lon_e5)",
+    "CREATE INDEX segment_passes_cell ON segment_passes (cell_lat, cell_lon)",
 ];
 
 /// A migration statement in `backend`'s spelling.

@@ -20,6 +20,7 @@ use sqlx::{Any, Row as _};
 
 use crate::archive::db::Archive;
 use crate::archive::record::MissionRecord;
+use crate::archive::road::{Cell, RoadSegment};
 use crate::archive::series::SecondSeries;
 
 /// An environment variable for the tests of a killed add: the milliseconds `add` holds its
@@ -265,6 +266,41 @@ pub async fn add(archive: &Archive, record: &MissionRecord<'_>) -> Result<i64> {
                     j.largest_excursion_at_s,
                 ],
             )
+            .await?;
+        }
+        for (seq, p) in stored.passes.iter().enumerate() {
+            // The place is kept once, where its first pass put it.
+            sqlx::query(
+                "INSERT INTO road_segments (cell_lat, cell_lon, lat_deg, lon_deg) VALUES ($1, \
+                 $2, $3, $4) ON CONFLICT (cell_lat, cell_lon) DO NOTHING",
+            )
+            .bind(p.cell.lat)
+            .bind(p.cell.lon)
+            .bind(p.lat_deg)
+            .bind(p.lon_deg)
+            .execute(&mut *tx)
+            .await?;
+            sqlx::query(
+                "INSERT INTO segment_passes (mission_id, leg, seq, cell_lat, cell_lon, start_s, \
+                 end_s, lat_deg, lon_deg, length_m, speed_m_s, rms_m_s2, vdv_m_s175, \
+                 max_running_rms_m_s2) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, \
+                 $12, $13, $14)",
+            )
+            .bind(id)
+            .bind(n)
+            .bind(seq as i64)
+            .bind(p.cell.lat)
+            .bind(p.cell.lon)
+            .bind(p.start_s)
+            .bind(p.end_s)
+            .bind(p.lat_deg)
+            .bind(p.lon_deg)
+            .bind(p.length_m)
+            .bind(p.speed_m_s)
+            .bind(p.rms_m_s2)
+            .bind(p.vdv_m_s175)
+            .bind(p.max_running_rms_m_s2)
+            .execute(&mut *tx)
             .await?;
         }
         let s = &stored.seconds;
@@ -567,7 +603,6 @@ pub async fn remove(archive: &Archive, id: i64) -> Result<()> {
     let mut tx = archive.pool().begin().await?;
     for table in [
         "segment_passes",
-        "positions",
         "leg_seconds",
         "joints",
         "alerts",
@@ -680,4 +715,39 @@ pub async fn count(archive: &Archive) -> Result<i64> {
         .fetch_one(archive.pool())
         .await?
         .try_get("n")?)
+}
+
+/// The places passed by the missions `filter` selects, with their passes and the head's
+/// exposure there, worst (highest rms) first.
+pub async fn road_segments(archive: &Archive, filter: &Filter) -> Result<Vec<RoadSegment>> {
+    let (clause, binds) = filter.clause();
+    let sql = format!(
+        "SELECT p.cell_lat, p.cell_lon, s.lat_deg, s.lon_deg, COUNT(*) AS passes, \
+         COUNT(DISTINCT p.mission_id) AS missions, \
+         SUM(p.rms_m_s2 * p.rms_m_s2 * (p.end_s - p.start_s)) AS energy, \
+         SUM(p.end_s - p.start_s) AS seconds, MAX(p.rms_m_s2) AS max_rms \
+         FROM segment_passes p JOIN missions m ON m.id = p.mission_id \
+         JOIN road_segments s ON s.cell_lat = p.cell_lat AND s.cell_lon = p.cell_lon{clause} \
+         GROUP BY p.cell_lat, p.cell_lon, s.lat_deg, s.lon_deg"
+    );
+    let mut segments = bound(sqlx::query(&sql), &binds)
+        .fetch_all(archive.pool())
+        .await?
+        .iter()
+        .map(|r| {
+            Ok(RoadSegment::from_sums(
+                Cell {
+                    lat: r.try_get("cell_lat")?,
+                    lon: r.try_get("cell_lon")?,
+                },
+                (r.try_get("lat_deg")?, r.try_get("lon_deg")?),
+                (r.try_get("passes")?, r.try_get("missions")?),
+                r.try_get("energy")?,
+                r.try_get("seconds")?,
+                r.try_get("max_rms")?,
+            ))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    segments.sort_by(|a, b| b.rms_m_s2.total_cmp(&a.rms_m_s2).then(a.cell.cmp(&b.cell)));
+    Ok(segments)
 }

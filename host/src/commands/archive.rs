@@ -336,8 +336,10 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
                 other => bail!("--compare: give two groups, found {}", other.len()),
             };
             let archive = Archive::open(&location)?;
-            let rows = archive.run(store::fleet_rows(&archive, &a.filter.filter()?))?;
-            let view = fleet::build(&rows, &dims, compare);
+            let filter = a.filter.filter()?;
+            let rows = archive.run(store::fleet_rows(&archive, &filter))?;
+            let places = archive.run(store::road_segments(&archive, &filter))?;
+            let view = fleet::build(&rows, places, &dims, compare);
             std::fs::create_dir_all(&a.out)
                 .with_context(|| format!("{}: cannot create the folder", a.out.display()))?;
             let page = a.out.join("fleet.html");

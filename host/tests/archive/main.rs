@@ -19,6 +19,7 @@ use serde_json::Value;
 use sqlx::Row as _;
 use supine_host::archive::db::Archive;
 use supine_host::archive::location::Location;
+use supine_host::archive::road::Cell;
 use supine_host::archive::schema;
 use supine_host::archive::store::STALL_ENV;
 use supine_host::commands::archive::{self, AddArgs, Command as Sub, MetaArgs};
@@ -402,6 +403,112 @@ fn fleet_statistics_equal_an_independent_computation_from_list_json() {
         let p = c["mann_whitney"]["p_value"].as_f64().unwrap();
         assert_eq!(c["more_than_chance"], p < 0.05);
         assert!(c["median_difference_m_s175"].as_f64().unwrap() > 0.0);
+        // Road segments: passes of three missions over two places (as a ride with
+        // positions leaves them), gathered per place, the worst first.
+        let ids: Vec<i64> = missions.iter().map(|m| m["id"].as_i64().unwrap()).collect();
+        let a = open(&db);
+        let places = [(48.137_1, 11.575_2), (48.140_3, 11.580_9)];
+        // (mission, place, seconds, rms)
+        let passes = [
+            (ids[0], 0, 4.0, 0.5),
+            (ids[1], 0, 2.0, 2.0),
+            (ids[1], 1, 3.0, 0.2),
+            (ids[2], 1, 5.0, 0.4),
+            (ids[2], 0, 6.0, 0.1),
+        ];
+        for (seq, &(mission, place, seconds, rms)) in passes.iter().enumerate() {
+            let (lat, lon) = places[place];
+            let cell = Cell::of(lat, lon);
+            a.run(
+                sqlx::query(
+                    "INSERT INTO road_segments (cell_lat, cell_lon, lat_deg, lon_deg) VALUES \
+                     ($1, $2, $3, $4) ON CONFLICT (cell_lat, cell_lon) DO NOTHING",
+                )
+                .bind(cell.lat)
+                .bind(cell.lon)
+                .bind(lat)
+                .bind(lon)
+                .execute(a.pool()),
+            )
+            .unwrap();
+            a.run(
+                sqlx::query(
+                    "INSERT INTO segment_passes (mission_id, leg, seq, cell_lat, cell_lon, \
+                     start_s, end_s, lat_deg, lon_deg, length_m, speed_m_s, rms_m_s2, \
+                     vdv_m_s175, max_running_rms_m_s2) VALUES ($1, 1, $2, $3, $4, 1.0, $5, \
+                     $6, $7, 50.0, 12.0, $8, 0.1, $8)",
+                )
+                .bind(mission)
+                .bind(seq as i64)
+                .bind(cell.lat)
+                .bind(cell.lon)
+                .bind(1.0 + seconds)
+                .bind(lat)
+                .bind(lon)
+                .bind(rms)
+                .execute(a.pool()),
+            )
+            .unwrap();
+        }
+        drop(a);
+        let text = run(
+            &db,
+            Sub::Fleet(archive::FleetArgs {
+                out: out.clone(),
+                json: true,
+                by: vec![],
+                filter: Default::default(),
+                compare: vec![],
+            }),
+        )
+        .unwrap();
+        let view: Value = serde_json::from_str(&text).unwrap();
+        let segments = view["road_segments"].as_array().unwrap();
+        assert_eq!(segments.len(), 2, "{db}");
+        // Place 0: sqrt((0.25*4 + 4*2 + 0.01*6) / 12); place 1: sqrt((0.04*3 + 0.16*5) / 8).
+        let rms0 = ((0.25 * 4.0 + 4.0 * 2.0 + 0.01 * 6.0) / 12.0_f64).sqrt();
+        let rms1 = ((0.04 * 3.0 + 0.16 * 5.0) / 8.0_f64).sqrt();
+        assert!(rms0 > rms1);
+        let worst = &segments[0];
+        assert_eq!(worst["passes"], 3);
+        assert_eq!(worst["missions"], 3);
+        assert!((worst["rms_m_s2"].as_f64().unwrap() - rms0).abs() < 1e-12);
+        assert_eq!(worst["max_rms_m_s2"], 2.0);
+        assert_eq!(worst["lat_deg"], places[0].0);
+        assert_eq!(segments[1]["passes"], 2);
+        assert_eq!(segments[1]["missions"], 2);
+        assert!((segments[1]["rms_m_s2"].as_f64().unwrap() - rms1).abs() < 1e-12);
+        let page = std::fs::read_to_string(out.join("fleet.html")).unwrap();
+        assert!(page.contains("2 places of about 50&nbsp;m passed"));
+        // Only vehicle B's missions: the passes of its missions alone.
+        let b_ids: Vec<i64> = missions
+            .iter()
+            .filter(|m| m["vehicle"] == "B")
+            .map(|m| m["id"].as_i64().unwrap())
+            .collect();
+        let text = run(
+            &db,
+            Sub::Fleet(archive::FleetArgs {
+                out: out.clone(),
+                json: true,
+                by: vec![],
+                filter: archive::FilterArgs {
+                    vehicle: vec!["B".into()],
+                    ..Default::default()
+                },
+                compare: vec![],
+            }),
+        )
+        .unwrap();
+        let view_b: Value = serde_json::from_str(&text).unwrap();
+        let passes_b: i64 = passes.iter().filter(|p| b_ids.contains(&p.0)).count() as i64;
+        let counted: i64 = view_b["road_segments"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| s["passes"].as_i64().unwrap())
+            .sum();
+        assert_eq!(counted, passes_b, "{db}");
         // The worst mission is the one with the largest rate.
         let worst = missions
             .iter()
