@@ -483,7 +483,7 @@ mod tests {
             row(2, "A", 3600.0, 2.0, mon + 6.0 * 86_400.0 + 3600.0),
             row(3, "B", 3600.0, 3.0, mon + 7.0 * 86_400.0),
         ];
-        let v = build(&rows, &["vehicle"], None);
+        let v = build(&rows, Vec::new(), &["vehicle"], None);
         assert_eq!(v.weeks.len(), 2);
         assert_eq!(v.weeks[0].week_of, "2026-11-23");
         assert_eq!(v.weeks[0].missions, 2);

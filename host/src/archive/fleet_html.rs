@@ -476,10 +476,10 @@ fn road(h: &mut String, view: &FleetView) {
     let rms = places.iter().map(|p| p.rms_m_s2);
     let low = rms.clone().fold(f64::MAX, f64::min);
     let high = rms.fold(f64::MIN, f64::max);
-    let _ = write!(
+    let _ = writeln!(
         h,
         "<figure><svg viewBox=\"0 0 {w} {ht:.0}\" width=\"{w}\" height=\"{ht:.0}\" \
-         role=\"img\" aria-label=\"Map of road segments\">\n"
+         role=\"img\" aria-label=\"Map of road segments\">"
     );
     // The worst last, so they are drawn on top.
     for p in places.iter().rev() {
