@@ -92,7 +92,7 @@ pub enum Command {
     Report(commands::report::Args),
     /// Keep missions in an archive (SQLite or PostgreSQL): add, list, show, remove, fleet, export.
     #[command(
-        after_help = "Example:\n  supine archive add --preset paper-litter --input ride.csv --vehicle A1 --route A9\n  supine archive fleet --out fleet"
+        after_help = "Example:\n  supine archive add --preset paper-litter --input ride.csv --vehicle A1 --route A9"
     )]
     Archive(commands::archive::Args),
     /// Replay a recording through the firmware in QEMU; write its telemetry as CSV.

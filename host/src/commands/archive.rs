@@ -43,6 +43,9 @@ pub enum Command {
     /// Remove one mission and everything stored with it.
     Remove(RemoveArgs),
     /// Write the fleet view: DIR/fleet.html (and --json).
+    #[command(
+        after_help = "Example:\n  supine archive fleet --out fleet --compare vehicle=A1 --compare vehicle=A2"
+    )]
     Fleet(FleetArgs),
     /// Export one mission for the patient's record.
     Export(ExportArgs),
