@@ -8,7 +8,7 @@
 //! take the shared machine an hour. A ride is archived once, so each mission's ride hash
 //! is the SHA-256 of its pool ride's bytes followed by the mission's number.
 //!
-//! Run: `cargo bench -p supine-host --bench archive_scale -- MISSIONS ARCHIVE [OUT]`
+//! Run: `cargo bench -p supine-host --profile dev --bench archive_scale -- MISSIONS ARCHIVE [OUT]`
 //! (ARCHIVE a SQLite path or a postgres:// URL of an empty database; OUT the folder for
 //! `fleet.html`, default `target/archive-bench`).
 

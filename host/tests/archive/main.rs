@@ -277,6 +277,28 @@ fn meta(vehicle: &str, route: &str, day: usize) -> MetaArgs {
     }
 }
 
+/// `archive fleet --out OUT --json` with these groupings, filter and compare: its JSON.
+fn fleet(
+    db: &str,
+    out: &Path,
+    by: Vec<String>,
+    filter: archive::FilterArgs,
+    compare: Vec<String>,
+) -> Value {
+    let text = run(
+        db,
+        Sub::Fleet(archive::FleetArgs {
+            out: out.to_path_buf(),
+            json: true,
+            by,
+            filter,
+            compare,
+        }),
+    )
+    .unwrap();
+    serde_json::from_str(&text).unwrap()
+}
+
 #[test]
 fn fleet_statistics_equal_an_independent_computation_from_list_json() {
     let dir = tempfile::tempdir().unwrap();
@@ -298,18 +320,7 @@ fn fleet_statistics_equal_an_independent_computation_from_list_json() {
             add(&db, std::slice::from_ref(path), meta(vehicle, route, day)).unwrap();
         }
         let out = dir.path().join(format!("fleet-{}", db.len()));
-        let text = run(
-            &db,
-            Sub::Fleet(archive::FleetArgs {
-                out: out.clone(),
-                json: true,
-                by: vec![],
-                filter: Default::default(),
-                compare: vec![],
-            }),
-        )
-        .unwrap();
-        let view: Value = serde_json::from_str(&text).unwrap();
+        let view = fleet(&db, &out, vec![], Default::default(), vec![]);
         let missions = list(&db);
         assert_eq!(view["missions"], missions.len());
         let page = std::fs::read_to_string(out.join("fleet.html")).unwrap();
@@ -451,18 +462,7 @@ fn fleet_statistics_equal_an_independent_computation_from_list_json() {
             .unwrap();
         }
         drop(a);
-        let text = run(
-            &db,
-            Sub::Fleet(archive::FleetArgs {
-                out: out.clone(),
-                json: true,
-                by: vec![],
-                filter: Default::default(),
-                compare: vec![],
-            }),
-        )
-        .unwrap();
-        let view: Value = serde_json::from_str(&text).unwrap();
+        let view = fleet(&db, &out, vec![], Default::default(), vec![]);
         let segments = view["road_segments"].as_array().unwrap();
         assert_eq!(segments.len(), 2, "{db}");
         // Place 0: sqrt((0.25*4 + 4*2 + 0.01*6) / 12); place 1: sqrt((0.04*3 + 0.16*5) / 8).
@@ -486,21 +486,16 @@ fn fleet_statistics_equal_an_independent_computation_from_list_json() {
             .filter(|m| m["vehicle"] == "B")
             .map(|m| m["id"].as_i64().unwrap())
             .collect();
-        let text = run(
+        let view_b = fleet(
             &db,
-            Sub::Fleet(archive::FleetArgs {
-                out: out.clone(),
-                json: true,
-                by: vec![],
-                filter: archive::FilterArgs {
-                    vehicle: vec!["B".into()],
-                    ..Default::default()
-                },
-                compare: vec![],
-            }),
-        )
-        .unwrap();
-        let view_b: Value = serde_json::from_str(&text).unwrap();
+            &out,
+            vec![],
+            archive::FilterArgs {
+                vehicle: vec!["B".into()],
+                ..Default::default()
+            },
+            vec![],
+        );
         let passes_b: i64 = passes.iter().filter(|p| b_ids.contains(&p.0)).count() as i64;
         let counted: i64 = view_b["road_segments"]
             .as_array()
@@ -516,22 +511,17 @@ fn fleet_statistics_equal_an_independent_computation_from_list_json() {
             .unwrap();
         assert_eq!(view["worst"][0]["id"], worst["id"]);
         // A filter: one vehicle, from a date on.
-        let text = run(
+        let view = fleet(
             &db,
-            Sub::Fleet(archive::FleetArgs {
-                out: out.clone(),
-                json: true,
-                by: vec!["route".into()],
-                filter: archive::FilterArgs {
-                    since: Some("2026-10-05".into()),
-                    vehicle: vec!["B".into()],
-                    ..Default::default()
-                },
-                compare: vec!["route=hills".into(), "route=coast".into()],
-            }),
-        )
-        .unwrap();
-        let view: Value = serde_json::from_str(&text).unwrap();
+            &out,
+            vec!["route".into()],
+            archive::FilterArgs {
+                since: Some("2026-10-05".into()),
+                vehicle: vec!["B".into()],
+                ..Default::default()
+            },
+            vec!["route=hills".into(), "route=coast".into()],
+        );
         let expect = missions
             .iter()
             .filter(|m| m["vehicle"] == "B" && m["start"].as_str().unwrap() >= "2026-10-05")
