@@ -225,7 +225,7 @@ pub struct FleetArgs {
     /// Which missions.
     #[command(flatten)]
     pub filter: FilterArgs,
-    /// A group to compare, FIELD=VALUE[,since=DATE][,until=DATE]; give two (default: the
+    /// A group to compare, `FIELD=VALUE[,since=DATE][,until=DATE]`; give two (default: the
     /// two largest groups of the first --by).
     #[arg(long, value_name = "FIELD=VALUE")]
     pub compare: Vec<String>,
