@@ -17,27 +17,31 @@ const ALLOWED: &[(&str, &[&str])] = &[
         "commands",
         &[
             "archive", "demo", "report", "monitor", "exposure", "identify", "device", "io", "plot",
-            "parallel", "ride",
+            "parallel", "ride", "verify", "schema",
         ],
     ),
     ("archive", &["report"]),
+    ("verify", &["report", "device", "io"]),
     (
         "demo",
-        &["report", "monitor", "exposure", "device", "plot", "io"],
+        &[
+            "report", "monitor", "exposure", "device", "plot", "io", "schema",
+        ],
     ),
     (
         "report",
         &[
-            "exposure", "identify", "device", "plot", "io", "parallel", "ride",
+            "exposure", "identify", "device", "plot", "io", "parallel", "ride", "schema",
         ],
     ),
-    ("monitor", &["exposure", "device", "io"]),
-    ("exposure", &["device", "io", "ride"]),
+    ("monitor", &["exposure", "device", "io", "schema"]),
+    ("exposure", &["device", "io", "parallel", "ride", "schema"]),
     ("identify", &["plot", "io", "parallel"]),
     ("device", &["io"]),
     ("plot", &[]),
-    ("io", &["parallel", "ride"]),
+    ("io", &["parallel", "ride", "schema"]),
     ("ride", &[]),
+    ("schema", &[]),
     ("parallel", &[]),
 ];
 
@@ -55,6 +59,7 @@ const REPORT_LAYERS: &[&[&str]] = &[
         "device_series",
         "monitor_log",
         "third_octave",
+        "calibration",
     ],
     &["charts", "device_charts"],
     &[
@@ -63,6 +68,7 @@ const REPORT_LAYERS: &[&[&str]] = &[
         "band_section",
         "device_section",
         "quality_section",
+        "calibration_section",
     ],
 ];
 

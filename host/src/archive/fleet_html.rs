@@ -8,8 +8,8 @@ use jiff::Timestamp;
 use crate::archive::fleet::{DIMENSIONS, FleetView, Group, SIGNIFICANCE};
 use crate::archive::stats::Distribution;
 use crate::report::markup::{escape, tag as level_tag};
-use crate::report::mission::level_named;
 use crate::report::page::STYLE;
+use supine_core::alerts::Level;
 
 const LEVEL_COLOURS: [(&str, &str); 4] = [
     ("normal", "#2e8b57"),
@@ -20,7 +20,7 @@ const LEVEL_COLOURS: [(&str, &str); 4] = [
 
 /// A level's name as the page's coloured tag.
 fn tag(level: &str) -> String {
-    level_tag(level_named(level))
+    Level::from_name(level).map_or_else(|| escape(level), level_tag)
 }
 
 fn level_colour(level: &str) -> &'static str {

@@ -94,8 +94,9 @@ const V1: &[&str] = &[
         kind TEXT NOT NULL,
         event TEXT NOT NULL,
         raise BIGINT NOT NULL,
-        criterion TEXT NOT NULL,
-        value {real} NOT NULL,
+        criterion TEXT,
+        value {real},
+        value_unit TEXT,
         running_rms_m_s2 {real} NOT NULL,
         vdv_m_s175 {real} NOT NULL,
         PRIMARY KEY (mission_id, leg, seq)

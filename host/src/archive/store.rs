@@ -174,7 +174,7 @@ pub async fn add(archive: &Archive, record: &MissionRecord<'_>) -> Result<i64> {
     .bind(levels.advisory)
     .bind(levels.warning)
     .bind(levels.alarm)
-    .bind(m.max_level)
+    .bind(m.max_level.name())
     .bind(record.mission_json.to_string())
     .fetch_one(&mut *tx)
     .await?
@@ -227,7 +227,7 @@ pub async fn add(archive: &Archive, record: &MissionRecord<'_>) -> Result<i64> {
         .bind(t.advisory)
         .bind(t.warning)
         .bind(t.alarm)
-        .bind(leg.max_level)
+        .bind(leg.max_level.name())
         .bind(stored.json.to_string())
         .bind(stored.data_quality.as_ref().map(Value::to_string))
         .execute(&mut *tx)
@@ -236,8 +236,8 @@ pub async fn add(archive: &Archive, record: &MissionRecord<'_>) -> Result<i64> {
         for (seq, a) in leg.alerts.iter().enumerate() {
             sqlx::query(
                 "INSERT INTO alerts (mission_id, leg, seq, mission_time_s, kind, event, raise, \
-                 criterion, value, running_rms_m_s2, vdv_m_s175) VALUES ($1, $2, $3, $4, $5, \
-                 $6, $7, $8, $9, $10, $11)",
+                 criterion, value, value_unit, running_rms_m_s2, vdv_m_s175) VALUES ($1, $2, \
+                 $3, $4, $5, $6, $7, $8, $9, $10, $11, $12)",
             )
             .bind(id)
             .bind(n)
@@ -245,9 +245,10 @@ pub async fn add(archive: &Archive, record: &MissionRecord<'_>) -> Result<i64> {
             .bind(a.mission_time_s)
             .bind(a.kind)
             .bind(a.event.as_str())
-            .bind(i64::from(a.raise))
-            .bind(a.criterion)
-            .bind(a.value)
+            .bind(i64::from(a.raised))
+            .bind(a.criterion.map(|c| c.name()))
+            .bind(a.criterion.map(|c| c.value().1))
+            .bind(a.criterion.map(|c| c.unit()))
             .bind(a.running_rms_m_s2)
             .bind(a.vdv_m_s175)
             .execute(&mut *tx)

@@ -21,4 +21,5 @@ pub mod synth;
 pub mod transmissibility;
 pub mod validate;
 pub mod values;
+pub mod verify;
 pub mod weighting;

@@ -70,8 +70,8 @@ pub fn run(args: &Args) -> Result<()> {
     // first, then streamed: a ride of any length fits in memory. Another logger's file or
     // --remove-gravity: converted into a scratch folder first.
     let scratch = ScratchDir::new("ride")?;
-    let mounting = file.device.unwrap_or_default().mounting;
-    let ride = open_stream(&args.ride, &args.input, &mounting, scratch.path())?;
+    let frame = file.device.unwrap_or_default().sensor_frame();
+    let ride = open_stream(&args.ride, &args.input, &frame, scratch.path())?;
     let kernel = ProductImage::select(args.firmware.as_deref())?;
     // Ctrl-C, SIGTERM and SIGHUP: QEMU stopped and its folder removed on the way out.
     let stop = crate::device::signals::stop_flag();
@@ -124,8 +124,8 @@ pub fn run(args: &Args) -> Result<()> {
             "real_time_factor": ride_s / elapsed_s,
             "telemetry_records": records,
             "telemetry_decimation": args.telemetry_decimation,
-            "frames_lost": s.link.lost_frames,
-            "frames_bad": s.link.bad_frames,
+            "lost_frames": s.link.lost_frames,
+            "bad_frames": s.link.bad_frames,
             "alerts_raised": raised,
             "subject": subject_json(device.height_m, device.mass_kg),
             "stack_used_bytes": s.status().stack_used_bytes,

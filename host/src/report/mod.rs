@@ -11,6 +11,7 @@
 //!      [`third_octave`] their one-third-octave band values.
 //!    - [`mission_joints`]: the neck and lower-back motion combined over the legs.
 //!    - [`prediction_band`]: with `--band N`, the prediction band of the head's vector values.
+//!    - [`calibration`]: the sensor's calibration record, its age and whether it is flagged.
 //!    - [`device_check`], [`device_pass`], [`device_series`]: with a device log (what a
 //!      device sent for the ride, as `supine demo` has it), the device's own account
 //!      beside the host's: the largest difference of each output, identical events.
@@ -19,13 +20,16 @@
 //! 2. The charts, built on the numbers: [`charts`] (what each chart of the legs shows),
 //!    [`device_charts`] (the device's telemetry over the host's).
 //! 3. The sections of the page, built on the charts: [`page`] (the page and the legs'
-//!    sections), [`joints_section`], [`band_section`], [`device_section`].
+//!    sections), [`joints_section`], [`band_section`], [`device_section`],
+//!    [`calibration_section`].
 //!
 //! [`markup`] (escaping, a level's tag, a chart as a figure) is the leaf every section uses.
 //!
 //! The JSON's key names are the contract of `--json` (`docs/exposure.md#mission-report`).
 
 pub mod band_section;
+pub mod calibration;
+pub mod calibration_section;
 pub mod charts;
 pub mod device_charts;
 pub mod device_check;
@@ -117,6 +121,9 @@ pub struct MissionReport {
     /// The prediction band (`--band N`), when asked for.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub band: Option<prediction_band::ReportBand>,
+    /// The sensor's calibration, its age and verdict: the parameter file's as of the
+    /// report's date, or, for a monitor session, the device's as of the session's start.
+    pub calibration: calibration::CalibrationReport,
     /// The alert thresholds.
     #[serde(skip)]
     pub thresholds: AlertConfig,
@@ -148,7 +155,8 @@ pub fn build(
         start_s += leg.duration_s;
         legs.push(leg);
     }
-    let config = file.device.unwrap_or_default().alerts;
+    let device = file.device.unwrap_or_default();
+    let config = device.alerts;
     let mission = totals(&legs, &config);
     let identity = device_params::identity_hex(&device_params::identity(file)?);
     let comparison = compare.then(|| compare_rides(&legs[0], &legs[1]));
@@ -166,6 +174,11 @@ pub fn build(
         mission,
         comparison,
         band: None,
+        calibration: calibration::CalibrationReport::new(
+            &device.calibration,
+            calibration::today(),
+            "the report's date",
+        ),
         thresholds: config,
     })
 }
@@ -199,7 +212,7 @@ fn compare_rides(a: &Leg, b: &Leg) -> Comparison {
     }
     let at_a = a.time_at_level_s.as_array();
     let at_b = b.time_at_level_s.as_array();
-    for (i, name) in mission::LEVEL_NAMES.iter().enumerate() {
+    for (i, name) in supine_core::alerts::Level::ALL.iter().enumerate() {
         // More time at normal is better; at any raised level, worse.
         push_as(format!("time at {name}, s"), at_a[i], at_b[i], Some(i > 0));
     }
