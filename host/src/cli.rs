@@ -37,6 +37,7 @@ Example:
   supine demo --out supine-demo
 
 Environment:
+  SUPINE_ARCHIVE_STALL_MS  for tests only: archive add holds its transaction open this long
   SUPINE_QEMU       the QEMU program for --qemu, demo and monitor (default: qemu-system-arm on PATH)
   SUPINE_STATE_DIR  where flash keeps its last update counter (default: $XDG_STATE_HOME/supine,
                     else $HOME/.local/state/supine)
@@ -89,6 +90,11 @@ pub enum Command {
         after_help = "Example:\n  supine report --preset paper-litter --input ambulance.csv --input helicopter.csv --out mission"
     )]
     Report(commands::report::Args),
+    /// Keep missions in an archive (SQLite or PostgreSQL): add, list, show, remove, fleet, export.
+    #[command(
+        after_help = "Example:\n  supine archive add --preset paper-litter --input ride.csv --vehicle A1 --route A9"
+    )]
+    Archive(commands::archive::Args),
     /// Replay a recording through the firmware in QEMU; write its telemetry as CSV.
     #[command(
         after_help = "Example:\n  supine replay --qemu --preset paper-litter --input ride.csv --out device.csv"
@@ -168,6 +174,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Exposure(args) => commands::exposure::run(&args),
         Command::Ride(args) => commands::ride::run(&args),
         Command::Report(args) => commands::report::run(&args),
+        Command::Archive(args) => commands::archive::run(&args),
         Command::Replay(args) => commands::replay::run(&args),
         Command::Verify(args) => commands::verify::run(&args),
         Command::Monitor(args) => commands::monitor::run(&args),

@@ -11,6 +11,7 @@
 //! ([`parallel`]), the names every output uses ([`schema`]), and the command line
 //! ([`cli`], [`commands`]) on top of them all.
 
+pub mod archive;
 pub mod cli;
 pub mod commands;
 pub mod demo;

@@ -28,7 +28,7 @@ const SYNONYMS: &[(&str, &str)] = &[
 
 /// Subcommands that print no results of their own: `params` prints the parameter file
 /// itself (TOML is its format), `completions` a shell script.
-const NO_RESULTS: &[&str] = &["params", "completions"];
+const NO_RESULTS: &[&str] = &["params", "completions", "archive remove", "archive export"];
 
 /// Flags whose default may differ by command, and why.
 const OWN_DEFAULTS: &[(&str, &str, &str)] = &[
@@ -140,6 +140,19 @@ fn every_command_that_prints_results_has_json() {
     for cmd in subcommands() {
         let name = cmd.get_name();
         if NO_RESULTS.contains(&name) {
+            continue;
+        }
+        // A command of subcommands (archive): each of them that prints results.
+        if cmd.has_subcommands() {
+            for sub in cmd.get_subcommands().filter(|c| c.get_name() != "help") {
+                let full = format!("{name} {}", sub.get_name());
+                if !NO_RESULTS.contains(&full.as_str()) {
+                    assert!(
+                        longs(sub).iter().any(|l| l == "json"),
+                        "supine {full} has no --json"
+                    );
+                }
+            }
             continue;
         }
         assert!(

@@ -16,10 +16,11 @@ const ALLOWED: &[(&str, &[&str])] = &[
     (
         "commands",
         &[
-            "demo", "report", "monitor", "exposure", "identify", "device", "io", "plot",
+            "archive", "demo", "report", "monitor", "exposure", "identify", "device", "io", "plot",
             "parallel", "ride", "verify", "schema",
         ],
     ),
+    ("archive", &["report"]),
     ("verify", &["report", "device", "io"]),
     (
         "demo",

@@ -1,5 +1,6 @@
 //! One module per `supine` subcommand.
 
+pub mod archive;
 pub mod band_args;
 pub mod calibrate;
 pub mod completions;

@@ -9,7 +9,7 @@ use anyhow::{Context as _, Result, anyhow, bail};
 
 use crate::commands::band_args::{BandArgs, band_threads};
 use crate::io::output::write_atomically;
-use crate::io::params_file::ModelSource;
+use crate::io::params_file::{ModelSource, ParamFile};
 use crate::io::ride_input::RideInputArgs;
 use crate::io::stdout::stdout_error;
 use crate::io::subject_args::SubjectArgs;
@@ -49,53 +49,96 @@ pub struct Args {
     pub compare: bool,
 }
 
+/// The rides a report evaluates: `inputs` themselves, or the ride inside a monitor log
+/// given as the only input (with the log and its session, for the device's account).
+pub struct ReportInputs {
+    /// The monitor log and its session, when the input is one.
+    pub logged: Option<(PathBuf, monitor_log::LoggedSession)>,
+    /// The rides, one per leg.
+    pub rides: Vec<PathBuf>,
+}
+
+impl ReportInputs {
+    /// Recognizes a monitor log among `inputs` (it must be the only one).
+    pub fn of(inputs: &[PathBuf], file: &ParamFile) -> Result<Self> {
+        let logged = match inputs {
+            [one] if monitor_log::is_monitor_log(one) => {
+                Some((one.clone(), monitor_log::open(one, file)?))
+            }
+            inputs => {
+                if let Some(log) = inputs.iter().find(|p| monitor_log::is_monitor_log(p)) {
+                    bail!(
+                        "{}: a monitor log is re-analysed on its own: give it as the only --input",
+                        log.display()
+                    );
+                }
+                None
+            }
+        };
+        let rides = match &logged {
+            Some((_, session)) => vec![session.ride.clone()],
+            None => inputs.to_vec(),
+        };
+        Ok(Self { logged, rides })
+    }
+}
+
+/// The parameters for the patient and the mission report of `inputs` (the legs in order),
+/// as `supine report` computes them; `supine archive add` stores this same report.
+pub fn mission_report(
+    inputs: &[PathBuf],
+    ride: &RideInputArgs,
+    model: &ModelSource,
+    subject: &SubjectArgs,
+    compare: bool,
+) -> Result<(ParamFile, ReportInputs, report::MissionReport)> {
+    let mut file = model.load_for_ride()?;
+    subject.apply(&mut file)?;
+    let frame = file.device.unwrap_or_default().sensor_frame();
+    let found = ReportInputs::of(inputs, &file)?;
+    let mut built = report::build(
+        &found.rides,
+        ride.opener(frame),
+        &file,
+        &model.model_name(),
+        compare,
+    )?;
+    if !ride.labels.is_empty() {
+        if ride.labels.len() != built.legs.len() {
+            bail!(
+                "--label: expected one per --input ({}), found {}",
+                built.legs.len(),
+                ride.labels.len()
+            );
+        }
+        for (index, (leg, label)) in built.legs.iter_mut().zip(&ride.labels).enumerate() {
+            leg.label = report::mission::named_leg_label(index, label, compare);
+        }
+    }
+    if let Some((_, session)) = &found.logged
+        && let Some(calibration) = session_calibration(&session.session)?
+    {
+        built.calibration = calibration;
+    }
+    Ok((file, found, built))
+}
+
 /// Builds the report, writes `report.html`, and the JSON to `out` with `--json`.
 pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
-    let mut file = args.model.load_for_ride()?;
-    args.subject.apply(&mut file)?;
+    let (file, found, mut report) = mission_report(
+        &args.input,
+        &args.ride,
+        &args.model,
+        &args.subject,
+        args.compare,
+    )?;
     let band = args.band.request(&args.model, &file)?;
     let frame = file.device.unwrap_or_default().sensor_frame();
     let rides = args.ride.opener(frame);
-    let logged = match args.input.as_slice() {
-        [one] if monitor_log::is_monitor_log(one) => Some((one, monitor_log::open(one, &file)?)),
-        inputs => {
-            if let Some(log) = inputs.iter().find(|p| monitor_log::is_monitor_log(p)) {
-                bail!(
-                    "{}: a monitor log is re-analysed on its own: give it as the only --input",
-                    log.display()
-                );
-            }
-            None
-        }
-    };
-    let inputs = match &logged {
-        Some((_, session)) => vec![session.ride.clone()],
-        None => args.input.clone(),
-    };
-    let mut report = report::build(
-        &inputs,
-        rides,
-        &file,
-        &args.model.model_name(),
-        args.compare,
-    )?;
-    if !args.ride.labels.is_empty() {
-        if args.ride.labels.len() != report.legs.len() {
-            bail!(
-                "--label: expected one per --input ({}), found {}",
-                report.legs.len(),
-                args.ride.labels.len()
-            );
-        }
-        for (index, (leg, label)) in report.legs.iter_mut().zip(&args.ride.labels).enumerate() {
-            leg.label = report::mission::named_leg_label(index, label, args.compare);
-        }
-    }
-    if let Some((_, session)) = &logged
-        && let Some(calibration) = session_calibration(&session.session)?
-    {
-        report.calibration = calibration;
-    }
+    let ReportInputs {
+        logged,
+        rides: inputs,
+    } = found;
     let device = match &logged {
         Some((log, session)) => {
             let ride = args.ride.open(&session.ride, &frame)?;

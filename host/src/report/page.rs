@@ -21,7 +21,8 @@ use crate::schema::event::EventCriterion;
 /// Most alert events listed per leg (the JSON has them all).
 pub const MAX_EVENT_ROWS: usize = 60;
 
-const STYLE: &str = "
+/// The pages' style sheet (the mission report and the fleet view share it).
+pub const STYLE: &str = "
 body { font-family: system-ui, -apple-system, 'Segoe UI', Helvetica, Arial, sans-serif; color: #222; margin: 0; background: #f6f6f4; }
 main { max-width: 1120px; margin: 0 auto; padding: 20px 24px 48px; background: #fff; }
 h1 { font-size: 26px; margin: 4px 0 2px; }
