@@ -41,6 +41,7 @@ fn report_json(inputs: &[PathBuf], out: &Path, height_mass: Option<(f64, f64)>) 
     let args = report::Args {
         input: inputs.to_vec(),
         ride: RideInputArgs::default(),
+        track: Default::default(),
         model: preset(),
         subject: SubjectArgs {
             height_m: height_mass.map(|h| h.0),
@@ -62,6 +63,7 @@ fn exposure_json(input: &Path) -> Value {
         params: None,
         input: input.to_path_buf(),
         ride: RideInputArgs::default(),
+        track: Default::default(),
         subject: SubjectArgs::default(),
         channel: None,
         weighting: None,
@@ -304,6 +306,7 @@ fn a_ride_with_gravity_is_refused_by_the_report_too() {
     let args = report::Args {
         input: vec![raw],
         ride: RideInputArgs::default(),
+        track: Default::default(),
         model: preset(),
         subject: SubjectArgs::default(),
         out: dir.path().join("out"),

@@ -11,7 +11,7 @@ use clap::ValueEnum as _;
 use crate::commands::band_args::{BandArgs, band_threads};
 use crate::io::output::write_atomically;
 use crate::io::params_file::ModelSource;
-use crate::io::ride_input::RideInputArgs;
+use crate::io::ride_input::{RideInputArgs, TrackArgs};
 use crate::io::stdout::stdout_error;
 use crate::io::subject_args::SubjectArgs;
 use crate::io::wording::count;
@@ -29,6 +29,9 @@ pub struct Args {
     /// How to read the rides (another logger's columns and units, gravity).
     #[command(flatten)]
     pub ride: RideInputArgs,
+    /// Where each ride happened (a GPX or location file per ride).
+    #[command(flatten)]
+    pub track: TrackArgs,
     /// The model parameters (and optional `[device]` table).
     #[command(flatten)]
     pub model: ModelSource,
@@ -67,7 +70,6 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
     args.subject.apply(&mut file)?;
     let band = args.band.request(&args.model, &file)?;
     let mounting = file.device.unwrap_or_default().mounting;
-    let rides = args.ride.opener(mounting);
     let logged = match args.input.as_slice() {
         [one] if monitor_log::is_monitor_log(one) => Some((one, monitor_log::open(one, &file)?)),
         inputs => {
@@ -84,6 +86,7 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
         Some((_, session)) => vec![session.ride.clone()],
         None => args.input.clone(),
     };
+    let rides = args.ride.opener(mounting, &args.track, &inputs)?;
     let mut report = report::build(
         &inputs,
         rides,
