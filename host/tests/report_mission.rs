@@ -63,7 +63,6 @@ fn exposure_json(input: &Path) -> Value {
         params: None,
         input: input.to_path_buf(),
         ride: RideInputArgs::default(),
-        track: Default::default(),
         subject: SubjectArgs::default(),
         channel: None,
         weighting: None,

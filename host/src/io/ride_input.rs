@@ -309,9 +309,24 @@ impl RideInputArgs {
         Ok((recording, source.layout()))
     }
 
-    /// The rides `inputs` as `report` opens them: row by row, with these options and
-    /// `mounting`, each with its track from `tracks` or its own position columns.
-    pub fn opener<'a>(
+    /// The rides as they are opened row by row, with these options and `mounting`, each
+    /// with the track of its own position columns, if any.
+    pub fn opener(&self, mounting: Mounting) -> RideOpener<'_> {
+        static NO_TRACKS: TrackArgs = TrackArgs {
+            tracks: Vec::new(),
+            track_offset_s: 0.0,
+        };
+        RideOpener {
+            args: self,
+            mounting,
+            tracks: &NO_TRACKS,
+            inputs: &[],
+        }
+    }
+
+    /// The rides `inputs` as `report` opens them: [`opener`](Self::opener), each with
+    /// its track from `tracks` (one per input) or its own position columns.
+    pub fn opener_with_tracks<'a>(
         &'a self,
         mounting: Mounting,
         tracks: &'a TrackArgs,

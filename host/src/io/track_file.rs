@@ -31,7 +31,7 @@ pub fn read_gpx(path: &Path) -> Result<Track> {
     let shown = path.display();
     let bytes = crate::io::small_file::read_text(path, "GPX file", MAX_GPX_BYTES)?;
     let gpx = gpx::read(bytes.as_bytes())
-        .map_err(|e| anyhow!("{shown}: expected a GPX 1.1 file, found an error: {e}"))?;
+        .map_err(|e| anyhow!("{shown}: expected a GPX 1.1 file of track points, found: {e}"))?;
     let mut fixes = Vec::new();
     let mut origin: Option<time::OffsetDateTime> = None;
     let points = gpx
@@ -227,7 +227,7 @@ mod tests {
 </trkseg></trk></gpx>"#,
         );
         let e = read_gpx(&bad).unwrap_err().to_string();
-        assert!(e.contains("track point 1: expected a latitude"), "{e}");
+        assert!(e.contains("b.gpx: expected a GPX 1.1 file") && e.contains("latitude"), "{e}");
         assert_eq!(e.lines().count(), 1);
     }
 
