@@ -54,6 +54,7 @@ const REPORT_LAYERS: &[&[&str]] = &[
         "device_series",
         "monitor_log",
         "third_octave",
+        "route",
     ],
     &["charts", "device_charts"],
     &[

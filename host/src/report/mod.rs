@@ -10,6 +10,8 @@
 //!    - [`spectrum`]: the power spectral densities of input and predicted head;
 //!      [`third_octave`] their one-third-octave band values.
 //!    - [`mission_joints`]: the neck and lower-back motion combined over the legs.
+//!    - [`route`]: where each leg happened: its road segments, the worst of them, the
+//!      map's points and placed events (a ride with positions).
 //!    - [`prediction_band`]: with `--band N`, the prediction band of the head's vector values.
 //!    - [`device_check`], [`device_pass`], [`device_series`]: with a device log (what a
 //!      device sent for the ride, as `supine demo` has it), the device's own account
@@ -40,6 +42,7 @@ pub mod monitor_log;
 pub mod page;
 pub mod prediction_band;
 pub mod quality_section;
+pub mod route;
 pub mod spectrum;
 pub mod third_octave;
 
