@@ -56,13 +56,14 @@ const REPORT_LAYERS: &[&[&str]] = &[
         "third_octave",
         "route",
     ],
-    &["charts", "device_charts"],
+    &["charts", "device_charts", "route_charts"],
     &[
         "page",
         "joints_section",
         "band_section",
         "device_section",
         "quality_section",
+        "route_section",
     ],
 ];
 

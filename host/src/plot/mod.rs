@@ -5,9 +5,13 @@
 //! - [`panels`]: a grid of line-plot panels (`fit --report`, `validate --report`).
 //! - [`time_chart`]: a time chart with thresholds, bands and markers (the demo's report).
 //! - [`downsample`]: min/max per pixel column, so long series stay small and peaks stay.
+//! - [`map`]: a route map in a local metric frame, with scale bar and north arrow.
+//! - [`scatter`]: points against two axes (the report's running rms against speed).
 
 pub mod downsample;
+pub mod map;
 pub mod panels;
+pub mod scatter;
 pub mod time_chart;
 
 use plotters::style::RGBColor;

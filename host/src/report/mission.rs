@@ -275,7 +275,7 @@ pub fn evaluate_leg(
     };
     let mut time_error: Option<anyhow::Error> = None;
     let mut placed_events: Vec<PlacedEvent> = Vec::new();
-    let mut pending_events: Vec<(f64, String, Option<u8>)> = Vec::new();
+    let mut pending_events: Vec<(f64, String, Option<u8>, bool)> = Vec::new();
     let mut dose = DoseWindow::new(n, fs, warmup_s);
     let mut at_level = [0usize; 4];
     let mut alerts: Vec<AlertRow> = Vec::new();
@@ -305,7 +305,7 @@ pub fn evaluate_leg(
                             supine_core::alerts::AlertEvent::Level { to, .. } => Some(*to as u8),
                             _ => None,
                         };
-                        pending_events.push((sample as f64 / fs, timed.event.clone(), level));
+                        pending_events.push((sample as f64 / fs, timed.event.clone(), level, timed.raise));
                     }
                     alerts.push(AlertRow {
                         leg_time_s: sample as f64 / fs,
@@ -350,11 +350,12 @@ pub fn evaluate_leg(
                         None => None,
                     };
                     if let Some(p) = place {
-                        for (leg_time_s, event, level) in pending_events.drain(..) {
+                        for (leg_time_s, event, level, raise) in pending_events.drain(..) {
                             placed_events.push(PlacedEvent {
                                 leg_time_s,
                                 event,
                                 level,
+                                raise,
                                 lat_deg: p.lat_deg,
                                 lon_deg: p.lon_deg,
                             });

@@ -19,9 +19,11 @@
 //!    - [`monitor_log`]: a session logged by `supine monitor --log` as the input: its
 //!      input stream is the ride, its telemetry and events the device log.
 //! 2. The charts, built on the numbers: [`charts`] (what each chart of the legs shows),
-//!    [`device_charts`] (the device's telemetry over the host's).
+//!    [`device_charts`] (the device's telemetry over the host's), [`route_charts`] (the
+//!    route map and the running rms against speed).
 //! 3. The sections of the page, built on the charts: [`page`] (the page and the legs'
-//!    sections), [`joints_section`], [`band_section`], [`device_section`].
+//!    sections), [`joints_section`], [`band_section`], [`device_section`],
+//!    [`route_section`] (where it happened).
 //!
 //! [`markup`] (escaping, a level's tag, a chart as a figure) is the leaf every section uses.
 //!
@@ -43,6 +45,8 @@ pub mod page;
 pub mod prediction_band;
 pub mod quality_section;
 pub mod route;
+pub mod route_charts;
+pub mod route_section;
 pub mod spectrum;
 pub mod third_octave;
 

@@ -13,7 +13,9 @@ use crate::report::device_check::DeviceLog;
 use crate::report::markup::{escape, tag};
 use crate::report::mission::{LEVEL_NAMES, Leg, level_named};
 use crate::report::{Comparison, MissionReport};
-use crate::report::{band_section, charts, device_section, joints_section, quality_section};
+use crate::report::{
+    band_section, charts, device_section, joints_section, quality_section, route_section,
+};
 
 /// Most alert events listed per leg (the JSON has them all).
 pub const MAX_EVENT_ROWS: usize = 60;
@@ -151,6 +153,7 @@ pub fn render(report: &MissionReport, device: Option<&DeviceLog>) -> Result<Stri
          device state, so every leg has its own 5 s warm-up of the weighting filters; the \
          mission's VDV adds the legs' fourth powers.</p>\n"
     });
+    route_section::section(&mut h, legs, config)?;
     joints_section::section(&mut h, legs, &report.mission.joints, layout)?;
     for leg in legs {
         leg_section(&mut h, leg, report.comparison.is_some())?;

@@ -22,7 +22,7 @@ use supine_core::exposure::ExposureSettings;
 use supine_core::weighting::WeightingState;
 
 use crate::report::mission::TimeAtLevel;
-use crate::ride::position::{Place, Track};
+use crate::ride::position::{Place, Track, TrackAccount};
 
 /// Length of a road segment, m: about 2 to 4 s at road speeds, long enough for the
 /// 1 s running rms to mean something within it, short enough to name a stretch of road,
@@ -88,6 +88,8 @@ pub struct PlacedEvent {
     pub event: String,
     /// The level it raised to or lowered to (0-3), or `None` for a fault or joint alert.
     pub level: Option<u8>,
+    /// It raises an alert.
+    pub raise: bool,
     /// Where, degrees.
     pub lat_deg: f64,
     /// Where, degrees.
@@ -114,6 +116,9 @@ pub struct Route {
     /// Samples with no position (outside the track, or between fixes too far apart).
     #[serde(skip)]
     pub unplaced_s: f64,
+    /// What the track's checks found.
+    #[serde(skip)]
+    pub track: TrackAccount,
 }
 
 /// The segment being filled.
@@ -148,6 +153,7 @@ pub struct RouteBuilder {
     broken: bool,
     unplaced: usize,
     travelled_m: f64,
+    account: TrackAccount,
 }
 
 impl RouteBuilder {
@@ -167,6 +173,7 @@ impl RouteBuilder {
             broken: true,
             unplaced: 0,
             travelled_m: 0.0,
+            account: track.account().clone(),
         }
     }
 
@@ -289,6 +296,7 @@ impl RouteBuilder {
             map: self.map,
             events,
             unplaced_s: self.unplaced as f64 / self.fs_hz,
+            track: self.account,
         }
     }
 }

@@ -74,6 +74,26 @@ pub fn haversine_m(lat1_deg: f64, lon1_deg: f64, lat2_deg: f64, lon2_deg: f64) -
     2.0 * EARTH_RADIUS_M * h.sqrt().min(1.0).asin()
 }
 
+/// A position east and north of `centre_deg` (latitude, longitude), m: equirectangular,
+/// the scale true along the centre's parallel and every meridian.
+pub fn project_m(centre_deg: (f64, f64), lat_deg: f64, lon_deg: f64) -> [f64; 2] {
+    let (lat0, lon0) = centre_deg;
+    [
+        EARTH_RADIUS_M * (lon_deg - lon0).to_radians() * lat0.to_radians().cos(),
+        EARTH_RADIUS_M * (lat_deg - lat0).to_radians(),
+    ]
+}
+
+/// The centre of the box around `points` (latitude, longitude), degrees.
+pub fn centre_deg(points: impl Iterator<Item = (f64, f64)>) -> (f64, f64) {
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for (lat, lon) in points {
+        lo = [lo[0].min(lat), lo[1].min(lon)];
+        hi = [hi[0].max(lat), hi[1].max(lon)];
+    }
+    ((lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0)
+}
+
 /// What the checks made of a track's fixes.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct TrackAccount {
@@ -170,14 +190,7 @@ impl Track {
             .iter()
             .filter(|f| f.accuracy_m.is_some_and(|a| a > POOR_ACCURACY_M))
             .count();
-        let (lat, lon) = (kept.iter().map(|f| f.lat_deg), kept.iter().map(|f| f.lon_deg));
-        let middle = |v: &mut dyn Iterator<Item = f64>| {
-            let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
-                (lo.min(x), hi.max(x))
-            });
-            (lo + hi) / 2.0
-        };
-        let centre_deg = (middle(&mut { lat }), middle(&mut { lon }));
+        let centre_deg = centre_deg(kept.iter().map(|f| (f.lat_deg, f.lon_deg)));
         Ok(Self {
             fixes: kept,
             along_m,
@@ -222,11 +235,7 @@ impl Track {
 
     /// A position in the map frame: east and north of the track's centre, m.
     pub fn project(&self, lat_deg: f64, lon_deg: f64) -> [f64; 2] {
-        let (lat0, lon0) = self.centre_deg;
-        [
-            EARTH_RADIUS_M * (lon_deg - lon0).to_radians() * lat0.to_radians().cos(),
-            EARTH_RADIUS_M * (lat_deg - lat0).to_radians(),
-        ]
+        project_m(self.centre_deg, lat_deg, lon_deg)
     }
 
     /// Where the track was at `t_s`: interpolated between the fixes around it when
