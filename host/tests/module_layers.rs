@@ -22,7 +22,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ),
     (
         "demo",
-        &["report", "monitor", "exposure", "device", "plot", "io"],
+        &["report", "monitor", "exposure", "device", "plot", "io", "ride"],
     ),
     (
         "report",

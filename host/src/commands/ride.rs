@@ -4,12 +4,18 @@
 
 use std::path::PathBuf;
 
-use anyhow::Result;
+use anyhow::{Result, bail};
 
 use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
 use crate::demo::demo_ride::{DemoProfile, make};
+use crate::demo::demo_track::track;
 use crate::exposure::ride::write_ride;
+use crate::io::track_file::write_gpx;
+
+/// The time of a written track's first point (a GPX point needs a date; the report
+/// joins the track by time from its first point).
+const TRACK_START: time::OffsetDateTime = time::macros::datetime!(2026-01-01 08:00 UTC);
 
 /// Arguments of `supine ride`.
 #[derive(Debug, clap::Args)]
@@ -34,6 +40,10 @@ pub struct Args {
     /// Where to write the recording (`time_s,platform_x,platform_y,platform_z`).
     #[arg(long, value_name = "RIDE.csv")]
     pub out: PathBuf,
+    /// Also write where the ride happened, as a GPX 1.1 track (a fix a second on a
+    /// plausible road, slower on the rough stretch), for `supine report --track`.
+    #[arg(long, value_name = "TRACK.gpx")]
+    pub track_out: Option<PathBuf>,
     /// Print the ride's summary as JSON.
     #[command(flatten)]
     pub json: JsonFlag,
@@ -44,7 +54,17 @@ pub struct Args {
 pub fn run(args: &Args) -> Result<()> {
     let made = make(args.profile, args.duration_s, args.fs_hz, args.seed)?;
     let ride = &made.ride;
+    let fixes = track(&made);
+    if args.track_out.is_some() && fixes.is_empty() {
+        bail!(
+            "--track-out: the {} profile goes nowhere: expected a ride on a road or in the air",
+            args.profile.name()
+        );
+    }
     write_ride(&args.out, ride)?;
+    if let Some(path) = &args.track_out {
+        write_gpx(path, &fixes, TRACK_START)?;
+    }
     let rms = ride.rms_m_s2();
     if args.json.json {
         return json_output::print(&serde_json::json!({
@@ -58,6 +78,7 @@ pub fn run(args: &Args) -> Result<()> {
             "crest_factor_z": ride.vertical_crest_factor(),
             "shocks": made.shocks.len(),
             "segments": made.segments,
+            "track_out": args.track_out,
         }));
     }
     eprintln!(

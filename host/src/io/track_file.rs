@@ -65,6 +65,28 @@ pub fn read_gpx(path: &Path) -> Result<Track> {
     Track::new(fixes, &format!("{shown} (GPX)")).map_err(|e| anyhow!(e))
 }
 
+/// Writes `fixes` as a GPX 1.1 track at `path` (whole or not at all), their times from
+/// `start` (UTC) on.
+pub fn write_gpx(path: &Path, fixes: &[Fix], start: time::OffsetDateTime) -> Result<()> {
+    let mut segment = gpx::TrackSegment::new();
+    for f in fixes {
+        let mut point = gpx::Waypoint::new(geo_types::Point::new(f.lon_deg, f.lat_deg));
+        point.time = Some((start + time::Duration::seconds_f64(f.t_s)).into());
+        segment.points.push(point);
+    }
+    let mut track = gpx::Track::new();
+    track.segments.push(segment);
+    let document = gpx::Gpx {
+        version: gpx::GpxVersion::Gpx11,
+        creator: Some("supine".to_string()),
+        tracks: vec![track],
+        ..gpx::Gpx::default()
+    };
+    crate::io::output::write_atomically(path, |w| {
+        gpx::write(&document, w).map_err(|e| anyhow!("{}: cannot write GPX: {e}", path.display()))
+    })
+}
+
 /// The track of a phone app's location CSV at `path`, recognized by its header.
 pub fn read_positions(path: &Path) -> Result<Track> {
     let (_, header) = read_header(path)?;
@@ -229,6 +251,24 @@ mod tests {
         let e = read_gpx(&bad).unwrap_err().to_string();
         assert!(e.contains("b.gpx: expected a GPX 1.1 file") && e.contains("latitude"), "{e}");
         assert_eq!(e.lines().count(), 1);
+    }
+
+    #[test]
+    fn a_written_gpx_reads_back() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("w.gpx");
+        let fixes: Vec<Fix> = (0..5)
+            .map(|k| Fix {
+                t_s: k as f64 * 0.5,
+                lat_deg: 47.0 + k as f64 * 1e-4,
+                lon_deg: -3.0,
+                speed_m_s: None,
+                accuracy_m: None,
+            })
+            .collect();
+        write_gpx(&path, &fixes, time::macros::datetime!(2026-01-01 0:00 UTC)).unwrap();
+        let back = read_gpx(&path).unwrap();
+        assert_eq!(back.fixes(), &fixes[..]);
     }
 
     #[test]
