@@ -267,6 +267,8 @@ mod tests {
         assert_eq!(scale_bar_m(99.0), 50.0);
         assert_eq!(distance_text(2000.0), "2 km");
         let svg = map.to_svg().unwrap();
-        assert!(svg.starts_with("<svg") && svg.contains(">N<") && svg.contains("500 m"));
+        assert!(svg.starts_with("<svg"), "{}", &svg[..200]);
+        assert!(svg.contains("500 m"), "{svg}");
+        assert!(svg.contains("\nN\n</text>"), "{svg}");
     }
 }
