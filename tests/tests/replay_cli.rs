@@ -113,6 +113,73 @@ fn supine_replay_writes_telemetry_and_events_and_counts_instructions() {
     assert!(events.starts_with(supine_host::io::telemetry_csv::EVENTS_HEADER));
 }
 
+/// `supine predict` of a ride writes, row for row and byte for byte, the telemetry and the
+/// events the firmware writes of the same ride in QEMU: the host's prediction of a ride
+/// is the device's own f32 computation, not an approximation of it.
+#[test]
+fn predict_of_a_ride_writes_the_devices_telemetry_and_events_bit_for_bit() {
+    firmware(supine_host::device::firmware::PRODUCT_BINARY);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let ride = dir.path().join("rough.csv");
+    let run = |args: &[&str]| {
+        let output = Command::new(supine_binary())
+            .args(args)
+            .output()
+            .expect("supine runs");
+        assert!(
+            output.status.success(),
+            "supine {args:?}: {}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+    };
+    let path = |p: &Path| p.to_str().expect("utf-8 path").to_string();
+    run(&[
+        "ride",
+        "--profile",
+        "rough-road",
+        "--duration-s",
+        "8",
+        "--seed",
+        "3",
+        "--out",
+        &path(&ride),
+    ]);
+    let device = dir.path().join("device.csv");
+    let host = dir.path().join("host.csv");
+    run(&[
+        "replay",
+        "--qemu",
+        "--preset",
+        "paper-litter",
+        "--input",
+        &path(&ride),
+        "--out",
+        &path(&device),
+    ]);
+    run(&[
+        "predict",
+        "--preset",
+        "paper-litter",
+        "--input",
+        &path(&ride),
+        "--out",
+        &path(&host),
+    ]);
+    let read = |p: PathBuf| std::fs::read_to_string(&p).expect("written");
+    let (device_rows, host_rows) = (read(device), read(host));
+    assert_eq!(host_rows.lines().count(), 1 + 4000, "every sample");
+    assert_eq!(host_rows, device_rows);
+    let (device_events, host_events) = (
+        read(dir.path().join("device.events.csv")),
+        read(dir.path().join("host.events.csv")),
+    );
+    assert!(
+        host_events.lines().count() > 1,
+        "the rough road raises an alert"
+    );
+    assert_eq!(host_events, device_events);
+}
+
 /// `supine replay --qemu --preset paper-litter --input RIDE --out DIR/device.csv` with its
 /// own TMPDIR (where QEMU's socket folder goes), so that leftovers can be listed.
 fn replay_command(dir: &Path, ride: &Path, tmp: &Path) -> Command {

@@ -14,7 +14,7 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Result;
-use clap::{ArgGroup, ValueEnum};
+use clap::ArgGroup;
 use supine_core::mounting::Mounting;
 
 use crate::commands::weighting::Kind;
@@ -77,13 +77,7 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
                 preset: args.preset,
                 params: args.params.clone(),
             };
-            let model = match (&args.params, args.preset) {
-                (Some(p), _) => p.display().to_string(),
-                (None, Some(p)) => p
-                    .to_possible_value()
-                    .map_or_else(|| format!("{p:?}"), |v| v.get_name().to_string()),
-                (None, None) => "paper-litter".to_string(),
-            };
+            let model = source.model_name();
             let mut file = source.load_for_ride()?;
             args.subject.apply(&mut file)?;
             let mounting = file.device.unwrap_or_default().mounting;

@@ -1,18 +1,26 @@
-//! `supine predict`: the sensor accelerations and the neck and lower-back motion the model
-//! predicts for a recording's support acceleration (see `validate::predict` for how it stays faithful to the continuous model),
-//! and with `--band N` the head exposure's prediction band from the fit's uncertainty (see
-//! `fit::band`).
+//! `supine predict`, in two forms by what it is given:
+//! - a lab recording (the project's 13 columns, with the measured sensors): the sensor
+//!   accelerations and the neck and lower-back motion the model predicts for its support
+//!   acceleration (see `validate::predict` for how it stays faithful to the continuous
+//!   model), and with `--band N` the head exposure's prediction band from the fit's
+//!   uncertainty (see `fit::band`);
+//! - a ride (any logger's file, or any ride option given): every sample's predicted head,
+//!   its weighted running rms, VDV and level, and the joint outputs, as the report's
+//!   pipeline computes them ([`crate::exposure::ride_prediction`]), in the telemetry CSV
+//!   `supine replay --qemu` writes of the device.
 
 use std::path::PathBuf;
 
-use anyhow::Result;
+use anyhow::{Result, bail};
 
 use crate::commands::band_args::{BandArgs, band_threads};
 use crate::commands::json_output::{self, JsonFlag};
+use crate::exposure::ride_prediction::predict_ride;
 use crate::identify::fit::band::{BAND_QUANTILES, ExposureBand, head_exposure_band};
 use crate::identify::validate::{predict, predict_joints, write_prediction};
 use crate::io::params_file::ModelSource;
 use crate::io::recording::Recording;
+use crate::io::ride_input::RideInputArgs;
 use crate::io::stdout::print_text;
 use crate::io::subject_args::SubjectArgs;
 
@@ -22,10 +30,14 @@ pub struct Args {
     /// Which parameters (`supine fit` writes a file for --params; --band needs one).
     #[command(flatten)]
     pub source: ModelSource,
-    /// The recording whose platform columns drive the model.
+    /// The lab recording, or the ride, whose platform acceleration drives the model.
     #[arg(long, value_name = "REC.csv")]
     pub input: PathBuf,
-    /// Where to write the prediction (a recording's columns, then the joint motion).
+    /// How to read a ride (another logger's columns and units, gravity, a window).
+    #[command(flatten)]
+    pub ride: RideInputArgs,
+    /// Where to write the prediction (a lab recording: its columns, then the joint
+    /// motion; a ride: the telemetry CSV, and its alert events beside it).
     #[arg(long, value_name = "PRED.csv")]
     pub out: PathBuf,
     /// The subject, if not the parameters' own.
@@ -60,6 +72,9 @@ fn band_table(band: &ExposureBand) -> String {
 
 /// Predicts and writes the CSV.
 pub fn run(args: &Args) -> Result<()> {
+    if !args.ride.reads_lab_recording(&args.input)? {
+        return run_ride(args);
+    }
     let mut file = args.source.load()?;
     args.subject.apply(&mut file)?;
     let params = file.params;
@@ -98,4 +113,45 @@ pub fn run(args: &Args) -> Result<()> {
         Some(band) => print_text(&band_table(band)),
         None => Ok(()),
     }
+}
+
+/// A ride's prediction: the report's pipeline, every sample written.
+fn run_ride(args: &Args) -> Result<()> {
+    if args.band.band.is_some() {
+        bail!(
+            "--band: {} is a ride; the prediction band needs a lab recording (the project's 13 columns)",
+            args.input.display()
+        );
+    }
+    let mut file = args.source.load_for_ride()?;
+    args.subject.apply(&mut file)?;
+    let mounting = file.device.unwrap_or_default().mounting;
+    let source = args.ride.open(&args.input, &mounting)?;
+    let prediction = predict_ride(
+        &source,
+        &file,
+        args.source.model_name(),
+        args.ride.fs_hz,
+        &args.out,
+    )?;
+    let exposure = &prediction.exposure;
+    if args.json.json {
+        return json_output::print(&serde_json::json!({
+            "out": prediction.telemetry_csv,
+            "events_csv": prediction.events_csv,
+            "samples": exposure.samples,
+            "sample_rate_hz": exposure.sample_rate_hz,
+            "alert_events": prediction.events,
+            "data_quality": exposure.data_quality,
+        }));
+    }
+    eprintln!(
+        "wrote {} ({} samples at {} Hz) and {} ({} alert events)",
+        prediction.telemetry_csv.display(),
+        exposure.samples,
+        exposure.sample_rate_hz,
+        prediction.events_csv.display(),
+        prediction.events
+    );
+    Ok(())
 }

@@ -6,7 +6,6 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{Context as _, Result, bail};
-use clap::ValueEnum as _;
 
 use crate::commands::band_args::{BandArgs, band_threads};
 use crate::io::output::write_atomically;
@@ -53,17 +52,6 @@ pub struct Args {
     pub compare: bool,
 }
 
-/// The name the model is reported by.
-pub fn model_name(source: &ModelSource) -> String {
-    match (&source.params, source.preset) {
-        (Some(p), _) => p.display().to_string(),
-        (None, Some(p)) => p
-            .to_possible_value()
-            .map_or_else(|| format!("{p:?}"), |v| v.get_name().to_string()),
-        (None, None) => "paper-litter".to_string(),
-    }
-}
-
 /// Builds the report, writes `report.html`, and the JSON to `out` with `--json`.
 pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
     let mut file = args.model.load_for_ride()?;
@@ -91,7 +79,7 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
         &inputs,
         rides,
         &file,
-        &model_name(&args.model),
+        &args.model.model_name(),
         args.compare,
     )?;
     if !args.ride.labels.is_empty() {

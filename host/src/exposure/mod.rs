@@ -9,6 +9,7 @@
 //! - [`channel_exposure`]: its channel form (one recorded channel weighted, no model).
 //! - [`reported_values`], [`timed_event`]: the values and alert timeline they report.
 //! - [`exposure_text`]: their readable text.
+//! - [`ride_prediction`]: `supine predict` of a ride: that pass, every sample written.
 //! - [`joints`]: the predicted neck and lower-back motion of a ride.
 //! - [`reference`](mod@reference): what the device must produce for given inputs (f32 pipeline, f64 model).
 
@@ -21,5 +22,6 @@ pub mod model_run;
 pub mod reference;
 pub mod reported_values;
 pub mod ride;
+pub mod ride_prediction;
 pub mod timed_event;
 pub mod weighting_response;

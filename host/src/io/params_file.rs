@@ -354,6 +354,18 @@ pub struct ModelSource {
 }
 
 impl ModelSource {
+    /// The name the model is reported by: the parameter file, the preset, or the
+    /// litter-board preset a command that takes a ride defaults to.
+    pub fn model_name(&self) -> String {
+        match (&self.params, self.preset) {
+            (Some(p), _) => p.display().to_string(),
+            (None, Some(p)) => p
+                .to_possible_value()
+                .map_or_else(|| format!("{p:?}"), |v| v.get_name().to_string()),
+            (None, None) => "paper-litter".to_string(),
+        }
+    }
+
     /// Loads the parameters the user named.
     pub fn load(&self) -> Result<ParamFile> {
         match (&self.params, self.preset) {

@@ -124,6 +124,13 @@ impl RideInputArgs {
             || self.units.is_some()
     }
 
+    /// Whether `path` is the project's full lab recording (its 13 columns, with the
+    /// measured sensors) to be read as it is: `supine predict` then predicts the sensors
+    /// with the continuous model, where it predicts a ride's telemetry otherwise.
+    pub fn reads_lab_recording(&self, path: &Path) -> Result<bool> {
+        Ok(!self.converts() && self.format(path)?.is_none())
+    }
+
     /// How the file at `path` is laid out: `--columns`, or its recognized header;
     /// `None` for the project's full recording.
     fn format(&self, path: &Path) -> Result<Option<ForeignFormat>> {

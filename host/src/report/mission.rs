@@ -34,6 +34,7 @@ use crate::report::mission_joints::{LegJoints, MissionJoint, mission_joints};
 use crate::report::route::{PlacedEvent, Route, RouteBuilder};
 use crate::report::spectrum::{AxisSpectrum, LegSpectra};
 use crate::report::third_octave::{HeadBand, head_weighted_bands};
+use crate::ride::quality::DataQuality;
 
 /// Rate of the time series kept for the charts, Hz: the running rms has a 1 s time
 /// constant and the VDV only grows, so 10 points a second draw them exactly enough.
@@ -151,6 +152,9 @@ pub struct Leg {
     pub max_level: &'static str,
     /// The predicted neck and lower-back motion (as `supine exposure --json` gives it).
     pub joints: Vec<JointReport>,
+    /// The ride's data-quality account (a logger's file; null for a recording), as
+    /// `supine exposure --json` gives it.
+    pub data_quality: Option<DataQuality>,
     /// Everything `supine exposure --json` gives for this file.
     #[serde(skip)]
     pub exposure: ModelExposure,
@@ -388,6 +392,7 @@ pub fn evaluate_leg(
         time_at_level_s: TimeAtLevel::from_array(at_level.map(|c| c as f64 / fs)),
         max_level: exposure.max_level,
         joints: exposure.joints.clone(),
+        data_quality: exposure.data_quality.clone(),
         series: series.finish(),
         third_octave_bands: head_weighted_bands(&spectra),
         spectra,
