@@ -9,7 +9,8 @@ use anyhow::{Result, bail};
 use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
 use crate::demo::demo_ride::{DemoProfile, make};
-use crate::demo::demo_track::track;
+use crate::demo::demo_track::{START_DEG, track_from};
+use crate::ride::position::out_of_range;
 use crate::exposure::ride::write_ride;
 use crate::io::track_file::write_gpx;
 
@@ -44,9 +45,30 @@ pub struct Args {
     /// plausible road, slower on the rough stretch), for `supine report --track`.
     #[arg(long, value_name = "TRACK.gpx")]
     pub track_out: Option<PathBuf>,
+    /// Where the written track starts, latitude and longitude in degrees (a mission's
+    /// next leg starts where the last ended).
+    #[arg(long, value_name = "LAT,LON", requires = "track_out", value_parser = parse_lat_lon, allow_hyphen_values = true)]
+    pub track_from: Option<(f64, f64)>,
     /// Print the ride's summary as JSON.
     #[command(flatten)]
     pub json: JsonFlag,
+}
+
+/// `LAT,LON` in degrees, each within its range.
+fn parse_lat_lon(text: &str) -> Result<(f64, f64), String> {
+    let parsed = text
+        .split_once(',')
+        .and_then(|(a, b)| Some((a.trim().parse::<f64>().ok()?, b.trim().parse::<f64>().ok()?)));
+    let Some((lat, lon)) = parsed else {
+        return Err(format!(
+            "expected LAT,LON in degrees (47.95,11.30), found {}",
+            crate::io::excerpt::excerpt(text)
+        ));
+    };
+    match out_of_range(lat, lon) {
+        Some(why) => Err(why),
+        None => Ok((lat, lon)),
+    }
 }
 
 /// Generates and writes the ride, with a one-line summary on standard error (or JSON on
@@ -54,7 +76,7 @@ pub struct Args {
 pub fn run(args: &Args) -> Result<()> {
     let made = make(args.profile, args.duration_s, args.fs_hz, args.seed)?;
     let ride = &made.ride;
-    let fixes = track(&made);
+    let fixes = track_from(&made, args.track_from.unwrap_or(START_DEG));
     if args.track_out.is_some() && fixes.is_empty() {
         bail!(
             "--track-out: the {} profile goes nowhere: expected a ride on a road or in the air",

@@ -50,9 +50,14 @@ fn speed_at(ride: &DemoRide, t_s: f64) -> f64 {
     speed
 }
 
-/// The fixes of `ride`'s route, from its start to its end; none for the laboratory's
-/// input, which goes nowhere.
+/// The fixes of `ride`'s route from [`START_DEG`]: [`track_from`].
 pub fn track(ride: &DemoRide) -> Vec<Fix> {
+    track_from(ride, START_DEG)
+}
+
+/// The fixes of `ride`'s route from `start_deg` (latitude, longitude) to its end; none
+/// for the laboratory's input, which goes nowhere.
+pub fn track_from(ride: &DemoRide, start_deg: (f64, f64)) -> Vec<Fix> {
     if ride.profile == DemoProfile::Lab {
         return Vec::new();
     }
@@ -60,7 +65,7 @@ pub fn track(ride: &DemoRide) -> Vec<Fix> {
     let step_s = 0.05;
     let per_fix = (1.0 / (FIX_RATE_HZ * step_s)).round() as usize;
     let (mut north_m, mut east_m) = (0.0f64, 0.0f64);
-    let (lat0, lon0) = START_DEG;
+    let (lat0, lon0) = start_deg;
     let m_per_deg = EARTH_RADIUS_M * PI / 180.0;
     let mut fixes = Vec::new();
     let mut k = 0usize;
