@@ -133,6 +133,41 @@ fn distance_text(m: f64) -> String {
     }
 }
 
+/// The labels drawn so far, so that a label is never drawn over another: each goes to
+/// the first free place beside its marker, or is left out (the table lists them all).
+#[derive(Default)]
+struct Labels {
+    boxes: Vec<[i32; 4]>,
+}
+
+impl Labels {
+    /// Approximate size of a label at the map's 12 px font, px.
+    fn size(text: &str) -> (i32, i32) {
+        (7 * text.chars().count() as i32, 15)
+    }
+
+    /// Where `text` goes beside a marker at `(x, y)`: right above, right below, left above
+    /// or left below; `None` when it is empty or every place is taken.
+    fn place(&mut self, text: &str, (x, y): (i32, i32)) -> Option<(i32, i32)> {
+        if text.is_empty() {
+            return None;
+        }
+        let (w, h) = Self::size(text);
+        let candidates = [(x + 10, y - 18), (x + 10, y + 6), (x - 10 - w, y - 18), (x - 10 - w, y + 6)];
+        let free = |b: &[i32; 4]| {
+            self.boxes
+                .iter()
+                .all(|o| b[2] <= o[0] || b[0] >= o[2] || b[3] <= o[1] || b[1] >= o[3])
+        };
+        let at = candidates
+            .into_iter()
+            .map(|(cx, cy)| [cx, cy, cx + w, cy + h])
+            .find(|b| free(b))?;
+        self.boxes.push(at);
+        Some((at[0], at[1]))
+    }
+}
+
 impl Map {
     /// The map as an `<svg>` element.
     pub fn to_svg(&self) -> Result<String> {
@@ -156,6 +191,7 @@ impl Map {
                 ))
                 .map_err(plot_error)?;
             }
+            let mut labels = Labels::default();
             for m in &self.markers {
                 let color: RGBColor = m.color.into();
                 let (x, y) = frame.pixel(m.at);
@@ -184,13 +220,9 @@ impl Map {
                             .map_err(plot_error)?;
                     }
                 }
-                if !m.label.is_empty() {
-                    root.draw(&Text::new(
-                        m.label.clone(),
-                        (x + 10, y - 16),
-                        font(12).color(&BLACK),
-                    ))
-                    .map_err(plot_error)?;
+                if let Some(at) = labels.place(&m.label, (x, y)) {
+                    root.draw(&Text::new(m.label.clone(), at, font(12).color(&BLACK)))
+                        .map_err(plot_error)?;
                 }
             }
             // The legend, top left under the title.
@@ -266,6 +298,12 @@ mod tests {
         assert_eq!(scale_bar_m(3100.0), 2000.0);
         assert_eq!(scale_bar_m(99.0), 50.0);
         assert_eq!(distance_text(2000.0), "2 km");
+        // Labels never overlap: a second at the same marker goes below, a fifth nowhere.
+        let mut labels = Labels::default();
+        let places: Vec<_> = (0..5).map(|_| labels.place("247 s alarm", (500, 300))).collect();
+        assert_eq!(places[0], Some((510, 282)));
+        assert_eq!(places[1], Some((510, 306)));
+        assert!(places[2].is_some() && places[3].is_some() && places[4].is_none());
         let svg = map.to_svg().unwrap();
         assert!(svg.starts_with("<svg"), "{}", &svg[..200]);
         assert!(svg.contains("500 m"), "{svg}");

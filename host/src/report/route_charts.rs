@@ -16,9 +16,9 @@ use crate::ride::position::{centre_deg, project_m};
 /// The legs' casing colours, in turn.
 pub const LEG_COLORS: [Rgb; 3] = [Rgb(70, 110, 200), Rgb(150, 90, 180), Rgb(90, 160, 170)];
 /// Width of the track's coloured line, px.
-const TRACK_PX: u32 = 4;
+const TRACK_PX: u32 = 5;
 /// Width of a leg's casing under it, px.
-const CASING_PX: u32 = 10;
+const CASING_PX: u32 = 11;
 
 /// The alert level (0-3) a running rms of `value` would be at by `config`'s thresholds.
 pub fn rms_level(value: f64, config: &AlertConfig) -> usize {
