@@ -22,7 +22,9 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ),
     (
         "demo",
-        &["report", "monitor", "exposure", "device", "plot", "io", "ride"],
+        &[
+            "report", "monitor", "exposure", "device", "plot", "io", "ride",
+        ],
     ),
     (
         "report",
@@ -55,6 +57,7 @@ const REPORT_LAYERS: &[&[&str]] = &[
         "monitor_log",
         "third_octave",
         "route",
+        "level_time",
     ],
     &["charts", "device_charts", "route_charts"],
     &[

@@ -92,7 +92,11 @@ fn a_straight_road_gives_its_length_its_segments_and_the_legs_values() {
     assert_eq!(full.len(), (closed_form / 50.0) as usize);
     for s in full {
         // 50 m and at most one sample's travel (7 cm) more.
-        assert!(s.length_m >= 50.0 && s.length_m <= 50.0 + speed / FS_HZ + 1e-6, "{}", s.length_m);
+        assert!(
+            s.length_m >= 50.0 && s.length_m <= 50.0 + speed / FS_HZ + 1e-6,
+            "{}",
+            s.length_m
+        );
         assert!((s.speed_m_s - speed).abs() < 0.05, "{}", s.speed_m_s);
         // The midpoint is where the closed form puts half the segment.
         let d = speed * (s.start_s + s.end_s) / 2.0;
@@ -118,8 +122,16 @@ fn a_straight_road_gives_its_length_its_segments_and_the_legs_values() {
         .map(|s| s.vdv_m_s175.powi(4))
         .sum::<f64>()
         .powf(0.25);
-    assert!((rms / leg.vector.rms_m_s2 - 1.0).abs() < 1e-5, "{rms} against {}", leg.vector.rms_m_s2);
-    assert!((vdv / leg.vector.vdv_m_s175 - 1.0).abs() < 1e-5, "{vdv} against {}", leg.vector.vdv_m_s175);
+    assert!(
+        (rms / leg.vector.rms_m_s2 - 1.0).abs() < 1e-5,
+        "{rms} against {}",
+        leg.vector.rms_m_s2
+    );
+    assert!(
+        (vdv / leg.vector.vdv_m_s175 - 1.0).abs() < 1e-5,
+        "{vdv} against {}",
+        leg.vector.vdv_m_s175
+    );
     // The rough middle third is where the worst segments are.
     let worst = &route.worst_segments[0];
     assert!(worst.start_s > 20.0 && worst.end_s < 40.5, "{worst:?}");
@@ -193,7 +205,11 @@ fn a_track_joined_with_an_offset_lands_where_the_offset_says() {
     let legs = legs(&[ride], &RideInputArgs::default(), &tracks).unwrap();
     let route = legs[0].route.as_ref().unwrap();
     // The track's zero is the ride's 12 s: nothing placed before it, nor after 52 s.
-    assert!((route.unplaced_s - 20.0).abs() < 0.01, "{}", route.unplaced_s);
+    assert!(
+        (route.unplaced_s - 20.0).abs() < 0.01,
+        "{}",
+        route.unplaced_s
+    );
     assert!((route.segments[0].start_s - 12.0).abs() < 1e-9);
     // The ride's 32 s is the track's 20 s: 200 m north of its start.
     let at_32 = route
@@ -204,8 +220,15 @@ fn a_track_joined_with_an_offset_lands_where_the_offset_says() {
     assert!((at_32.start_s - 32.0).abs() <= 5.0);
     let first = &route.map[0];
     let (lat0, lon0) = along(-33.9, 18.4, 0.0, 0.0);
-    assert!(((first.lat_deg - lat0) * M_PER_DEG).abs() < 0.01 && (first.lon_deg - lon0).abs() < 1e-9);
-    let (mid_lat, _) = along(-33.9, 18.4, 0.0, 10.0 * (at_32.start_s + at_32.end_s) / 2.0 - 120.0);
+    assert!(
+        ((first.lat_deg - lat0) * M_PER_DEG).abs() < 0.01 && (first.lon_deg - lon0).abs() < 1e-9
+    );
+    let (mid_lat, _) = along(
+        -33.9,
+        18.4,
+        0.0,
+        10.0 * (at_32.start_s + at_32.end_s) / 2.0 - 120.0,
+    );
     assert!(((at_32.lat_deg - mid_lat) * M_PER_DEG).abs() < 0.5);
     assert!((route.length_m - 400.0).abs() < 0.5, "{}", route.length_m);
 }
@@ -219,10 +242,17 @@ fn bad_tracks_are_refused_in_one_line_or_flagged() {
         tracks: vec![gpx(dir.path(), 10, 10.0)],
         track_offset_s: 500.0,
     };
-    let e = legs(std::slice::from_ref(&ride), &RideInputArgs::default(), &tracks)
-        .unwrap_err()
-        .to_string();
-    assert!(e.contains("ride.csv: the track") && e.contains("expected them to overlap"), "{e}");
+    let e = legs(
+        std::slice::from_ref(&ride),
+        &RideInputArgs::default(),
+        &tracks,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("ride.csv: the track") && e.contains("expected them to overlap"),
+        "{e}"
+    );
     assert_eq!(e.lines().count(), 1);
     // A latitude out of range in the ride's own columns: file, line, column.
     let input = ride_with_positions(dir.path(), 10.0, 10.0, 0.0);
@@ -230,10 +260,17 @@ fn bad_tracks_are_refused_in_one_line_or_flagged() {
     let broken = text.replacen(",52.000000000,", ",152.000000000,", 1);
     assert_ne!(text, broken);
     std::fs::write(&input, broken).unwrap();
-    let e = legs(std::slice::from_ref(&input), &columns_args(), &TrackArgs::default())
-        .unwrap_err()
-        .to_string();
-    assert!(e.contains("logger.csv: line 2, column \"lat\": expected a latitude within -90..90"), "{e}");
+    let e = legs(
+        std::slice::from_ref(&input),
+        &columns_args(),
+        &TrackArgs::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("logger.csv: line 2, column \"lat\": expected a latitude within -90..90"),
+        "{e}"
+    );
     // A jump of 300 km in a second: excluded, counted, the road's length kept.
     let jumpy = dir.path().join("jumpy.gpx");
     let good = std::fs::read_to_string(gpx(dir.path(), 10, 10.0)).unwrap();
@@ -266,8 +303,13 @@ fn bad_tracks_are_refused_in_one_line_or_flagged() {
         compare: false,
         band: BandArgs::default(),
     };
-    let e = report::run_to(&args, &mut Vec::new()).unwrap_err().to_string();
-    assert!(e.contains("--track: expected one per --input (2), found 1"), "{e}");
+    let e = report::run_to(&args, &mut Vec::new())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("--track: expected one per --input (2), found 1"),
+        "{e}"
+    );
 }
 
 #[test]

@@ -74,7 +74,9 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
         Some((_, session)) => vec![session.ride.clone()],
         None => args.input.clone(),
     };
-    let rides = args.ride.opener_with_tracks(mounting, &args.track, &inputs)?;
+    let rides = args
+        .ride
+        .opener_with_tracks(mounting, &args.track, &inputs)?;
     let mut report = report::build(
         &inputs,
         rides,

@@ -10,9 +10,9 @@ use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
 use crate::demo::demo_ride::{DemoProfile, make};
 use crate::demo::demo_track::{START_DEG, track_from};
-use crate::ride::position::out_of_range;
 use crate::exposure::ride::write_ride;
 use crate::io::track_file::write_gpx;
+use crate::ride::position::out_of_range;
 
 /// The time of a written track's first point (a GPX point needs a date; the report
 /// joins the track by time from its first point).

@@ -105,7 +105,9 @@ mod tests {
         let track = Track::new(track(&ride), "demo").unwrap();
         // Paved at 22 m/s for about 24 s with 6 s changes, rough at 9 m/s: the distance
         // is the speed's integral, the track's length within 1 %.
-        let integral: f64 = (0..60_000).map(|k| speed_at(&ride, k as f64 * 0.001) * 0.001).sum();
+        let integral: f64 = (0..60_000)
+            .map(|k| speed_at(&ride, k as f64 * 0.001) * 0.001)
+            .sum();
         assert!((track.length_m() / integral - 1.0).abs() < 0.01);
         let rough = &ride.segments[1];
         let middle = track.at((rough.start_s + rough.end_s) / 2.0).unwrap();

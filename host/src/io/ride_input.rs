@@ -30,7 +30,6 @@ use supine_core::sample_rate::SampleRate;
 use crate::io::csv_lines::CsvLines;
 use crate::io::excerpt::quoted_name;
 use crate::io::output::write_atomically;
-use crate::io::track_file::{read_position_columns, read_track};
 use crate::io::recording::{
     COLUMNS, Layout, PLATFORM_HEADER_LINE, PlatformStream, Recording, RecordingError,
 };
@@ -38,6 +37,7 @@ pub use crate::io::ride_rows::{AccelUnit, ColumnNames, TimeUnit};
 use crate::io::ride_rows::{
     ForeignFormat, OpenRide, RideSource, WindowedRows, listed_fields, read_header,
 };
+use crate::io::track_file::{read_position_columns, read_track};
 use crate::ride::conditioned::{Conditioned, Conditioning};
 use crate::ride::formats::recognize;
 use crate::ride::level::{Levelling, angles_rad, level_by_mean};
@@ -412,7 +412,12 @@ pub struct TrackArgs {
     pub tracks: Vec<PathBuf>,
     /// The ride's time of the track's time zero (the first GPX point, or the location
     /// file's clock zero), s: the track is moved by this.
-    #[arg(long, value_name = "S", default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(
+        long,
+        value_name = "S",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
     pub track_offset_s: f64,
 }
 
@@ -432,10 +437,18 @@ impl OpenRide for RideOpener<'_> {
         if !offset.is_finite() {
             bail!("--track-offset-s {offset}: expected a finite number of seconds");
         }
-        let given = self.inputs.iter().position(|p| p == path).and_then(|i| {
-            self.tracks.tracks.get(i)
-        });
-        let track = match (given, self.args.columns.as_ref().and_then(|c| c.positions.as_ref())) {
+        let given = self
+            .inputs
+            .iter()
+            .position(|p| p == path)
+            .and_then(|i| self.tracks.tracks.get(i));
+        let track = match (
+            given,
+            self.args
+                .columns
+                .as_ref()
+                .and_then(|c| c.positions.as_ref()),
+        ) {
             (Some(file), _) => read_track(file)?,
             (None, Some(columns)) => {
                 let format = self.args.format(path)?.map_or(TimeUnit::S, |f| f.time_unit);

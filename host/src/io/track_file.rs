@@ -150,7 +150,9 @@ pub fn read_position_columns(
         let number = line.line;
         let cells: Vec<Vec<u8>> = if memchr::memchr(b'"', line.text()).is_some() {
             unquoted_cells(line.text(), delimiter).ok_or_else(|| {
-                anyhow!("{shown}: line {number}: expected RFC 4180 quoting, found an unclosed quote")
+                anyhow!(
+                    "{shown}: line {number}: expected RFC 4180 quoting, found an unclosed quote"
+                )
             })?
         } else {
             line.split().cells().map(<[u8]>::to_vec).collect()
@@ -192,7 +194,10 @@ pub fn read_position_columns(
             } else {
                 &columns.lon
             };
-            bail!("{shown}: line {number}, column {}: {why}", quoted_name(field));
+            bail!(
+                "{shown}: line {number}, column {}: {why}",
+                quoted_name(field)
+            );
         }
         let optional = |k: Option<usize>| {
             k.and_then(|k| fast_float2::parse::<f64, _>(text(k)).ok())
@@ -236,7 +241,11 @@ mod tests {
         let track = read_gpx(&gpx).unwrap();
         let t: Vec<f64> = track.fixes().iter().map(|f| f.t_s).collect();
         assert_eq!(t, vec![0.0, 1.0, 2.5]);
-        assert!((track.length_m() - 22.24).abs() < 0.05, "{}", track.length_m());
+        assert!(
+            (track.length_m() - 22.24).abs() < 0.05,
+            "{}",
+            track.length_m()
+        );
 
         let not_gpx = write(dir.path(), "n.gpx", "time,lat\n1,2\n");
         let e = read_gpx(&not_gpx).unwrap_err().to_string();
@@ -249,7 +258,10 @@ mod tests {
 </trkseg></trk></gpx>"#,
         );
         let e = read_gpx(&bad).unwrap_err().to_string();
-        assert!(e.contains("b.gpx: expected a GPX 1.1 file") && e.contains("latitude"), "{e}");
+        assert!(
+            e.contains("b.gpx: expected a GPX 1.1 file") && e.contains("latitude"),
+            "{e}"
+        );
         assert_eq!(e.lines().count(), 1);
     }
 
@@ -301,6 +313,9 @@ mod tests {
         );
         let other = write(dir.path(), "o.csv", "a,b\n1,2\n");
         let e = read_positions(&other).unwrap_err().to_string();
-        assert!(e.contains("o.csv: line 1: expected a location file's header"), "{e}");
+        assert!(
+            e.contains("o.csv: line 1: expected a location file's header"),
+            "{e}"
+        );
     }
 }

@@ -153,7 +153,12 @@ impl Labels {
             return None;
         }
         let (w, h) = Self::size(text);
-        let candidates = [(x + 10, y - 18), (x + 10, y + 6), (x - 10 - w, y - 18), (x - 10 - w, y + 6)];
+        let candidates = [
+            (x + 10, y - 18),
+            (x + 10, y + 6),
+            (x - 10 - w, y - 18),
+            (x - 10 - w, y + 6),
+        ];
         let free = |b: &[i32; 4]| {
             self.boxes
                 .iter()
@@ -186,7 +191,11 @@ impl Map {
             for piece in &self.pieces {
                 let color: RGBColor = piece.color.into();
                 root.draw(&PathElement::new(
-                    piece.points.iter().map(|p| frame.pixel(*p)).collect::<Vec<_>>(),
+                    piece
+                        .points
+                        .iter()
+                        .map(|p| frame.pixel(*p))
+                        .collect::<Vec<_>>(),
                     color.stroke_width(piece.width),
                 ))
                 .map_err(plot_error)?;
@@ -231,16 +240,23 @@ impl Map {
                 let c: RGBColor = (*color).into();
                 root.draw(&Rectangle::new([(16, y), (36, y + 10)], c.filled()))
                     .map_err(plot_error)?;
-                root.draw(&Text::new(text.clone(), (42, y - 1), font(12).color(&BLACK)))
-                    .map_err(plot_error)?;
+                root.draw(&Text::new(
+                    text.clone(),
+                    (42, y - 1),
+                    font(12).color(&BLACK),
+                ))
+                .map_err(plot_error)?;
             }
             // The scale bar, bottom left: at most a quarter of the map's width.
             let (w, h) = (MAP_PX.0 as i32, MAP_PX.1 as i32);
             let bar_m = scale_bar_m(f64::from(MAP_PX.0) / 4.0 / frame.px_per_m);
             let bar_px = (bar_m * frame.px_per_m).round() as i32;
             let (bx, by) = (20, h - 28);
-            root.draw(&Rectangle::new([(bx, by), (bx + bar_px, by + 6)], BLACK.filled()))
-                .map_err(plot_error)?;
+            root.draw(&Rectangle::new(
+                [(bx, by), (bx + bar_px, by + 6)],
+                BLACK.filled(),
+            ))
+            .map_err(plot_error)?;
             root.draw(&Rectangle::new(
                 [(bx + bar_px / 2, by + 1), (bx + bar_px - 1, by + 5)],
                 WHITE.filled(),
@@ -255,7 +271,12 @@ impl Map {
             // The north arrow, top right (the frame's y is north).
             let (nx, ny) = (w - 40, 30);
             root.draw(&Polygon::new(
-                vec![(nx, ny), (nx - 9, ny + 30), (nx, ny + 22), (nx + 9, ny + 30)],
+                vec![
+                    (nx, ny),
+                    (nx - 9, ny + 30),
+                    (nx, ny + 22),
+                    (nx + 9, ny + 30),
+                ],
                 BLACK.filled(),
             ))
             .map_err(plot_error)?;
@@ -300,7 +321,9 @@ mod tests {
         assert_eq!(distance_text(2000.0), "2 km");
         // Labels never overlap: a second at the same marker goes below, a fifth nowhere.
         let mut labels = Labels::default();
-        let places: Vec<_> = (0..5).map(|_| labels.place("247 s alarm", (500, 300))).collect();
+        let places: Vec<_> = (0..5)
+            .map(|_| labels.place("247 s alarm", (500, 300)))
+            .collect();
         assert_eq!(places[0], Some((510, 282)));
         assert_eq!(places[1], Some((510, 306)));
         assert!(places[2].is_some() && places[3].is_some() && places[4].is_none());

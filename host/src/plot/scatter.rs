@@ -85,7 +85,10 @@ impl Scatter {
             for t in &self.thresholds {
                 let color: RGBColor = t.color.into();
                 chart
-                    .draw_series(LineSeries::new([(x0, t.y), (x1, t.y)], color.stroke_width(1)))
+                    .draw_series(LineSeries::new(
+                        [(x0, t.y), (x1, t.y)],
+                        color.stroke_width(1),
+                    ))
                     .map_err(plot_error)?
                     .label(t.label.clone())
                     .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], color));
@@ -137,7 +140,7 @@ mod tests {
             ..Scatter::default()
         };
         let ((_, x1), (_, y1)) = chart.ranges();
-        assert!(x1 >= 25.0 && x1 < 27.0 && y1 >= 2.0 && y1 < 2.2);
+        assert!((25.0..27.0).contains(&x1) && (2.0..2.2).contains(&y1));
         assert!(chart.to_svg().unwrap().contains("<circle"));
     }
 }

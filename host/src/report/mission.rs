@@ -30,6 +30,7 @@ use crate::io::params_file::ParamFile;
 use crate::io::ride_rows::RideSource;
 use crate::io::telemetry_csv::level_from_name;
 use crate::io::wording::display_unit;
+pub use crate::report::level_time::TimeAtLevel;
 use crate::report::mission_joints::{LegJoints, MissionJoint, mission_joints};
 use crate::report::route::{PlacedEvent, Route, RouteBuilder};
 use crate::report::spectrum::{AxisSpectrum, LegSpectra};
@@ -49,36 +50,6 @@ pub const MAX_CHART_POINTS: usize = 1 << 14;
 pub const PROJECTION_WINDOW_S: f64 = 300.0;
 /// Level names in order.
 pub const LEVEL_NAMES: [&str; 4] = ["normal", "advisory", "warning", "alarm"];
-
-/// Seconds spent at each alert level.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
-pub struct TimeAtLevel {
-    /// At normal, s.
-    pub normal: f64,
-    /// At advisory, s.
-    pub advisory: f64,
-    /// At warning, s.
-    pub warning: f64,
-    /// At alarm, s.
-    pub alarm: f64,
-}
-
-impl TimeAtLevel {
-    /// The seconds in level order.
-    pub fn as_array(&self) -> [f64; 4] {
-        [self.normal, self.advisory, self.warning, self.alarm]
-    }
-
-    /// From seconds in level order.
-    pub fn from_array(a: [f64; 4]) -> Self {
-        Self {
-            normal: a[0],
-            advisory: a[1],
-            warning: a[2],
-            alarm: a[3],
-        }
-    }
-}
 
 /// An alert event with what raised it.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -309,7 +280,12 @@ pub fn evaluate_leg(
                             supine_core::alerts::AlertEvent::Level { to, .. } => Some(*to as u8),
                             _ => None,
                         };
-                        pending_events.push((sample as f64 / fs, timed.event.clone(), level, timed.raise));
+                        pending_events.push((
+                            sample as f64 / fs,
+                            timed.event.clone(),
+                            level,
+                            timed.raise,
+                        ));
                     }
                     alerts.push(AlertRow {
                         leg_time_s: sample as f64 / fs,

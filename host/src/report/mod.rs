@@ -10,6 +10,7 @@
 //!    - [`spectrum`]: the power spectral densities of input and predicted head;
 //!      [`third_octave`] their one-third-octave band values.
 //!    - [`mission_joints`]: the neck and lower-back motion combined over the legs.
+//!    - [`level_time`]: time at each alert level (a leg's, the mission's, a segment's).
 //!    - [`route`]: where each leg happened: its road segments, the worst of them, the
 //!      map's points and placed events (a ride with positions).
 //!    - [`prediction_band`]: with `--band N`, the prediction band of the head's vector values.
@@ -37,6 +38,7 @@ pub mod device_pass;
 pub mod device_section;
 pub mod device_series;
 pub mod joints_section;
+pub mod level_time;
 pub mod markup;
 pub mod mission;
 pub mod mission_joints;

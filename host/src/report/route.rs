@@ -21,7 +21,7 @@ use serde::Serialize;
 use supine_core::exposure::ExposureSettings;
 use supine_core::weighting::WeightingState;
 
-use crate::report::mission::TimeAtLevel;
+use crate::report::level_time::TimeAtLevel;
 use crate::ride::position::{Place, Track, TrackAccount};
 
 /// Length of a road segment, m: about 2 to 4 s at road speeds, long enough for the

@@ -110,7 +110,11 @@ pub fn route_map(legs: &[Leg], config: &AlertConfig) -> Option<Map> {
                     .map_or(Rgb(90, 90, 90), |l| LEVEL_COLORS[usize::from(l.min(3))]),
                 shape: Shape::Triangle,
                 label: if e.raise {
-                    format!("{:.0} s {}", leg.start_s + e.leg_time_s, LEVEL_NAMES[usize::from(e.level.unwrap_or(0).min(3))])
+                    format!(
+                        "{:.0} s {}",
+                        leg.start_s + e.leg_time_s,
+                        LEVEL_NAMES[usize::from(e.level.unwrap_or(0).min(3))]
+                    )
                 } else {
                     String::new()
                 },

@@ -320,7 +320,11 @@ mod tests {
             fix(k as f64, lat, lon)
         });
         let track = Track::new(fixes, "test").unwrap();
-        assert!((track.length_m() - 3000.0).abs() < 3000.0 * 1e-3, "{}", track.length_m());
+        assert!(
+            (track.length_m() - 3000.0).abs() < 3000.0 * 1e-3,
+            "{}",
+            track.length_m()
+        );
         let place = track.at(100.5).unwrap();
         assert!((place.along_m - 1507.5).abs() < 2.0, "{}", place.along_m);
         assert!((place.speed_m_s - 15.0).abs() < 0.05, "{}", place.speed_m_s);
@@ -356,7 +360,9 @@ mod tests {
 
     #[test]
     fn jumps_and_steps_back_are_excluded_and_stale_fixes_not_used() {
-        let mut fixes: Vec<Fix> = (0..20).map(|k| fix(k as f64, 50.0, 8.0 + k as f64 * 1e-4)).collect();
+        let mut fixes: Vec<Fix> = (0..20)
+            .map(|k| fix(k as f64, 50.0, 8.0 + k as f64 * 1e-4))
+            .collect();
         // Hundreds of km in a second, then a repeated time.
         fixes.insert(10, fix(9.5, 53.0, 8.0));
         fixes.insert(5, fix(4.0, 50.0, 8.0004));
