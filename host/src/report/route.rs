@@ -8,7 +8,7 @@
 //! the first sample at or past its length (so it is longer by at most one sample's
 //! travel) and at a sample with no position (a gap in the track); a stop adds time, not
 //! distance, to its segment. The contributions come from the head's weighted vector
-//! signal, the core's own weighting ([`WeightingSettings::step`]) run on the pipeline's
+//! signal, the core's own weighting ([`supine_core::weighting::WeightingSettings::step`]) run on the pipeline's
 //! head accelerations: the same f32 samples the device sums, here summed in f64 per
 //! segment, over the samples after the warm-up, as the leg's values are. So the segments'
 //! energy-equivalent rms, `sqrt(sum rms_i^2 T_i / sum T_i)`, is the leg's rms, and
