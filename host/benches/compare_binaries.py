@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Two `supine` binaries' `fit --case rigid` wall times on the same datasets, interleaved
-(BENCHMARKS.md, "Issue 18's third speed pass"): a before/after ratio that does not depend
+(BENCHMARKS.md, "Identification"): a before/after ratio that does not depend
 on SciPy. Each dataset of the set (made by `fit_robustness.py`, which this reuses) is
 fitted `--reps` times by each binary in turn; the median of each is compared.
 

@@ -10,7 +10,7 @@
 //! Memory is the child's peak resident set (`VmHWM` in `/proc/PID/status`), polled while
 //! it runs (a child over the limit is killed there, so a regression cannot exhaust the
 //! machine), and, exactly, the largest child's `ru_maxrss` after all have been reaped.
-//! Run with `--nocapture` for the table of cases (BENCHMARKS.md, "Hostile-input suite").
+//! Run with `--nocapture` for the table of cases (BENCHMARKS.md, "Verification").
 
 use std::ffi::OsString;
 use std::io::Read as _;

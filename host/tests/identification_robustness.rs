@@ -1,5 +1,5 @@
 //! The fit reaches SciPy's cost or lower on small synthetic datasets it was not tuned on
-//! (BENCHMARKS.md, "Identification: robustness and speed over datasets", runs the same
+//! (BENCHMARKS.md, "Identification", runs the same
 //! comparison on 24 larger datasets).
 //!
 //! The references are SciPy's best costs (`host/benches/scipy_fit.py`, trust-region

@@ -464,3 +464,99 @@ fn a_tilted_phone_file_in_g_is_refused_without_units_g_and_read_with_them() {
         "g",
     );
 }
+
+#[test]
+fn a_ride_clipped_on_its_gravity_axis_is_counted_and_located_before_gravity_is_removed() {
+    let dir = tempfile::tempdir().unwrap();
+    let fs = 500.0;
+    let ride = generate(Profile::RoughRoad, 30.0, fs, 6).unwrap();
+    // A logger whose z (gravity's axis) saturates: its shocks' peaks read flat at a full
+    // scale below them, as a +-2 g sensor clips a rough road's shocks.
+    let z: Vec<f64> = ride.platform_m_s2[2].iter().map(|v| v + G).collect();
+    let full_scale = G + 0.6 * ride.platform_m_s2[2].iter().cloned().fold(0.0, f64::max);
+    // Independently: the runs of 3 or more samples at or above full scale.
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    let mut start = None;
+    for (k, v) in z.iter().chain([&f64::NEG_INFINITY]).enumerate() {
+        match (start, *v >= full_scale) {
+            (None, true) => start = Some(k),
+            (Some(s), false) => {
+                if k - s >= 3 {
+                    runs.push((s, k - s));
+                }
+                start = None;
+            }
+            _ => {}
+        }
+    }
+    assert!(runs.len() >= 2, "the shocks are clipped: {runs:?}");
+    let rows: Vec<(f64, [f64; 3])> = (0..ride.len())
+        .map(|k| {
+            let [x, y] = [0, 1].map(|a| ride.platform_m_s2[a][k]);
+            (k as f64 / fs, [x, y, z[k].min(full_scale)])
+        })
+        .collect();
+    let path = ride_file(&dir.path().join("clipped.csv"), &rows);
+    let removing = RideInputArgs {
+        remove_gravity: true,
+        ..RideInputArgs::default()
+    };
+    let e = exposure(&removing, &path);
+    let q = e.data_quality.as_ref().unwrap();
+    assert_eq!(q.clipping.len(), 1, "{:?}", q.clipping);
+    let c = &q.clipping[0];
+    assert_eq!(c.axis, "z");
+    // Written with 9 decimals: the file's full scale, not the value after levelling.
+    assert!(
+        (c.value_m_s2 - full_scale).abs() < 1e-6 * full_scale,
+        "{c:?}"
+    );
+    assert_eq!(c.samples, runs.iter().map(|r| r.1 as u64).sum::<u64>());
+    assert!(
+        (c.first_s - runs[0].0 as f64 / fs).abs() < 1e-9,
+        "{c:?} {runs:?}"
+    );
+    assert!((c.last_s - runs.last().unwrap().0 as f64 / fs).abs() < 1e-9);
+    assert_eq!(q.verdict, "usable with caveats");
+    assert!(
+        q.reasons
+            .iter()
+            .any(|r| r.contains(&format!("{} samples clipped", c.samples))),
+        "{:?}",
+        q.reasons
+    );
+}
+
+#[test]
+fn a_corrupt_stamp_far_ahead_is_refused_by_its_line_and_a_few_rows_behind_one_are_dropped() {
+    let dir = tempfile::tempdir().unwrap();
+    let ride = generate(Profile::Ambulance, 12.0, 200.0, 8).unwrap();
+    let rows = |stamp: &dyn Fn(usize) -> f64| -> Vec<(f64, [f64; 3])> {
+        (0..ride.len())
+            .map(|k| (stamp(k), [0, 1, 2].map(|a| ride.platform_m_s2[a][k])))
+            .collect()
+    };
+    // Row 1000 (line 1002) stamped 1e300 s: every row after it is earlier.
+    let corrupt = ride_file(
+        &dir.path().join("corrupt.csv"),
+        &rows(&|k| if k == 1000 { 1e300 } else { k as f64 / 200.0 }),
+    );
+    let err = RideInputArgs::default()
+        .open(&corrupt, &Mounting::LEVEL)
+        .map(|_| ())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("corrupt.csv: line 1002, column time_s: time 1e300 s")
+            && err.contains(&format!("the next {} rows are earlier", ride.len() - 1001)),
+        "{err}"
+    );
+    // A row stamped 2 ms late (a burst delivered out of order): the one row behind it
+    // is dropped and counted, the ride read.
+    let late = ride_file(
+        &dir.path().join("late.csv"),
+        &rows(&|k| k as f64 / 200.0 + if k == 1000 { 0.007 } else { 0.0 }),
+    );
+    let e = exposure(&RideInputArgs::default(), &late);
+    assert_eq!(e.data_quality.unwrap().dropped_samples, 1);
+}

@@ -28,7 +28,7 @@ use supine_core::mounting::{Mounting, STANDARD_GRAVITY_M_S2};
 use supine_core::sample_rate::SampleRate;
 
 use crate::io::csv_lines::CsvLines;
-use crate::io::excerpt::quoted_name;
+use crate::io::excerpt::{name, quoted_name};
 use crate::io::output::write_atomically;
 use crate::io::recording::{
     COLUMNS, Layout, PLATFORM_HEADER_LINE, PlatformStream, Recording, RecordingError,
@@ -49,6 +49,11 @@ use crate::ride::regular::DEFAULT_MAX_GAP_S;
 pub const GRAVITY_MARGIN_M_S2: f64 = 2.0;
 /// A mean magnitude within this of 1 in a file read as m/s^2 is gravity in g.
 pub const G_UNITS_MARGIN: f64 = 0.25;
+/// Rows found earlier than a row whose time jumped ahead by more than a gap, at which
+/// the jump is taken as a corrupt stamp and the ride refused: a logger that paused
+/// goes on after the pause, and a few rows behind one stamp are a burst's reordering,
+/// dropped and counted; this many are data the drop would lose.
+pub const MAX_ROWS_BEHIND_A_JUMP: u64 = 10;
 /// The rate a ride is evaluated at unless it is uniform at a rate the device supports,
 /// or `--fs` says otherwise, Hz.
 pub const DEFAULT_RATE_HZ: f64 = 500.0;
@@ -208,6 +213,19 @@ impl RideInputArgs {
         };
         let scan = Conditioned::scan(&rows, self.max_gap_s)?;
         let shown = path.display();
+        let behind = scan.longest_run_behind();
+        if behind.rows >= MAX_ROWS_BEHIND_A_JUMP && behind.step_s > self.max_gap_s {
+            bail!(
+                "{shown}: line {}, column {}: time {} s jumps {} s ahead and the next {} rows \
+                 are earlier than it, expected time to increase: a corrupt time stamp (correct or \
+                 delete that row)",
+                behind.line,
+                name(&format.columns.names[0]),
+                seconds(behind.time_s),
+                seconds(behind.step_s),
+                behind.rows
+            );
+        }
         if scan.kept < 2 {
             bail!(
                 "{shown}: expected at least 2 samples{}, found {}",
@@ -352,6 +370,15 @@ impl RideInputArgs {
             tracks,
             inputs,
         })
+    }
+}
+
+/// A time as an error shows it: plain, or in exponent form when it is too large to read.
+fn seconds(t: f64) -> String {
+    if t.abs() < 1e9 {
+        format!("{t}")
+    } else {
+        format!("{t:e}")
     }
 }
 

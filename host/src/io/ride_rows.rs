@@ -26,7 +26,7 @@ use crate::io::recording::{
     Layout, MAX_ACCELERATION_M_S2, PLATFORM_HEADER_LINE, PlatformStream, Recording,
 };
 use crate::ride::clock::Clock;
-use crate::ride::conditioned::{Conditioned, RawRows};
+use crate::ride::conditioned::{Conditioned, FileRows, RawRows};
 use crate::ride::formats::PositionColumns;
 use crate::ride::position::Track;
 use crate::ride::quality::DataQuality;
@@ -406,7 +406,7 @@ pub struct WindowedRows {
 }
 
 impl RawRows for WindowedRows {
-    fn open_rows(&self) -> Result<Box<dyn Iterator<Item = Result<(f64, [f64; 3])>> + '_>> {
+    fn open_rows(&self) -> Result<FileRows<'_>> {
         let mut rows = ForeignRows::open(&self.path, &self.format)?;
         let (from_s, to_s) = (self.from_s, self.to_s);
         Ok(Box::new(std::iter::from_fn(move || {
@@ -414,8 +414,8 @@ impl RawRows for WindowedRows {
                 match rows.next_row() {
                     Err(e) => return Some(Err(e)),
                     Ok(None) => return None,
-                    Ok(Some((_, [t, x, y, z]))) if t >= from_s && t <= to_s => {
-                        return Some(Ok((t, [x, y, z])));
+                    Ok(Some((line, [t, x, y, z]))) if t >= from_s && t <= to_s => {
+                        return Some(Ok((line, t, [x, y, z])));
                     }
                     Ok(Some(_)) => {}
                 }

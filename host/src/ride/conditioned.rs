@@ -28,11 +28,14 @@ pub const SAME_RATE_TOLERANCE: f64 = 0.01;
 /// A stream of timed samples: time (s), x, y, z (m/s^2).
 pub type TimedSamples<'a> = Box<dyn Iterator<Item = Result<(f64, [f64; 3])>> + 'a>;
 
-/// A source of raw rows: time (s), x, y, z (m/s^2, the file's axes), opened anew for
-/// each pass.
+/// A stream of a file's rows: the line it is on (1-based), time (s), x, y, z (m/s^2,
+/// the file's axes).
+pub type FileRows<'a> = Box<dyn Iterator<Item = Result<(u64, f64, [f64; 3])>> + 'a>;
+
+/// A source of raw rows, opened anew for each pass.
 pub trait RawRows {
     /// The rows in the time window, in file order.
-    fn open_rows(&self) -> Result<TimedSamples<'_>>;
+    fn open_rows(&self) -> Result<FileRows<'_>>;
 }
 
 /// What the conditioning does with a ride.
@@ -66,9 +69,9 @@ impl Conditioned {
         let mut cleaner = Cleaner::new(max_gap_s);
         let mut scan = Scan::new();
         for row in rows.open_rows()? {
-            let (t, v) = row?;
+            let (line, t, v) = row?;
             let fate = cleaner.take(t, v);
-            scan.take(t, v, fate);
+            scan.take(line, t, v, fate);
         }
         Ok(scan)
     }
@@ -210,7 +213,7 @@ fn resample<'a>(
 
 /// The kept, levelled rows of one pass, shared by its stretches.
 struct KeptRows<'a> {
-    rows: Box<dyn Iterator<Item = Result<(f64, [f64; 3])>> + 'a>,
+    rows: FileRows<'a>,
     cleaner: Cleaner,
     levelling: Option<Mounting>,
     /// The first row of the next stretch, read past the end of this one.
@@ -234,7 +237,7 @@ impl KeptRows<'_> {
     /// The next kept row and whether it starts a stretch.
     fn next_kept(&mut self) -> Option<(f64, [f64; 3], bool)> {
         loop {
-            let (t, v) = match self.rows.next()? {
+            let (_, t, v) = match self.rows.next()? {
                 Ok(row) => row,
                 Err(e) => {
                     self.error = Some(e);
@@ -285,9 +288,14 @@ impl Iterator for Stretch<'_> {
     }
 }
 
-/// Raw rows already in memory (tests, and rides made by the host).
+/// Raw rows already in memory (tests, and rides made by the host): row `k` is on line
+/// `k + 1`.
 impl RawRows for Vec<(f64, [f64; 3])> {
-    fn open_rows(&self) -> Result<Box<dyn Iterator<Item = Result<(f64, [f64; 3])>> + '_>> {
-        Ok(Box::new(self.iter().map(|r| Ok(*r))))
+    fn open_rows(&self) -> Result<FileRows<'_>> {
+        Ok(Box::new(
+            (1u64..)
+                .zip(self.iter())
+                .map(|(line, (t, v))| Ok((line, *t, *v))),
+        ))
     }
 }

@@ -178,6 +178,25 @@ pub struct Scan {
     sum: [f64; 3],
     max: [Extreme; 3],
     min: [Extreme; 3],
+    /// The last kept row, and the rows dropped behind it since.
+    behind: RowsBehind,
+    /// The longest such run so far.
+    longest_behind: RowsBehind,
+}
+
+/// Rows dropped one after another because their time was not after one kept row's: a
+/// long run of them means that row's time is wrong (a corrupt stamp far ahead), not
+/// theirs.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RowsBehind {
+    /// The kept row's line in the file.
+    pub line: u64,
+    /// Its time, s.
+    pub time_s: f64,
+    /// Its step from the kept row before it, s.
+    pub step_s: f64,
+    /// Rows dropped after it, one after another.
+    pub rows: u64,
 }
 
 impl Default for Scan {
@@ -204,15 +223,27 @@ impl Scan {
             sum: [0.0; 3],
             max: [Extreme::new(); 3],
             min: [Extreme::new(); 3],
+            behind: RowsBehind::default(),
+            longest_behind: RowsBehind::default(),
         }
     }
 
-    /// Takes a row (time s, values m/s^2 as read, before levelling) and its fate.
-    pub fn take(&mut self, time_s: f64, values: [f64; 3], fate: RowFate) {
+    /// The longest run of rows dropped behind one kept row (`rows` 0 when none was).
+    pub fn longest_run_behind(&self) -> RowsBehind {
+        self.longest_behind
+    }
+
+    /// Takes a row (its line, time s, values m/s^2 as read, before levelling) and its
+    /// fate.
+    pub fn take(&mut self, line: u64, time_s: f64, values: [f64; 3], fate: RowFate) {
         self.rows += 1;
         match fate {
             RowFate::NotIncreasing => {
                 self.dropped += 1;
+                self.behind.rows += 1;
+                if self.behind.rows > self.longest_behind.rows {
+                    self.longest_behind = self.behind;
+                }
                 return;
             }
             RowFate::Repeated => {
@@ -245,6 +276,12 @@ impl Scan {
             }
         }
         self.kept += 1;
+        self.behind = RowsBehind {
+            line,
+            time_s,
+            step_s: time_s - self.last_kept_s,
+            rows: 0,
+        };
         self.last_kept_s = time_s;
         for (axis, v) in values.iter().enumerate() {
             self.sum[axis] += v;
