@@ -73,6 +73,29 @@ fn legs(inputs: &[PathBuf], args: &RideInputArgs, tracks: &TrackArgs) -> anyhow:
     Ok(build(inputs, opener, &file, "paper-litter", false)?.legs)
 }
 
+/// `supine report --json` of `input` with the preset, into `out`.
+fn report_args(
+    input: Vec<PathBuf>,
+    ride: RideInputArgs,
+    track: TrackArgs,
+    out: &Path,
+) -> report::Args {
+    report::Args {
+        input,
+        ride,
+        track,
+        model: ModelSource {
+            preset: Some(PresetArg::PaperLitter),
+            params: None,
+        },
+        subject: SubjectArgs::default(),
+        out: out.to_path_buf(),
+        json: true,
+        compare: false,
+        band: BandArgs::default(),
+    }
+}
+
 #[test]
 fn a_straight_road_gives_its_length_its_segments_and_the_legs_values() {
     let dir = tempfile::tempdir().unwrap();
@@ -286,23 +309,15 @@ fn bad_tracks_are_refused_in_one_line_or_flagged() {
     assert_eq!(route.track.jumps_excluded, 1);
     assert!((route.length_m - 100.0).abs() < 0.5, "{}", route.length_m);
     // --track given for one of two rides.
-    let args = report::Args {
-        input: vec![dir.path().join("ride.csv"), dir.path().join("ride.csv")],
-        ride: RideInputArgs::default(),
-        track: TrackArgs {
+    let args = report_args(
+        vec![dir.path().join("ride.csv"), dir.path().join("ride.csv")],
+        RideInputArgs::default(),
+        TrackArgs {
             tracks: vec![gpx(dir.path(), 10, 10.0)],
             track_offset_s: 0.0,
         },
-        model: ModelSource {
-            preset: Some(PresetArg::PaperLitter),
-            params: None,
-        },
-        subject: SubjectArgs::default(),
-        out: dir.path().join("out"),
-        json: true,
-        compare: false,
-        band: BandArgs::default(),
-    };
+        &dir.path().join("out"),
+    );
     let e = report::run_to(&args, &mut Vec::new())
         .unwrap_err()
         .to_string();
@@ -316,20 +331,12 @@ fn bad_tracks_are_refused_in_one_line_or_flagged() {
 fn the_json_has_route_per_leg_and_null_without_positions() {
     let dir = tempfile::tempdir().unwrap();
     let with = ride_with_positions(dir.path(), 20.0, 12.0, 45.0);
-    let args = report::Args {
-        input: vec![with],
-        ride: columns_args(),
-        track: TrackArgs::default(),
-        model: ModelSource {
-            preset: Some(PresetArg::PaperLitter),
-            params: None,
-        },
-        subject: SubjectArgs::default(),
-        out: dir.path().join("out"),
-        json: true,
-        compare: false,
-        band: BandArgs::default(),
-    };
+    let args = report_args(
+        vec![with],
+        columns_args(),
+        TrackArgs::default(),
+        &dir.path().join("out"),
+    );
     let mut text = Vec::new();
     report::run_to(&args, &mut text).unwrap();
     let json: serde_json::Value = serde_json::from_slice(&text).unwrap();

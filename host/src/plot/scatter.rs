@@ -5,7 +5,7 @@ use anyhow::Result;
 use plotters::prelude::*;
 
 use super::time_chart::{Threshold, WIDTH_PX};
-use super::{Rgb, plot_error};
+use super::{Rgb, plot_error, report_frame};
 
 /// Height of a scatter chart, px.
 const HEIGHT_PX: u32 = 380;
@@ -62,16 +62,7 @@ impl Scatter {
         {
             let root = SVGBackend::with_string(&mut svg, (WIDTH_PX, HEIGHT_PX)).into_drawing_area();
             root.fill(&WHITE).map_err(plot_error)?;
-            let mut chart = ChartBuilder::on(&root)
-                .caption(&self.title, ("sans-serif", 17))
-                .margin_left(10)
-                .margin_right(110)
-                .margin_top(6)
-                .margin_bottom(6)
-                .x_label_area_size(36)
-                .y_label_area_size(70)
-                .build_cartesian_2d(x0..x1, y0..y1)
-                .map_err(plot_error)?;
+            let mut chart = report_frame(&root, &self.title, (x0, x1), (y0, y1))?;
             chart
                 .configure_mesh()
                 .x_desc(self.x_label.as_str())
