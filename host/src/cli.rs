@@ -94,12 +94,15 @@ pub enum Command {
         after_help = "Example:\n  supine replay --qemu --preset paper-litter --input ride.csv --out device.csv"
     )]
     Replay(commands::replay::Args),
+    /// ISO 8041-1 verification of the firmware in QEMU at each rate; a conformance report.
+    #[command(after_help = "Example:\n  supine verify --qemu --fs 500 --out conformance")]
+    Verify(commands::verify::Args),
     /// Follow a device live (serial port, or the firmware in QEMU fed a ride); log to CSV.
     #[command(
         after_help = "Example:\n  supine monitor --qemu --preset paper-litter --profile road-trip"
     )]
     Monitor(commands::monitor::Args),
-    /// Print the `[device.mounting]` calibration for an accelerometer reading at rest.
+    /// Print the `[device.mounting]` table for a reading at rest, or `[device.calibration]` from a tumble test.
     #[command(after_help = "Example:\n  supine calibrate --at-rest-m-s2 0.12, -0.05, 9.80")]
     Calibrate(commands::calibrate::Args),
     /// Put parameters on a device: QEMU region image, signed upload over serial, probe-rs.
@@ -166,6 +169,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Ride(args) => commands::ride::run(&args),
         Command::Report(args) => commands::report::run(&args),
         Command::Replay(args) => commands::replay::run(&args),
+        Command::Verify(args) => commands::verify::run(&args),
         Command::Monitor(args) => commands::monitor::run(&args),
         Command::Calibrate(args) => commands::calibrate::run(&args),
         Command::Flash(args) => commands::flash::run(&args),

@@ -6,7 +6,8 @@
 //! The modules follow the architecture (`docs/architecture.md`): file formats ([`io`]),
 //! identification of the model from measurements ([`identify`]), exposure of rides
 //! ([`exposure`]), the device and the ways to reach it ([`device`]), the live monitor
-//! ([`monitor`]), the end-to-end demo ([`demo`]), the mission report ([`report`]), the one plotting
+//! ([`monitor`]), the end-to-end demo ([`demo`]), the mission report ([`report`]), the ISO 8041-1
+//! self-verification ([`verify`]), the one plotting
 //! layer ([`plot`]), jobs over the cores ([`parallel`]), and
 //! the command line ([`cli`], [`commands`]) on top of them all.
 
@@ -22,3 +23,4 @@ pub mod parallel;
 pub mod plot;
 pub mod report;
 pub mod ride;
+pub mod verify;

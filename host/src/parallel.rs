@@ -38,6 +38,71 @@ pub fn in_parallel<T: Send>(
     on_pool(threads, || (0..jobs).into_par_iter().map(work).collect())
 }
 
+/// Items handed from the reading thread to the computing one at a time.
+const READ_AHEAD_CHUNK: usize = 4096;
+/// Chunks read ahead of the computation at most: memory stays bounded whatever the
+/// input's length.
+const READ_AHEAD_CHUNKS: usize = 2;
+
+/// `consume` of every item of the stream `open` makes, the stream read on a thread of its
+/// own while `consume` runs on the caller's: reading a ride (parsing its text, resampling)
+/// and computing on it (the model, the weighting) take about as long as each other, so on
+/// two cores the two overlap. Items arrive in order, in chunks of `READ_AHEAD_CHUNK`,
+/// at most `READ_AHEAD_CHUNKS` chunks ahead. The first error, of the stream or of
+/// `consume`, stops both and is returned; so does a thread that cannot be spawned.
+///
+/// Written here rather than taken from a crate: it is `std`'s scoped threads and bounded
+/// channel, a dozen lines; rayon's pools and crossbeam's channels serve other shapes.
+pub fn read_ahead<T, I>(
+    open: impl FnOnce() -> anyhow::Result<I> + Send,
+    mut consume: impl FnMut(T) -> anyhow::Result<()>,
+) -> anyhow::Result<()>
+where
+    T: Send,
+    I: Iterator<Item = anyhow::Result<T>>,
+{
+    let (sender, receiver) =
+        std::sync::mpsc::sync_channel::<anyhow::Result<Vec<T>>>(READ_AHEAD_CHUNKS);
+    std::thread::scope(|scope| {
+        let reader = std::thread::Builder::new().spawn_scoped(scope, move || {
+            let mut stream = match open() {
+                Ok(stream) => stream,
+                Err(e) => {
+                    let _ = sender.send(Err(e));
+                    return;
+                }
+            };
+            loop {
+                let mut chunk = Vec::with_capacity(READ_AHEAD_CHUNK);
+                for item in stream.by_ref().take(READ_AHEAD_CHUNK) {
+                    match item {
+                        Ok(item) => chunk.push(item),
+                        Err(e) => {
+                            let _ = sender.send(Ok(chunk));
+                            let _ = sender.send(Err(e));
+                            return;
+                        }
+                    }
+                }
+                let last = chunk.len() < READ_AHEAD_CHUNK;
+                // A closed receiver: the computation stopped; so does the reading.
+                if sender.send(Ok(chunk)).is_err() || last {
+                    return;
+                }
+            }
+        });
+        if let Err(e) = reader {
+            return Err(anyhow::anyhow!("cannot start the reading thread: {e}"));
+        }
+        for chunk in receiver {
+            for item in chunk? {
+                consume(item)?;
+            }
+        }
+        Ok(())
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -55,5 +120,52 @@ mod tests {
     fn zero_threads_means_one_per_core() {
         assert_eq!(thread_count(3), 3);
         assert!(thread_count(0) >= 1);
+    }
+
+    #[test]
+    fn read_ahead_hands_every_item_in_order_and_stops_at_the_first_error() {
+        let n = 3 * super::READ_AHEAD_CHUNK + 17;
+        let mut seen = Vec::new();
+        super::read_ahead(
+            || Ok((0..n).map(anyhow::Ok)),
+            |k| {
+                seen.push(k);
+                Ok(())
+            },
+        )
+        .unwrap();
+        assert_eq!(seen, (0..n).collect::<Vec<_>>());
+        // The stream's error, after the items before it.
+        let mut seen = 0;
+        let err = super::read_ahead(
+            || {
+                Ok((0..n).map(|k| {
+                    if k == 5000 {
+                        Err(anyhow::anyhow!("bad row {k}"))
+                    } else {
+                        Ok(k)
+                    }
+                }))
+            },
+            |_| {
+                seen += 1;
+                Ok(())
+            },
+        )
+        .unwrap_err();
+        assert_eq!((err.to_string(), seen), ("bad row 5000".to_string(), 5000));
+        // The consumer's error stops the reading of an endless stream.
+        let err = super::read_ahead(
+            || Ok((0..).map(anyhow::Ok)),
+            |k: u64| {
+                if k == 10 {
+                    anyhow::bail!("enough")
+                } else {
+                    Ok(())
+                }
+            },
+        )
+        .unwrap_err();
+        assert_eq!(err.to_string(), "enough");
     }
 }

@@ -17,9 +17,10 @@ const ALLOWED: &[(&str, &[&str])] = &[
         "commands",
         &[
             "demo", "report", "monitor", "exposure", "identify", "device", "io", "plot",
-            "parallel", "ride",
+            "parallel", "ride", "verify",
         ],
     ),
+    ("verify", &["report", "device", "io"]),
     (
         "demo",
         &[
@@ -33,7 +34,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
         ],
     ),
     ("monitor", &["exposure", "device", "io"]),
-    ("exposure", &["device", "io", "ride"]),
+    ("exposure", &["device", "io", "parallel", "ride"]),
     ("identify", &["plot", "io", "parallel"]),
     ("device", &["io"]),
     ("plot", &[]),
@@ -58,6 +59,7 @@ const REPORT_LAYERS: &[&[&str]] = &[
         "third_octave",
         "route",
         "level_time",
+        "calibration",
     ],
     &["charts", "device_charts", "route_charts"],
     &[
@@ -67,6 +69,7 @@ const REPORT_LAYERS: &[&[&str]] = &[
         "device_section",
         "quality_section",
         "route_section",
+        "calibration_section",
     ],
 ];
 

@@ -90,6 +90,7 @@ fn greeting(protocol_version: u16) -> DeviceToHost {
         reset_cause: ResetCause::PowerOn,
         last_panic: heapless::String::new(),
         joint_outputs: 0,
+        calibration: supine_core::calibration::SensorCalibration::DATASHEET,
     })
 }
 

@@ -69,7 +69,8 @@ fn columns_args() -> RideInputArgs {
 
 fn legs(inputs: &[PathBuf], args: &RideInputArgs, tracks: &TrackArgs) -> anyhow::Result<Vec<Leg>> {
     let file = ParamFile::preset(Preset::PaperLitter);
-    let opener = args.opener_with_tracks(supine_core::mounting::Mounting::LEVEL, tracks, inputs)?;
+    let opener =
+        args.opener_with_tracks(supine_core::calibration::SensorFrame::LEVEL, tracks, inputs)?;
     Ok(build(inputs, opener, &file, "paper-litter", false)?.legs)
 }
 

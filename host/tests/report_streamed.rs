@@ -6,8 +6,8 @@
 use std::path::{Path, PathBuf};
 
 use supine_core::alerts::{Criterion, Level};
+use supine_core::calibration::SensorFrame;
 use supine_core::model::Preset;
-use supine_core::mounting::Mounting;
 use supine_core::pipeline::{PipelineOutput, PipelineState};
 
 use supine_host::device::device_params;
@@ -80,7 +80,7 @@ fn a_leg_read_row_by_row_gives_the_whole_rides_spectra_levels_alerts_and_project
     let opener = RideInputArgs::default();
     let report = build(
         std::slice::from_ref(&path),
-        opener.opener(Mounting::LEVEL),
+        opener.opener(SensorFrame::LEVEL),
         &file,
         "paper-litter",
         false,
@@ -193,7 +193,7 @@ fn events_beyond_the_listed_ones_are_counted_not_kept() {
     let w = whole(&path, &file);
     assert!(w.events.len() > MAX_LISTED_EVENTS, "{}", w.events.len());
     let ride = RideInputArgs::default()
-        .open(&path, &Mounting::LEVEL)
+        .open(&path, &SensorFrame::LEVEL)
         .unwrap();
     let e = evaluate_model(&ride, &file, "paper-litter".into(), None).unwrap();
     assert_eq!(e.alerts.len(), MAX_LISTED_EVENTS);
@@ -216,7 +216,7 @@ fn events_beyond_the_listed_ones_are_counted_not_kept() {
     )));
     let report = build(
         std::slice::from_ref(&path),
-        RideInputArgs::default().opener(Mounting::LEVEL),
+        RideInputArgs::default().opener(SensorFrame::LEVEL),
         &file,
         "paper-litter",
         false,

@@ -8,8 +8,9 @@ use std::path::{Path, PathBuf};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use realfft::RealFftPlanner;
+use supine_core::calibration::SensorFrame;
 use supine_core::model::Preset;
-use supine_core::mounting::{Mounting, STANDARD_GRAVITY_M_S2};
+use supine_core::mounting::STANDARD_GRAVITY_M_S2;
 use supine_host::exposure::model_exposure::{ModelExposure, evaluate_model};
 use supine_host::exposure::ride::{Profile, generate};
 use supine_host::io::params_file::ParamFile;
@@ -85,7 +86,7 @@ fn ride_file(path: &Path, rows: &[(f64, [f64; 3])]) -> PathBuf {
 }
 
 fn exposure(args: &RideInputArgs, path: &Path) -> ModelExposure {
-    let source = args.open(path, &Mounting::LEVEL).unwrap();
+    let source = args.open(path, &SensorFrame::LEVEL).unwrap();
     let file = ParamFile::preset(Preset::PaperLitter);
     evaluate_model(&source, &file, "litter".into(), None).unwrap()
 }
@@ -448,7 +449,7 @@ fn a_tilted_phone_file_in_g_is_refused_without_units_g_and_read_with_them() {
         ..RideInputArgs::default()
     };
     let err = removing
-        .open(&g_file, &Mounting::LEVEL)
+        .open(&g_file, &SensorFrame::LEVEL)
         .map(|_| ())
         .unwrap_err()
         .to_string();
@@ -542,7 +543,7 @@ fn a_corrupt_stamp_far_ahead_is_refused_by_its_line_and_a_few_rows_behind_one_ar
         &rows(&|k| if k == 1000 { 1e300 } else { k as f64 / 200.0 }),
     );
     let err = RideInputArgs::default()
-        .open(&corrupt, &Mounting::LEVEL)
+        .open(&corrupt, &SensorFrame::LEVEL)
         .map(|_| ())
         .unwrap_err()
         .to_string();

@@ -19,6 +19,7 @@ use crate::alerts::{
     AlertConfig, AlertSettings, JointAlertConfig, JointAlertSettings, SensorCheckConfig,
     SensorCheckSettings,
 };
+use crate::calibration::{CalibrationError, SensorCalibration, SensorFrame};
 use crate::exposure::{ExposureConfig, ExposureError, ExposureSettings};
 use crate::model::params::{HEIGHT_RANGE_M, MASS_RANGE_KG};
 use crate::model::{DeviceRealization, JointReadout, RealizationError, Subject};
@@ -28,8 +29,8 @@ use crate::weighting::WeightingError;
 
 /// First four bytes of every blob.
 pub const BLOB_MAGIC: [u8; 4] = *b"SUPB";
-/// Version of the header and payload encoding (5: the joint outputs' readout).
-pub const BLOB_FORMAT_VERSION: u16 = 5;
+/// Version of the header and payload encoding (6: the sensor's calibration record).
+pub const BLOB_FORMAT_VERSION: u16 = 6;
 /// Header length, bytes.
 pub const BLOB_HEADER_LEN: usize = 16;
 /// Largest blob the device accepts (header and payload), bytes. The device receives an
@@ -158,6 +159,9 @@ pub struct DeviceParams {
     pub sensor_checks: SensorCheckSettings,
     /// Sensor-to-litter rotation and gravity.
     pub mounting: Mounting,
+    /// The sensor's sensitivity and offset (applied before `mounting`), and when, how and
+    /// by whom they were found.
+    pub calibration: SensorCalibration,
     /// Reporting rate (the payload's last field: its varint ends the blob in a byte that
     /// is neither 0 nor 0xFF, which tells a cut write from a bad CRC, [`blob_payload`]).
     pub telemetry: TelemetryConfig,
@@ -199,6 +203,7 @@ impl DeviceParams {
             sensor_checks: SensorCheckSettings::new(sensor_checks, sample_rate)
                 .map_err(|_| BlobError::BadConfig)?,
             mounting,
+            calibration: SensorCalibration::DATASHEET,
             telemetry,
         };
         params.validate()?;
@@ -247,6 +252,26 @@ impl DeviceParams {
         Ok(params)
     }
 
+    /// These parameters with the sensor calibration `calibration`, validated as the device
+    /// will.
+    pub fn with_calibration(self, calibration: SensorCalibration) -> Result<Self, BlobError> {
+        let params = Self {
+            calibration,
+            ..self
+        };
+        params.validate()?;
+        Ok(params)
+    }
+
+    /// What turns a sensor reading into the model's input: the calibration, then the
+    /// mounting.
+    pub fn sensor_frame(&self) -> SensorFrame {
+        SensorFrame {
+            calibration: self.calibration,
+            mounting: self.mounting,
+        }
+    }
+
     /// These parameters reporting at `telemetry`'s rate: the joint outputs are read on the
     /// samples telemetry reports, so the joint alerts' dwells (in readings) are rebuilt
     /// for it; setting the field alone leaves a blob the device refuses.
@@ -291,6 +316,10 @@ impl DeviceParams {
             .map_err(|_| BlobError::BadConfig)?;
         self.mounting.validate().map_err(|e| match e {
             crate::mounting::MountingError::NotFinite => BlobError::NonFinite,
+            _ => BlobError::BadConfig,
+        })?;
+        self.calibration.validate().map_err(|e| match e {
+            CalibrationError::NotFinite => BlobError::NonFinite,
             _ => BlobError::BadConfig,
         })?;
         if self.telemetry.decimation == 0 {
@@ -489,7 +518,7 @@ pub enum BlobError {
     /// The sample rate is outside the supported range ([`SampleRate`]).
     SampleRate,
     /// A configuration value is out of its range (patient, thresholds, times, mounting,
-    /// decimation).
+    /// calibration, decimation).
     BadConfig,
     /// The blob does not fit the buffer or the device's limit.
     TooLong,

@@ -5,7 +5,8 @@
 //! protocol and the parameter blob. `no_std` and heap-free so the same code runs on the
 //! Cortex-M4F and on the workstation.
 //!
-//! The data path reads one way: `model`, `weighting` and `mounting`, then `exposure`,
+//! The data path reads one way: `model`, `weighting` and `mounting`, then `exposure` and
+//! `calibration`,
 //! `alerts`, `joint_exposure`, `blob`, `pipeline`, `protocol` and `upload`; a module uses
 //! only those before it, and the leaf utilities (`fpu`, `gain_bound`, `input_resolution`,
 //! `sample_rate`, `test_vector`, `timing`) anywhere
@@ -19,6 +20,7 @@
 
 pub mod alerts;
 pub mod blob;
+pub mod calibration;
 pub mod exposure;
 pub mod fpu;
 pub mod gain_bound;

@@ -16,6 +16,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::alerts::AlertEvent;
 use crate::blob::BlobError;
+use crate::calibration::SensorCalibration;
 use crate::joint_exposure::JointValues;
 
 pub use framing::{FrameAccumulator, FrameError, FrameEvent, encode_frame};
@@ -25,7 +26,7 @@ pub use crate::blob::{IDENTITY_LEN, ParamsIdentity};
 pub use crate::pipeline::Telemetry;
 
 /// Version of this module's encodings; the host refuses a device that speaks another.
-pub const PROTOCOL_VERSION: u16 = 6;
+pub const PROTOCOL_VERSION: u16 = 7;
 /// Largest encoded frame, including COBS overhead and the terminating zero, bytes.
 pub const MAX_FRAME_LEN: usize = 256;
 /// Samples carried by one [`HostToDevice::Samples`] frame at most.
@@ -158,6 +159,8 @@ pub struct Greeting {
     /// [`JointOutput::ALL`](crate::model::JointOutput::ALL)`[i]`): the ones, in that
     /// order, that [`Telemetry::joints`] and the status's joint lists hold.
     pub joint_outputs: u16,
+    /// The sensor's calibration record in the running parameters.
+    pub calibration: SensorCalibration,
 }
 
 /// Where the running parameters came from.
@@ -234,6 +237,8 @@ pub struct Status {
     /// Largest absolute value of each joint output read since the pipeline's warm-up
     /// ended (0 before), m or rad, in the same order.
     pub joint_largest_excursion: JointValues,
+    /// The sensor's calibration record in the running parameters (after uploads too).
+    pub calibration: SensorCalibration,
 }
 
 /// A step of a parameter upload that the device accepted.

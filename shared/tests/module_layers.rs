@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 /// stand side by side and may not use each other.
 const LAYERS: &[&[&str]] = &[
     &["model", "weighting", "mounting"],
-    &["exposure"],
+    &["exposure", "calibration"],
     &["alerts"],
     &["joint_exposure"],
     &["blob"],

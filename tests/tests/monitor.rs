@@ -54,6 +54,7 @@ fn test_params_file() -> ParamFile {
             joint_outputs: supine_host::io::device_table::JointSelection::ALL,
             joint_alerts: Default::default(),
             telemetry_decimation: Some(1),
+            calibration: Default::default(),
         }),
     }
 }
@@ -435,6 +436,8 @@ fn garbage_sensor_faults_and_uploads_are_counted_and_the_device_keeps_running() 
             // The built-in default reads all ten joint outputs.
             joint_running_rms: status.joint_running_rms,
             joint_largest_excursion: status.joint_largest_excursion,
+            // The built-in default's: the datasheet's nominal values.
+            calibration: supine_core::calibration::SensorCalibration::DATASHEET,
         }
     );
     assert_eq!(status.joint_running_rms.as_slice().len(), 10);

@@ -58,6 +58,7 @@ fn file(preset: Preset) -> ParamFile {
             joint_outputs: supine_host::io::device_table::JointSelection::ALL,
             joint_alerts: Default::default(),
             telemetry_decimation: Some(1),
+            calibration: Default::default(),
         }),
     }
 }

@@ -23,7 +23,7 @@
 //! counted as dropped samples, longer jumps and jumps back taken as a new stream (the
 //! pipeline's sensor checks raise the index-gap fault for every one).
 
-use supine_core::mounting::Mounting;
+use supine_core::calibration::SensorFrame;
 use supine_core::pipeline::{BLOCK_LEN, PipelineOutput, PipelineState};
 use supine_core::protocol::{
     DeviceFrame, DeviceToHost, FrameAccumulator, FrameEvent, Greeting, HostToDevice, MAX_FRAME_LEN,
@@ -144,10 +144,10 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
         }
     }
 
-    /// The running parameters' mounting calibration (it changes with an upload), for a
-    /// sample source that converts sensor readings itself.
-    pub fn mounting(&self) -> Mounting {
-        self.boot.params.mounting
+    /// The running parameters' sensor calibration and mounting (they change with an
+    /// upload), for a sample source that converts sensor readings itself.
+    pub fn sensor_frame(&self) -> SensorFrame {
+        self.boot.params.sensor_frame()
     }
 
     /// Greets, then serves the host forever (replay: samples arrive over the link).
@@ -388,6 +388,7 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
         status.params_source = self.boot.source;
         status.height_m = self.boot.params.patient.height_m;
         status.mass_kg = self.boot.params.patient.mass_kg;
+        status.calibration = self.boot.params.calibration;
         let count = self.boot.params.joints.packed_outputs().count();
         status.joint_running_rms = self.state.joints().running_rms(count);
         status.joint_largest_excursion = self.state.joints().largest_excursion(count);
@@ -411,6 +412,7 @@ impl<L: Link, C: TickCounter, S: StackGauge, F: ParamFlash> App<L, C, S, F> {
             reset_cause: self.boot.reset_cause,
             last_panic: self.boot.last_panic.clone(),
             joint_outputs: self.boot.params.joints.mask(),
+            calibration: self.boot.params.calibration,
         };
         self.send(DeviceToHost::Greeting(greeting));
     }

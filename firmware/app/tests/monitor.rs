@@ -35,6 +35,7 @@ fn greets_at_boot_and_again_on_hello() {
         last_panic: heapless::String::new(),
         // The default: all ten joint outputs.
         joint_outputs: 0b11_1111_1111,
+        calibration: params.calibration,
     };
     assert_eq!(greeting, expected);
     rig.send(&HostToDevice::Hello);
@@ -103,6 +104,7 @@ fn telemetry_and_alerts_are_the_pipelines_bit_for_bit_and_the_status_counts_them
             mass_kg: params.patient.mass_kg,
             joint_running_rms: state.joints().running_rms(joint_count),
             joint_largest_excursion: state.joints().largest_excursion(joint_count),
+            calibration: params.calibration,
         }
     );
     assert!(
@@ -258,6 +260,8 @@ fn an_accepted_upload_is_stored_in_the_other_slot_and_runs_from_the_next_sample(
         params_source: ParamsSource::Flash { slot: 1 },
         height_m: UPLOAD_SUBJECT.height_m as f32,
         mass_kg: UPLOAD_SUBJECT.mass_kg as f32,
+        // The upload's calibration, the datasheet's, replaces the boot blob's.
+        calibration: supine_core::calibration::SensorCalibration::DATASHEET,
         ..boot_greeting
     }));
     // The boot blob's patient was the paper's mean subject.

@@ -11,9 +11,11 @@
 //!
 //! Gravity, consistently with the model: the accelerometer measures specific force
 //! (at rest +g along the litter's up axis); the model's input is the kinematic
-//! acceleration, so a reading f (sensor axes) becomes a = R f - (0, 0, g) with the mounting
-//! calibration's rotation R and its measured g (`Mounting::to_litter_m_s2`). Raw counts
-//! stay raw until this edge ([`AccelCounts`]).
+//! acceleration, so a reading f (sensor axes) is first corrected for the sensor's
+//! calibrated sensitivity and offset, then becomes a = R f - (0, 0, g) with the mounting
+//! calibration's rotation R and its measured g (`SensorFrame::to_litter_m_s2`, the host's
+//! reference of a recording makes the same calls). Raw counts stay raw until this edge
+//! ([`AccelCounts`]).
 #![cfg_attr(not(test), no_std)]
 
 use core::convert::Infallible;
@@ -22,7 +24,8 @@ use embedded_hal::i2c::I2c;
 use heapless::Deque;
 use lis3dh::accelerometer::RawAccelerometer;
 use lis3dh::{Configuration, DataRate, Lis3dh, Lis3dhI2C, Mode, Range, SlaveAddr};
-use supine_core::mounting::{Mounting, STANDARD_GRAVITY_M_S2};
+use supine_core::calibration::SensorFrame;
+use supine_core::mounting::STANDARD_GRAVITY_M_S2;
 
 /// A source of samples for the pipeline.
 pub trait SampleSource {
@@ -63,7 +66,7 @@ pub enum SensorError<E> {
 /// The LIS3DH on I2C, configured for high resolution, +-4 g, 400 Hz, block data update.
 pub struct Lis3dhSource<I2C> {
     sensor: Lis3dh<Lis3dhI2C<I2C>>,
-    mounting: Mounting,
+    frame: SensorFrame,
     next_index: u32,
 }
 
@@ -72,8 +75,9 @@ where
     I2C: I2c<Error = E>,
     E: core::fmt::Debug,
 {
-    /// Finds and configures the sensor at the default address (0x18).
-    pub fn new(i2c: I2C, mounting: Mounting) -> Result<Self, SensorError<E>> {
+    /// Finds and configures the sensor at the default address (0x18); its readings go
+    /// through `frame` (calibration, then mounting).
+    pub fn new(i2c: I2C, frame: impl Into<SensorFrame>) -> Result<Self, SensorError<E>> {
         let config = Configuration {
             mode: Mode::HighResolution,
             datarate: DataRate::Hz_400,
@@ -84,12 +88,13 @@ where
         sensor.set_range(Range::G4).map_err(map_error)?;
         Ok(Self {
             sensor,
-            mounting,
+            frame: frame.into(),
             next_index: 0,
         })
     }
 
-    /// One reading in sensor axes, m/s^2 (for the mounting calibration at rest).
+    /// One reading in sensor axes, m/s^2, as the datasheet scales it (for the mounting and
+    /// tumble calibrations at rest).
     pub fn read_sensor_m_s2(&mut self) -> Result<[f32; 3], SensorError<E>> {
         let raw = self
             .sensor
@@ -115,14 +120,15 @@ where
         let index = self.next_index;
         self.next_index = index.wrapping_add(1);
         let sensor_m_s2 = self.read_sensor_m_s2()?;
-        Ok(Some((index, self.mounting.to_litter_m_s2(sensor_m_s2))))
+        Ok(Some((index, self.frame.to_litter_m_s2(sensor_m_s2))))
     }
 }
 
 impl<I2C> Lis3dhSource<I2C> {
-    /// Uses `mounting` from the next sample on (after new parameters were uploaded).
-    pub fn set_mounting(&mut self, mounting: Mounting) {
-        self.mounting = mounting;
+    /// Uses `frame` (calibration and mounting) from the next sample on (after new
+    /// parameters were uploaded).
+    pub fn set_frame(&mut self, frame: impl Into<SensorFrame>) {
+        self.frame = frame.into();
     }
 }
 

@@ -1,4 +1,5 @@
 use embedded_hal_mock::eh1::i2c::{Mock, Transaction};
+use supine_core::mounting::Mounting;
 
 use super::*;
 
@@ -125,7 +126,7 @@ fn new_mounting_applies_from_the_next_sample() {
     let mut source = Lis3dhSource::new(i2c.clone(), no_gravity).expect("sensor found");
     let (_, level) = source.poll().expect("bus").expect("sample");
     // Turned a quarter about z: sensor x is litter y.
-    source.set_mounting(Mounting {
+    source.set_frame(Mounting {
         sensor_to_litter: [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
         gravity_m_s2: 0.0,
     });
@@ -165,4 +166,40 @@ fn replay_yields_each_batch_in_order_with_its_indices_and_counts_what_does_not_f
             (1, [5.0; 3]),
         ]
     );
+}
+
+#[test]
+fn readings_are_corrected_for_the_calibration_before_the_mounting() {
+    use supine_core::calibration::SensorCalibration;
+    let mut expected = init();
+    expected.extend(sample([100 * 16, -50 * 16, 520 * 16]));
+    let mut i2c = Mock::new(&expected);
+    let frame = SensorFrame {
+        calibration: SensorCalibration {
+            sensitivity: [1.04, 1.0, 1.02],
+            offset_m_s2: [0.2, -0.1, 0.3],
+            ..SensorCalibration::DATASHEET
+        },
+        mounting: Mounting {
+            sensor_to_litter: [[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]],
+            gravity_m_s2: 9.806_65,
+        },
+    };
+    let mut source = Lis3dhSource::new(i2c.clone(), frame).expect("sensor found");
+    let (_, a) = source.poll().expect("bus").expect("sample");
+    // The host's reference makes the same call on the same reading: the same bits.
+    let reading = AccelCounts([100 * 16, -50 * 16, 520 * 16]).to_m_s2();
+    assert_eq!(a, frame.to_litter_m_s2(reading));
+    // And against f64 arithmetic of the definition: corrected, then rotated.
+    let corrected: Vec<f64> = (0..3)
+        .map(|i| {
+            (f64::from(reading[i]) - f64::from(frame.calibration.offset_m_s2[i]))
+                / f64::from(frame.calibration.sensitivity[i])
+        })
+        .collect();
+    let want = [corrected[2], corrected[1], -corrected[0] - 9.806_65];
+    for (got, want) in a.iter().zip(want) {
+        assert!((f64::from(*got) - want).abs() < 1e-5, "{a:?} vs {want:?}");
+    }
+    i2c.done();
 }

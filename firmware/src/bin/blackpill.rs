@@ -82,7 +82,7 @@ fn main() -> ! {
         last_panic: last_panic.unwrap_or_default(),
     };
     let mut app = monitor(link, counter, flash, boot);
-    let mut sensor = match Lis3dhSource::new(i2c, app.mounting()) {
+    let mut sensor = match Lis3dhSource::new(i2c, app.sensor_frame()) {
         Ok(sensor) => Some(sensor),
         Err(_) => {
             // Keep serving the host (greeting, status); the missing samples show as none.
@@ -94,8 +94,8 @@ fn main() -> ! {
     loop {
         app.poll();
         if let Some(source) = sensor.as_mut() {
-            // An upload may have brought another mounting calibration.
-            source.set_mounting(app.mounting());
+            // An upload may have brought another calibration or mounting.
+            source.set_frame(app.sensor_frame());
             match source.poll() {
                 Ok(Some((index, accel_m_s2))) => app.push_sample(index, accel_m_s2),
                 Ok(None) => {}

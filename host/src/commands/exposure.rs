@@ -15,7 +15,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::ArgGroup;
-use supine_core::mounting::Mounting;
+use supine_core::calibration::SensorFrame;
 
 use crate::commands::weighting::Kind;
 use crate::exposure::channel_exposure::evaluate_channel;
@@ -64,7 +64,7 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
     let text = match (&args.channel, args.weighting) {
         (Some(channel), Some(kind)) => {
             // No parameters: a raw reading is taken as level-mounted.
-            let ride = args.ride.open(&args.input, &Mounting::LEVEL)?;
+            let ride = args.ride.open(&args.input, &SensorFrame::LEVEL)?;
             let report = evaluate_channel(&ride, channel, kind.into(), args.ride.fs_hz)?;
             if args.json {
                 serde_json::to_string(&report)? + "\n"
@@ -80,8 +80,8 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
             let model = source.model_name();
             let mut file = source.load_for_ride()?;
             args.subject.apply(&mut file)?;
-            let mounting = file.device.unwrap_or_default().mounting;
-            let ride = args.ride.open(&args.input, &mounting)?;
+            let frame = file.device.unwrap_or_default().sensor_frame();
+            let ride = args.ride.open(&args.input, &frame)?;
             let report = evaluate_model(&ride, &file, model, args.ride.fs_hz)?;
             if args.json {
                 serde_json::to_string(&report)? + "\n"

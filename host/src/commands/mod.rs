@@ -20,4 +20,5 @@ pub mod synth;
 pub mod transmissibility;
 pub mod validate;
 pub mod values;
+pub mod verify;
 pub mod weighting;

@@ -220,8 +220,8 @@ fn prepare_qemu(args: &Args, greeting_timeout: Duration) -> Result<QemuRun> {
         (Some(path), _) => {
             // Only the platform samples are kept (12 bytes each), not the whole recording.
             let scratch = ScratchDir::new("ride")?;
-            let mounting = file.device.unwrap_or_default().mounting;
-            let ride = open_stream(&args.ride, path, &mounting, scratch.path())?;
+            let frame = file.device.unwrap_or_default().sensor_frame();
+            let ride = open_stream(&args.ride, path, &frame, scratch.path())?;
             let samples = ride.samples()?.collect::<Result<Vec<_>, _>>()?;
             (samples, ride.sample_rate_hz())
         }

@@ -125,8 +125,8 @@ fn run_ride(args: &Args) -> Result<()> {
     }
     let mut file = args.source.load_for_ride()?;
     args.subject.apply(&mut file)?;
-    let mounting = file.device.unwrap_or_default().mounting;
-    let source = args.ride.open(&args.input, &mounting)?;
+    let frame = file.device.unwrap_or_default().sensor_frame();
+    let source = args.ride.open(&args.input, &frame)?;
     let prediction = predict_ride(
         &source,
         &file,

@@ -70,8 +70,8 @@ pub fn run(args: &Args) -> Result<()> {
     // first, then streamed: a ride of any length fits in memory. Another logger's file or
     // --remove-gravity: converted into a scratch folder first.
     let scratch = ScratchDir::new("ride")?;
-    let mounting = file.device.unwrap_or_default().mounting;
-    let ride = open_stream(&args.ride, &args.input, &mounting, scratch.path())?;
+    let frame = file.device.unwrap_or_default().sensor_frame();
+    let ride = open_stream(&args.ride, &args.input, &frame, scratch.path())?;
     let kernel = ProductImage::select(args.firmware.as_deref())?;
     // Ctrl-C, SIGTERM and SIGHUP: QEMU stopped and its folder removed on the way out.
     let stop = crate::device::signals::stop_flag();

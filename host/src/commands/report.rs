@@ -5,7 +5,7 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use anyhow::{Context as _, Result, bail};
+use anyhow::{Context as _, Result, anyhow, bail};
 
 use crate::commands::band_args::{BandArgs, band_threads};
 use crate::io::output::write_atomically;
@@ -57,7 +57,7 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
     let mut file = args.model.load_for_ride()?;
     args.subject.apply(&mut file)?;
     let band = args.band.request(&args.model, &file)?;
-    let mounting = file.device.unwrap_or_default().mounting;
+    let frame = file.device.unwrap_or_default().sensor_frame();
     let logged = match args.input.as_slice() {
         [one] if monitor_log::is_monitor_log(one) => Some((one, monitor_log::open(one, &file)?)),
         inputs => {
@@ -74,9 +74,7 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
         Some((_, session)) => vec![session.ride.clone()],
         None => args.input.clone(),
     };
-    let rides = args
-        .ride
-        .opener_with_tracks(mounting, &args.track, &inputs)?;
+    let rides = args.ride.opener_with_tracks(frame, &args.track, &inputs)?;
     let mut report = report::build(
         &inputs,
         rides,
@@ -96,9 +94,14 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
             leg.label = report::mission::named_leg_label(index, label, args.compare);
         }
     }
+    if let Some((_, session)) = &logged
+        && let Some(calibration) = session_calibration(&session.session)?
+    {
+        report.calibration = calibration;
+    }
     let device = match &logged {
         Some((log, session)) => {
-            let ride = args.ride.open(&session.ride, &mounting)?;
+            let ride = args.ride.open(&session.ride, &frame)?;
             Some(monitor_log::device_log(log, session, &file, &ride)?)
         }
         None => None,
@@ -148,6 +151,26 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
     Ok(())
 }
 
+/// The calibration a monitor session's device ran on, with its age on the day the session
+/// started, if the session file recorded both (a log written before they were recorded
+/// has neither: the report then states the parameter file's as of the report's date).
+fn session_calibration(
+    session: &crate::io::monitor_session::SessionInfo,
+) -> Result<Option<report::calibration::CalibrationReport>> {
+    let (Some(started), Some(table)) = (&session.started_utc, session.calibration) else {
+        return Ok(None);
+    };
+    let date = crate::io::calibration_section::parse_date(started)
+        .map_err(|e| anyhow!("the session file's started_utc: {e}"))?;
+    let started = report::calibration::calendar(date)
+        .ok_or_else(|| anyhow!("the session file's started_utc: {started} is not a date"))?;
+    Ok(Some(report::calibration::CalibrationReport::new(
+        &table.into(),
+        started,
+        "the session's start",
+    )))
+}
+
 /// The device-versus-host check of a monitor log, for `--json`: largest differences
 /// (0 when bit for bit; null when a series is missing a record) and whether the events
 /// agree.
@@ -176,4 +199,71 @@ fn device_check_json(log: &DeviceLog) -> serde_json::Value {
 /// Builds and writes the report; the JSON goes to standard output.
 pub fn run(args: &Args) -> Result<()> {
     run_to(args, &mut std::io::stdout().lock())
+}
+
+#[cfg(test)]
+mod calibration_tests {
+    use super::*;
+    use crate::io::monitor_session::SessionInfo;
+    use supine_core::calibration::{CalibrationDate, CalibrationMethod, SensorCalibration};
+
+    fn session(started: Option<&str>, calibration: Option<SensorCalibration>) -> SessionInfo {
+        SessionInfo {
+            protocol_version: 7,
+            firmware_version: "0.1.0".into(),
+            params_identity: "00".into(),
+            sample_rate_hz: 500.0,
+            height_m: 1.75,
+            mass_kg: 70.0,
+            params_changed: false,
+            input_frames: 0,
+            input_samples: 0,
+            input_samples_lost: 0,
+            input_frames_bad: 0,
+            first_input_sample: None,
+            status: None,
+            link_frames: 0,
+            link_lost_frames: 0,
+            link_bad_frames: 0,
+            link_reordered_frames: 0,
+            started_utc: started.map(str::to_string),
+            calibration: calibration.map(Into::into),
+        }
+    }
+
+    /// A session whose device ran on a calibration 13 months old: its report says so,
+    /// counted to the session's start, not to the day the report is made.
+    #[test]
+    fn a_session_with_a_13_month_old_calibration_is_reported_overdue() {
+        let calibration = SensorCalibration {
+            method: CalibrationMethod::Shaker,
+            date: CalibrationDate {
+                year: 2024,
+                month: 5,
+                day: 2,
+            },
+            by: SensorCalibration::by_field("Lab 3").unwrap(),
+            ..SensorCalibration::DATASHEET
+        };
+        let info = session(Some("2025-06-10"), Some(calibration));
+        // Through JSON, as the session file is read back.
+        let text = serde_json::to_string(&info).unwrap();
+        let info: SessionInfo = serde_json::from_str(&text).unwrap();
+        let report = session_calibration(&info).unwrap().expect("a calibration");
+        assert_eq!(report.age_months, Some(13));
+        assert!(report.overdue && report.flagged);
+        assert!(
+            report
+                .statement
+                .contains("13 months old on 2025-06-10 (the session's start)")
+                && report.statement.contains("OVERDUE"),
+            "{}",
+            report.statement
+        );
+        let mut h = String::new();
+        report::calibration_section::section(&mut h, &report);
+        assert!(h.contains("OVERDUE"), "{h}");
+        // A log from before the record was kept: none from the session.
+        assert_eq!(session_calibration(&session(None, None)).unwrap(), None);
+    }
 }

@@ -62,6 +62,7 @@ pub fn build(file: &ParamFile, sample_rate_hz: f64) -> Result<DeviceParams> {
         joints,
     )
     .and_then(|p| p.with_joint_alerts(device.joint_alerts.config(device.joint_outputs.mask)))
+    .and_then(|p| p.with_calibration(device.calibration))
     .map_err(|e| {
         let refused = check(&device, sample_rate, Some(&realization)).err();
         match refused

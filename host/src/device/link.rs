@@ -271,6 +271,7 @@ pub(crate) mod tests {
                 reset_cause: supine_core::protocol::ResetCause::PowerOn,
                 last_panic: heapless::String::new(),
                 joint_outputs: 0,
+                calibration: supine_core::calibration::SensorCalibration::DATASHEET,
             }),
         };
         let mut buf = [0u8; MAX_FRAME_LEN];

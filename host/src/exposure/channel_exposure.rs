@@ -17,6 +17,7 @@ use crate::exposure::evaluation_input::{EvaluationInput, check_warmup};
 use crate::exposure::reported_values::{AxisReport, tidy};
 use crate::io::recording::{COLUMNS, Layout};
 use crate::io::ride_rows::RideSource;
+use crate::parallel::read_ahead;
 use crate::ride::quality::DataQuality;
 
 /// A single recorded channel, weighted and evaluated without a model.
@@ -91,18 +92,22 @@ pub fn evaluate_channel(
     let (settings, sample_rate) = channel_settings(kind, fs)?;
     let mut state = ExposureState::new();
     let (mut n, mut sum2) = (0usize, 0.0f64);
-    for x in input.columns([index])? {
-        let [x] = x?;
-        if n >= u32::MAX as usize {
-            bail!(
-                "more than {} samples: more than a 32-bit sample index",
-                u32::MAX
-            );
-        }
-        settings.step(&mut state, [x as f32, 0.0, 0.0], n as u32);
-        sum2 += x * x;
-        n += 1;
-    }
+    // The ride is read on a thread of its own while the weighting runs on this one.
+    read_ahead(
+        || input.columns([index]),
+        |[x]| {
+            if n >= u32::MAX as usize {
+                bail!(
+                    "more than {} samples: more than a 32-bit sample index",
+                    u32::MAX
+                );
+            }
+            settings.step(&mut state, [x as f32, 0.0, 0.0], n as u32);
+            sum2 += x * x;
+            n += 1;
+            Ok(())
+        },
+    )?;
     let values = settings.values(sample_rate, &state);
     Ok(ChannelExposure {
         form: "channel",

@@ -18,6 +18,7 @@ use crate::exposure::timed_event::TimedEvent;
 use crate::io::params_file::ParamFile;
 use crate::io::recording::Layout;
 use crate::io::ride_rows::RideSource;
+use crate::parallel::read_ahead;
 use crate::ride::quality::DataQuality;
 
 /// Predicted head exposure of a ride: the device pipeline over the platform columns.
@@ -95,9 +96,8 @@ pub fn evaluate_model_with(
     check_warmup(&name, input.samples, fs, warmup_s)?;
     let joints = JointTracker::new(&file.params, fs, params.exposure.warmup_samples as usize)?;
     let mut run = ModelRun::new(&params, Some(joints), input.start_s);
-    for sample in input.platform()? {
-        run.push(sample?, &mut observe)?;
-    }
+    // The ride is read on a thread of its own while the pipeline runs on this one.
+    read_ahead(|| input.platform(), |sample| run.push(sample, &mut observe))?;
     let outcome = run.finish(&mut observe);
     let n = outcome.samples;
     let values = &outcome.values;

@@ -19,6 +19,7 @@ use supine_core::alerts::{
     AlertConfig, AlertSettings, JointAlertSettings, SensorCheckConfig, SensorCheckSettings,
 };
 use supine_core::blob::{DeviceParams, Patient, TelemetryConfig};
+use supine_core::calibration::{SensorCalibration, SensorFrame};
 use supine_core::exposure::{AxisMapping, AxisWeighting, ExposureConfig, ExposureSettings};
 use supine_core::model::{
     DeviceRealization, JOINT_OUTPUT_COUNT, JointOutput, JointReadout, Subject,
@@ -27,6 +28,7 @@ use supine_core::mounting::Mounting;
 use supine_core::sample_rate::SampleRate;
 use supine_core::weighting::WeightingKind;
 
+use crate::io::calibration_section::CalibrationTable;
 use crate::io::excerpt::value;
 use crate::io::joint_alerts_section::JointAlertsSection;
 use crate::io::text_position::line_column;
@@ -52,6 +54,9 @@ pub struct DeviceSection {
     pub joint_outputs: JointSelection,
     /// Thresholds on the joint outputs (`[device.joint_alerts]`): none by default.
     pub joint_alerts: JointAlertsSection,
+    /// The sensor's calibration record (`[device.calibration]`): the datasheet's nominal
+    /// values, undated, by default.
+    pub calibration: SensorCalibration,
 }
 
 /// A set of joint outputs, written in the file as a list of their names.
@@ -132,6 +137,8 @@ struct DeviceTable {
     joint_outputs: JointSelection,
     #[serde(skip_serializing_if = "JointAlertsSection::is_default")]
     joint_alerts: JointAlertsSection,
+    #[serde(skip_serializing_if = "CalibrationTable::is_default")]
+    calibration: CalibrationTable,
 }
 
 /// `[device.exposure]`: the core's [`ExposureConfig`], every key optional.
@@ -283,6 +290,7 @@ impl From<DeviceTable> for DeviceSection {
             telemetry_decimation: t.telemetry_decimation,
             joint_outputs: t.joint_outputs,
             joint_alerts: t.joint_alerts,
+            calibration: t.calibration.into(),
         }
     }
 }
@@ -297,6 +305,7 @@ impl From<DeviceSection> for DeviceTable {
             telemetry_decimation: s.telemetry_decimation,
             joint_outputs: s.joint_outputs,
             joint_alerts: s.joint_alerts,
+            calibration: s.calibration.into(),
         }
     }
 }
@@ -371,7 +380,9 @@ pub fn commented_defaults() -> String {
          #   {},\n\
          #   {}.\n\
          # [device.joint_alerts] has no defaults: no joint-motion alert unless one is set\n\
-         # there (README, docs/exposure.md).\n\n",
+         # there (README, docs/exposure.md). [device.calibration] (the sensor's sensitivity,\n\
+         # offset, date, method = datasheet, shaker or tumble, by, interval_months) defaults\n\
+         # to the datasheet's nominal values, undated; `supine calibrate tumble` writes it.\n\n",
         outputs[..5].join(", "),
         outputs[5..].join(", ")
     );
@@ -397,11 +408,21 @@ impl Default for DeviceSection {
             telemetry_decimation: None,
             joint_outputs: JointSelection::ALL,
             joint_alerts: JointAlertsSection::default(),
+            calibration: SensorCalibration::DATASHEET,
         }
     }
 }
 
 impl DeviceSection {
+    /// The sensor's calibration, then its mounting: what turns its readings into the
+    /// model's input.
+    pub fn sensor_frame(&self) -> SensorFrame {
+        SensorFrame {
+            calibration: self.calibration,
+            mounting: self.mounting,
+        }
+    }
+
     /// The telemetry setting at `sample_rate_hz`: the table's decimation, else the default
     /// rate's.
     pub fn telemetry(&self, sample_rate_hz: f32) -> TelemetryConfig {
@@ -431,6 +452,7 @@ pub fn core_check(
     AlertSettings::new(section.alerts, sample_rate).map_err(|e| e.to_string())?;
     SensorCheckSettings::new(section.sensor_checks, sample_rate).map_err(|e| e.to_string())?;
     section.mounting.validate().map_err(|e| e.to_string())?;
+    section.calibration.validate().map_err(|e| e.to_string())?;
     let read_mask = section.joint_outputs.mask;
     if let Some(r) = section.joint_alerts.refusals(read_mask).first() {
         return Err(r.reason.clone());

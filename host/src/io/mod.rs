@@ -8,7 +8,8 @@
 //! - [`csv_lines`]: reading a CSV file line by line, each line bounded.
 //! - [`params_file`]: the parameter file (`--params`), TOML.
 //! - [`device_table`]: its `[device]` table, and which key the device would refuse;
-//!   [`joint_alerts_section`] its `[device.joint_alerts]`.
+//!   [`joint_alerts_section`] its `[device.joint_alerts]`, [`calibration_section`] its
+//!   `[device.calibration]`.
 //! - [`dataset`]: a dataset folder (`dataset.toml` and its recordings).
 //! - [`recording`]: the recording CSV (13 columns, or the platform columns of a ride).
 //! - [`ride_input`]: a ride from any logger (`--columns`, units, gravity), for exposure and report.
@@ -19,8 +20,10 @@
 //! - [`telemetry_csv`]: a device's telemetry and alert events as CSV (replay, monitor, demo).
 //! - [`monitor_session`]: the input and session files beside a monitor log, for re-analysis.
 //! - [`stdout`]: printing on standard output; a closed pipe ends the command quietly.
+//! - [`tumble_csv`]: the six orientations' readings of a static tumble test.
 //! - [`wording`]: counts with their noun in printed summaries.
 
+pub mod calibration_section;
 pub mod csv_lines;
 pub mod dataset;
 pub mod device_table;
@@ -40,4 +43,5 @@ pub mod subject_args;
 pub mod telemetry_csv;
 pub mod text_position;
 pub mod track_file;
+pub mod tumble_csv;
 pub mod wording;

@@ -6,8 +6,9 @@
 //!   sample index. The values are whole input-resolution steps written exactly, so they
 //!   read back to the f32 values the device computed on.
 //! - `<stem>.session.json` ([`SessionInfo`]): what a re-analysis needs and the CSVs
-//!   cannot hold: the device's parameters identity, sample rate and patient from its
-//!   greeting, and how complete the input stream is.
+//!   cannot hold: the device's parameters identity, sample rate, patient and sensor
+//!   calibration from its greeting, the day it started, and how complete the input stream
+//!   is.
 
 use std::path::{Path, PathBuf};
 
@@ -15,6 +16,7 @@ use anyhow::{Result, anyhow};
 use serde::{Deserialize, Serialize};
 use supine_core::protocol::Status;
 
+use super::calibration_section::CalibrationTable;
 use super::output::write_atomically;
 pub use super::recording::PLATFORM_HEADER_LINE;
 use super::small_file::read_text;
@@ -88,6 +90,14 @@ pub struct SessionInfo {
     pub link_bad_frames: u64,
     /// See `link_frames`.
     pub link_reordered_frames: u64,
+    /// The day the session started (UTC, `YYYY-MM-DD`): what a report counts the sensor
+    /// calibration's age to. Absent in logs written before it was recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub started_utc: Option<String>,
+    /// The sensor's calibration record from the device's greeting, as the parameter file
+    /// writes it. Absent in logs written before it was recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub calibration: Option<CalibrationTable>,
 }
 
 impl SessionInfo {

@@ -15,8 +15,9 @@
 //! does not depend on how the logger lay ([`check_units_and_gravity`]): near 9.81 m/s^2
 //! is gravity, near 1 in a file read as m/s^2 is a file in g. `--remove-gravity` levels
 //! the ride by its own gravity ([`crate::ride::level`]); `--mounting`, or a
-//! `[device.mounting]` other than level in the parameters, converts it as the device
-//! does instead ([`Mounting::to_litter_m_s2`]).
+//! `[device.mounting]` or `[device.calibration]` other than the default in the parameters,
+//! converts it as the device does instead ([`SensorFrame::to_litter_m_s2`]: the sensor's
+//! sensitivity and offset, then the mounting's rotation and gravity).
 //!
 //! The project's full recording (13 columns) is read as before ([`PlatformStream`]).
 
@@ -24,7 +25,8 @@ use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Result, anyhow, bail};
-use supine_core::mounting::{Mounting, STANDARD_GRAVITY_M_S2};
+use supine_core::calibration::SensorFrame;
+use supine_core::mounting::STANDARD_GRAVITY_M_S2;
 use supine_core::sample_rate::SampleRate;
 
 use crate::io::csv_lines::CsvLines;
@@ -184,11 +186,11 @@ impl RideInputArgs {
 
     /// Opens the ride at `path` to be read row by row (see the module's description):
     /// one pass for the scan and the checks; each of the source's passes reads it again.
-    /// `mounting` is the parameters' `[device.mounting]`, used with `--mounting` or when it
-    /// is not level.
-    pub fn open(&self, path: &Path, mounting: &Mounting) -> Result<RideSource> {
+    /// `frame` is the parameters' `[device.calibration]` and `[device.mounting]`, used with
+    /// `--mounting` or when either is not the default.
+    pub fn open(&self, path: &Path, frame: &SensorFrame) -> Result<RideSource> {
         let Some(format) = self.format(path)? else {
-            return self.open_recording(path, mounting);
+            return self.open_recording(path, frame);
         };
         if !(self.max_gap_s.is_finite() && self.max_gap_s > 0.0) {
             bail!(
@@ -241,12 +243,9 @@ impl RideInputArgs {
         check_units_and_gravity(path, mean, format.units, self.remove_gravity)?;
         let (levelling, account) = if !self.remove_gravity {
             (None, None)
-        } else if self.mounting || *mounting != Mounting::LEVEL {
+        } else if self.mounting || *frame != SensorFrame::LEVEL {
             let (tilt_rad, roll_rad, pitch_rad) = angles_rad(mean);
-            let z = (0..3)
-                .map(|k| f64::from(mounting.sensor_to_litter[2][k]) * mean[k])
-                .sum::<f64>()
-                - f64::from(mounting.gravity_m_s2);
+            let z = f64::from(frame.to_litter_m_s2(mean.map(|v| v as f32))[2]);
             if z.abs() > GRAVITY_MARGIN_M_S2 {
                 bail!(
                     "{shown}: mean vertical {z:.2} m/s^2 after --remove-gravity with [device.mounting], \
@@ -261,10 +260,10 @@ impl RideInputArgs {
                 roll_rad,
                 pitch_rad,
             };
-            (Some(*mounting), Some(account))
+            (Some(*frame), Some(account))
         } else {
             let (m, account) = level_by_mean(mean);
-            (Some(m), Some(account))
+            (Some(SensorFrame::from(m)), Some(account))
         };
         let effective = scan.effective_rate_hz();
         let draft = scan.account(String::new(), effective, self.max_gap_s, None);
@@ -290,9 +289,9 @@ impl RideInputArgs {
     }
 
     /// The project's full recording, checked as before (uniform time, gravity on the
-    /// vertical), converted with `mounting` on `--remove-gravity`.
-    fn open_recording(&self, path: &Path, mounting: &Mounting) -> Result<RideSource> {
-        let removal = self.remove_gravity.then_some(*mounting);
+    /// vertical), converted with `frame` on `--remove-gravity`.
+    fn open_recording(&self, path: &Path, frame: &SensorFrame) -> Result<RideSource> {
+        let removal = self.remove_gravity.then_some(*frame);
         let source = RideSource::own(PlatformStream::open(path).map_err(own_error)?, removal);
         let mut sum = [0.0f64; 3];
         for row in source.rows()? {
@@ -313,8 +312,8 @@ impl RideInputArgs {
     }
 
     /// Reads the ride at `path` whole (tests; the commands stream).
-    pub fn read(&self, path: &Path, mounting: &Mounting) -> Result<(Recording, Layout)> {
-        let source = self.open(path, mounting)?;
+    pub fn read(&self, path: &Path, frame: &SensorFrame) -> Result<(Recording, Layout)> {
+        let source = self.open(path, frame)?;
         let mut recording = Recording {
             path: path.to_path_buf(),
             time_s: Vec::new(),
@@ -334,16 +333,16 @@ impl RideInputArgs {
         Ok((recording, source.layout()))
     }
 
-    /// The rides as they are opened row by row, with these options and `mounting`, each
+    /// The rides as they are opened row by row, with these options and `frame`, each
     /// with the track of its own position columns, if any.
-    pub fn opener(&self, mounting: Mounting) -> RideOpener<'_> {
+    pub fn opener(&self, frame: SensorFrame) -> RideOpener<'_> {
         static NO_TRACKS: TrackArgs = TrackArgs {
             tracks: Vec::new(),
             track_offset_s: 0.0,
         };
         RideOpener {
             args: self,
-            mounting,
+            frame,
             tracks: &NO_TRACKS,
             inputs: &[],
         }
@@ -353,7 +352,7 @@ impl RideInputArgs {
     /// its track from `tracks` (one per input) or its own position columns.
     pub fn opener_with_tracks<'a>(
         &'a self,
-        mounting: Mounting,
+        frame: SensorFrame,
         tracks: &'a TrackArgs,
         inputs: &'a [PathBuf],
     ) -> Result<RideOpener<'a>> {
@@ -366,7 +365,7 @@ impl RideInputArgs {
         }
         Ok(RideOpener {
             args: self,
-            mounting,
+            frame,
             tracks,
             inputs,
         })
@@ -452,14 +451,14 @@ pub struct TrackArgs {
 #[derive(Clone, Copy, Debug)]
 pub struct RideOpener<'a> {
     args: &'a RideInputArgs,
-    mounting: Mounting,
+    frame: SensorFrame,
     tracks: &'a TrackArgs,
     inputs: &'a [PathBuf],
 }
 
 impl OpenRide for RideOpener<'_> {
     fn open_ride(&self, path: &Path) -> Result<RideSource> {
-        let source = self.args.open(path, &self.mounting)?;
+        let source = self.args.open(path, &self.frame)?;
         let offset = self.tracks.track_offset_s;
         if !offset.is_finite() {
             bail!("--track-offset-s {offset}: expected a finite number of seconds");
@@ -495,7 +494,7 @@ impl OpenRide for RideOpener<'_> {
 pub fn open_stream(
     args: &RideInputArgs,
     path: &Path,
-    mounting: &Mounting,
+    frame: &SensorFrame,
     scratch: &Path,
 ) -> Result<PlatformStream> {
     if !args.converts()
@@ -504,7 +503,7 @@ pub fn open_stream(
         check_gravity_streamed(&stream)?;
         return Ok(stream);
     }
-    let source = args.open(path, mounting)?;
+    let source = args.open(path, frame)?;
     let converted = scratch.join("ride.csv");
     write_atomically(&converted, |w| {
         writeln!(w, "{PLATFORM_HEADER_LINE}")?;
@@ -641,7 +640,7 @@ mod tests {
     fn another_loggers_file_gives_the_values_of_the_same_ride_in_the_projects_format() {
         let dir = tempfile::tempdir().unwrap();
         let (own, foreign) = two_files(dir.path());
-        let level = Mounting::LEVEL;
+        let level = SensorFrame::LEVEL;
         let (a, _) = RideInputArgs::default().read(&own, &level).unwrap();
         let (b, layout) = foreign_args().read(&foreign, &level).unwrap();
         assert_eq!(layout, Layout::PlatformOnly);
@@ -678,7 +677,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let (own, _) = two_files(dir.path());
         let (clean, _) = RideInputArgs::default()
-            .read(&own, &Mounting::LEVEL)
+            .read(&own, &SensorFrame::LEVEL)
             .unwrap();
         // The same ride from a sensor mounted upside down about x: z reads -(a_z + g).
         let mut text = String::from("time_s,platform_x,platform_y,platform_z\n");
@@ -694,7 +693,7 @@ mod tests {
         }
         let raw = dir.path().join("raw.csv");
         std::fs::write(&raw, text).unwrap();
-        let err = error(RideInputArgs::default().read(&raw, &Mounting::LEVEL));
+        let err = error(RideInputArgs::default().read(&raw, &SensorFrame::LEVEL));
         assert!(
             err.contains("raw.csv: mean x ") && err.contains("z -9.8"),
             "{err}"
@@ -704,10 +703,10 @@ mod tests {
             "{err}"
         );
         assert!(!err.contains('\n'));
-        let upside_down = Mounting {
+        let upside_down = SensorFrame::from(supine_core::mounting::Mounting {
             sensor_to_litter: [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]],
             gravity_m_s2: g as f32,
-        };
+        });
         let removing = RideInputArgs {
             remove_gravity: true,
             ..RideInputArgs::default()
@@ -718,14 +717,14 @@ mod tests {
             mounting: true,
             ..removing.clone()
         };
-        let err = error(by_mounting.read(&raw, &Mounting::LEVEL));
+        let err = error(by_mounting.read(&raw, &SensorFrame::LEVEL));
         assert!(
             err.contains("mean vertical -19.6") && err.contains("after --remove-gravity"),
             "{err}"
         );
         // Levelled by its own gravity, the ride is the clean one, less the ride's own mean
         // z (gravity is measured, not assumed: its magnitude is the mean's).
-        let (levelled, _) = removing.read(&raw, &Mounting::LEVEL).unwrap();
+        let (levelled, _) = removing.read(&raw, &SensorFrame::LEVEL).unwrap();
         let mean_z = clean.platform_m_s2[2].iter().sum::<f64>() / clean.len() as f64;
         for axis in 0..3 {
             for (p, q) in clean.platform_m_s2[axis]
@@ -765,7 +764,7 @@ mod tests {
             columns: Some(ColumnNames::parse("time=t,x=ax,y=ay,z=az").unwrap()),
             ..RideInputArgs::default()
         };
-        let err = error(args.read(&path, &Mounting::LEVEL));
+        let err = error(args.read(&path, &SensorFrame::LEVEL));
         assert!(
             err.contains("g.csv: mean x 0.010, y 0.000, z 1.010, magnitude 1.010, near 1")
                 && err.contains("--units g"),
@@ -782,7 +781,7 @@ mod tests {
             columns: Some(ColumnNames::parse("time=Time (ms),x=Acc X,y=AccY,z=AccZ").unwrap()),
             ..RideInputArgs::default()
         };
-        let err = error(args.read(&path, &Mounting::LEVEL));
+        let err = error(args.read(&path, &SensorFrame::LEVEL));
         assert_eq!(
             err,
             format!(
@@ -798,7 +797,7 @@ mod tests {
             columns: Some(ColumnNames::parse("time=Time (ms),x=AccX,y=AccY,z=AccZ").unwrap()),
             ..RideInputArgs::default()
         };
-        let err = error(args.read(&path, &Mounting::LEVEL));
+        let err = error(args.read(&path, &SensorFrame::LEVEL));
         assert_eq!(
             err,
             format!(
@@ -809,7 +808,7 @@ mod tests {
         );
         // An unrecognized header: the columns found and the --columns to give.
         std::fs::write(&path, "time,x,y,z\n0,0,0,0\n").unwrap();
-        let err = error(RideInputArgs::default().read(&path, &Mounting::LEVEL));
+        let err = error(RideInputArgs::default().read(&path, &SensorFrame::LEVEL));
         assert!(
             err.contains("line 1: header not recognized")
                 && err.ends_with(
@@ -820,7 +819,7 @@ mod tests {
         );
         // A header field of 3000 bytes: the error stays short, the field cut.
         std::fs::write(&path, format!("{},b\n0,0\n", "A".repeat(3000))).unwrap();
-        let err = error(RideInputArgs::default().read(&path, &Mounting::LEVEL));
+        let err = error(RideInputArgs::default().read(&path, &SensorFrame::LEVEL));
         let own = err.strip_prefix(&format!("{}: ", path.display())).unwrap();
         assert!(own.chars().count() <= 200, "{}: {own}", own.chars().count());
         assert!(
@@ -840,19 +839,19 @@ mod tests {
             units: Some(AccelUnit::G),
             ..RideInputArgs::default()
         };
-        let err = error(args.read(&path, &Mounting::LEVEL));
+        let err = error(args.read(&path, &SensorFrame::LEVEL));
         assert!(
             err.ends_with("line 4: expected 4 ','-separated cells as in the header, found 5"),
             "{err}"
         );
         std::fs::write(&path, "t,a x,a y,a z\n0,0,0,0\n2,0,0\u{1b}x,0\n").unwrap();
-        let err = error(args.read(&path, &Mounting::LEVEL));
+        let err = error(args.read(&path, &SensorFrame::LEVEL));
         assert!(
             err.ends_with("line 3, column a y: expected an acceleration in g (a finite number), found \"0\\u{1b}x\""),
             "{err}"
         );
         std::fs::write(&path, "t,a x,a y,a z\n0,0,0,0\n2,0,0,x\n").unwrap();
-        let err = error(args.read(&path, &Mounting::LEVEL));
+        let err = error(args.read(&path, &SensorFrame::LEVEL));
         assert!(
             err.ends_with(
                 "line 3, column a z: expected an acceleration in g (a finite number), found \"x\""
@@ -861,7 +860,7 @@ mod tests {
         );
         args.time_unit = Some(TimeUnit::Text);
         std::fs::write(&path, "t,a x,a y,a z\n12:00:00.000,0,0,0\n12:00:61,0,0,0\n").unwrap();
-        let err = error(args.read(&path, &Mounting::LEVEL));
+        let err = error(args.read(&path, &SensorFrame::LEVEL));
         assert!(
             err.ends_with("line 3, column t: expected a date-time (ISO 8601) or clock time (HH:MM:SS.f), found \"12:00:61\""),
             "{err}"
@@ -873,7 +872,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let (own, foreign) = two_files(dir.path());
         let scratch = tempfile::tempdir().unwrap();
-        let level = Mounting::LEVEL;
+        let level = SensorFrame::LEVEL;
         let stream = open_stream(&foreign_args(), &foreign, &level, scratch.path()).unwrap();
         let (read, _) = foreign_args().read(&foreign, &level).unwrap();
         let samples: Vec<[f32; 3]> = stream.samples().unwrap().map(Result::unwrap).collect();
@@ -910,11 +909,11 @@ mod tests {
     fn a_ride_opened_row_by_row_gives_the_read_rides_rows_and_errors() {
         let dir = tempfile::tempdir().unwrap();
         let (own, foreign) = two_files(dir.path());
-        let level = Mounting::LEVEL;
-        let upside_down = Mounting {
+        let level = SensorFrame::LEVEL;
+        let upside_down = SensorFrame::from(supine_core::mounting::Mounting {
             sensor_to_litter: [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]],
             gravity_m_s2: STANDARD_GRAVITY_M_S2 as f32,
-        };
+        });
         let removing = RideInputArgs {
             remove_gravity: true,
             ..foreign_args()

@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use anyhow::{Result, anyhow, bail};
-use supine_core::mounting::Mounting;
+use supine_core::calibration::SensorFrame;
 
 use crate::io::csv_lines::{CsvLines, MAX_LINE_BYTES};
 use crate::io::excerpt::{excerpt, quoted_name};
@@ -242,20 +242,31 @@ impl ForeignRows {
         };
         let number = line.line;
         let has_quote = memchr::memchr(b'"', line.text()).is_some();
+        // The four cells read, picked in place: no allocation per row.
+        let mut cells: [&[u8]; 4] = [&[]; 4];
         let row;
-        let cells: Vec<&[u8]> = if has_quote {
+        let cells_len = if has_quote {
             self.quoted = unquoted_cells(line.text(), self.delimiter).ok_or_else(|| {
                 anyhow!(
                     "{shown}: line {number}: expected RFC 4180 quoting, found an unclosed quote"
                 )
             })?;
-            self.quoted.iter().map(Vec::as_slice).collect()
+            if self.quoted.len() == self.width {
+                for (cell, &i) in cells.iter_mut().zip(&self.index) {
+                    let raw = self.quoted[i].as_slice();
+                    *cell = raw.strip_suffix(b"\r").unwrap_or(raw);
+                }
+            }
+            self.quoted.len()
         } else {
             row = line.split();
-            row.cells().collect()
+            if row.len() == self.width {
+                for (cell, &i) in cells.iter_mut().zip(&self.index) {
+                    *cell = row.cell(i);
+                }
+            }
+            row.len()
         };
-        let cells_len = cells.len();
-        let trailing_cr = |c: &[u8]| -> Vec<u8> { c.strip_suffix(b"\r").unwrap_or(c).to_vec() };
         if cells_len != self.width {
             bail!(
                 "{shown}: line {number}: expected {} {:?}-separated cells as in the header, found {}",
@@ -265,19 +276,15 @@ impl ForeignRows {
             );
         }
         let mut value = [0.0f64; 4];
-        for (k, slot) in value.iter_mut().enumerate() {
-            let raw = cells[self.index[k]];
-            let cell = if has_quote {
-                trailing_cr(raw)
-            } else {
-                raw.to_vec()
-            };
+        for (k, (slot, cell)) in value.iter_mut().zip(cells).enumerate() {
             let name = &self.names[k];
-            let text = std::str::from_utf8(&cell).ok();
             let parsed = if k == 0 {
-                text.and_then(|t| self.clock.seconds(t))
+                std::str::from_utf8(cell)
+                    .ok()
+                    .and_then(|t| self.clock.seconds(t))
             } else {
-                text.and_then(|t| fast_float2::parse::<f64, _>(t.trim()).ok())
+                fast_float2::parse::<f64, _>(cell.trim_ascii())
+                    .ok()
                     .filter(|v| v.is_finite())
                     .map(|v| v * self.scale[k - 1])
             };
@@ -289,14 +296,14 @@ impl ForeignRows {
                     } else {
                         format!("{} (a finite number)", self.what[k])
                     },
-                    excerpt(&cell)
+                    excerpt(cell)
                 )
             })?;
             if k > 0 && slot.abs() > MAX_ACCELERATION_M_S2 {
                 bail!(
                     "{shown}: line {number}, column {name}: expected an acceleration within the f32 \
                      range the device computes in, found {}",
-                    excerpt(&cell)
+                    excerpt(cell)
                 );
             }
         }
@@ -386,7 +393,7 @@ pub struct RideSource {
     sample_rate_hz: f64,
     start_s: f64,
     origin: Origin,
-    gravity_removal: Option<Mounting>,
+    gravity_removal: Option<SensorFrame>,
     quality: Option<DataQuality>,
     track: Option<Arc<Track>>,
 }
@@ -447,8 +454,8 @@ impl RideSource {
 
     /// A file in the project's formats, checked by [`PlatformStream::open`]; with
     /// `gravity_removal`, every platform sample converted as the device converts its
-    /// sensor's readings ([`Mounting::to_litter_m_s2`], f32).
-    pub fn own(stream: PlatformStream, gravity_removal: Option<Mounting>) -> Self {
+    /// sensor's readings ([`SensorFrame::to_litter_m_s2`], f32).
+    pub fn own(stream: PlatformStream, gravity_removal: Option<SensorFrame>) -> Self {
         Self {
             path: stream.path().to_path_buf(),
             layout: stream.layout(),
@@ -574,10 +581,9 @@ impl RideSource {
         };
         Ok(match self.gravity_removal {
             None => rows,
-            Some(mounting) => Box::new(rows.map(move |r| {
+            Some(frame) => Box::new(rows.map(move |r| {
                 r.map(|mut row| {
-                    let litter =
-                        mounting.to_litter_m_s2([row[1], row[2], row[3]].map(|v| v as f32));
+                    let litter = frame.to_litter_m_s2([row[1], row[2], row[3]].map(|v| v as f32));
                     for (cell, v) in row[1..4].iter_mut().zip(litter) {
                         *cell = f64::from(v);
                     }

@@ -184,6 +184,8 @@ impl MonitorLog {
                     link_lost_frames: 0,
                     link_bad_frames: 0,
                     link_reordered_frames: 0,
+                    started_utc: Some(crate::io::calibration_section::today().to_string()),
+                    calibration: Some(g.calibration.into()),
                 });
             }
         }
@@ -407,6 +409,7 @@ mod tests {
             reset_cause: supine_core::protocol::ResetCause::PowerOn,
             last_panic: heapless::String::new(),
             joint_outputs: 0,
+            calibration: supine_core::calibration::SensorCalibration::DATASHEET,
         }
     }
 

@@ -436,6 +436,7 @@ mod tests {
             reset_cause: ResetCause::PowerOn,
             last_panic: heapless::String::new(),
             joint_outputs: 0,
+            calibration: supine_core::calibration::SensorCalibration::DATASHEET,
         })
     }
 

@@ -467,6 +467,7 @@ mod tests {
             reset_cause: ResetCause::PowerOn,
             last_panic: heapless::String::new(),
             joint_outputs: 0,
+            calibration: supine_core::calibration::SensorCalibration::DATASHEET,
         };
         let mut m = Monitor::new(&g).expect("monitor");
         m.on_message(&DeviceToHost::Telemetry(Telemetry {

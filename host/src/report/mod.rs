@@ -14,6 +14,7 @@
 //!    - [`route`]: where each leg happened: its road segments, the worst of them, the
 //!      map's points and placed events (a ride with positions).
 //!    - [`prediction_band`]: with `--band N`, the prediction band of the head's vector values.
+//!    - [`calibration`]: the sensor's calibration record, its age and whether it is flagged.
 //!    - [`device_check`], [`device_pass`], [`device_series`]: with a device log (what a
 //!      device sent for the ride, as `supine demo` has it), the device's own account
 //!      beside the host's: the largest difference of each output, identical events.
@@ -24,13 +25,15 @@
 //!    route map and the running rms against speed).
 //! 3. The sections of the page, built on the charts: [`page`] (the page and the legs'
 //!    sections), [`joints_section`], [`band_section`], [`device_section`],
-//!    [`route_section`] (where it happened).
+//!    [`calibration_section`], [`route_section`] (where it happened).
 //!
 //! [`markup`] (escaping, a level's tag, a chart as a figure) is the leaf every section uses.
 //!
 //! The JSON's key names are the contract of `--json` (`docs/exposure.md#mission-report`).
 
 pub mod band_section;
+pub mod calibration;
+pub mod calibration_section;
 pub mod charts;
 pub mod device_charts;
 pub mod device_check;
@@ -126,6 +129,9 @@ pub struct MissionReport {
     /// The prediction band (`--band N`), when asked for.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub band: Option<prediction_band::ReportBand>,
+    /// The sensor's calibration, its age and verdict: the parameter file's as of the
+    /// report's date, or, for a monitor session, the device's as of the session's start.
+    pub calibration: calibration::CalibrationReport,
     /// The alert thresholds.
     #[serde(skip)]
     pub thresholds: AlertConfig,
@@ -157,7 +163,8 @@ pub fn build(
         start_s += leg.duration_s;
         legs.push(leg);
     }
-    let config = file.device.unwrap_or_default().alerts;
+    let device = file.device.unwrap_or_default();
+    let config = device.alerts;
     let mission = totals(&legs, &config);
     let identity = device_params::identity_hex(&device_params::identity(file)?);
     let comparison = compare.then(|| compare_rides(&legs[0], &legs[1]));
@@ -175,6 +182,11 @@ pub fn build(
         mission,
         comparison,
         band: None,
+        calibration: calibration::CalibrationReport::new(
+            &device.calibration,
+            calibration::today(),
+            "the report's date",
+        ),
         thresholds: config,
     })
 }

@@ -256,6 +256,8 @@ mod tests {
             link_lost_frames: 0,
             link_bad_frames: 0,
             link_reordered_frames: 0,
+            started_utc: None,
+            calibration: None,
         }
         .write(&session_path(&log))
         .unwrap();

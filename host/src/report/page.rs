@@ -14,7 +14,8 @@ use crate::report::markup::{escape, tag};
 use crate::report::mission::{LEVEL_NAMES, Leg, level_named};
 use crate::report::{Comparison, MissionReport};
 use crate::report::{
-    band_section, charts, device_section, joints_section, quality_section, route_section,
+    band_section, calibration_section, charts, device_section, joints_section, quality_section,
+    route_section,
 };
 
 /// Most alert events listed per leg (the JSON has them all).
@@ -28,6 +29,7 @@ h2 { font-size: 19px; margin: 28px 0 6px; border-bottom: 1px solid #ddd; padding
 h3 { font-size: 16px; margin: 18px 0 4px; }
 p, li, td, th { font-size: 14px; line-height: 1.45; }
 .sub { color: #555; margin-top: 0; }
+.warn { color: #8a1c00; background: #fff3e6; border-left: 6px solid #e65a00; padding: 6px 12px; }
 .verdict { border-left: 8px solid #888; padding: 10px 16px; margin: 16px 0; background: #fafafa; }
 .verdict .big { font-size: 20px; font-weight: 600; }
 .lvl-normal { border-color: #2e8b57; } .lvl-advisory { border-color: #cc9900; }
@@ -114,6 +116,7 @@ pub fn render(report: &MissionReport, device: Option<&DeviceLog>) -> Result<Stri
         escape(&report.model.identity)
     );
     quality_section::section(&mut h, legs);
+    calibration_section::section(&mut h, &report.calibration);
     match &report.comparison {
         Some(c) => comparison(&mut h, legs, c),
         None => mission(&mut h, report),

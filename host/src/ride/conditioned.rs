@@ -15,7 +15,7 @@ use std::cell::RefCell;
 use std::rc::Rc;
 
 use anyhow::Result;
-use supine_core::mounting::Mounting;
+use supine_core::calibration::SensorFrame;
 
 use crate::ride::level::Levelling;
 use crate::ride::quality::{DataQuality, Scan};
@@ -45,8 +45,9 @@ pub struct Conditioning {
     pub rate_hz: f64,
     /// Longest step bridged, s.
     pub max_gap_s: f64,
-    /// The levelling conversion (sensor axes with gravity to litter axes without).
-    pub levelling: Option<Mounting>,
+    /// The levelling conversion (sensor axes with gravity to litter axes without: the
+    /// device's, or a rotation by the ride's own gravity).
+    pub levelling: Option<SensorFrame>,
 }
 
 /// A scanned ride and how its samples are made.
@@ -215,7 +216,7 @@ fn resample<'a>(
 struct KeptRows<'a> {
     rows: FileRows<'a>,
     cleaner: Cleaner,
-    levelling: Option<Mounting>,
+    levelling: Option<SensorFrame>,
     /// The first row of the next stretch, read past the end of this one.
     pending: Option<(f64, [f64; 3])>,
     error: Option<anyhow::Error>,

@@ -482,7 +482,8 @@ pub fn encode(params: &DeviceParams) -> Vec<u8> {
     buf
 }
 
-/// The boot parameters: paper litter board, telemetry for every sample (as replay uses).
+/// The boot parameters: paper litter board, telemetry for every sample (as replay uses),
+/// and a tumble-test calibration (the greeting and status must carry it).
 pub fn boot_params() -> DeviceParams {
     preset_params(
         Preset::PaperLitter,
@@ -490,6 +491,8 @@ pub fn boot_params() -> DeviceParams {
         BOOT_IDENTITY,
         TelemetryConfig::EVERY_SAMPLE,
     )
+    .with_calibration(supine_core::protocol::golden::calibration_example())
+    .expect("valid calibration")
 }
 
 /// The patient the uploaded parameters are scaled to.
