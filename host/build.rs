@@ -13,6 +13,8 @@ use std::path::PathBuf;
 
 #[path = "build/firmware_image.rs"]
 mod firmware_image;
+#[path = "src/device/firmware_recipe.rs"]
+mod firmware_recipe;
 
 fn main() {
     let manifest_dir =

@@ -2,10 +2,9 @@
 //! `src/device/firmware.rs` embeds it and the installed `supine` needs no source tree or
 //! cargo at run time (issue 14, item 1).
 //!
-//! The nested cargo runs the same build as `cargo fw` (package `supine-firmware`, profile
-//! `fw`, target `thumbv7em-none-eabihf`, target dir `<root>/target/firmware`) from the
-//! repository root, so the root `.cargo/config.toml` (the device's rustflags) applies and
-//! the team's `cargo fw` builds are reused. Its own target dir keeps it off the outer
+//! The nested cargo runs the build of `src/device/firmware_recipe.rs` (as `cargo fw` does)
+//! from the repository root, so the root `.cargo/config.toml` (the device's rustflags)
+//! applies and the team's `cargo fw` builds are reused. Its own target dir keeps it off the outer
 //! build's lock. The environment cargo gives a build script describes the *host* build
 //! (its rustflags, target dir, wrappers such as clippy-driver); passed on, it would build
 //! the firmware with the wrong flags, or rebuild it for every outer profile, so it is
@@ -16,10 +15,8 @@ use std::fs;
 use std::path::Path;
 use std::process::Command;
 
-/// The device's target triple.
-const TARGET: &str = "thumbv7em-none-eabihf";
-/// The firmware package and its product binary.
-const PACKAGE: &str = "supine-firmware";
+use crate::firmware_recipe::{self, PACKAGE, PROFILE, TARGET};
+
 /// The name of the embedded copy in `OUT_DIR`.
 const EMBEDDED_NAME: &str = "supine-firmware.elf";
 
@@ -64,14 +61,12 @@ pub fn build(root: &Path, out_dir: &Path) {
         println!("cargo:rerun-if-changed={}", root.join(input).display());
     }
     let cargo = env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let target_dir = root.join("target").join("firmware");
     let mut command = Command::new(cargo);
     command
         .current_dir(root)
-        .args(["build", "--package", PACKAGE, "--profile", "fw"])
-        .args(["--target", TARGET, "--bin", PACKAGE])
+        .args(firmware_recipe::cargo_build_args(PACKAGE))
         .arg("--target-dir")
-        .arg(&target_dir);
+        .arg(firmware_recipe::target_dir(root));
     for name in OUTER_BUILD_ENV {
         command.env_remove(name);
     }
@@ -89,13 +84,13 @@ pub fn build(root: &Path, out_dir: &Path) {
         };
         panic!("building the firmware image for {TARGET} failed:\n{stderr}{hint}");
     }
-    let elf = target_dir.join(TARGET).join("fw").join(PACKAGE);
+    let elf = firmware_recipe::output_dir(root).join(PACKAGE);
     let embedded = out_dir.join(EMBEDDED_NAME);
     fs::copy(&elf, &embedded).unwrap_or_else(|err| panic!("cannot copy {}: {err}", elf.display()));
     fs::write(
         out_dir.join("firmware_image.rs"),
         format!(
-            "/// The product image (`{PACKAGE}`, profile `fw`, {TARGET}), built with the tool.\n\
+            "/// The product image (`{PACKAGE}`, profile `{PROFILE}`, {TARGET}), built with the tool.\n\
              pub static PRODUCT_ELF: &[u8] = include_bytes!({:?});\n",
             embedded.display().to_string()
         ),

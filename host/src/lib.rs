@@ -7,9 +7,9 @@
 //! identification of the model from measurements ([`identify`]), exposure of rides
 //! ([`exposure`]), the device and the ways to reach it ([`device`]), the live monitor
 //! ([`monitor`]), the end-to-end demo ([`demo`]), the mission report ([`report`]), the ISO 8041-1
-//! self-verification ([`verify`]), the one plotting
-//! layer ([`plot`]), jobs over the cores ([`parallel`]), and
-//! the command line ([`cli`], [`commands`]) on top of them all.
+//! self-verification ([`verify`]), the one plotting layer ([`plot`]), jobs over the cores
+//! ([`parallel`]), the names every output uses ([`schema`]), and the command line
+//! ([`cli`], [`commands`]) on top of them all.
 
 pub mod cli;
 pub mod commands;
@@ -23,4 +23,5 @@ pub mod parallel;
 pub mod plot;
 pub mod report;
 pub mod ride;
+pub mod schema;
 pub mod verify;

@@ -17,29 +17,30 @@ const ALLOWED: &[(&str, &[&str])] = &[
         "commands",
         &[
             "demo", "report", "monitor", "exposure", "identify", "device", "io", "plot",
-            "parallel", "ride", "verify",
+            "parallel", "ride", "verify", "schema",
         ],
     ),
     ("verify", &["report", "device", "io"]),
     (
         "demo",
         &[
-            "report", "monitor", "exposure", "device", "plot", "io", "ride",
+            "report", "monitor", "exposure", "device", "plot", "io", "schema", "ride",
         ],
     ),
     (
         "report",
         &[
-            "exposure", "identify", "device", "plot", "io", "parallel", "ride",
+            "exposure", "identify", "device", "plot", "io", "parallel", "ride", "schema",
         ],
     ),
-    ("monitor", &["exposure", "device", "io"]),
-    ("exposure", &["device", "io", "parallel", "ride"]),
+    ("monitor", &["exposure", "device", "io", "schema"]),
+    ("exposure", &["device", "io", "parallel", "ride", "schema"]),
     ("identify", &["plot", "io", "parallel"]),
     ("device", &["io"]),
     ("plot", &[]),
-    ("io", &["parallel", "ride"]),
+    ("io", &["parallel", "ride", "schema"]),
     ("ride", &[]),
+    ("schema", &[]),
     ("parallel", &[]),
 ];
 

@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use supine_core::alerts::{Criterion, Level};
+use supine_core::alerts::Level;
 use supine_core::calibration::SensorFrame;
 use supine_core::model::Preset;
 use supine_core::pipeline::{PipelineOutput, PipelineState};
@@ -20,6 +20,7 @@ use supine_host::io::ride_input::RideInputArgs;
 use supine_host::report::build;
 use supine_host::report::mission::{CHART_RATE_HZ, PROJECTION_WINDOW_S};
 use supine_host::report::spectrum::density;
+use supine_host::schema::event::EventCriterion;
 
 const FS_HZ: f64 = 500.0;
 
@@ -116,13 +117,13 @@ fn a_leg_read_row_by_row_gives_the_whole_rides_spectra_levels_alerts_and_project
         assert_eq!(row.leg_time_s, k as f64 / FS_HZ);
         assert_eq!(row.running_rms_m_s2, w.vector_rms[k]);
         assert_eq!(row.vdv_m_s175, w.vdv[k]);
-        match e.criterion() {
-            Some(Criterion::RunningRms { .. }) => assert_eq!(row.criterion, "running rms"),
-            Some(Criterion::Vdv { .. }) => assert_eq!(row.criterion, "VDV"),
-            None => assert_eq!(row.value, w.vector_rms[k]),
-        }
-        if let Some(c) = e.criterion() {
-            assert_eq!(row.value, f64::from(c.value()));
+        match (e.criterion(), row.criterion) {
+            (Some(c), Some(EventCriterion::Exposure(r))) => {
+                assert_eq!(r, c);
+                assert_eq!(row.criterion.unwrap().value().1, f64::from(c.value()));
+            }
+            (None, None) => assert_eq!(row.kind, "fault"),
+            (c, r) => panic!("{c:?} against {r:?}"),
         }
     }
 
@@ -209,7 +210,7 @@ fn events_beyond_the_listed_ones_are_counted_not_kept() {
             _ => None,
         })
         .fold(Level::Normal, Level::max);
-    assert_eq!(e.max_level, highest.name());
+    assert_eq!(e.max_level, highest);
     assert!(e.to_text().contains(&format!(
         "... and {} more events",
         w.events.len() - MAX_LISTED_EVENTS

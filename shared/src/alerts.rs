@@ -40,15 +40,19 @@ pub mod joint;
 
 pub use joint::{JointAlertConfig, JointAlertSettings, JointAlertState, JointCriterion};
 
-/// Standard gravity, m/s^2 (for full scales quoted in g).
-pub const STANDARD_GRAVITY_M_S2: f32 = 9.806_65;
+/// Standard gravity in f32, m/s^2, for full scales quoted in g: the one definition is
+/// [`crate::mounting::STANDARD_GRAVITY_M_S2`].
+const STANDARD_GRAVITY_M_S2: f32 = crate::mounting::STANDARD_GRAVITY_M_S2 as f32;
 /// Longest accepted dwell or stuck time, s.
 pub const MAX_DWELL_S: f32 = 600.0;
 
-/// Exposure alert level, ordered from `Normal` to `Alarm`.
+/// Exposure alert level, ordered from `Normal` to `Alarm`. Its name ([`Level::name`]) is
+/// what every output says (JSON, CSV, report): serde spells it the same, and on the wire
+/// (postcard) it is the variant's index, so the names cost no bytes there.
 #[derive(
     Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
 )]
+#[serde(rename_all = "lowercase")]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Level {
     /// Below every threshold.
@@ -63,8 +67,15 @@ pub enum Level {
 }
 
 impl Level {
+    /// Every level, in rising order (index `i` is the level `i as u8`).
+    pub const ALL: [Level; 4] = [Level::Normal, Level::Advisory, Level::Warning, Level::Alarm];
     /// The levels above `Normal`, in rising order (index `i` uses thresholds `[i]`).
     pub const RAISED: [Level; 3] = [Level::Advisory, Level::Warning, Level::Alarm];
+
+    /// The level named `name` ([`Level::name`]), if any.
+    pub fn from_name(name: &str) -> Option<Level> {
+        Level::ALL.into_iter().find(|l| l.name() == name)
+    }
 
     const fn from_index(i: usize) -> Level {
         match i {
@@ -96,6 +107,7 @@ impl fmt::Display for Level {
 /// [`FaultFlags`]: changing it changes the wire format.
 // EnumSetType also derives Clone, Copy, PartialEq and Eq.
 #[derive(Debug, Hash, Serialize, Deserialize, EnumSetType)]
+#[serde(rename_all = "kebab-case")]
 #[enumset(repr = "u8", serialize_deny_unknown)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum SensorFault {
@@ -148,7 +160,11 @@ pub type FaultFlags = EnumSet<SensorFault>;
 /// VDV. A drop always names the running rms: the VDV never decreases, so only a falling
 /// running rms lowers a level. The value is computed exactly as the telemetry's
 /// `vector_running_rms_m_s2` or `vdv_m_s175` of the same sample.
+///
+/// Serde names the variants as [`Criterion::name`] does (`running-rms`, `vdv`); on the
+/// wire (postcard) a variant is its index.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Criterion {
     /// The 1 s running rms of the head's vector sum.

@@ -215,6 +215,13 @@ impl From<WeightingError> for ExposureError {
     }
 }
 
+/// The running mean square's update gain per sample, `1 - exp(-1/(fs tau))`, for a time
+/// constant `tau_s` at `sample_rate_hz`: the one formula for the head's running rms here
+/// and the host's f64 joint statistics (`supine_host::exposure::joints`).
+pub fn running_rms_gain(tau_s: f64, sample_rate_hz: f64) -> f64 {
+    -libm::expm1(-1.0 / (sample_rate_hz * tau_s))
+}
+
 /// Everything the per-sample evaluation needs, precomputed for one sample rate (which the
 /// parameter blob stores once, beside these settings).
 ///
@@ -385,8 +392,7 @@ impl ExposureSettings {
             *w = WeightingSettings::new(a.kind, sample_rate)?.scaled(a.k);
         }
         let fs = sample_rate.hz_f64();
-        let tau = config.running_tau_s as f64;
-        let running_gain = -libm::expm1(-1.0 / (fs * tau)) as f32;
+        let running_gain = running_rms_gain(config.running_tau_s as f64, fs) as f32;
         let warmup_samples = libm::round(config.warmup_s as f64 * fs) as u32;
         let sample_period_s = (1.0 / fs) as f32;
         Ok(Self {

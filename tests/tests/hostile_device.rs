@@ -385,7 +385,7 @@ fn a_tampered_monitor_log_is_caught_by_the_device_check() {
     let (mut tried, mut held) = (0, 0);
     for (column, value, name) in [
         ("vdv_m_s175", "99", "vdv_m_s175"),
-        ("running_rms_vector_m_s2", "3.5", "running_rms_vector_m_s2"),
+        ("vector_running_rms_m_s2", "3.5", "vector_running_rms_m_s2"),
         ("running_rms_z_m_s2", "2.5", "running_rms_z_m_s2"),
         // The rough ride ends at alarm (a VDV level never clears): a late record says normal.
         ("alert_level", "normal", "alert_level"),

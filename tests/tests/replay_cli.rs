@@ -7,6 +7,7 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use supine_host::io::recording::Recording;
+use supine_host::schema::names;
 use supine_qemu_tests::{
     MONITOR_STACK_CEILING_BYTES, entries, firmware, qemu_cmdline, qemu_processes_mentioning,
     qemu_wrapper, signal_and_wait, supine_binary, wait_for_qemu_child,
@@ -295,6 +296,11 @@ fn a_finished_replay_leaves_no_qemu_and_no_socket_folder() {
         .expect("real_time_factor");
     assert!((factor * elapsed_s - 2.0).abs() < 1e-9, "{report}");
     assert_nothing_left(&tmp, "a finished replay with --json");
+    // Its names, and the telemetry CSV's, follow the output vocabulary.
+    let mut problems = names::json_problems(&report, "replay");
+    let telemetry = std::fs::read_to_string(dir.path().join("device.csv")).expect("device.csv");
+    problems.extend(names::csv_problems(&telemetry, "device.csv", &[]));
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
 
 #[test]

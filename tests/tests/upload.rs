@@ -743,6 +743,8 @@ fn supine_flash_writes_a_bootable_qemu_image_uploads_into_qemu_and_explains_fail
     assert_eq!(report["slot"], 0);
     assert_eq!(report["greeting_sample_rate_hz"], 500.0);
     assert_eq!(report["development_key"], true);
+    let problems = supine_host::schema::names::json_problems(&report, "flash");
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
 
     // The wrong key: the device's code, on one line, and a failing status.
     let wrong = dir.path().join("wrong.key");

@@ -97,7 +97,7 @@ pub fn run(args: &Args) -> Result<()> {
             "seed": args.seed,
             "samples": ride.len(),
             "rms_m_s2": {"x": rms[0], "y": rms[1], "z": rms[2]},
-            "crest_factor_z": ride.vertical_crest_factor(),
+            "vertical_crest_factor": ride.vertical_crest_factor(),
             "shocks": made.shocks.len(),
             "segments": made.segments,
             "track_out": args.track_out,

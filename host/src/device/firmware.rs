@@ -2,10 +2,8 @@
 //!
 //! The installed tool does not use this: it runs the image built into it
 //! ([`crate::device::image`]). The tests need every image (self-test, fault images). This
-//! module runs the same build as `cargo fw` (package `supine-firmware`, profile `fw`,
-//! target `thumbv7em-none-eabihf`, target dir `<root>/target/firmware`) from the
-//! repository root, so the root `.cargo/config.toml` applies, and returns the path of a
-//! named binary. Cargo decides what is stale; an up-to-date image costs a fraction of a
+//! module runs the build of [`crate::device::firmware_recipe`] (as `cargo fw` does) and
+//! returns the path of a named binary. Cargo decides what is stale; an up-to-date image costs a fraction of a
 //! second.
 
 use std::ffi::OsString;
@@ -13,12 +11,10 @@ use std::io;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// The firmware's package name.
-pub const PACKAGE: &str = "supine-firmware";
-/// The device's target triple (Cortex-M4F with hardware floats).
-pub const TARGET: &str = "thumbv7em-none-eabihf";
-/// The cargo profile of the device image (defined in the root `Cargo.toml`).
-pub const PROFILE: &str = "fw";
+use super::firmware_recipe;
+
+pub use super::firmware_recipe::{PACKAGE, PROFILE, TARGET, output_dir};
+
 /// The product image's binary name.
 pub const PRODUCT_BINARY: &str = "supine-firmware";
 /// The self-test image's binary name.
@@ -65,14 +61,6 @@ pub fn repository_root() -> PathBuf {
     }
 }
 
-/// Where the firmware's ELF files land under `root`.
-pub fn output_dir(root: &Path) -> PathBuf {
-    root.join("target")
-        .join("firmware")
-        .join(TARGET)
-        .join(PROFILE)
-}
-
 /// Builds binary `name` of the firmware (if stale) under the repository root and returns
 /// its ELF path.
 pub fn build_binary(name: &str) -> Result<PathBuf, FirmwareError> {
@@ -84,13 +72,11 @@ pub fn build_binary_in(root: &Path, name: &str) -> Result<PathBuf, FirmwareError
     if !root.join("Cargo.toml").is_file() || !root.join("firmware").is_dir() {
         return Err(FirmwareError::NoRepository(root.to_path_buf()));
     }
-    let target_dir = root.join("target").join("firmware");
     let output = Command::new(cargo_program())
         .current_dir(root)
-        .args(["build", "--package", PACKAGE, "--profile", PROFILE])
-        .args(["--target", TARGET, "--bin", name])
+        .args(firmware_recipe::cargo_build_args(name))
         .arg("--target-dir")
-        .arg(&target_dir)
+        .arg(firmware_recipe::target_dir(root))
         // The caller's cargo (e.g. `cargo test`) may have set a target dir for itself.
         .env_remove("CARGO_TARGET_DIR")
         .output()
@@ -163,6 +149,21 @@ mod tests {
         let err = build_binary_in(dir.path(), SELFTEST_BINARY).expect_err("not a repository");
         assert!(matches!(err, FirmwareError::NoRepository(_)));
         assert!(err.to_string().contains(ROOT_ENV));
+    }
+
+    #[test]
+    fn cargo_fw_is_the_recipe_for_the_product_image() {
+        let config = std::fs::read_to_string(repository_root().join(".cargo/config.toml"))
+            .expect(".cargo/config.toml");
+        let alias = config
+            .lines()
+            .find_map(|l| l.strip_prefix("fw = "))
+            .expect("a `fw` alias")
+            .trim_matches('"');
+        let recipe = firmware_recipe::cargo_build_args(PRODUCT_BINARY);
+        // The alias builds every binary of the package; the recipe names one.
+        let expected = format!("{} --target-dir target/firmware", recipe[..7].join(" "));
+        assert_eq!(alias, expected);
     }
 
     #[test]

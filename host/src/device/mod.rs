@@ -3,6 +3,7 @@
 //!
 //! - [`device_params`]: a parameter file turned into the device's blob and its identity.
 //! - [`image`]: the firmware image and development key built into the tool.
+//! - [`firmware_recipe`]: how a device image is built (package, profile, target, folders).
 //! - [`firmware`]: building device images from the source tree (the QEMU tests).
 //! - [`qemu`]: running the image in QEMU (mps2-an386).
 //! - [`link`]: the host's end of the wire protocol.
@@ -15,6 +16,7 @@
 
 pub mod device_params;
 pub mod firmware;
+pub mod firmware_recipe;
 pub mod flash;
 pub mod image;
 pub mod link;

@@ -10,12 +10,10 @@
 
 use anyhow::{Result, anyhow};
 use serde::Serialize;
+use supine_core::exposure::{ExposureSettings, running_rms_gain};
 use supine_core::model::{
     DiscreteModal, JOINT_OUTPUT_COUNT, JointOutput, ModalState, Model, ModelParams,
 };
-
-/// Time constant of the running rms, s: the one ISO 2631-1 uses for the head's (MTVV).
-pub const RUNNING_RMS_TAU_S: f64 = 1.0;
 
 /// One joint output over a ride, in display units (mm or degrees).
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -27,7 +25,7 @@ pub struct JointReport {
     /// Rms over the ride after the warm-up (mean included: a steady deflection is motion
     /// too).
     pub rms: f64,
-    /// Largest running rms (exponential, tau = 1 s) after the warm-up.
+    /// Largest running rms (exponential, the head's time constant) after the warm-up.
     pub max_running_rms: f64,
     /// Largest |value| after the warm-up.
     pub largest_excursion: f64,
@@ -56,10 +54,13 @@ pub struct JointTracker {
 }
 
 impl JointTracker {
-    /// A tracker of `params`'s joints at `sample_rate_hz`, from rest, whose statistics
-    /// start after `warmup_samples` (the head's warm-up,
-    /// `supine_core::exposure::ExposureSettings::warmup_samples`).
-    pub fn new(params: &ModelParams, sample_rate_hz: f64, warmup_samples: usize) -> Result<Self> {
+    /// A tracker of `params`'s joints at `sample_rate_hz`, from rest, with the head's
+    /// running-rms time constant and warm-up (`exposure`), as the device's joint exposure.
+    pub fn new(
+        params: &ModelParams,
+        sample_rate_hz: f64,
+        exposure: &ExposureSettings,
+    ) -> Result<Self> {
         let realization = Model::new(params)
             .and_then(|m| m.realization(sample_rate_hz, &JointOutput::ALL))
             .map_err(|e| anyhow!("the model does not discretize at {sample_rate_hz} Hz: {e}"))?;
@@ -67,8 +68,8 @@ impl JointTracker {
             realization,
             state: ModalState::default(),
             sample_rate_hz,
-            alpha: -(-1.0 / (RUNNING_RMS_TAU_S * sample_rate_hz)).exp_m1(),
-            warmup_samples,
+            alpha: running_rms_gain(f64::from(exposure.config.running_tau_s), sample_rate_hz),
+            warmup_samples: exposure.warmup_samples as usize,
             samples: 0,
             sum2: [0.0; JOINT_OUTPUT_COUNT],
             ms: [0.0; JOINT_OUTPUT_COUNT],
@@ -125,21 +126,6 @@ impl JointTracker {
             })
             .collect()
     }
-}
-
-/// The ten joint outputs' statistics for the support acceleration `platform_m_s2` (x, y,
-/// z per sample) at `sample_rate_hz`, from rest, after `warmup_samples`.
-pub fn joint_motion(
-    params: &ModelParams,
-    sample_rate_hz: f64,
-    warmup_samples: usize,
-    platform_m_s2: &[[f64; 3]],
-) -> Result<Vec<JointReport>> {
-    let mut tracker = JointTracker::new(params, sample_rate_hz, warmup_samples)?;
-    for u in platform_m_s2 {
-        tracker.step(*u);
-    }
-    Ok(tracker.report())
 }
 
 /// The section of `supine exposure`'s table.

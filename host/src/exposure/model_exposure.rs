@@ -7,6 +7,7 @@
 
 use anyhow::Result;
 use serde::Serialize;
+use supine_core::alerts::Level;
 use supine_core::blob::DeviceParams;
 
 use crate::device::device_params;
@@ -63,9 +64,9 @@ pub struct ModelExposure {
     #[serde(skip_serializing_if = "none_omitted")]
     pub alerts_omitted: usize,
     /// Highest exposure level reached.
-    pub max_level: &'static str,
+    pub max_level: Level,
     /// Exposure level after the last sample.
-    pub final_level: &'static str,
+    pub final_level: Level,
     /// The predicted neck and lower-back motion over the ride after the warm-up (as the
     /// head's and the device's: the model's start-up transient is not motion of the ride);
     /// empty when the model is not known.
@@ -94,7 +95,7 @@ pub fn evaluate_model_with(
     let name = input.source().path().display().to_string();
     let warmup_s = params.exposure.config.warmup_s as f64;
     check_warmup(&name, input.samples, fs, warmup_s)?;
-    let joints = JointTracker::new(&file.params, fs, params.exposure.warmup_samples as usize)?;
+    let joints = JointTracker::new(&file.params, fs, &params.exposure)?;
     let mut run = ModelRun::new(&params, Some(joints), input.start_s);
     // The ride is read on a thread of its own while the pipeline runs on this one.
     read_ahead(|| input.platform(), |sample| run.push(sample, &mut observe))?;
@@ -121,8 +122,8 @@ pub fn evaluate_model_with(
         thresholds: (&params.alerts.config).into(),
         alerts: outcome.events,
         alerts_omitted: outcome.events_omitted,
-        max_level: outcome.max_level.name(),
-        final_level: outcome.final_level.name(),
+        max_level: outcome.max_level,
+        final_level: outcome.final_level,
         joints: outcome.joints,
         data_quality: input.source().quality().cloned(),
     };

@@ -2,7 +2,9 @@
 //! its sample.
 
 use serde::Serialize;
-use supine_core::alerts::{AlertEvent, Criterion};
+use supine_core::alerts::{AlertEvent, Level};
+
+use crate::schema::event::{EventCriterion, criterion_fields};
 
 use crate::io::wording::joint_alert_text;
 
@@ -13,37 +15,20 @@ pub struct TimedEvent {
     pub time_s: f64,
     /// Sample index from the first evaluated sample (0-based, at the evaluation's rate).
     pub sample: u32,
-    /// `level` (exposure level change) or `fault` (sensor fault raised or cleared).
+    /// `level` (exposure level change), `fault` (sensor fault raised or cleared) or
+    /// `joint` (a joint output's alert).
     pub kind: &'static str,
     /// What happened, e.g. `normal -> warning` or `saturated raised`.
     pub event: String,
-    /// The level after a level change (absent for faults).
+    /// The level after a level change (absent for faults and joint alerts).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub level: Option<&'static str>,
+    pub level: Option<Level>,
     /// The event raises (rather than clears) an alert.
-    pub raise: bool,
-    /// What changed the level, with its value then (absent for faults): serialized as
-    /// `criterion` (`running-rms` or `vdv`) and `value_m_s2` or `value_m_s175`.
+    pub raised: bool,
+    /// What changed the alert, with its value then (absent for faults): serialized as
+    /// [`criterion_fields`] names it.
     #[serde(flatten, serialize_with = "criterion_fields")]
-    pub criterion: Option<Criterion>,
-}
-
-/// [`TimedEvent::criterion`] as flat keys with the unit in the value's name.
-fn criterion_fields<S: serde::Serializer>(
-    c: &Option<Criterion>,
-    serializer: S,
-) -> Result<S::Ok, S::Error> {
-    use serde::ser::SerializeMap;
-    let mut map = serializer.serialize_map(None)?;
-    if let Some(c) = c {
-        map.serialize_entry("criterion", c.name())?;
-        let key = match c {
-            Criterion::RunningRms { .. } => "value_m_s2",
-            Criterion::Vdv { .. } => "value_m_s175",
-        };
-        map.serialize_entry(key, &f64::from(c.value()))?;
-    }
-    map.end()
+    pub criterion: Option<EventCriterion>,
 }
 
 impl TimedEvent {
@@ -57,9 +42,9 @@ impl TimedEvent {
                 sample,
                 kind: "level",
                 event: format!("{from} -> {to}"),
-                level: Some(to.name()),
-                raise: e.is_raise(),
-                criterion: e.criterion(),
+                level: Some(to),
+                raised: e.is_raise(),
+                criterion: EventCriterion::of(e),
             },
             AlertEvent::Fault { fault, active, .. } => Self {
                 time_s,
@@ -67,7 +52,7 @@ impl TimedEvent {
                 kind: "fault",
                 event: format!("{fault} {}", if active { "raised" } else { "cleared" }),
                 level: None,
-                raise: active,
+                raised: active,
                 criterion: None,
             },
             AlertEvent::Joint { raised, .. } => Self {
@@ -78,8 +63,8 @@ impl TimedEvent {
                     .joint_criterion()
                     .map_or_else(String::new, |(o, c)| joint_alert_text(o, &c, raised)),
                 level: None,
-                raise: raised,
-                criterion: None,
+                raised,
+                criterion: EventCriterion::of(e),
             },
         }
     }

@@ -49,7 +49,9 @@ pub const COLUMNS: [&str; 13] = [
 
 /// The joint columns `supine predict` adds after the 13 recording columns: the predicted
 /// neck and lower-back motion (`docs/model.md`, "Joint motion"), translations in mm and
-/// rotations in degrees, in `JointOutput::ALL` order.
+/// rotations in degrees, in `JointOutput::ALL` order: each output's name and its
+/// [`JointUnit::display`](supine_core::model::JointUnit::display) unit (a test holds them
+/// to it).
 pub const PREDICTED_JOINT_COLUMNS: [&str; 10] = [
     "neck_x_mm",
     "neck_y_mm",
@@ -803,6 +805,19 @@ impl LineNumbers {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_predicted_joint_columns_are_the_outputs_in_their_display_units() {
+        for (column, output) in PREDICTED_JOINT_COLUMNS
+            .iter()
+            .zip(supine_core::model::JointOutput::ALL)
+        {
+            assert_eq!(
+                *column,
+                format!("{}_{}", output.name(), output.unit().display().0)
+            );
+        }
+    }
 
     /// A ride of `n` samples at 100 Hz, with a blank line and CRLF ends thrown in.
     fn ride_text(n: usize) -> String {

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Result, anyhow, bail};
 use supine_core::alerts::{AlertEvent, Criterion, FaultFlags, JointCriterion, Level};
 use supine_core::joint_exposure::{JointValues, packed_order};
-use supine_core::model::{JOINT_OUTPUT_COUNT, JointOutput, JointUnit};
+use supine_core::model::{JOINT_OUTPUT_COUNT, JointOutput};
 use supine_core::protocol::Telemetry;
 
 use super::csv_lines::CsvLines;
@@ -19,10 +19,13 @@ use super::excerpt::excerpt;
 use super::output::write_atomically;
 use super::wording::joint_alert_text;
 
-/// Header of the telemetry CSV. The first five columns are named as issue 5 and the
-/// recording format name them (`head_x`: predicted head acceleration, m/s^2, litter axes);
-/// the rest carry their units.
-pub const TELEMETRY_HEADER: &str = "sample,time_s,head_x,head_y,head_z,running_rms_x_m_s2,running_rms_y_m_s2,running_rms_z_m_s2,running_rms_vector_m_s2,vdv_m_s175,alert_level,fault_flags,valid";
+/// Header of the telemetry CSV: the telemetry record's fields (the wire's names,
+/// `docs/protocol.md`) with their units, `head_x_m_s2`: predicted head acceleration, litter
+/// axes.
+pub const TELEMETRY_HEADER: &str = "sample,time_s,head_x_m_s2,head_y_m_s2,head_z_m_s2,running_rms_x_m_s2,running_rms_y_m_s2,running_rms_z_m_s2,vector_running_rms_m_s2,vdv_m_s175,alert_level,fault_flags,valid";
+/// The header logs had before the head's columns carried their unit and the vector running
+/// rms its wire name: the same columns in the same order, still read.
+pub const OLD_TELEMETRY_HEADER: &str = "sample,time_s,head_x,head_y,head_z,running_rms_x_m_s2,running_rms_y_m_s2,running_rms_z_m_s2,running_rms_vector_m_s2,vdv_m_s175,alert_level,fault_flags,valid";
 /// The joint output columns' names for the outputs in `joint_mask` (bit `i` for
 /// [`JointOutput::ALL`]`[i]`), in the order the device reports them
 /// ([`packed_order`]), units in the names: `neck_x_m`, ..., `neck_ry_rad`.
@@ -31,15 +34,7 @@ pub fn joint_columns(joint_mask: u16) -> Vec<String> {
 }
 
 fn joint_column(output: JointOutput) -> String {
-    format!("{}_{}", output.name(), si_unit(output))
-}
-
-/// A joint output's SI unit as the CSVs name it: `m` or `rad`.
-fn si_unit(output: JointOutput) -> &'static str {
-    match output.unit() {
-        JointUnit::Metre => "m",
-        JointUnit::Radian => "rad",
-    }
+    format!("{}_{}", output.name(), output.unit().si_suffix())
 }
 
 /// The telemetry CSV's header for a device reporting the joint outputs of `joint_mask`:
@@ -232,12 +227,14 @@ impl<T> Iterator for CsvRecords<T> {
     }
 }
 
-/// The joint outputs a telemetry header names after [`TELEMETRY_HEADER`], as a mask, if
+/// The joint outputs a telemetry header names after [`TELEMETRY_HEADER`] (or
+/// [`OLD_TELEMETRY_HEADER`]), as a mask, if
 /// they are joint columns in the device's order ([`telemetry_header`] of that mask); `None`
 /// for any other header.
 pub fn joint_mask_of(header: &[&str]) -> Option<u16> {
     let base = TELEMETRY_HEADER.split(',').count();
-    if header.get(..base)?.join(",") != TELEMETRY_HEADER {
+    let named = header.get(..base)?.join(",");
+    if named != TELEMETRY_HEADER && named != OLD_TELEMETRY_HEADER {
         return None;
     }
     let mut mask = 0u16;
@@ -299,7 +296,7 @@ fn telemetry_record(cells: &[&str], at: &str, joint_count: usize) -> Result<Tele
             excerpt(cells[0])
         )
     })?;
-    let alert_level = level_from_name(cells[10]).ok_or_else(|| {
+    let alert_level = Level::from_name(cells[10]).ok_or_else(|| {
         anyhow!(
             "{at}, column alert_level: expected normal, advisory, warning or alarm, found {}",
             excerpt(cells[10])
@@ -352,13 +349,6 @@ fn joints_of(cells: &[&str], at: &str) -> Result<JointValues> {
     Ok(JointValues::packed(cells.len(), values))
 }
 
-/// The level named `name` (`normal`, `advisory`, `warning`, `alarm`).
-pub fn level_from_name(name: &str) -> Option<Level> {
-    [Level::Normal, Level::Advisory, Level::Warning, Level::Alarm]
-        .into_iter()
-        .find(|l| l.name() == name)
-}
-
 /// One row of an events CSV ([`EVENTS_HEADER`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct EventRow {
@@ -409,7 +399,11 @@ impl EventRow {
     pub fn to_line(&self) -> String {
         let (criterion, value, unit) = match (&self.criterion, &self.joint, self.joint_output()) {
             (Some(c), ..) => (c.name(), c.value().to_string(), c.unit()),
-            (_, Some(c), Some(o)) => (c.name(), c.value_m_or_rad().to_string(), si_unit(o)),
+            (_, Some(c), Some(o)) => (
+                c.name(),
+                c.value_m_or_rad().to_string(),
+                o.unit().si_suffix(),
+            ),
             _ => ("", String::new(), ""),
         };
         format!(
@@ -567,10 +561,10 @@ fn joint_from_cells(
             excerpt(other)
         ),
     };
-    if unit != si_unit(output) {
+    if unit != output.unit().si_suffix() {
         bail!(
             "{at}, column unit: expected {} for {output}, found {}",
-            si_unit(output),
+            output.unit().si_suffix(),
             excerpt(unit)
         );
     }
@@ -625,6 +619,11 @@ mod tests {
                 .expect("a row")
                 .ends_with(",warning,4,1,0.00015,-0.0125,0.00003")
         );
+        assert_eq!(read_telemetry(&path).expect("read"), vec![with_joints]);
+        // A log written before the head's columns carried their unit reads the same.
+        let old = text.replacen(TELEMETRY_HEADER, OLD_TELEMETRY_HEADER, 1);
+        assert_ne!(old, text);
+        std::fs::write(&path, old).expect("write");
         assert_eq!(read_telemetry(&path).expect("read"), vec![with_joints]);
         // Joint columns out of the device's order are not a telemetry header.
         let swapped = text.replace("neck_ry_rad,low_back_z_m", "low_back_z_m,neck_ry_rad");

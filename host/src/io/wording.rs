@@ -3,14 +3,12 @@
 //! and the demo alike.
 
 use supine_core::alerts::JointCriterion;
-use supine_core::model::{JointOutput, JointUnit};
+use supine_core::model::JointOutput;
 
-/// Display unit of a joint output and the factor from its SI value (m, rad) to it.
+/// Display unit of a joint output and the factor from its SI value (m, rad) to it
+/// ([`JointUnit::display`](supine_core::model::JointUnit::display)).
 pub fn display_unit(output: JointOutput) -> (&'static str, f64) {
-    match output.unit() {
-        JointUnit::Metre => ("mm", 1e3),
-        JointUnit::Radian => ("deg", 180.0 / core::f64::consts::PI),
-    }
+    output.unit().display()
 }
 
 /// A joint alert in words: `neck_x running-rms 3.100 mm raised`.

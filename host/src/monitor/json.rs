@@ -7,12 +7,13 @@ use std::io::Write;
 
 use anyhow::{Result, anyhow};
 use serde_json::{Value, json};
-use supine_core::alerts::{AlertEvent, Criterion};
-use supine_core::model::JointUnit;
+use supine_core::alerts::AlertEvent;
 use supine_core::pipeline::Telemetry;
 
 use super::state::{Monitor, Notice, fault_names};
 use super::view::{View, output_error};
+use crate::schema::event::EventCriterion;
+use crate::schema::shortest;
 
 /// One telemetry record as a JSON object, its time at `sample_rate_hz`.
 pub fn telemetry_json(t: &Telemetry, sample_rate_hz: f64, joint_mask: u16) -> Value {
@@ -52,8 +53,8 @@ pub fn event_json(e: &AlertEvent, sample_rate_hz: f64) -> Value {
                 "from": from.name(), "to": to.name(), "raised": to > from,
                 "criterion": criterion.name(),
             });
-            let (key, value) = criterion_value_json(&criterion);
-            event[key] = json!(shortest(value));
+            let (key, value) = EventCriterion::Exposure(criterion).value();
+            event[key] = json!(shortest(value as f32));
             event
         }
         AlertEvent::Fault { fault, active, .. } => json!({
@@ -65,39 +66,21 @@ pub fn event_json(e: &AlertEvent, sample_rate_hz: f64) -> Value {
                 "type": "event", "kind": "joint", "sample": sample, "time_s": time_s,
                 "raised": raised,
             });
-            if let Some((output, criterion)) = e.joint_criterion() {
+            if let Some(c @ EventCriterion::Joint(output, _)) = EventCriterion::of(e) {
                 event["output"] = json!(output.name());
-                event["criterion"] = json!(criterion.name());
-                let key = match output.unit() {
-                    JointUnit::Metre => "value_m",
-                    JointUnit::Radian => "value_rad",
-                };
-                event[key] = json!(shortest(criterion.value_m_or_rad()));
+                event["criterion"] = json!(c.name());
+                let (key, value) = c.value();
+                event[key] = json!(shortest(value as f32));
             }
             event
         }
     }
 }
 
-/// The f32's shortest decimal form as an f64 (`1.82`, not `1.8200000524520874`), as the
-/// CSV writes it: for numbers a person typed or reads (a height, a threshold's value).
-fn shortest(v: f32) -> f64 {
-    v.to_string().parse().unwrap_or(f64::NAN)
-}
-
 /// The patient a device's parameters were scaled to, under the keys of the mission
 /// report's `subject`: `{"height_m", "mass_kg"}`.
 pub fn subject_json(height_m: f32, mass_kg: f32) -> Value {
     json!({ "height_m": shortest(height_m), "mass_kg": shortest(mass_kg) })
-}
-
-/// The criterion's value under a key that carries its unit: `value_m_s2` (running rms) or
-/// `value_m_s175` (VDV).
-pub fn criterion_value_json(c: &Criterion) -> (&'static str, f32) {
-    match *c {
-        Criterion::RunningRms { value_m_s2 } => ("value_m_s2", value_m_s2),
-        Criterion::Vdv { value_m_s175 } => ("value_m_s175", value_m_s175),
-    }
 }
 
 /// The closing summary (what [`Monitor::summary`] says) as one JSON object.

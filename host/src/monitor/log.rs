@@ -28,6 +28,7 @@ use crate::io::monitor_session::{
 use crate::io::telemetry_csv::{
     EVENTS_HEADER, event_row, events_path, telemetry_header, telemetry_row,
 };
+use crate::schema::shortest;
 
 /// Longest time between flushes.
 pub const FLUSH_INTERVAL: Duration = Duration::from_secs(1);
@@ -95,11 +96,6 @@ pub struct MonitorLog {
     joint_mask: u16,
     /// Whether the telemetry file has its header yet.
     header_written: bool,
-}
-
-/// An f32 as the shortest decimal that reads back as it (1.82, not 1.8200000524520874).
-fn shortest(x: f32) -> f64 {
-    format!("{x}").parse().unwrap_or(f64::from(x))
 }
 
 /// The files a finished log left.

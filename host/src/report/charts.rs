@@ -3,7 +3,7 @@
 //! it is drawn, in [`crate::plot`].
 
 use anyhow::Result;
-use supine_core::alerts::AlertConfig;
+use supine_core::alerts::{AlertConfig, Level};
 use supine_core::exposure::combined_vdv_m_s175;
 
 use crate::plot::downsample::min_max;
@@ -11,7 +11,7 @@ use crate::plot::time_chart::{
     Band, Chart, LEVEL_COLORS, Line, Marker, PLOT_COLUMNS, alert_thresholds, y_range,
 };
 use crate::plot::{Panel, Rgb, Series, figure_svg};
-use crate::report::mission::{LEVEL_NAMES, Leg};
+use crate::report::mission::Leg;
 use crate::report::third_octave;
 
 /// Alternating shades of the legs.
@@ -186,11 +186,8 @@ pub fn running_rms(legs: &[Leg], config: &AlertConfig, layout: Layout) -> Chart 
         .map(|a| Marker {
             t_s: a.mission_time_s,
             y: a.running_rms_m_s2,
-            up: a.raise,
-            color: LEVEL_COLORS[LEVEL_NAMES
-                .iter()
-                .position(|n| a.event.ends_with(n))
-                .unwrap_or(0)],
+            up: a.raised,
+            color: LEVEL_COLORS[a.level.unwrap_or_default() as usize],
         })
         .collect();
     Chart {
@@ -323,7 +320,7 @@ pub fn levels(legs: &[Leg], layout: Layout) -> Chart {
         height_px: 220,
         bands: bands_for(legs, layout),
         lines,
-        y_tick_names: Some(LEVEL_NAMES.iter().map(|s| s.to_string()).collect()),
+        y_tick_names: Some(Level::ALL.iter().map(|l| l.to_string()).collect()),
         ..Chart::default()
     }
 }

@@ -1,7 +1,7 @@
 //! The device section's charts: the device's telemetry over the host's on the same
 //! samples. What each shows is decided here, how it is drawn in [`crate::plot::time_chart`].
 
-use supine_core::alerts::AlertConfig;
+use supine_core::alerts::{AlertConfig, Level};
 
 use crate::plot::Rgb;
 use crate::plot::time_chart::{Band, Chart, LEVEL_COLORS, Line, Marker, alert_thresholds, y_range};
@@ -246,12 +246,7 @@ pub fn levels(log: &DeviceLog, warmup_s: f64) -> Chart {
             ),
         ],
         markers: level_markers(log, |m| m.level as u8 as f64),
-        y_tick_names: Some(
-            ["normal", "advisory", "warning", "alarm"]
-                .iter()
-                .map(|s| s.to_string())
-                .collect(),
-        ),
+        y_tick_names: Some(Level::ALL.iter().map(|l| l.to_string()).collect()),
         ..Chart::default()
     }
 }

@@ -10,7 +10,7 @@ use supine_core::alerts::Level;
 use supine_core::protocol::Status;
 
 use crate::device::link::LinkStats;
-use crate::io::telemetry_csv::{EventRow, level_from_name};
+use crate::io::telemetry_csv::EventRow;
 use crate::plot::time_chart::{Band, Moment};
 use crate::report::device_series::DeviceSeries;
 use supine_core::protocol::Telemetry;
@@ -132,7 +132,7 @@ pub const COMPARED_VALUES: [&str; 9] = [
     "running_rms_x_m_s2",
     "running_rms_y_m_s2",
     "running_rms_z_m_s2",
-    "running_rms_vector_m_s2",
+    "vector_running_rms_m_s2",
     "vdv_m_s175",
     "alert_level",
     "fault_flags",
@@ -278,13 +278,13 @@ impl CheckBuilder {
             self.device_events += 1;
             if e.kind == "level" {
                 self.level_events += 1;
-                match level_from_name(&e.name) {
+                match Level::from_name(&e.name) {
                     Some(level) if e.raised => {
                         self.first_raise_s[level as usize].get_or_insert(e.time_s);
                     }
                     _ => {}
                 }
-                if e.name == "normal" {
+                if Level::from_name(&e.name) == Some(Level::Normal) {
                     self.cleared_at_s = Some(e.time_s);
                 }
             }

@@ -10,13 +10,14 @@
 //! incomplete anyway) counts as an infinite difference.
 
 use anyhow::Result;
+use supine_core::alerts::Level;
 use supine_core::blob::DeviceParams;
 use supine_core::model::ModelParams;
 use supine_core::pipeline::{BLOCK_LEN, PipelineOutput, PipelineState};
 use supine_core::protocol::Telemetry;
 
 use crate::exposure::reference::HeadF64;
-use crate::io::telemetry_csv::{EventRow, level_from_name};
+use crate::io::telemetry_csv::EventRow;
 use crate::plot::downsample::MinMax;
 use crate::plot::time_chart::{Band, Moment, PLOT_COLUMNS};
 use crate::report::device_check::{
@@ -203,7 +204,7 @@ fn mark(
             return true;
         }
         if e.sample == d.sample_index
-            && let Some(level) = level_from_name(&e.name)
+            && let Some(level) = Level::from_name(&e.name)
         {
             marks.push(LevelMark {
                 t_s: f64::from(e.sample) / fs,
@@ -226,7 +227,7 @@ mod tests {
         event_records, events_path, telemetry_records, write_events, write_telemetry,
     };
     use crate::report::device_check::Check;
-    use supine_core::alerts::{AlertEvent, Level};
+    use supine_core::alerts::AlertEvent;
     use supine_core::model::Preset;
 
     const FS_HZ: f64 = 100.0;
@@ -285,14 +286,14 @@ mod tests {
             highest_at_s: device_events
                 .iter()
                 .find(|e| {
-                    e.kind == "level" && e.raised && level_from_name(&e.name) == Some(highest)
+                    e.kind == "level" && e.raised && Level::from_name(&e.name) == Some(highest)
                 })
                 .map(|e| e.time_s),
             final_level: device.last().map_or(Level::Normal, |t| t.alert_level),
             cleared_at_s: device_events
                 .iter()
                 .rev()
-                .find(|e| e.kind == "level" && e.name == "normal")
+                .find(|e| e.kind == "level" && Level::from_name(&e.name) == Some(Level::Normal))
                 .map(|e| e.time_s),
             level_events: device_events.iter().filter(|e| e.kind == "level").count(),
             faults: device_events
@@ -452,7 +453,7 @@ mod tests {
                 t.vdv_m_s175 = f32::from_bits(t.vdv_m_s175.to_bits() - 1)
             }),
             ("running_rms_y_m_s2", |t| t.running_rms_m_s2[1] += 0.25),
-            ("running_rms_vector_m_s2", |t| {
+            ("vector_running_rms_m_s2", |t| {
                 t.vector_running_rms_m_s2 += 0.25
             }),
             ("alert_level", |t| {

@@ -8,7 +8,6 @@ use std::fmt::Write as _;
 use anyhow::Result;
 use supine_core::alerts::{AlertConfig, Level};
 
-use crate::io::telemetry_csv::level_from_name;
 use crate::report::device_charts;
 use crate::report::device_check::{Check, DeviceLog, difference, differing_text};
 use crate::report::markup::{escape, figure, tag};
@@ -115,7 +114,7 @@ fn events_table(h: &mut String, log: &DeviceLog) {
         );
     }
     for e in log.pass.device_events.iter().take(MAX_DEVICE_EVENT_ROWS) {
-        let cell = match (e.kind.as_str(), level_from_name(&e.name)) {
+        let cell = match (e.kind.as_str(), Level::from_name(&e.name)) {
             ("level", Some(l)) => format!(
                 "{} {}",
                 if e.raised { "raised to" } else { "lowered to" },

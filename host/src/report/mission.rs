@@ -15,7 +15,7 @@
 
 use anyhow::Result;
 use serde::Serialize;
-use supine_core::alerts::{AlertConfig, Criterion, Level};
+use supine_core::alerts::{AlertConfig, Level};
 use supine_core::exposure::{combined_rms_m_s2, combined_vdv_m_s175};
 use supine_core::model::JOINT_OUTPUT_COUNT;
 
@@ -28,14 +28,13 @@ use crate::exposure::reported_values::AxisReport;
 use crate::exposure::timed_event::TimedEvent;
 use crate::io::params_file::ParamFile;
 use crate::io::ride_rows::RideSource;
-use crate::io::telemetry_csv::level_from_name;
-use crate::io::wording::display_unit;
 pub use crate::report::level_time::TimeAtLevel;
 use crate::report::mission_joints::{LegJoints, MissionJoint, mission_joints};
 use crate::report::route::{PlacedEvent, Route, RouteBuilder};
 use crate::report::spectrum::{AxisSpectrum, LegSpectra};
 use crate::report::third_octave::{HeadBand, head_weighted_bands};
 use crate::ride::quality::DataQuality;
+use crate::schema::event::{EventCriterion, criterion_fields};
 
 /// Rate of the time series kept for the charts, Hz: the running rms has a 1 s time
 /// constant and the VDV only grows, so 10 points a second draw them exactly enough.
@@ -48,28 +47,28 @@ pub const MAX_CHART_POINTS: usize = 1 << 14;
 /// The projection's window: the dose rate of the last this many seconds of the mission
 /// (or of the last leg's evaluated time, if shorter), s.
 pub const PROJECTION_WINDOW_S: f64 = 300.0;
-/// Level names in order.
-pub const LEVEL_NAMES: [&str; 4] = ["normal", "advisory", "warning", "alarm"];
 
-/// An alert event with what raised it.
+/// An alert event with what raised it: the exposure's timeline entry ([`TimedEvent`]'s
+/// names) placed in the mission, with the vector values then.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct AlertRow {
     /// Time from the leg's start, s.
     pub leg_time_s: f64,
     /// Time from the mission's start, s.
     pub mission_time_s: f64,
-    /// `level` or `fault`.
+    /// `level`, `fault` or `joint`.
     pub kind: &'static str,
     /// What happened (`normal -> warning`, `saturated raised`).
     pub event: String,
+    /// The level after a level change (absent for faults and joint alerts).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub level: Option<Level>,
     /// The event raises an alert.
-    pub raise: bool,
-    /// What raised it, as the device's pipeline names it in the event: `running rms` or
-    /// `VDV` (a lowered level: `running rms`, the only one that falls), or `sensor fault`.
-    pub criterion: &'static str,
-    /// The criterion's value at the event, m/s^2 (running rms) or m/s^1.75 (VDV); for a
-    /// fault, the running rms.
-    pub value: f64,
+    pub raised: bool,
+    /// What changed the alert, with its value then, as the device's pipeline names it in
+    /// the event (absent for a sensor fault): `criterion` and `value_m_s2`, ...
+    #[serde(flatten, serialize_with = "criterion_fields")]
+    pub criterion: Option<EventCriterion>,
     /// Vector running rms at the event, m/s^2.
     pub running_rms_m_s2: f64,
     /// Vector VDV at the event, m/s^1.75.
@@ -120,7 +119,7 @@ pub struct Leg {
     /// Seconds at each level.
     pub time_at_level_s: TimeAtLevel,
     /// Highest level reached.
-    pub max_level: &'static str,
+    pub max_level: Level,
     /// The predicted neck and lower-back motion (as `supine exposure --json` gives it).
     pub joints: Vec<JointReport>,
     /// The ride's data-quality account (a logger's file; null for a recording), as
@@ -171,7 +170,7 @@ pub struct Projection {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ProjectedThreshold {
     /// `advisory`, `warning` or `alarm`.
-    pub level: &'static str,
+    pub level: Level,
     /// The VDV threshold, m/s^1.75.
     pub vdv_m_s175: f64,
     /// Seconds after the end at which it is reached; 0 if already, null if never.
@@ -199,7 +198,7 @@ pub struct MissionTotals {
     /// Seconds at each level, summed over the legs.
     pub time_at_level_s: TimeAtLevel,
     /// Highest level of any leg.
-    pub max_level: &'static str,
+    pub max_level: Level,
     /// The projection at the recent rate.
     pub projection: Projection,
     /// The neck and lower-back motion over the legs.
@@ -261,19 +260,6 @@ pub fn evaluate_leg(
             Step::Alert(e) => {
                 if alerts.len() < MAX_LISTED_EVENTS {
                     let sample = e.at_sample();
-                    let (criterion, value) = match e.criterion() {
-                        Some(c @ Criterion::RunningRms { .. }) => {
-                            ("running rms", f64::from(c.value()))
-                        }
-                        Some(c @ Criterion::Vdv { .. }) => ("VDV", f64::from(c.value())),
-                        None => match e.joint_criterion() {
-                            Some((output, c)) => (
-                                "joint motion",
-                                display_unit(output).1 * f64::from(c.value_m_or_rad()),
-                            ),
-                            None => ("sensor fault", 0.0),
-                        },
-                    };
                     let timed = TimedEvent::new(e, 0.0, fs);
                     if route.is_some() {
                         let level = match e {
@@ -284,7 +270,7 @@ pub fn evaluate_leg(
                             sample as f64 / fs,
                             timed.event.clone(),
                             level,
-                            timed.raise,
+                            timed.raised,
                         ));
                     }
                     alerts.push(AlertRow {
@@ -292,9 +278,9 @@ pub fn evaluate_leg(
                         mission_time_s: start_s + sample as f64 / fs,
                         kind: timed.kind,
                         event: timed.event,
-                        raise: timed.raise,
-                        criterion,
-                        value,
+                        level: timed.level,
+                        raised: timed.raised,
+                        criterion: timed.criterion,
                         running_rms_m_s2: 0.0,
                         vdv_m_s175: 0.0,
                     });
@@ -314,10 +300,6 @@ pub fn evaluate_leg(
                 for row in &mut alerts[listed - awaiting..] {
                     row.running_rms_m_s2 = rms;
                     row.vdv_m_s175 = vdv;
-                    if row.criterion == "sensor fault" {
-                        // A fault's value: the running rms then.
-                        row.value = rms;
-                    }
                 }
                 awaiting = 0;
                 if let (Some(builder), Some(times), Some(track)) = (&mut route, &mut times, track) {
@@ -519,11 +501,7 @@ pub fn totals(legs: &[Leg], config: &AlertConfig) -> MissionTotals {
             *t += l;
         }
     }
-    let max_level = legs
-        .iter()
-        .filter_map(|l| LEVEL_NAMES.iter().position(|n| *n == l.max_level))
-        .max()
-        .unwrap_or(0);
+    let max_level = legs.iter().map(|l| l.max_level).max().unwrap_or_default();
     let mission_vdv = combined_vdv_m_s175(&vdv);
     MissionTotals {
         duration_s: legs.iter().map(|l| l.duration_s).sum(),
@@ -533,7 +511,7 @@ pub fn totals(legs: &[Leg], config: &AlertConfig) -> MissionTotals {
             vdv_m_s175: mission_vdv,
         },
         time_at_level_s: TimeAtLevel::from_array(at_level),
-        max_level: LEVEL_NAMES[max_level],
+        max_level,
         projection: projection(legs.last(), mission_vdv, config),
         joints: mission_joints(
             &legs
@@ -555,8 +533,8 @@ fn projection(last: Option<&Leg>, mission_vdv: f64, config: &AlertConfig) -> Pro
         vdv4_rate_per_s: rate,
     } = last.map(|leg| leg.recent_dose).unwrap_or_default();
     let dose = mission_vdv.powi(4);
-    let thresholds = LEVEL_NAMES[1..]
-        .iter()
+    let thresholds = Level::RAISED
+        .into_iter()
         .zip(config.vdv_m_s175)
         .map(|(level, thr)| {
             let thr = f64::from(thr);
@@ -579,19 +557,6 @@ fn projection(last: Option<&Leg>, mission_vdv: f64, config: &AlertConfig) -> Pro
         vdv4_rate_per_s: rate,
         thresholds,
     }
-}
-
-/// The level named `name` (normal for an unknown name).
-pub fn level_named(name: &str) -> Level {
-    level_from_name(name).unwrap_or_default()
-}
-
-/// The core's level for a name.
-pub fn level_of(name: &str) -> Level {
-    Level::RAISED
-        .into_iter()
-        .find(|l| l.name() == name)
-        .unwrap_or(Level::Normal)
 }
 
 #[cfg(test)]

@@ -220,7 +220,7 @@ fn compare_rides(a: &Leg, b: &Leg) -> Comparison {
     }
     let at_a = a.time_at_level_s.as_array();
     let at_b = b.time_at_level_s.as_array();
-    for (i, name) in mission::LEVEL_NAMES.iter().enumerate() {
+    for (i, name) in supine_core::alerts::Level::ALL.iter().enumerate() {
         // More time at normal is better; at any raised level, worse.
         push_as(format!("time at {name}, s"), at_a[i], at_b[i], Some(i > 0));
     }

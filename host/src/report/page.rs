@@ -6,17 +6,18 @@
 use std::fmt::Write as _;
 
 use anyhow::Result;
-use supine_core::alerts::{AlertConfig, Level};
+use supine_core::alerts::{AlertConfig, Criterion, Level};
 
 use crate::exposure::reported_values::AxisReport;
 use crate::report::device_check::DeviceLog;
 use crate::report::markup::{escape, tag};
-use crate::report::mission::{LEVEL_NAMES, Leg, level_named};
+use crate::report::mission::Leg;
 use crate::report::{Comparison, MissionReport};
 use crate::report::{
     band_section, calibration_section, charts, device_section, joints_section, quality_section,
     route_section,
 };
+use crate::schema::event::EventCriterion;
 
 /// Most alert events listed per leg (the JSON has them all).
 pub const MAX_EVENT_ROWS: usize = 60;
@@ -147,15 +148,25 @@ pub fn render(report: &MissionReport, device: Option<&DeviceLog>) -> Result<Stri
     ] {
         let _ = writeln!(h, "<figure>{}</figure>", chart.to_svg()?);
     }
-    h.push_str(if report.comparison.is_some() {
-        "<p>Both rides are drawn from their own start, ride A solid, ride B dashed. Each \
-         starts from a fresh device state, with its own 5 s warm-up of the weighting \
-         filters.</p>\n"
-    } else {
-        "<p>The legs are shaded and named along one time axis. Each leg starts from a fresh \
-         device state, so every leg has its own 5 s warm-up of the weighting filters; the \
-         mission's VDV adds the legs' fourth powers.</p>\n"
-    });
+    // Every leg runs with the same parameter file, so the same warm-up.
+    let warmup_s = legs.first().map_or(0.0, |leg| leg.exposure.warmup_s);
+    let _ = writeln!(
+        h,
+        "{}",
+        if report.comparison.is_some() {
+            format!(
+                "<p>Both rides are drawn from their own start, ride A solid, ride B dashed. \
+                 Each starts from a fresh device state, with its own {warmup_s} s warm-up of \
+                 the weighting filters.</p>"
+            )
+        } else {
+            format!(
+                "<p>The legs are shaded and named along one time axis. Each leg starts from a \
+                 fresh device state, so every leg has its own {warmup_s} s warm-up of the \
+                 weighting filters; the mission's VDV adds the legs' fourth powers.</p>"
+            )
+        }
+    );
     route_section::section(&mut h, legs, config)?;
     joints_section::section(&mut h, legs, &report.mission.joints, layout)?;
     for leg in legs {
@@ -214,15 +225,15 @@ fn mission(h: &mut String, report: &MissionReport) {
         "<div class=\"verdict lvl-{0}\"><div class=\"big\">Highest alert level: {1}</div>\
          <p>Mission VDV {2:.3} m/s<sup>1.75</sup> (the legs combined as (&Sigma; VDV<sub>i</sub><sup>4</sup>)<sup>1/4</sup>); \
          rms {3:.3} m/s<sup>2</sup> (energy-equivalent over the evaluated time); largest MTVV {4:.3} m/s<sup>2</sup>.</p></div>",
-        level_named(m.max_level).name(),
-        tag(level_named(m.max_level)),
+        m.max_level.name(),
+        tag(m.max_level),
         m.vector.vdv_m_s175,
         m.vector.rms_m_s2,
         m.vector.mtvv_m_s2
     );
     h.push_str("<h2>Mission</h2>\n<table><tr><th>leg</th><th>duration</th><th>rms, m/s<sup>2</sup></th><th>MTVV, m/s<sup>2</sup></th><th>VDV, m/s<sup>1.75</sup></th><th>peak, m/s<sup>2</sup></th><th>crest</th>");
-    for name in LEVEL_NAMES {
-        let _ = write!(h, "<th>at {name}</th>");
+    for level in Level::ALL {
+        let _ = write!(h, "<th>at {level}</th>");
     }
     h.push_str("<th>highest</th></tr>\n");
     for leg in &report.legs {
@@ -241,7 +252,7 @@ fn mission(h: &mut String, report: &MissionReport) {
         for t in leg.time_at_level_s.as_array() {
             let _ = write!(h, "<td>{}</td>", duration(t));
         }
-        let _ = writeln!(h, "<td>{}</td></tr>", tag(level_named(leg.max_level)));
+        let _ = writeln!(h, "<td>{}</td></tr>", tag(leg.max_level));
     }
     let _ = write!(
         h,
@@ -254,7 +265,7 @@ fn mission(h: &mut String, report: &MissionReport) {
     for t in m.time_at_level_s.as_array() {
         let _ = write!(h, "<th>{}</th>", duration(t));
     }
-    let _ = writeln!(h, "<th>{}</th></tr></table>", tag(level_named(m.max_level)));
+    let _ = writeln!(h, "<th>{}</th></tr></table>", tag(m.max_level));
     let p = &m.projection;
     let _ = write!(
         h,
@@ -271,7 +282,7 @@ fn mission(h: &mut String, report: &MissionReport) {
         let _ = write!(
             h,
             "<tr><td>{}</td><td>{:.2}</td><td class=\"text\">{when}</td></tr>",
-            tag(level_named(t.level)),
+            tag(t.level),
             t.vdv_m_s175
         );
     }
@@ -402,8 +413,9 @@ fn leg_section(h: &mut String, leg: &Leg, compared: bool) -> Result<()> {
                 "<tr>{when}<td class=\"text\">{} {}</td><td class=\"text\">{}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td></tr>",
                 a.kind,
                 escape(&a.event),
-                a.criterion,
-                a.value,
+                criterion_words(a.criterion),
+                // A fault has no criterion: its row shows the running rms then.
+                a.criterion.map_or(a.running_rms_m_s2, |c| c.value().1),
                 a.running_rms_m_s2,
                 a.vdv_m_s175
             );
@@ -452,6 +464,16 @@ fn third_octave_table(h: &mut String, leg: &Leg) {
         );
     }
     h.push_str("</table>\n");
+}
+
+/// What changed an alert, in the alert table's words.
+fn criterion_words(c: Option<EventCriterion>) -> &'static str {
+    match c {
+        Some(EventCriterion::Exposure(Criterion::RunningRms { .. })) => "running rms",
+        Some(EventCriterion::Exposure(Criterion::Vdv { .. })) => "VDV",
+        Some(EventCriterion::Joint(..)) => "joint motion",
+        None => "sensor fault",
+    }
 }
 
 #[cfg(test)]

@@ -4,13 +4,13 @@
 //! against speed. How they are drawn is [`crate::plot::map`] and
 //! [`crate::plot::scatter`].
 
-use supine_core::alerts::AlertConfig;
+use supine_core::alerts::{AlertConfig, Level};
 
 use crate::plot::Rgb;
 use crate::plot::map::{Map, Marker, Piece, Shape};
 use crate::plot::scatter::{Group, Scatter};
 use crate::plot::time_chart::{LEVEL_COLORS, alert_thresholds};
-use crate::report::mission::{LEVEL_NAMES, Leg};
+use crate::report::mission::Leg;
 use crate::ride::position::{centre_deg, project_m};
 
 /// The legs' casing colours, in turn.
@@ -113,7 +113,7 @@ pub fn route_map(legs: &[Leg], config: &AlertConfig) -> Option<Map> {
                     format!(
                         "{:.0} s {}",
                         leg.start_s + e.leg_time_s,
-                        LEVEL_NAMES[usize::from(e.level.unwrap_or(0).min(3))]
+                        Level::ALL[usize::from(e.level.unwrap_or(0).min(3))].name()
                     )
                 } else {
                     String::new()

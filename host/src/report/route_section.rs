@@ -6,10 +6,10 @@
 use std::fmt::Write as _;
 
 use anyhow::Result;
-use supine_core::alerts::AlertConfig;
+use supine_core::alerts::{AlertConfig, Level};
 
 use crate::report::markup::escape;
-use crate::report::mission::{LEVEL_NAMES, Leg};
+use crate::report::mission::Leg;
 use crate::report::route::{SEGMENT_LENGTH_M, Segment};
 use crate::report::route_charts::{rms_against_speed, route_map};
 use crate::ride::position::{MAX_FIX_AGE_S, MAX_PLAUSIBLE_SPEED_M_S, POOR_ACCURACY_M};
@@ -145,7 +145,7 @@ fn worst_table(h: &mut String, legs: &[Leg]) {
             s.rms_m_s2,
             s.vdv_m_s175,
             s.max_running_rms_m_s2,
-            LEVEL_NAMES[highest]
+            Level::ALL[highest].name()
         );
     }
     h.push_str("</table>\n");

@@ -34,8 +34,10 @@ use crate::model::JOINT_OUTPUT_COUNT;
 use crate::sample_rate::SampleRate;
 
 /// What a joint alert is about, and its value when it changed (m for a translation, rad
-/// for a rotation: the output's own unit).
+/// for a rotation: the output's own unit). Serde names the variants as
+/// [`JointCriterion::name`] does; on the wire (postcard) a variant is its index.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum JointCriterion {
     /// The output's running rms (tau as the head's).

@@ -72,6 +72,26 @@ pub enum JointUnit {
     Radian,
 }
 
+impl JointUnit {
+    /// The SI unit as a column or key suffix names it: `m` or `rad` (the telemetry CSV's
+    /// `neck_x_m`, the wire's values).
+    pub const fn si_suffix(self) -> &'static str {
+        match self {
+            JointUnit::Metre => "m",
+            JointUnit::Radian => "rad",
+        }
+    }
+
+    /// The unit a person reads, as a suffix names it, and the factor from the SI value to
+    /// it: `mm` (1e3) or `deg` (180 / pi).
+    pub const fn display(self) -> (&'static str, f64) {
+        match self {
+            JointUnit::Metre => ("mm", 1e3),
+            JointUnit::Radian => ("deg", 180.0 / core::f64::consts::PI),
+        }
+    }
+}
+
 /// One joint output: a joint and a component of its motion.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct JointOutput {
