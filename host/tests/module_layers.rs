@@ -25,7 +25,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     (
         "demo",
         &[
-            "report", "monitor", "exposure", "device", "plot", "io", "schema",
+            "report", "monitor", "exposure", "device", "plot", "io", "schema", "ride",
         ],
     ),
     (
@@ -59,15 +59,18 @@ const REPORT_LAYERS: &[&[&str]] = &[
         "device_series",
         "monitor_log",
         "third_octave",
+        "route",
+        "level_time",
         "calibration",
     ],
-    &["charts", "device_charts"],
+    &["charts", "device_charts", "route_charts"],
     &[
         "page",
         "joints_section",
         "band_section",
         "device_section",
         "quality_section",
+        "route_section",
         "calibration_section",
     ],
 ];

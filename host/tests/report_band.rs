@@ -50,6 +50,7 @@ fn args(inputs: &[PathBuf], model: ModelSource, out: &Path, draws: Option<usize>
     report::Args {
         input: inputs.to_vec(),
         ride: RideInputArgs::default(),
+        track: Default::default(),
         model,
         subject: SubjectArgs {
             height_m: None,

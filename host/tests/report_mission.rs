@@ -41,6 +41,7 @@ fn report_json(inputs: &[PathBuf], out: &Path, height_mass: Option<(f64, f64)>) 
     let args = report::Args {
         input: inputs.to_vec(),
         ride: RideInputArgs::default(),
+        track: Default::default(),
         model: preset(),
         subject: SubjectArgs {
             height_m: height_mass.map(|h| h.0),
@@ -301,6 +302,7 @@ fn a_ride_with_gravity_is_refused_by_the_report_too() {
     let args = report::Args {
         input: vec![raw],
         ride: RideInputArgs::default(),
+        track: Default::default(),
         model: preset(),
         subject: SubjectArgs::default(),
         out: dir.path().join("out"),

@@ -310,7 +310,7 @@ impl Serialize for SensorCalibration {
 impl<'de> Deserialize<'de> for SensorCalibration {
     fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
         struct Record;
-        impl serde::de::Visitor<'_> for Record {
+        impl<'de> serde::de::Visitor<'de> for Record {
             type Value = SensorCalibration;
             fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
                 f.write_str("a calibration record of 46 bytes")
@@ -318,6 +318,23 @@ impl<'de> Deserialize<'de> for SensorCalibration {
             fn visit_bytes<E: serde::de::Error>(self, bytes: &[u8]) -> Result<Self::Value, E> {
                 SensorCalibration::from_bytes(bytes)
                     .ok_or_else(|| E::invalid_value(serde::de::Unexpected::Bytes(bytes), &self))
+            }
+            /// Formats without a byte string (JSON: a monitor session's file) write the
+            /// record as a list of its bytes.
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                mut seq: A,
+            ) -> Result<Self::Value, A::Error> {
+                let mut bytes = [0u8; ENCODED_LEN];
+                let mut n = 0;
+                while let Some(byte) = seq.next_element::<u8>()? {
+                    if n == ENCODED_LEN {
+                        return Err(serde::de::Error::invalid_length(n + 1, &self));
+                    }
+                    bytes[n] = byte;
+                    n += 1;
+                }
+                self.visit_bytes(&bytes[..n])
             }
         }
         deserializer.deserialize_bytes(Record)

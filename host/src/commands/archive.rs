@@ -16,7 +16,7 @@ use crate::archive::{fhir, fleet_html};
 use crate::commands::report::mission_report;
 use crate::io::output::{write_all_atomically, write_atomically};
 use crate::io::params_file::ModelSource;
-use crate::io::ride_input::RideInputArgs;
+use crate::io::ride_input::{RideInputArgs, TrackArgs};
 use crate::io::subject_args::SubjectArgs;
 
 /// Arguments of `supine archive`.
@@ -127,6 +127,9 @@ pub struct AddArgs {
     /// How to read the rides.
     #[command(flatten)]
     pub ride: RideInputArgs,
+    /// Where each ride happened (its road segments are kept for the fleet view's map).
+    #[command(flatten)]
+    pub track: TrackArgs,
     /// The model parameters.
     #[command(flatten)]
     pub model: ModelSource,
@@ -257,7 +260,7 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
         Command::Add(a) => {
             let meta = a.meta.resolve()?;
             // A monitor log is one leg (its input stream), hashed as the log file itself.
-            let (_, _, report) = mission_report(&a.input, &a.ride, &a.model, &a.subject, false)?;
+            let (_, _, report) = mission_report(&a.input, &a.ride, &a.track, &a.model, &a.subject, false)?;
             let rides = a
                 .input
                 .iter()

@@ -10,7 +10,7 @@ use anyhow::{Context as _, Result, anyhow, bail};
 use crate::commands::band_args::{BandArgs, band_threads};
 use crate::io::output::write_atomically;
 use crate::io::params_file::{ModelSource, ParamFile};
-use crate::io::ride_input::RideInputArgs;
+use crate::io::ride_input::{RideInputArgs, TrackArgs};
 use crate::io::stdout::stdout_error;
 use crate::io::subject_args::SubjectArgs;
 use crate::io::wording::count;
@@ -28,6 +28,9 @@ pub struct Args {
     /// How to read the rides (another logger's columns and units, gravity).
     #[command(flatten)]
     pub ride: RideInputArgs,
+    /// Where each ride happened (a GPX or location file per ride).
+    #[command(flatten)]
+    pub track: TrackArgs,
     /// The model parameters (and optional `[device]` table).
     #[command(flatten)]
     pub model: ModelSource,
@@ -88,6 +91,7 @@ impl ReportInputs {
 pub fn mission_report(
     inputs: &[PathBuf],
     ride: &RideInputArgs,
+    tracks: &TrackArgs,
     model: &ModelSource,
     subject: &SubjectArgs,
     compare: bool,
@@ -98,7 +102,7 @@ pub fn mission_report(
     let found = ReportInputs::of(inputs, &file)?;
     let mut built = report::build(
         &found.rides,
-        ride.opener(frame),
+        ride.opener_with_tracks(frame, tracks, &found.rides)?,
         &file,
         &model.model_name(),
         compare,
@@ -128,17 +132,18 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
     let (file, found, mut report) = mission_report(
         &args.input,
         &args.ride,
+        &args.track,
         &args.model,
         &args.subject,
         args.compare,
     )?;
     let band = args.band.request(&args.model, &file)?;
     let frame = file.device.unwrap_or_default().sensor_frame();
-    let rides = args.ride.opener(frame);
     let ReportInputs {
         logged,
         rides: inputs,
     } = found;
+    let rides = args.ride.opener_with_tracks(frame, &args.track, &inputs)?;
     let device = match &logged {
         Some((log, session)) => {
             let ride = args.ride.open(&session.ride, &frame)?;

@@ -4,12 +4,19 @@
 
 use std::path::PathBuf;
 
-use anyhow::Result;
+use anyhow::{Result, bail};
 
 use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
 use crate::demo::demo_ride::{DemoProfile, make};
+use crate::demo::demo_track::{START_DEG, track_from};
 use crate::exposure::ride::write_ride;
+use crate::io::track_file::write_gpx;
+use crate::ride::position::out_of_range;
+
+/// The time of a written track's first point (a GPX point needs a date; the report
+/// joins the track by time from its first point).
+const TRACK_START: time::OffsetDateTime = time::macros::datetime!(2026-01-01 08:00 UTC);
 
 /// Arguments of `supine ride`.
 #[derive(Debug, clap::Args)]
@@ -34,9 +41,34 @@ pub struct Args {
     /// Where to write the recording (`time_s,platform_x,platform_y,platform_z`).
     #[arg(long, value_name = "RIDE.csv")]
     pub out: PathBuf,
+    /// Also write where the ride happened, as a GPX 1.1 track (a fix a second on a
+    /// plausible road, slower on the rough stretch), for `supine report --track`.
+    #[arg(long, value_name = "TRACK.gpx")]
+    pub track_out: Option<PathBuf>,
+    /// Where the written track starts, latitude and longitude in degrees (a mission's
+    /// next leg starts where the last ended).
+    #[arg(long, value_name = "LAT,LON", requires = "track_out", value_parser = parse_lat_lon, allow_hyphen_values = true)]
+    pub track_from: Option<(f64, f64)>,
     /// Print the ride's summary as JSON.
     #[command(flatten)]
     pub json: JsonFlag,
+}
+
+/// `LAT,LON` in degrees, each within its range.
+fn parse_lat_lon(text: &str) -> Result<(f64, f64), String> {
+    let parsed = text
+        .split_once(',')
+        .and_then(|(a, b)| Some((a.trim().parse::<f64>().ok()?, b.trim().parse::<f64>().ok()?)));
+    let Some((lat, lon)) = parsed else {
+        return Err(format!(
+            "expected LAT,LON in degrees (47.95,11.30), found {}",
+            crate::io::excerpt::excerpt(text)
+        ));
+    };
+    match out_of_range(lat, lon) {
+        Some(why) => Err(why),
+        None => Ok((lat, lon)),
+    }
 }
 
 /// Generates and writes the ride, with a one-line summary on standard error (or JSON on
@@ -44,7 +76,17 @@ pub struct Args {
 pub fn run(args: &Args) -> Result<()> {
     let made = make(args.profile, args.duration_s, args.fs_hz, args.seed)?;
     let ride = &made.ride;
+    let fixes = track_from(&made, args.track_from.unwrap_or(START_DEG));
+    if args.track_out.is_some() && fixes.is_empty() {
+        bail!(
+            "--track-out: the {} profile goes nowhere: expected a ride on a road or in the air",
+            args.profile.name()
+        );
+    }
     write_ride(&args.out, ride)?;
+    if let Some(path) = &args.track_out {
+        write_gpx(path, &fixes, TRACK_START)?;
+    }
     let rms = ride.rms_m_s2();
     if args.json.json {
         return json_output::print(&serde_json::json!({
@@ -58,6 +100,7 @@ pub fn run(args: &Args) -> Result<()> {
             "vertical_crest_factor": ride.vertical_crest_factor(),
             "shocks": made.shocks.len(),
             "segments": made.segments,
+            "track_out": args.track_out,
         }));
     }
     eprintln!(

@@ -2,7 +2,7 @@
 //!
 //! Steps, each announced on one line: the firmware image (built into the tool, or
 //! `--firmware`); make a ride
-//! ([`demo_ride`]); place the paper litter-board parameters in QEMU's PARAMS region (the
+//! ([`demo_ride`], on the route of [`demo_track`], which the report's map draws); place the paper litter-board parameters in QEMU's PARAMS region (the
 //! region image `supine flash` makes); run the image in QEMU with the ride streamed over
 //! its UART, followed live by the monitor ([`crate::monitor`]) which logs the device's
 //! telemetry and events to CSV; run the host's own computation on the same samples
@@ -20,6 +20,7 @@
 
 pub mod data;
 pub mod demo_ride;
+pub mod demo_track;
 pub mod summary;
 
 use std::path::{Path, PathBuf};
@@ -40,6 +41,7 @@ use crate::io::monitor_session::{input_path, session_path};
 use crate::io::output_folder::{self, OutputFolder};
 use crate::io::params_file::{self, DeviceSection, ParamFile};
 use crate::io::recording::read_input;
+use crate::io::ride_rows::{OpenRide, RideSource};
 use crate::io::subject_args::SubjectArgs;
 use crate::io::telemetry_csv::{event_records, telemetry_records, write_events, write_telemetry};
 use crate::monitor::log::MonitorLog;
@@ -52,6 +54,7 @@ use crate::report::device_check::PassResult;
 use crate::report::device_check::{DeviceLog, DeviceRun};
 use crate::report::device_pass::{self, Session};
 use crate::report::{self, MissionReport, page};
+use crate::ride::position::Track;
 use data::{DemoData, RunInfo};
 use demo_ride::{DemoProfile, DemoRide};
 use summary::Summary;
@@ -296,9 +299,15 @@ fn run_in(
     let (pass, session) = device_pass(&params, &file, &qemu_run.samples, files)?;
 
     steps.start("report", &format!("report: {}", files.report.display()));
+    let track = demo_track::track(&ride);
     let report = report::build(
         std::slice::from_ref(&files.ride),
-        read_input,
+        WithTrack {
+            track: (!track.is_empty())
+                .then(|| Track::new(track, "the demo's route"))
+                .transpose()
+                .map_err(|e| anyhow::anyhow!(e))?,
+        },
         &file,
         &config.model_name,
         false,
@@ -322,6 +331,22 @@ fn run_in(
         summary,
         report: files.report.clone(),
     })
+}
+
+/// The demo's ride as the report opens it: the file read whole, placed on the route.
+struct WithTrack {
+    track: Option<Track>,
+}
+
+impl OpenRide for WithTrack {
+    fn open_ride(&self, path: &Path) -> Result<RideSource> {
+        let (recording, layout) = read_input(path)?;
+        let source = RideSource::from_recording(recording, layout);
+        match &self.track {
+            Some(track) => source.with_track(track.clone()),
+            None => Ok(source),
+        }
+    }
 }
 
 /// Claims the output folder (refused if it holds a user's files, see

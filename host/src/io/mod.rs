@@ -14,6 +14,7 @@
 //! - [`recording`]: the recording CSV (13 columns, or the platform columns of a ride).
 //! - [`ride_input`]: a ride from any logger (`--columns`, units, gravity), for exposure and report.
 //! - [`ride_rows`]: a checked ride read row by row, whatever its length (and other loggers' rows).
+//! - [`track_file`]: position tracks: GPX, phone apps' location files, a ride's own columns.
 //! - [`subject_args`]: `--height-m`, `--mass-kg`, the patient the model is scaled to.
 //! - [`h_csv`]: the transmissibility CSV of `supine model` and `supine transmissibility`.
 //! - [`telemetry_csv`]: a device's telemetry and alert events as CSV (replay, monitor, demo).
@@ -41,5 +42,6 @@ pub mod stdout;
 pub mod subject_args;
 pub mod telemetry_csv;
 pub mod text_position;
+pub mod track_file;
 pub mod tumble_csv;
 pub mod wording;

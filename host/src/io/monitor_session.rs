@@ -146,4 +146,19 @@ mod tests {
             Path::new("/tmp/run/session1.session.json")
         );
     }
+
+    /// The device's status carries its calibration record, a byte string that JSON
+    /// writes as a list of numbers: the session file must read it back.
+    #[test]
+    fn a_calibration_record_written_as_json_reads_back() {
+        use supine_core::calibration::SensorCalibration;
+        let mut record = SensorCalibration::DATASHEET;
+        record.interval_months = 6;
+        let text = serde_json::to_string(&record).unwrap();
+        assert!(text.starts_with('['), "{text}");
+        let back: SensorCalibration = serde_json::from_str(&text).unwrap();
+        assert_eq!(back, record);
+        let long = text.replacen('[', "[0,", 1);
+        assert!(serde_json::from_str::<SensorCalibration>(&long).is_err());
+    }
 }

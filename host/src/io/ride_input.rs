@@ -22,7 +22,7 @@
 //! The project's full recording (13 columns) is read as before ([`PlatformStream`]).
 
 use std::io::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Result, anyhow, bail};
 use supine_core::calibration::SensorFrame;
@@ -39,6 +39,7 @@ pub use crate::io::ride_rows::{AccelUnit, ColumnNames, TimeUnit};
 use crate::io::ride_rows::{
     ForeignFormat, OpenRide, RideSource, WindowedRows, listed_fields, read_header,
 };
+use crate::io::track_file::{read_position_columns, read_track};
 use crate::ride::conditioned::{Conditioned, Conditioning};
 use crate::ride::formats::recognize;
 use crate::ride::level::{Levelling, angles_rad, level_by_mean};
@@ -176,6 +177,7 @@ impl RideInputArgs {
             name: known.name.to_string(),
             columns: ColumnNames {
                 names: known.columns.map(String::from),
+                positions: None,
             },
             time_unit: time_unit(known.time_unit),
             units: units(known.units),
@@ -331,9 +333,42 @@ impl RideInputArgs {
         Ok((recording, source.layout()))
     }
 
-    /// The rides as `report` opens them: row by row, with these options and `frame`.
+    /// The rides as they are opened row by row, with these options and `frame`, each
+    /// with the track of its own position columns, if any.
     pub fn opener(&self, frame: SensorFrame) -> RideOpener<'_> {
-        RideOpener { args: self, frame }
+        static NO_TRACKS: TrackArgs = TrackArgs {
+            tracks: Vec::new(),
+            track_offset_s: 0.0,
+        };
+        RideOpener {
+            args: self,
+            frame,
+            tracks: &NO_TRACKS,
+            inputs: &[],
+        }
+    }
+
+    /// The rides `inputs` as `report` opens them: [`opener`](Self::opener), each with
+    /// its track from `tracks` (one per input) or its own position columns.
+    pub fn opener_with_tracks<'a>(
+        &'a self,
+        frame: SensorFrame,
+        tracks: &'a TrackArgs,
+        inputs: &'a [PathBuf],
+    ) -> Result<RideOpener<'a>> {
+        if !tracks.tracks.is_empty() && tracks.tracks.len() != inputs.len() {
+            bail!(
+                "--track: expected one per --input ({}), found {}",
+                inputs.len(),
+                tracks.tracks.len()
+            );
+        }
+        Ok(RideOpener {
+            args: self,
+            frame,
+            tracks,
+            inputs,
+        })
     }
 }
 
@@ -393,16 +428,61 @@ pub fn check_units_and_gravity(
     Ok(())
 }
 
-/// Opens each ride of a report row by row ([`RideInputArgs::open`]).
+/// Where each ride of a report happened (`docs/exposure.md#positions-and-road-segments`).
+#[derive(Clone, Debug, Default, PartialEq, clap::Args)]
+pub struct TrackArgs {
+    /// The track of where a ride happened, one per --input in order: a GPX 1.1 file
+    /// (`.gpx`), or a phone app's location file (Sensor Logger's or phyphox's
+    /// Location.csv). A ride whose own file has lat= and lon= --columns needs none.
+    #[arg(long = "track", visible_aliases = ["gpx", "positions"], value_name = "FILE")]
+    pub tracks: Vec<PathBuf>,
+    /// The ride's time of the track's time zero (the first GPX point, or the location
+    /// file's clock zero), s: the track is moved by this.
+    #[arg(
+        long,
+        value_name = "S",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    pub track_offset_s: f64,
+}
+
+/// Opens each ride of a report row by row ([`RideInputArgs::open`]), with its track.
 #[derive(Clone, Copy, Debug)]
 pub struct RideOpener<'a> {
     args: &'a RideInputArgs,
     frame: SensorFrame,
+    tracks: &'a TrackArgs,
+    inputs: &'a [PathBuf],
 }
 
 impl OpenRide for RideOpener<'_> {
     fn open_ride(&self, path: &Path) -> Result<RideSource> {
-        self.args.open(path, &self.frame)
+        let source = self.args.open(path, &self.frame)?;
+        let offset = self.tracks.track_offset_s;
+        if !offset.is_finite() {
+            bail!("--track-offset-s {offset}: expected a finite number of seconds");
+        }
+        let given = self
+            .inputs
+            .iter()
+            .position(|p| p == path)
+            .and_then(|i| self.tracks.tracks.get(i));
+        let track = match (
+            given,
+            self.args
+                .columns
+                .as_ref()
+                .and_then(|c| c.positions.as_ref()),
+        ) {
+            (Some(file), _) => read_track(file)?,
+            (None, Some(columns)) => {
+                let format = self.args.format(path)?.map_or(TimeUnit::S, |f| f.time_unit);
+                read_position_columns(path, columns, format, "--columns")?
+            }
+            (None, None) => return Ok(source),
+        };
+        source.with_track(track.shifted(offset))
     }
 }
 

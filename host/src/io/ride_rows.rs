@@ -15,6 +15,7 @@
 
 use std::io::Read as _;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use anyhow::{Result, anyhow, bail};
 use supine_core::calibration::SensorFrame;
@@ -26,6 +27,8 @@ use crate::io::recording::{
 };
 use crate::ride::clock::Clock;
 use crate::ride::conditioned::{Conditioned, FileRows, RawRows};
+use crate::ride::formats::PositionColumns;
+use crate::ride::position::Track;
 use crate::ride::quality::DataQuality;
 
 /// Most characters of header fields an error lists (a logger's header can be long, and an
@@ -36,31 +39,37 @@ pub use crate::ride::clock::TimeUnit;
 
 pub use crate::ride::units::AccelUnit;
 
-/// The four header names of another logger's file (`--columns`), in the order time, x,
-/// y, z of the litter.
+/// The header names of another logger's file (`--columns`): time, x, y, z of the litter,
+/// and where the file holds them, latitude and longitude (with speed and accuracy).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct ColumnNames {
     /// Names of time, x, y, z.
     pub names: [String; 4],
+    /// The position columns (`lat=`, `lon=`, `speed=`, `accuracy=`), on the same clock.
+    pub positions: Option<PositionColumns>,
 }
 
 /// The keys of `--columns`, in [`ColumnNames::names`] order.
 pub const COLUMN_KEYS: [&str; 4] = ["time", "x", "y", "z"];
+/// The optional keys of `--columns` that name position columns.
+pub const POSITION_KEYS: [&str; 4] = ["lat", "lon", "speed", "accuracy"];
 
 impl ColumnNames {
-    /// Parses `time=NAME,x=NAME,y=NAME,z=NAME` (any order; names are exact, spaces kept).
+    /// Parses `time=NAME,x=NAME,y=NAME,z=NAME[,lat=NAME,lon=NAME[,speed=NAME,accuracy=NAME]]`
+    /// (any order; names are exact, spaces kept).
     pub fn parse(text: &str) -> Result<Self, String> {
-        let mut names: [Option<String>; 4] = Default::default();
+        let keys: Vec<&str> = COLUMN_KEYS.iter().chain(&POSITION_KEYS).copied().collect();
+        let mut names: [Option<String>; 8] = Default::default();
         for part in text.split(',') {
             let Some((key, name)) = part.split_once('=') else {
                 return Err(format!(
-                    "expected KEY=NAME pairs (time, x, y, z) separated by commas, found {}",
+                    "expected KEY=NAME pairs (time, x, y, z; lat, lon, speed, accuracy) separated by commas, found {}",
                     excerpt(part)
                 ));
             };
-            let Some(k) = COLUMN_KEYS.iter().position(|c| *c == key.trim()) else {
+            let Some(k) = keys.iter().position(|c| *c == key.trim()) else {
                 return Err(format!(
-                    "expected one of the keys time, x, y, z, found {}",
+                    "expected one of the keys time, x, y, z, lat, lon, speed, accuracy, found {}",
                     excerpt(key)
                 ));
             };
@@ -71,15 +80,15 @@ impl ColumnNames {
                 return Err(format!("{key}= given twice: expected each key once"));
             }
         }
-        for a in 0..4 {
-            for b in a + 1..4 {
+        for a in 0..names.len() {
+            for b in a + 1..names.len() {
                 if let (Some(first), Some(second)) = (&names[a], &names[b])
                     && first == second
                 {
                     return Err(format!(
                         "{}= and {}= name the same column {}: expected a column of its own for each",
-                        COLUMN_KEYS[a],
-                        COLUMN_KEYS[b],
+                        keys[a],
+                        keys[b],
                         excerpt(first)
                     ));
                 }
@@ -95,8 +104,25 @@ impl ColumnNames {
                 missing.join(", ")
             ));
         }
+        let [time, x, y, z, lat, lon, speed, accuracy] = names;
+        let positions = match (lat, lon) {
+            (Some(lat), Some(lon)) => Some(PositionColumns {
+                time: time.clone().unwrap_or_default(),
+                lat,
+                lon,
+                speed: speed.into_iter().collect(),
+                accuracy: accuracy.into_iter().collect(),
+            }),
+            (None, None) if speed.is_none() && accuracy.is_none() => None,
+            _ => {
+                return Err(
+                    "lat=, lon=: expected both (speed= and accuracy= only with them)".to_string(),
+                );
+            }
+        };
         Ok(Self {
-            names: names.map(Option::unwrap_or_default),
+            names: [time, x, y, z].map(Option::unwrap_or_default),
+            positions,
         })
     }
 }
@@ -134,7 +160,7 @@ pub struct ForeignRows {
 }
 
 /// The cells of a line that holds a quote, unquoted (RFC 4180) by the `csv` crate.
-fn unquoted_cells(text: &[u8], delimiter: u8) -> Option<Vec<Vec<u8>>> {
+pub fn unquoted_cells(text: &[u8], delimiter: u8) -> Option<Vec<Vec<u8>>> {
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(false)
         .delimiter(delimiter)
@@ -369,6 +395,7 @@ pub struct RideSource {
     origin: Origin,
     gravity_removal: Option<SensorFrame>,
     quality: Option<DataQuality>,
+    track: Option<Arc<Track>>,
 }
 
 /// The rows of a logger's file within a time window (`--from-s`, `--to-s`), raw: time
@@ -421,6 +448,7 @@ impl RideSource {
             origin: Origin::Memory(Box::new(recording)),
             gravity_removal: None,
             quality: None,
+            track: None,
         }
     }
 
@@ -437,6 +465,7 @@ impl RideSource {
             origin: Origin::Own(stream),
             gravity_removal,
             quality: None,
+            track: None,
         }
     }
 
@@ -452,6 +481,7 @@ impl RideSource {
             origin: Origin::Conditioned(Box::new((rows, plan))),
             gravity_removal: None,
             quality: Some(quality),
+            track: None,
         }
     }
 
@@ -461,6 +491,29 @@ impl RideSource {
             Origin::Conditioned(both) => both.1.converted_from_hz(),
             _ => None,
         }
+    }
+
+    /// The ride with the track of where it happened, on its clock: refused when the
+    /// track does not overlap the ride in time.
+    pub fn with_track(mut self, track: Track) -> Result<Self> {
+        let (first, last) = track.span_s();
+        let end_s = self.start_s + self.samples as f64 / self.sample_rate_hz;
+        if !track.overlaps(self.start_s, end_s) {
+            bail!(
+                "{}: the track {} covers {first:.1}..{last:.1} s, the ride {:.1}..{end_s:.1} s: \
+                 expected them to overlap in time (--track-offset-s moves the track)",
+                self.path.display(),
+                track.account().source,
+                self.start_s
+            );
+        }
+        self.track = Some(Arc::new(track));
+        Ok(self)
+    }
+
+    /// Where the ride happened, when known.
+    pub fn track(&self) -> Option<&Track> {
+        self.track.as_deref()
     }
 
     /// The data-quality account (a logger's file; `None` for a recording).

@@ -5,11 +5,18 @@
 //! - [`panels`]: a grid of line-plot panels (`fit --report`, `validate --report`).
 //! - [`time_chart`]: a time chart with thresholds, bands and markers (the demo's report).
 //! - [`downsample`]: min/max per pixel column, so long series stay small and peaks stay.
+//! - [`map`]: a route map in a local metric frame, with scale bar and north arrow.
+//! - [`scatter`]: points against two axes (the report's running rms against speed).
 
 pub mod downsample;
+pub mod map;
 pub mod panels;
+pub mod scatter;
 pub mod time_chart;
 
+use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf64;
+use plotters::prelude::{Cartesian2d, ChartBuilder, ChartContext, DrawingArea, SVGBackend};
 use plotters::style::RGBColor;
 
 pub use panels::{Panel, Series, figure_svg};
@@ -41,6 +48,27 @@ impl From<Rgb> for RGBColor {
     fn from(c: Rgb) -> Self {
         RGBColor(c.0, c.1, c.2)
     }
+}
+
+/// The frame of the report's charts on `root`: the title above, the margins and label
+/// areas every report chart has (so their plotting areas line up on the page), over
+/// `x` and `y`.
+fn report_frame<'a, 'b>(
+    root: &'a DrawingArea<SVGBackend<'b>, Shift>,
+    title: &str,
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
+) -> anyhow::Result<ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>> {
+    ChartBuilder::on(root)
+        .caption(title, ("sans-serif", 17))
+        .margin_left(10)
+        .margin_right(110)
+        .margin_top(6)
+        .margin_bottom(6)
+        .x_label_area_size(36)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(plot_error)
 }
 
 /// A `plotters` drawing error as an error of ours.

@@ -8,7 +8,7 @@ use anyhow::Result;
 use plotters::prelude::*;
 use supine_core::alerts::Level;
 
-use super::{Rgb, plot_error};
+use super::{Rgb, plot_error, report_frame};
 
 /// Width of every chart, px (the report's column).
 pub const WIDTH_PX: u32 = 1100;
@@ -234,16 +234,7 @@ impl Chart {
             let (x0, x1) = self.x_range_s;
             let layout = self.y_layout();
             let (y0, y1) = layout.range;
-            let mut chart = ChartBuilder::on(&root)
-                .caption(&self.title, ("sans-serif", 17))
-                .margin_left(10)
-                .margin_right(110)
-                .margin_top(6)
-                .margin_bottom(6)
-                .x_label_area_size(36)
-                .y_label_area_size(70)
-                .build_cartesian_2d(x0..x1, y0..y1)
-                .map_err(plot_error)?;
+            let mut chart = report_frame(&root, &self.title, (x0, x1), (y0, y1))?;
             let names = self.y_tick_names.clone();
             let mut mesh = chart.configure_mesh();
             mesh.x_desc("time, s")

@@ -28,7 +28,9 @@ use crate::exposure::reported_values::AxisReport;
 use crate::exposure::timed_event::TimedEvent;
 use crate::io::params_file::ParamFile;
 use crate::io::ride_rows::RideSource;
+pub use crate::report::level_time::TimeAtLevel;
 use crate::report::mission_joints::{LegJoints, MissionJoint, mission_joints};
+use crate::report::route::{PlacedEvent, Route, RouteBuilder};
 use crate::report::spectrum::{AxisSpectrum, LegSpectra};
 use crate::report::third_octave::{HeadBand, head_weighted_bands};
 use crate::ride::quality::DataQuality;
@@ -45,35 +47,6 @@ pub const MAX_CHART_POINTS: usize = 1 << 14;
 /// The projection's window: the dose rate of the last this many seconds of the mission
 /// (or of the last leg's evaluated time, if shorter), s.
 pub const PROJECTION_WINDOW_S: f64 = 300.0;
-
-/// Seconds spent at each alert level.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
-pub struct TimeAtLevel {
-    /// At normal, s.
-    pub normal: f64,
-    /// At advisory, s.
-    pub advisory: f64,
-    /// At warning, s.
-    pub warning: f64,
-    /// At alarm, s.
-    pub alarm: f64,
-}
-
-impl TimeAtLevel {
-    /// The seconds in level order.
-    pub fn as_array(&self) -> [f64; 4] {
-        [self.normal, self.advisory, self.warning, self.alarm]
-    }
-
-    fn from_array(a: [f64; 4]) -> Self {
-        Self {
-            normal: a[0],
-            advisory: a[1],
-            warning: a[2],
-            alarm: a[3],
-        }
-    }
-}
 
 /// An alert event with what raised it: the exposure's timeline entry ([`TimedEvent`]'s
 /// names) placed in the mission, with the vector values then.
@@ -166,6 +139,8 @@ pub struct Leg {
     /// The dose rate at the leg's end, for the projection.
     #[serde(skip)]
     pub recent_dose: RecentDose,
+    /// Where it happened, by road segment (`null` when the ride has no positions).
+    pub route: Option<Route>,
 }
 
 /// The rate of VDV^4 over the end of a leg: the last [`PROJECTION_WINDOW_S`] of its
@@ -262,7 +237,19 @@ pub fn evaluate_leg(
     let n = input.samples;
     let mut spectra = LegSpectra::new(n, fs)?;
     let mut series = SeriesBuilder::new(n, fs);
-    let warmup_s = f64::from(device_params::build(file, fs)?.exposure.config.warmup_s);
+    let device = device_params::build(file, fs)?;
+    let warmup_s = f64::from(device.exposure.config.warmup_s);
+    // With a track: each sample's time in the ride's clock (read beside the evaluation,
+    // in step with it), its place, and the route built from them.
+    let track = source.track();
+    let mut route = track.map(|t| RouteBuilder::new(t, &device.exposure, fs));
+    let mut times = match track {
+        Some(_) => Some(source.rows()?.map(|r| r.map(|row| row[0]))),
+        None => None,
+    };
+    let mut time_error: Option<anyhow::Error> = None;
+    let mut placed_events: Vec<PlacedEvent> = Vec::new();
+    let mut pending_events: Vec<(f64, String, Option<u8>, bool)> = Vec::new();
     let mut dose = DoseWindow::new(n, fs, warmup_s);
     let mut at_level = [0usize; 4];
     let mut alerts: Vec<AlertRow> = Vec::new();
@@ -274,6 +261,18 @@ pub fn evaluate_leg(
                 if alerts.len() < MAX_LISTED_EVENTS {
                     let sample = e.at_sample();
                     let timed = TimedEvent::new(e, 0.0, fs);
+                    if route.is_some() {
+                        let level = match e {
+                            supine_core::alerts::AlertEvent::Level { to, .. } => Some(*to as u8),
+                            _ => None,
+                        };
+                        pending_events.push((
+                            sample as f64 / fs,
+                            timed.event.clone(),
+                            level,
+                            timed.raised,
+                        ));
+                    }
                     alerts.push(AlertRow {
                         leg_time_s: sample as f64 / fs,
                         mission_time_s: start_s + sample as f64 / fs,
@@ -303,6 +302,30 @@ pub fn evaluate_leg(
                     row.vdv_m_s175 = vdv;
                 }
                 awaiting = 0;
+                if let (Some(builder), Some(times), Some(track)) = (&mut route, &mut times, track) {
+                    let place = match times.next() {
+                        Some(Ok(t_s)) => track.at(t_s),
+                        Some(Err(e)) => {
+                            time_error.get_or_insert(e);
+                            None
+                        }
+                        None => None,
+                    };
+                    if let Some(p) = place {
+                        for (leg_time_s, event, level, raise) in pending_events.drain(..) {
+                            placed_events.push(PlacedEvent {
+                                leg_time_s,
+                                event,
+                                level,
+                                raise,
+                                lat_deg: p.lat_deg,
+                                lon_deg: p.lon_deg,
+                            });
+                        }
+                    }
+                    pending_events.clear();
+                    builder.push(k, place, t.head_acc_m_s2, t.valid, rms, level);
+                }
                 at_level[usize::from(level.min(3))] += 1;
                 spectra.push(input_m_s2, t.head_acc_m_s2.map(f64::from));
                 dose.push(k, vdv);
@@ -310,7 +333,11 @@ pub fn evaluate_leg(
                 series.push(k, rms, vdv, level, input_m_s2[2], joints);
             }
         })?;
+    if let Some(e) = time_error {
+        return Err(e);
+    }
     let spectra = spectra.finish(&params)?;
+    let route = route.map(|r| r.finish(n, placed_events));
     Ok(Leg {
         label: leg_label(index, &exposure.input, compared),
         input: exposure.input.clone(),
@@ -329,6 +356,7 @@ pub fn evaluate_leg(
         spectra,
         recent_dose: dose.finish(),
         exposure,
+        route,
     })
 }
 

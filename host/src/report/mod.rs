@@ -10,6 +10,9 @@
 //!    - [`spectrum`]: the power spectral densities of input and predicted head;
 //!      [`third_octave`] their one-third-octave band values.
 //!    - [`mission_joints`]: the neck and lower-back motion combined over the legs.
+//!    - [`level_time`]: time at each alert level (a leg's, the mission's, a segment's).
+//!    - [`route`]: where each leg happened: its road segments, the worst of them, the
+//!      map's points and placed events (a ride with positions).
 //!    - [`prediction_band`]: with `--band N`, the prediction band of the head's vector values.
 //!    - [`calibration`]: the sensor's calibration record, its age and whether it is flagged.
 //!    - [`device_check`], [`device_pass`], [`device_series`]: with a device log (what a
@@ -18,10 +21,11 @@
 //!    - [`monitor_log`]: a session logged by `supine monitor --log` as the input: its
 //!      input stream is the ride, its telemetry and events the device log.
 //! 2. The charts, built on the numbers: [`charts`] (what each chart of the legs shows),
-//!    [`device_charts`] (the device's telemetry over the host's).
+//!    [`device_charts`] (the device's telemetry over the host's), [`route_charts`] (the
+//!    route map and the running rms against speed).
 //! 3. The sections of the page, built on the charts: [`page`] (the page and the legs'
 //!    sections), [`joints_section`], [`band_section`], [`device_section`],
-//!    [`calibration_section`].
+//!    [`calibration_section`], [`route_section`] (where it happened).
 //!
 //! [`markup`] (escaping, a level's tag, a chart as a figure) is the leaf every section uses.
 //!
@@ -37,6 +41,7 @@ pub mod device_pass;
 pub mod device_section;
 pub mod device_series;
 pub mod joints_section;
+pub mod level_time;
 pub mod markup;
 pub mod mission;
 pub mod mission_joints;
@@ -44,6 +49,9 @@ pub mod monitor_log;
 pub mod page;
 pub mod prediction_band;
 pub mod quality_section;
+pub mod route;
+pub mod route_charts;
+pub mod route_section;
 pub mod spectrum;
 pub mod third_octave;
 

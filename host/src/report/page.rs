@@ -15,6 +15,7 @@ use crate::report::mission::Leg;
 use crate::report::{Comparison, MissionReport};
 use crate::report::{
     band_section, calibration_section, charts, device_section, joints_section, quality_section,
+    route_section,
 };
 use crate::schema::event::EventCriterion;
 
@@ -167,6 +168,7 @@ pub fn render(report: &MissionReport, device: Option<&DeviceLog>) -> Result<Stri
             )
         }
     );
+    route_section::section(&mut h, legs, config)?;
     joints_section::section(&mut h, legs, &report.mission.joints, layout)?;
     for leg in legs {
         leg_section(&mut h, leg, report.comparison.is_some())?;

@@ -80,6 +80,83 @@ pub fn recognize(header: &[String]) -> Option<&'static KnownFormat> {
     })
 }
 
+/// Where a position file's (or a ride file's) time and position columns are.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct PositionColumns {
+    /// Header name of the time column.
+    pub time: String,
+    /// Header name of the latitude column, degrees.
+    pub lat: String,
+    /// Header name of the longitude column, degrees.
+    pub lon: String,
+    /// Header names the ground speed (m/s) may have, the first found read.
+    pub speed: Vec<String>,
+    /// Header names the horizontal accuracy (m) may have, the first found read.
+    pub accuracy: Vec<String>,
+}
+
+/// A recognized location file that phone apps write beside their accelerometer file.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct KnownPositionFormat {
+    /// The app, as the account names it.
+    pub name: &'static str,
+    /// Header names of time, latitude, longitude.
+    pub columns: [&'static str; 3],
+    /// The time column's unit.
+    pub time_unit: TimeUnit,
+    /// Header names of the speed (m/s), any one of them.
+    pub speed: &'static [&'static str],
+    /// Header names of the horizontal accuracy (m), any one of them.
+    pub accuracy: &'static [&'static str],
+}
+
+/// The location files recognized, from real exports in public repositories:
+/// - Sensor Logger's `Location.csv` (`time,seconds_elapsed,bearingAccuracy,
+///   speedAccuracy,verticalAccuracy,horizontalAccuracy,speed,bearing,altitude,longitude,
+///   latitude`): `seconds_elapsed` is read, the clock its accelerometer file's
+///   `seconds_elapsed` shares, so the two files join without an offset;
+/// - phyphox's `Location.csv` (`"Time (s)","Latitude (°)","Longitude (°)","Height (m)",
+///   "Velocity (m/s)","Direction (°)","Horizontal Accuracy (m)","Vertical Accuracy (m)"`;
+///   newer versions write `"Speed (m/s)"`), seconds since the experiment's start, as its
+///   acceleration files.
+pub const KNOWN_POSITION_FORMATS: [KnownPositionFormat; 2] = [
+    KnownPositionFormat {
+        name: "Sensor Logger location",
+        columns: ["seconds_elapsed", "latitude", "longitude"],
+        time_unit: TimeUnit::S,
+        speed: &["speed"],
+        accuracy: &["horizontalAccuracy"],
+    },
+    KnownPositionFormat {
+        name: "phyphox location",
+        columns: ["Time (s)", "Latitude (°)", "Longitude (°)"],
+        time_unit: TimeUnit::S,
+        speed: &["Velocity (m/s)", "Speed (m/s)"],
+        accuracy: &["Horizontal Accuracy (m)"],
+    },
+];
+
+/// The location format whose time, latitude and longitude are all in `header`.
+pub fn recognize_positions(header: &[String]) -> Option<&'static KnownPositionFormat> {
+    KNOWN_POSITION_FORMATS
+        .iter()
+        .find(|f| f.columns.iter().all(|c| header.iter().any(|h| h == c)))
+}
+
+impl KnownPositionFormat {
+    /// Its columns.
+    pub fn columns(&self) -> PositionColumns {
+        let owned = |names: &[&str]| names.iter().map(|n| n.to_string()).collect();
+        PositionColumns {
+            time: self.columns[0].to_string(),
+            lat: self.columns[1].to_string(),
+            lon: self.columns[2].to_string(),
+            speed: owned(self.speed),
+            accuracy: owned(self.accuracy),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -108,5 +185,19 @@ mod tests {
             found("time_s,platform_x,platform_y,platform_z"),
             Some("supine ride")
         );
+        let position = |s: &str| recognize_positions(&names(s)).map(|f| f.name);
+        assert_eq!(
+            position(
+                "time,seconds_elapsed,bearingAccuracy,speedAccuracy,verticalAccuracy,horizontalAccuracy,speed,bearing,altitude,longitude,latitude"
+            ),
+            Some("Sensor Logger location")
+        );
+        assert_eq!(
+            position(
+                "\"Time (s)\",\"Latitude (°)\",\"Longitude (°)\",\"Height (m)\",\"Velocity (m/s)\",\"Direction (°)\",\"Horizontal Accuracy (m)\",\"Vertical Accuracy (m)\""
+            ),
+            Some("phyphox location")
+        );
+        assert_eq!(position("time,seconds_elapsed,z,y,x"), None);
     }
 }

@@ -7,6 +7,7 @@
 //! - [`regular`]: rows dropped (duplicates, steps back, sample-and-hold), gaps, and the
 //!   interpolation onto a uniform grid.
 //! - [`level`]: levelling by the ride's own gravity.
+//! - [`position`]: the track of position fixes, checked and interpolated to samples.
 //! - [`quality`]: the data-quality account and its verdict.
 //! - [`units`]: the acceleration columns' unit.
 //! - [`resample`]: the band-limited, zero-phase resampler.
@@ -16,6 +17,7 @@ pub mod clock;
 pub mod conditioned;
 pub mod formats;
 pub mod level;
+pub mod position;
 pub mod quality;
 pub mod regular;
 pub mod resample;
