@@ -19,6 +19,7 @@
 
 pub mod event;
 pub mod names;
+pub mod subject;
 
 /// The unit suffixes a numeric name may end with.
 pub const UNIT_SUFFIXES: &[&str] = &[
