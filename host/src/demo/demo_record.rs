@@ -1,13 +1,13 @@
-//! What `supine demo --json` prints: the run's settings, the host's exposure of the
-//! predicted head and the device's own account beside it, each field documented once with
-//! its unit (the keys follow the naming rules of [`crate::schema`]); the command only fills
-//! this in.
+//! What `supine demo --json` prints (the run's settings, the host's exposure of the
+//! predicted head and the device's own account beside it) and `supine ride --json` (the
+//! demo's ride written), each field documented once with its unit (the keys follow the
+//! naming rules of [`crate::schema`]); the commands only fill these in.
 
 use std::path::Path;
 
 use serde::Serialize;
 
-use crate::demo::demo_ride::DemoProfile;
+use crate::demo::demo_ride::{DemoProfile, DemoRide, Segment};
 use crate::demo::summary::Summary;
 use crate::exposure::reported_values::AxisReport;
 
@@ -113,6 +113,62 @@ impl<'a> DemoRecord<'a> {
             differing_values: &s.differing_values,
             events_agree: s.events_agree,
             records_complete: s.records_complete,
+        }
+    }
+}
+
+/// `supine ride --json`: the generated ride written.
+#[derive(Clone, Debug, Serialize)]
+pub struct RideSummary<'a> {
+    /// The ride CSV.
+    pub out: &'a Path,
+    /// The ride's profile.
+    pub profile: &'static str,
+    /// Its length, s.
+    pub duration_s: f64,
+    /// Its sample rate, Hz.
+    pub sample_rate_hz: f64,
+    /// Its seed.
+    pub seed: u64,
+    /// Samples written.
+    pub samples: usize,
+    /// Unweighted rms of the platform acceleration, m/s^2.
+    pub rms_m_s2: PlatformAxesRecord,
+    /// Peak over rms of the vertical platform acceleration.
+    pub vertical_crest_factor: f64,
+    /// Shocks (potholes, kerbs) in the ride.
+    pub shocks: usize,
+    /// The road surfaces in order, with their times.
+    pub segments: &'a [Segment],
+}
+
+/// One value per platform axis, in the unit of the key that holds it.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct PlatformAxesRecord {
+    /// Platform x (toward the head).
+    pub x: f64,
+    /// Platform y.
+    pub y: f64,
+    /// Platform z (up).
+    pub z: f64,
+}
+
+impl<'a> RideSummary<'a> {
+    /// The record of `made` (the `profile` ride with `seed`) written to `out`.
+    pub fn new(made: &'a DemoRide, profile: DemoProfile, seed: u64, out: &'a Path) -> Self {
+        let ride = &made.ride;
+        let [x, y, z] = ride.rms_m_s2();
+        Self {
+            out,
+            profile: profile.name(),
+            duration_s: made.duration_s(),
+            sample_rate_hz: ride.sample_rate_hz,
+            seed,
+            samples: ride.len(),
+            rms_m_s2: PlatformAxesRecord { x, y, z },
+            vertical_crest_factor: ride.vertical_crest_factor(),
+            shocks: made.shocks.len(),
+            segments: &made.segments,
         }
     }
 }
