@@ -23,7 +23,7 @@ pub mod subject;
 
 /// The unit suffixes a numeric name may end with.
 pub const UNIT_SUFFIXES: &[&str] = &[
-    "_m_s175", "_m_s2", "_hz", "_kg", "_mm", "_deg", "_rad", "_m", "_s", "_bytes",
+    "_m_s175", "_m_s2", "_hz", "_kg", "_mm", "_deg", "_rad", "_m", "_s", "_bytes", "_months",
 ];
 
 /// Numeric names without a unit: counts, indices, seeds and dimensionless ratios. Any
@@ -50,6 +50,8 @@ pub const UNITLESS: &[&str] = &[
     "fault_flags",
     "sensor_to_litter",
     "magnitude",
+    // A sensor axis's reading per true acceleration (its calibration).
+    "sensitivity",
     // Flags, written 1 or 0 in a CSV.
     "valid",
     "raised",
