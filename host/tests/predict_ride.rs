@@ -137,8 +137,7 @@ fn predict_of_a_phone_ride_gives_per_sample_what_the_report_computes_of_it() {
     // The head: the last sample's VDV is the leg's; the largest running rms after the
     // warm-up is its MTVV (the same f32 values, printed in shortest form by both).
     let vdv = table.numbers("vdv_m_s175");
-    let running = table.numbers(&table.header[8].clone());
-    assert!(table.header[8].starts_with("running_rms") && table.header[8].contains("vector"));
+    let running = table.numbers("vector_running_rms_m_s2");
     let valid = table.numbers("valid");
     assert_eq!(
         *vdv.last().unwrap(),
