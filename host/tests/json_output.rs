@@ -152,3 +152,27 @@ fn demo_refuses_a_folder_with_a_users_file() {
         "my own ride"
     );
 }
+
+/// `model --json` counts what it wrote: frequencies times components is the CSV's rows,
+/// 27 sensor components (9 x 3) or 30 joint ones (10 x 3).
+#[test]
+fn model_json_counts_the_components_of_the_file_it_wrote() {
+    let dir = tempfile::tempdir().unwrap();
+    for (quantity, components) in [("sensors", 27), ("joints", 30)] {
+        let out = dir.path().join(format!("{quantity}.csv"));
+        let j = json(&[
+            "model",
+            "--preset",
+            "paper-litter",
+            "--quantity",
+            quantity,
+            "--out",
+            s(&out),
+            "--json",
+        ]);
+        assert_eq!(j["components"], components, "{quantity}: {j}");
+        let rows = std::fs::read_to_string(&out).unwrap().lines().count() - 1;
+        let frequencies = j["frequencies"].as_u64().unwrap() as usize;
+        assert_eq!(rows, frequencies * components, "{quantity}");
+    }
+}

@@ -37,7 +37,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("monitor", &["exposure", "device", "io", "schema"]),
     ("exposure", &["device", "io", "parallel", "ride", "schema"]),
     ("identify", &["plot", "io", "parallel"]),
-    ("device", &["io"]),
+    ("device", &["io", "schema"]),
     ("plot", &[]),
     ("io", &["parallel", "ride", "schema"]),
     ("ride", &[]),

@@ -8,6 +8,7 @@ use std::path::Path;
 
 use anyhow::{Result, anyhow};
 use jiff::Timestamp;
+use serde::Serialize;
 use serde_json::Value;
 use sha2::{Digest, Sha256};
 
@@ -92,6 +93,47 @@ pub struct MissionRecord<'a> {
     pub meta: MissionMeta,
     /// The start, when given.
     pub start: Option<Timestamp>,
+}
+
+/// `supine archive add --json`: the mission just added.
+#[derive(Clone, Debug, Serialize)]
+pub struct AddedMission<'a> {
+    /// The mission's id in the archive.
+    pub id: i64,
+    /// The archive it went into (its file, or its database URL).
+    pub archive: String,
+    /// Each leg's ride file and the SHA-256 of its bytes, in order.
+    pub rides: Vec<AddedRide<'a>>,
+    /// The mission's values, named as in `report --json`'s `"mission"`.
+    pub mission: &'a Value,
+}
+
+/// One ride of [`AddedMission`].
+#[derive(Clone, Debug, Serialize)]
+pub struct AddedRide<'a> {
+    /// The path given to `add`.
+    pub input: &'a str,
+    /// SHA-256 of its bytes, hex.
+    pub sha256: &'a str,
+}
+
+impl<'a> AddedMission<'a> {
+    /// The record of `mission`, added as `id` to `archive`.
+    pub fn new(id: i64, archive: String, mission: &'a MissionRecord<'_>) -> Self {
+        Self {
+            id,
+            archive,
+            rides: mission
+                .legs
+                .iter()
+                .map(|l| AddedRide {
+                    input: &l.ride.input,
+                    sha256: &l.ride.sha256,
+                })
+                .collect(),
+            mission: &mission.mission_json,
+        }
+    }
 }
 
 impl<'a> MissionRecord<'a> {

@@ -10,7 +10,7 @@ use crate::archive::db::Archive;
 use crate::archive::fleet::{self, DIMENSIONS, Side};
 use crate::archive::location::Location;
 use crate::archive::meta::{MissionMeta, parse_bound};
-use crate::archive::record::{MissionRecord, RideFile};
+use crate::archive::record::{AddedMission, MissionRecord, RideFile};
 use crate::archive::store::{self, Filter};
 use crate::archive::{fhir, fleet_html};
 use crate::commands::report::mission_report;
@@ -260,7 +260,8 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
         Command::Add(a) => {
             let meta = a.meta.resolve()?;
             // A monitor log is one leg (its input stream), hashed as the log file itself.
-            let (_, _, report) = mission_report(&a.input, &a.ride, &a.track, &a.model, &a.subject, false)?;
+            let (_, _, report) =
+                mission_report(&a.input, &a.ride, &a.track, &a.model, &a.subject, false)?;
             let rides = a
                 .input
                 .iter()
@@ -270,18 +271,8 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
             let archive = Archive::open(&location)?;
             let id = archive.run(store::add(&archive, &record))?;
             if a.json {
-                let rides: Vec<_> = record
-                    .legs
-                    .iter()
-                    .map(|l| serde_json::json!({"input": l.ride.input, "sha256": l.ride.sha256}))
-                    .collect();
-                let json = serde_json::json!({
-                    "id": id,
-                    "archive": location.display(),
-                    "rides": rides,
-                    "mission": record.mission_json,
-                });
-                print(out, format!("{json}\n"))?;
+                let added = AddedMission::new(id, location.display().to_string(), &record);
+                print(out, serde_json::to_value(&added)?.to_string() + "\n")?;
             } else {
                 print(out, format!("{id}\n"))?;
             }

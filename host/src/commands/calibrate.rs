@@ -18,7 +18,8 @@ use supine_core::mounting::{Mounting, STANDARD_GRAVITY_M_S2};
 
 use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
-use crate::io::calibration_section::{calibration_toml, date_text, parse_date, today};
+use crate::device::device_records::{MountingSummary, TumbleCalibrationSummary};
+use crate::io::calibration_section::{calibration_toml, parse_date, today};
 use crate::io::params_file::mounting_toml;
 use crate::io::stdout::print_text;
 use crate::io::tumble_csv::{self, ORIENTATIONS, TumbleReadings};
@@ -148,16 +149,11 @@ fn run_tumble(args: &Args, path: &std::path::Path) -> Result<()> {
         .validate()
         .map_err(|e| anyhow!("{}: {e}", path.display()))?;
     if args.json.json {
-        return json_output::print(&serde_json::json!({
-            "tumble": path.display().to_string(),
-            "rows": readings.rows,
-            "sensitivity": calibration.sensitivity,
-            "offset_m_s2": calibration.offset_m_s2,
-            "date": date_text(date),
-            "method": "tumble",
-            "by": calibration.by_name(),
-            "interval_months": calibration.interval_months,
-        }));
+        return json_output::print(&TumbleCalibrationSummary::new(
+            path.display().to_string(),
+            readings.rows,
+            &calibration,
+        ));
     }
     print_text(&format!(
         "# Sensor calibration from a static tumble test ({}, {} rows), 1 g = {} m/s^2.\n\
@@ -185,10 +181,10 @@ pub fn run(args: &Args) -> Result<()> {
         }
     }
     if args.json.json {
-        return json_output::print(&serde_json::json!({
-            "at_rest_m_s2": [x, y, z],
-            "mounting": mounting,
-        }));
+        return json_output::print(&MountingSummary {
+            at_rest_m_s2: [x, y, z],
+            mounting,
+        });
     }
     print_text(&format!(
         "# Mounting calibration from a reading at rest of ({x}, {y}, {z}) m/s^2 (sensor axes).\n\

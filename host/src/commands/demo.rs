@@ -5,13 +5,12 @@ use std::io::IsTerminal as _;
 use std::path::PathBuf;
 
 use anyhow::Result;
-use serde_json::json;
 use supine_core::model::Preset;
 
 use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
+use crate::demo::demo_record::DemoRecord;
 use crate::demo::demo_ride::DemoProfile;
-use crate::demo::summary::Summary;
 use crate::demo::{self, DEFAULT_OUT_DIR, DemoConfig};
 use crate::io::params_file::{self, ParamFile, PresetArg};
 use crate::io::stdout::{print_line, print_text};
@@ -108,42 +107,17 @@ pub fn run(args: &Args) -> Result<()> {
     drop(view);
     let outcome = outcome?;
     if json {
-        return json_output::print(&summary_json(&outcome.summary, args, &outcome.report));
+        return json_output::print(&DemoRecord::new(
+            &outcome.summary,
+            &outcome.report,
+            args.profile,
+            args.duration_s,
+            args.seed,
+        ));
     }
     print_text(&format!(
         "{}report: {}\n",
         outcome.summary.to_text(&outcome.data),
         outcome.report.display()
     ))
-}
-
-/// The summary as the `--json` object.
-fn summary_json(summary: &Summary, args: &Args, report: &std::path::Path) -> serde_json::Value {
-    let s = &summary.check;
-    let exposure: serde_json::Map<String, serde_json::Value> = summary
-        .exposure
-        .iter()
-        .map(|(axis, r)| (axis.clone(), json!(r)))
-        .collect();
-    json!({
-        "report": report,
-        "profile": args.profile.name(),
-        "duration_s": args.duration_s,
-        "seed": args.seed,
-        "exposure": exposure,
-        "device_mtvv_m_s2": s.device_mtvv_m_s2,
-        "device_vdv_m_s175": s.device_vdv_m_s175,
-        "highest_level": s.highest_level.name(),
-        "highest_at_s": s.highest_at_s,
-        "final_level": s.final_level.name(),
-        "cleared_at_s": s.cleared_at_s,
-        "level_events": s.level_events,
-        "faults": s.faults.iter().map(|(name, t)| json!({"fault": name, "time_s": t})).collect::<Vec<_>>(),
-        "head_diff_f32_m_s2": s.head_diff_f32_m_s2,
-        "head_diff_f64_m_s2": s.head_diff_f64_m_s2,
-        "running_rms_diff_m_s2": s.rms_diff_m_s2,
-        "differing_values": s.differing_values,
-        "events_agree": s.events_agree,
-        "records_complete": s.records_complete,
-    })
 }

@@ -9,6 +9,7 @@ use crate::commands::values;
 use crate::identify::fit::solver::{DEFAULT_TOLERANCE, SolverSettings};
 use crate::identify::fit::workflow::{self, FitRequest};
 use crate::identify::fit::{Determination, FitSettings};
+use crate::identify::identify_records::FitSummary;
 use crate::identify::spectral::DEFAULT_RESOLUTION_HZ;
 use crate::io::dataset::Case;
 use crate::io::output_folder;
@@ -167,7 +168,11 @@ pub fn run(args: &Args) -> Result<()> {
     eprintln!("{}", fitted.summary());
     let unknown = fitted.params_with(Determination::NoEffect);
     if args.json.json {
-        return json_output::print(&outcome_json(&fitted, args));
+        return json_output::print(&FitSummary::new(
+            &fitted,
+            args.case.name(),
+            args.out.clone(),
+        ));
     }
     eprintln!(
         "wrote {} (final cost {:.6}; {})",
@@ -189,50 +194,4 @@ fn without_effect(names: &[String]) -> String {
             many.join(", ")
         ),
     }
-}
-
-/// The `--json` object: the cost, every start, and every free parameter's verdict.
-fn outcome_json(fitted: &workflow::DatasetFit, args: &Args) -> serde_json::Value {
-    let result = &fitted.result;
-    let starts: Vec<_> = result
-        .starts
-        .iter()
-        .map(|s| {
-            serde_json::json!({
-                "label": s.label,
-                "initial_cost": s.initial_cost,
-                "final_cost": s.final_cost,
-                "iterations": s.iterations,
-                "evaluations": s.evaluations,
-                "solver_s": s.seconds,
-            })
-        })
-        .collect();
-    let params: Vec<_> = fitted
-        .identifiability
-        .params
-        .iter()
-        .map(|p| {
-            serde_json::json!({
-                "name": p.id.to_string(),
-                "value": p.value,
-                "unit": p.id.unit(),
-                "determination": p.determination.name(),
-                "standard_error_ln": p.standard_error,
-                "interval_95": p.interval_95().map(|(lo, hi)| [lo, hi]),
-            })
-        })
-        .collect();
-    serde_json::json!({
-        "out": args.out,
-        "case": args.case.name(),
-        "final_cost": result.solution.cost,
-        "residuals": result.solution.residuals.len(),
-        "best_start": result.best,
-        "starts": starts,
-        "parameters": params,
-        "parameters_without_effect": fitted.params_with(Determination::NoEffect),
-        "spectra_s": fitted.spectra_s,
-        "solver_s": fitted.solver_s,
-    })
 }

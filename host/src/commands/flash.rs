@@ -4,17 +4,18 @@
 use std::path::PathBuf;
 
 use anyhow::{Result, anyhow};
-use serde_json::json;
 
+use crate::commands::json_output;
 use crate::commands::values;
 use crate::device::device_params::identity_hex;
+use crate::device::device_records::{FlashSummary, UploadSummary};
 use crate::device::flash::{self, UploadOutcome};
 use crate::device::image::{DEVELOPMENT_KEY_NOTICE, ProductImage};
 use crate::io::params_file::ModelSource;
 use crate::io::stdout::print_line;
 use crate::io::subject_args::SubjectArgs;
-use crate::monitor::json::subject_json;
 use crate::monitor::patient_text;
+use crate::schema::subject::SubjectRecord;
 
 /// Arguments of `supine flash`.
 #[derive(Debug, clap::Args)]
@@ -90,7 +91,7 @@ pub fn run(args: &Args) -> Result<()> {
     let (params, blob) = flash::device_blob(&file, args.fs_hz)?;
     let id = identity_hex(&params.identity);
     let patient = patient_text(params.patient.height_m, params.patient.mass_kg);
-    let subject = subject_json(params.patient.height_m, params.patient.mass_kg);
+    let subject = SubjectRecord::new(params.patient.height_m, params.patient.mass_kg);
     let counter = || flash::choose_counter(args.counter);
     let t = &args.target;
     let (text, json) = if let Some(out) = &t.qemu_image {
@@ -108,15 +109,14 @@ pub fn run(args: &Args) -> Result<()> {
                 args.fs_hz,
                 out.display(),
             ),
-            json!({
-                "target": "qemu-image",
-                "path": out,
-                "bytes": image.len(),
-                "params_identity": id,
-                "sample_rate_hz": args.fs_hz,
-                "subject": subject,
-                "load_address": format!("{addr:#x}"),
-            }),
+            FlashSummary::QemuImage {
+                path: out.clone(),
+                bytes: image.len(),
+                params_identity: id,
+                sample_rate_hz: args.fs_hz,
+                subject,
+                load_address: format!("{addr:#x}"),
+            },
         )
     } else if let Some(port) = &t.serial {
         let key = key(args)?;
@@ -135,14 +135,13 @@ pub fn run(args: &Args) -> Result<()> {
                  its parameters only at boot",
                 args.fs_hz, args.base_address
             ),
-            json!({
-                "target": "probe",
-                "chip": chip,
-                "base_address": format!("{:#010x}", args.base_address),
-                "params_identity": id,
-                "sample_rate_hz": args.fs_hz,
-                "subject": subject,
-            }),
+            FlashSummary::Probe {
+                chip: chip.clone(),
+                base_address: format!("{:#010x}", args.base_address),
+                params_identity: id,
+                sample_rate_hz: args.fs_hz,
+                subject,
+            },
         )
     } else {
         // The group requires one target: this is --qemu.
@@ -153,7 +152,11 @@ pub fn run(args: &Args) -> Result<()> {
         let outcome = flash::upload_qemu(&kernel, &params, &blob, &key, counter, timeout)?;
         report(&outcome, "QEMU", counter, args.key.is_none())
     };
-    print_line(&if args.json { json.to_string() } else { text })
+    if args.json {
+        json_output::print(&json)
+    } else {
+        print_line(&text)
+    }
 }
 
 /// The signing key: `--key`, or the public development key, said so on standard error.
@@ -170,7 +173,7 @@ fn report(
     device: &str,
     counter: u32,
     development_key: bool,
-) -> (String, serde_json::Value) {
+) -> (String, FlashSummary) {
     let id = identity_hex(&outcome.uploaded.identity);
     let g = &outcome.greeting;
     (
@@ -181,17 +184,23 @@ fn report(
             patient_text(g.height_m, g.mass_kg),
             g.firmware_version
         ),
-        json!({
-            "target": if device == "QEMU" { "qemu" } else { "serial" },
-            "device": device,
-            "params_identity": id,
-            "slot": outcome.uploaded.slot,
-            "counter": counter,
-            "greeting_sample_rate_hz": g.sample_rate_hz,
-            "greeting_subject": subject_json(g.height_m, g.mass_kg),
-            "firmware_version": g.firmware_version.as_str(),
-            "development_key": development_key,
-        }),
+        {
+            let upload = UploadSummary {
+                device: device.to_string(),
+                params_identity: id,
+                slot: outcome.uploaded.slot,
+                counter,
+                greeting_sample_rate_hz: g.sample_rate_hz,
+                greeting_subject: SubjectRecord::new(g.height_m, g.mass_kg),
+                firmware_version: g.firmware_version.as_str().to_string(),
+                development_key,
+            };
+            if device == "QEMU" {
+                FlashSummary::Qemu(upload)
+            } else {
+                FlashSummary::Serial(upload)
+            }
+        },
     )
 }
 

@@ -14,8 +14,11 @@ pub struct JsonFlag {
     pub json: bool,
 }
 
-/// Prints `value` as one line of JSON on standard output.
+/// Prints `value` (one of the library's output records) as one line of JSON on standard
+/// output, every object's keys in alphabetical order (as the outputs have always been
+/// written, whatever order a record declares its fields in).
 pub fn print(value: &impl Serialize) -> Result<()> {
-    let text = serde_json::to_string(value).map_err(|e| anyhow!("rendering JSON: {e}"))?;
+    let value = serde_json::to_value(value).map_err(|e| anyhow!("rendering JSON: {e}"))?;
+    let text = serde_json::to_string(&value).map_err(|e| anyhow!("rendering JSON: {e}"))?;
     print_line(&text)
 }

@@ -8,6 +8,7 @@ use supine_core::model::SystemMatrices;
 
 use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
+use crate::identify::identify_records::ModelResponseSummary;
 use crate::identify::transmissibility::model_h;
 use crate::io::h_csv;
 use crate::io::params_file::ModelSource;
@@ -69,14 +70,14 @@ pub fn run(args: &Args) -> Result<()> {
     };
     h_csv::write(&args.out, &rows)?;
     if args.json.json {
-        return json_output::print(&serde_json::json!({
-            "out": args.out,
-            "frequencies": freqs.len(),
-            "components": 27,
-            "fmin_hz": freqs.first(),
-            "fmax_hz": freqs.last(),
-            "df_hz": args.df_hz,
-        }));
+        return json_output::print(&ModelResponseSummary {
+            out: args.out.clone(),
+            frequencies: freqs.len(),
+            components: rows.len() / freqs.len().max(1),
+            fmin_hz: freqs.first().copied(),
+            fmax_hz: freqs.last().copied(),
+            df_hz: args.df_hz,
+        });
     }
     eprintln!(
         "wrote {} ({} frequencies x {} components)",

@@ -4,6 +4,7 @@ use anyhow::{Result, anyhow};
 use supine_core::model::{DEFAULT_SAMPLE_RATE_HZ, Model};
 
 use crate::commands::json_output::{self, JsonFlag};
+use crate::identify::identify_records::ModesSummary;
 use crate::io::params_file::ModelSource;
 use crate::io::stdout::print_text;
 
@@ -26,28 +27,7 @@ pub fn run(args: &Args) -> Result<()> {
         .device_realization(DEFAULT_SAMPLE_RATE_HZ)
         .map_err(|e| anyhow!("{e}"))?;
     if args.json.json {
-        let modes: Vec<_> = model
-            .modes
-            .components
-            .iter()
-            .map(|m| {
-                serde_json::json!({
-                    "subsystem": m.subsystem.name(),
-                    "frequency_hz": m.natural_frequency_hz(),
-                    "damping_ratio": m.damping_ratio(),
-                    "kind": if m.damping_ratio().is_some() { "oscillatory" } else { "real pole" },
-                    "reachable": m.reachable,
-                })
-            })
-            .collect();
-        return json_output::print(&serde_json::json!({
-            "modes": modes,
-            "device_realization": {
-                "sample_rate_hz": DEFAULT_SAMPLE_RATE_HZ,
-                "modal_blocks": device.block_count,
-                "multiply_adds_per_sample": device.multiply_adds_per_sample(),
-            },
-        }));
+        return json_output::print(&ModesSummary::new(&model, &device, DEFAULT_SAMPLE_RATE_HZ));
     }
     print_text(&format!(
         "{}device realization at {DEFAULT_SAMPLE_RATE_HZ} Hz: {} modal blocks (2 states each), {} multiply-adds per sample for head x, y, z\n",

@@ -15,8 +15,10 @@ use anyhow::{Result, bail};
 
 use crate::commands::band_args::{BandArgs, band_threads};
 use crate::commands::json_output::{self, JsonFlag};
+use crate::exposure::exposure_records::RidePredictionSummary;
 use crate::exposure::ride_prediction::predict_ride;
 use crate::identify::fit::band::{BAND_QUANTILES, ExposureBand, head_exposure_band};
+use crate::identify::identify_records::LabPredictionSummary;
 use crate::identify::validate::{predict, predict_joints, write_prediction};
 use crate::io::params_file::ModelSource;
 use crate::io::recording::Recording;
@@ -94,19 +96,11 @@ pub fn run(args: &Args) -> Result<()> {
     let joints = predict_joints(&params, &recording)?;
     write_prediction(&recording, predicted, &joints, &args.out)?;
     if args.json.json {
-        let axis =
-            |v: &[f64; 4]| serde_json::json!({"x": v[0], "y": v[1], "z": v[2], "vector": v[3]});
-        return json_output::print(&serde_json::json!({
-            "out": args.out,
-            "samples": recording.len(),
-            "head_exposure_band": band.as_ref().map(|b| serde_json::json!({
-                "draws": b.draws.len(),
-                "quantiles": [BAND_QUANTILES.0, BAND_QUANTILES.1],
-                "fitted_m_s2": axis(&b.fitted.values()),
-                "low_m_s2": axis(&b.low.values()),
-                "high_m_s2": axis(&b.high.values()),
-            })),
-        }));
+        return json_output::print(&LabPredictionSummary {
+            out: args.out.clone(),
+            samples: recording.len(),
+            head_exposure_band: band.as_ref().map(Into::into),
+        });
     }
     eprintln!("wrote {} ({} samples)", args.out.display(), recording.len());
     match &band {
@@ -136,14 +130,7 @@ fn run_ride(args: &Args) -> Result<()> {
     )?;
     let exposure = &prediction.exposure;
     if args.json.json {
-        return json_output::print(&serde_json::json!({
-            "out": prediction.telemetry_csv,
-            "events_csv": prediction.events_csv,
-            "samples": exposure.samples,
-            "sample_rate_hz": exposure.sample_rate_hz,
-            "alert_events": prediction.events,
-            "data_quality": exposure.data_quality,
-        }));
+        return json_output::print(&RidePredictionSummary::from(&prediction));
     }
     eprintln!(
         "wrote {} ({} samples at {} Hz) and {} ({} alert events)",

@@ -6,19 +6,20 @@ use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use anyhow::{Result, bail};
-use serde_json::json;
 use supine_core::blob::TelemetryConfig;
 
+use crate::commands::json_output;
+use crate::device::device_records::ReplaySummary;
 use crate::device::image::ProductImage;
 use crate::device::replay::replay;
 use crate::device::scratch::ScratchDir;
 use crate::io::params_file::ModelSource;
 use crate::io::ride_input::{RideInputArgs, open_stream};
-use crate::io::stdout::{print_line, print_text};
+use crate::io::stdout::print_text;
 use crate::io::subject_args::SubjectArgs;
 use crate::io::telemetry_csv::{events_path, write_events, write_telemetry_streamed};
-use crate::monitor::json::subject_json;
 use crate::monitor::patient_text;
+use crate::schema::subject::SubjectRecord;
 
 /// Arguments of `supine replay`.
 #[derive(Debug, clap::Args)]
@@ -116,26 +117,23 @@ pub fn run(args: &Args) -> Result<()> {
     // The patient as the device itself reports it (its status), not as this host built it.
     let device = s.status();
     if args.json {
-        let mut object = json!({
-            "samples": result.samples,
-            "sample_rate_hz": result.sample_rate_hz,
-            "ride_duration_s": ride_s,
-            "elapsed_s": elapsed_s,
-            "real_time_factor": ride_s / elapsed_s,
-            "telemetry_records": records,
-            "telemetry_decimation": args.telemetry_decimation,
-            "lost_frames": s.link.lost_frames,
-            "bad_frames": s.link.bad_frames,
-            "alerts_raised": raised,
-            "subject": subject_json(device.height_m, device.mass_kg),
-            "stack_used_bytes": s.status().stack_used_bytes,
-            "telemetry_csv": args.out,
-            "events_csv": events,
+        return json_output::print(&ReplaySummary {
+            samples: result.samples,
+            sample_rate_hz: result.sample_rate_hz,
+            ride_duration_s: ride_s,
+            elapsed_s,
+            real_time_factor: ride_s / elapsed_s,
+            telemetry_records: records,
+            telemetry_decimation: args.telemetry_decimation,
+            lost_frames: s.link.lost_frames,
+            bad_frames: s.link.bad_frames,
+            alerts_raised: raised,
+            subject: SubjectRecord::new(device.height_m, device.mass_kg),
+            stack_used_bytes: s.status().stack_used_bytes,
+            telemetry_csv: args.out.clone(),
+            events_csv: events,
+            instructions_per_sample: args.icount.then(|| s.instructions_per_sample()),
         });
-        if args.icount {
-            object["instructions_per_sample"] = json!(s.instructions_per_sample());
-        }
-        return print_line(&object.to_string());
     }
     let mut printed = String::new();
     if args.icount {

@@ -14,7 +14,7 @@ use crate::io::ride_input::{RideInputArgs, TrackArgs};
 use crate::io::stdout::stdout_error;
 use crate::io::subject_args::SubjectArgs;
 use crate::io::wording::count;
-use crate::report::device_check::DeviceLog;
+use crate::report::device_check::{CheckedReport, DeviceCheckRecord};
 use crate::report::{self, monitor_log, page};
 
 /// Arguments of `supine report`.
@@ -168,10 +168,11 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
     let path = args.out.join("report.html");
     write_atomically(&path, |w| Ok(w.write_all(page.as_bytes())?))?;
     if args.json {
-        let mut json = serde_json::to_value(&report)?;
-        if let (Some(log), Some(object)) = (&device, json.as_object_mut()) {
-            object.insert("device_check".into(), device_check_json(log));
-        }
+        // Through a `Value`: every object's keys in alphabetical order, as `json_output`.
+        let json = serde_json::to_value(CheckedReport {
+            report: &report,
+            device_check: device.as_ref().map(DeviceCheckRecord::new),
+        })?;
         let text = serde_json::to_string(&json)? + "\n";
         out.write_all(text.as_bytes())
             .and_then(|()| out.flush())
@@ -214,31 +215,6 @@ fn session_calibration(
         started,
         "the session's start",
     )))
-}
-
-/// The device-versus-host check of a monitor log, for `--json`: largest differences
-/// (0 when bit for bit; null when a series is missing a record) and whether the events
-/// agree.
-fn device_check_json(log: &DeviceLog) -> serde_json::Value {
-    let c = &log.pass.check;
-    let finite = |v: f64| v.is_finite().then_some(v);
-    serde_json::json!({
-        "agree": c.agree(),
-        "head_diff_f32_m_s2": finite(c.head_diff_f32_m_s2),
-        "head_diff_f64_m_s2": finite(c.head_diff_f64_m_s2),
-        "rms_diff_m_s2": finite(c.rms_diff_m_s2),
-        "differing_values": c.differing_values,
-        "events_agree": c.events_agree,
-        "records_complete": c.records_complete,
-        "device_records": log.pass.device_records,
-        "host_records": log.pass.host_records,
-        "device_events": log.pass.device_event_count,
-        "host_events": log.pass.host_event_count,
-        "samples": log.samples,
-        "device_mtvv_m_s2": c.device_mtvv_m_s2,
-        "device_vdv_m_s175": c.device_vdv_m_s175,
-        "highest_level": c.highest_level.name(),
-    })
 }
 
 /// Builds and writes the report; the JSON goes to standard output.

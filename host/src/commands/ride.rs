@@ -8,6 +8,7 @@ use anyhow::{Result, bail};
 
 use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
+use crate::demo::demo_record::RideSummary;
 use crate::demo::demo_ride::{DemoProfile, make};
 use crate::demo::demo_track::{START_DEG, track_from};
 use crate::exposure::ride::write_ride;
@@ -89,19 +90,13 @@ pub fn run(args: &Args) -> Result<()> {
     }
     let rms = ride.rms_m_s2();
     if args.json.json {
-        return json_output::print(&serde_json::json!({
-            "out": args.out,
-            "profile": args.profile.name(),
-            "duration_s": made.duration_s(),
-            "sample_rate_hz": ride.sample_rate_hz,
-            "seed": args.seed,
-            "samples": ride.len(),
-            "rms_m_s2": {"x": rms[0], "y": rms[1], "z": rms[2]},
-            "vertical_crest_factor": ride.vertical_crest_factor(),
-            "shocks": made.shocks.len(),
-            "segments": made.segments,
-            "track_out": args.track_out,
-        }));
+        return json_output::print(&RideSummary::new(
+            &made,
+            args.profile,
+            args.seed,
+            &args.out,
+            args.track_out.as_deref(),
+        ));
     }
     eprintln!(
         "wrote {}: {} {} s at {} Hz, seed {}; rms x {:.3}, y {:.3}, z {:.3} m/s^2, crest factor z {:.1}, {}",

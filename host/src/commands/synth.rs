@@ -6,6 +6,7 @@ use anyhow::{Result, bail};
 
 use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
+use crate::identify::identify_records::SynthSummary;
 use crate::identify::synth::{SynthSettings, write_dataset};
 use crate::io::output_folder;
 
@@ -78,15 +79,15 @@ pub fn run(args: &Args) -> Result<()> {
     bar.finish_and_clear();
     let subjects = subjects?;
     if args.json.json {
-        return json_output::print(&serde_json::json!({
-            "out": args.out,
-            "subjects": subjects.len(),
-            "cases": 2,
-            "duration_s": args.duration_s,
-            "sample_rate_hz": args.fs_hz,
-            "seed": args.seed,
-            "truth": args.out.join("truth"),
-        }));
+        return json_output::print(&SynthSummary {
+            out: args.out.clone(),
+            subjects: subjects.len(),
+            cases: 2,
+            duration_s: args.duration_s,
+            sample_rate_hz: args.fs_hz,
+            seed: args.seed,
+            truth: args.out.join("truth"),
+        });
     }
     eprintln!(
         "wrote {} subjects x 2 cases ({} s at {} Hz) to {}, true parameters in {}/truth",

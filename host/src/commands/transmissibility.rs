@@ -8,6 +8,7 @@ use anyhow::Result;
 
 use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
+use crate::identify::identify_records::TransmissibilitySummary;
 use crate::identify::spectral::DEFAULT_RESOLUTION_HZ;
 use crate::identify::transmissibility::estimate;
 use crate::io::dataset::{Case, Dataset};
@@ -67,17 +68,7 @@ pub fn run(args: &Args) -> Result<()> {
     };
     h_csv::write(&args.out, &rows)?;
     if args.json.json {
-        return json_output::print(&serde_json::json!({
-            "out": args.out,
-            "subjects": est.subjects.iter().map(|s| &s.id).collect::<Vec<_>>(),
-            "frequencies": est.freqs_hz.len(),
-            "resolution_hz": est.settings.resolution_hz(est.sample_rate_hz),
-            "sample_rate_hz": est.sample_rate_hz,
-            "window": "hann",
-            "segment_samples": est.settings.segment_len,
-            "overlap_samples": est.settings.overlap,
-            "segments": est.subjects[0].estimate.segments,
-        }));
+        return json_output::print(&TransmissibilitySummary::new(&est, args.out.clone()));
     }
     eprintln!(
         "wrote {} ({} subject(s), {} frequencies at {:.4} Hz: Hann, {} samples, {} overlap, {} segments)",

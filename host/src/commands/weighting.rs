@@ -9,6 +9,7 @@ use supine_core::weighting::{WeightingKind, WeightingSettings};
 
 use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
+use crate::exposure::exposure_records::WeightingResponseSummary;
 use crate::exposure::weighting_response::{centre_frequencies, write_response};
 
 /// The weighting to describe.
@@ -78,12 +79,12 @@ pub fn run(args: &Args) -> Result<()> {
     )?;
     write_response(&args.out, kind, &filter, sample_rate, &freqs)?;
     if args.json.json {
-        return json_output::print(&serde_json::json!({
-            "out": args.out,
-            "frequencies": freqs.len(),
-            "weighting": kind.to_string(),
-            "sample_rate_hz": args.fs_hz,
-        }));
+        return json_output::print(&WeightingResponseSummary {
+            out: args.out.clone(),
+            frequencies: freqs.len(),
+            weighting: kind.to_string(),
+            sample_rate_hz: args.fs_hz,
+        });
     }
     eprintln!(
         "wrote {} ({} frequencies, {kind} at {} Hz)",

@@ -19,6 +19,7 @@
 //! so a failed run never leaves an older report that looks like this run's.
 
 pub mod data;
+pub mod demo_record;
 pub mod demo_ride;
 pub mod demo_track;
 pub mod summary;

@@ -15,6 +15,7 @@
 //! - [`scratch`]: private temporary folders that abandoned runs leave for the next to sweep.
 
 pub mod device_params;
+pub mod device_records;
 pub mod firmware;
 pub mod firmware_recipe;
 pub mod flash;

@@ -15,6 +15,7 @@
 
 pub mod channel_exposure;
 pub mod evaluation_input;
+pub mod exposure_records;
 pub mod exposure_text;
 pub mod joints;
 pub mod model_exposure;

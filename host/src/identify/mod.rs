@@ -9,6 +9,7 @@
 
 pub mod fit;
 pub mod geomean;
+pub mod identify_records;
 pub mod spectral;
 pub mod synth;
 pub mod transmissibility;

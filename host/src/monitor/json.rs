@@ -14,6 +14,7 @@ use super::state::{Monitor, Notice, fault_names};
 use super::view::{View, output_error};
 use crate::schema::event::EventCriterion;
 use crate::schema::shortest;
+use crate::schema::subject::SubjectRecord;
 
 /// One telemetry record as a JSON object, its time at `sample_rate_hz`.
 pub fn telemetry_json(t: &Telemetry, sample_rate_hz: f64, joint_mask: u16) -> Value {
@@ -77,18 +78,12 @@ pub fn event_json(e: &AlertEvent, sample_rate_hz: f64) -> Value {
     }
 }
 
-/// The patient a device's parameters were scaled to, under the keys of the mission
-/// report's `subject`: `{"height_m", "mass_kg"}`.
-pub fn subject_json(height_m: f32, mass_kg: f32) -> Value {
-    json!({ "height_m": shortest(height_m), "mass_kg": shortest(mass_kg) })
-}
-
 /// The closing summary (what [`Monitor::summary`] says) as one JSON object.
 pub fn summary_json(m: &Monitor) -> Value {
     let c = m.counters();
     json!({
         "monitored_s": m.time_s(),
-        "subject": subject_json(m.greeting().height_m, m.greeting().mass_kg),
+        "subject": SubjectRecord::new(m.greeting().height_m, m.greeting().mass_kg),
         "ride_s": m.ride_length_s(),
         "telemetry_records": c.telemetry,
         "alert_events": c.events,

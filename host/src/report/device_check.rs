@@ -6,6 +6,7 @@
 
 use std::time::Duration;
 
+use serde::Serialize;
 use supine_core::alerts::Level;
 use supine_core::protocol::Status;
 
@@ -354,6 +355,79 @@ pub fn difference(v: f64, unit: &str) -> String {
     } else {
         format!("{v:.1e} {unit}")
     }
+}
+
+/// `supine report --json`'s `device_check` (with a device log): the device's account
+/// against the host's, largest differences (0 when bit for bit; null when a series is
+/// missing a record) and whether the events agree.
+#[derive(Clone, Debug, Serialize)]
+pub struct DeviceCheckRecord<'a> {
+    /// The device and the host agree ([`Check::agree`]).
+    pub agree: bool,
+    /// Largest |device head - host head|, the host running the same f32 pipeline, m/s^2.
+    pub head_diff_f32_m_s2: Option<f64>,
+    /// Largest |device head - f64 model head|, m/s^2.
+    pub head_diff_f64_m_s2: Option<f64>,
+    /// Largest |device - host| vector running rms, m/s^2.
+    pub rms_diff_m_s2: Option<f64>,
+    /// Telemetry values in which some device record differs from the host's.
+    pub differing_values: &'a [&'static str],
+    /// The device's and the host's alert events are the same.
+    pub events_agree: bool,
+    /// The device sent a record for every sample the host computed one for.
+    pub records_complete: bool,
+    /// Telemetry records the device sent.
+    pub device_records: usize,
+    /// Telemetry records the host computed.
+    pub host_records: usize,
+    /// Alert events the device sent.
+    pub device_events: usize,
+    /// Alert events of the host pipeline.
+    pub host_events: usize,
+    /// Samples streamed to the device.
+    pub samples: usize,
+    /// Largest valid vector running rms in the device's telemetry (its MTVV), m/s^2.
+    pub device_mtvv_m_s2: f64,
+    /// The device's VDV of the vector sum at its last record, m/s^1.75.
+    pub device_vdv_m_s175: f64,
+    /// Highest level in the device's telemetry.
+    pub highest_level: &'static str,
+}
+
+impl<'a> DeviceCheckRecord<'a> {
+    /// The record of `log`'s check.
+    pub fn new(log: &'a DeviceLog) -> Self {
+        let c = &log.pass.check;
+        let finite = |v: f64| v.is_finite().then_some(v);
+        Self {
+            agree: c.agree(),
+            head_diff_f32_m_s2: finite(c.head_diff_f32_m_s2),
+            head_diff_f64_m_s2: finite(c.head_diff_f64_m_s2),
+            rms_diff_m_s2: finite(c.rms_diff_m_s2),
+            differing_values: &c.differing_values,
+            events_agree: c.events_agree,
+            records_complete: c.records_complete,
+            device_records: log.pass.device_records,
+            host_records: log.pass.host_records,
+            device_events: log.pass.device_event_count,
+            host_events: log.pass.host_event_count,
+            samples: log.samples,
+            device_mtvv_m_s2: c.device_mtvv_m_s2,
+            device_vdv_m_s175: c.device_vdv_m_s175,
+            highest_level: c.highest_level.name(),
+        }
+    }
+}
+
+/// `supine report --json`: the mission report, and with a device log its check beside it.
+#[derive(Clone, Debug, Serialize)]
+pub struct CheckedReport<'a> {
+    /// The report's numbers.
+    #[serde(flatten)]
+    pub report: &'a crate::report::MissionReport,
+    /// The device's account against the host's (left out without a device log).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub device_check: Option<DeviceCheckRecord<'a>>,
 }
 
 #[cfg(test)]

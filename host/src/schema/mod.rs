@@ -19,6 +19,7 @@
 
 pub mod event;
 pub mod names;
+pub mod subject;
 
 /// The unit suffixes a numeric name may end with.
 pub const UNIT_SUFFIXES: &[&str] = &[
@@ -49,7 +50,7 @@ pub const UNITLESS: &[&str] = &[
     "fault_flags",
     "sensor_to_litter",
     "magnitude",
-    // A sensor's indicated acceleration per true acceleration (its calibration).
+    // A sensor axis's reading per true acceleration (its calibration).
     "sensitivity",
     // Flags, written 1 or 0 in a CSV.
     "valid",
