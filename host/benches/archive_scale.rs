@@ -29,7 +29,7 @@ use supine_host::archive::store::{self, Filter};
 use supine_host::commands::report::mission_report;
 use supine_host::exposure::ride::{Profile, generate, write_ride};
 use supine_host::io::params_file::{ModelSource, PresetArg};
-use supine_host::io::ride_input::RideInputArgs;
+use supine_host::io::ride_input::{RideInputArgs, TrackArgs};
 use supine_host::io::subject_args::SubjectArgs;
 
 /// Distinct rides evaluated, per route profile kind.
@@ -75,6 +75,7 @@ fn main() {
             let (_, _, report) = mission_report(
                 std::slice::from_ref(&path),
                 &RideInputArgs::default(),
+                &TrackArgs::default(),
                 &model,
                 &SubjectArgs::default(),
                 false,

@@ -27,7 +27,7 @@ use supine_host::commands::band_args::BandArgs;
 use supine_host::commands::report;
 use supine_host::exposure::ride::{Profile, generate, write_ride};
 use supine_host::io::params_file::{ModelSource, PresetArg};
-use supine_host::io::ride_input::RideInputArgs;
+use supine_host::io::ride_input::{RideInputArgs, TrackArgs};
 use supine_host::io::subject_args::SubjectArgs;
 
 /// The two databases: a fresh SQLite file under `dir` and a fresh PostgreSQL database.
@@ -67,6 +67,7 @@ fn add_args(inputs: &[PathBuf], meta: MetaArgs) -> AddArgs {
     AddArgs {
         input: inputs.to_vec(),
         ride: RideInputArgs::default(),
+        track: TrackArgs::default(),
         model: preset(),
         subject: SubjectArgs {
             height_m: Some(1.80),
@@ -109,6 +110,7 @@ fn report_json(inputs: &[PathBuf], out: &Path) -> Value {
     let args = report::Args {
         input: inputs.to_vec(),
         ride: RideInputArgs::default(),
+        track: TrackArgs::default(),
         model: preset(),
         subject: SubjectArgs {
             height_m: Some(1.80),
