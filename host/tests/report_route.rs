@@ -165,6 +165,23 @@ fn a_straight_road_gives_its_length_its_segments_and_the_legs_values() {
         .map(|s| s.time_at_level_s.as_array().iter().sum::<f64>())
         .sum();
     assert!((levels - leg.duration_s).abs() < 1e-6);
+    // The joints: the largest excursion over the segments is the leg's (every evaluated
+    // sample has a position), output by output, in the same display units.
+    for joint in &leg.joints {
+        let key = format!("{}_{}", joint.output, joint.unit);
+        let peak = route
+            .segments
+            .iter()
+            // A segment within the warm-up has none.
+            .filter_map(|s| s.largest_joint_excursions)
+            .map(|peaks| serde_json::to_value(peaks).unwrap()[&key].as_f64().unwrap())
+            .fold(0.0, f64::max);
+        assert!(
+            (peak - joint.largest_excursion).abs() <= 1e-12 * joint.largest_excursion.max(1e-300),
+            "{key}: {peak} over the segments, {} for the leg",
+            joint.largest_excursion
+        );
+    }
 }
 
 #[test]
@@ -358,6 +375,16 @@ fn the_json_has_route_per_leg_and_null_without_positions() {
         assert!(segment[key].is_number(), "{key}: {segment}");
     }
     assert!(segment["time_at_level_s"]["normal"].is_number());
+    // After the warm-up (the first 60 m), each segment has the joints' largest excursions.
+    let later = &route["segments"][2]["largest_joint_excursions"];
+    assert!(
+        later["neck_x_mm"].is_number() && later["low_back_rz_deg"].is_number(),
+        "{later}"
+    );
+    assert!(
+        segment.get("largest_joint_excursions").is_none(),
+        "{segment}"
+    );
     assert!(!route["worst_segments"].as_array().unwrap().is_empty());
     let page = std::fs::read_to_string(dir.path().join("out/report.html")).unwrap();
     assert!(page.contains("Where it happened") && page.contains("start 1"));

@@ -51,6 +51,8 @@ pub struct JointTracker {
     ms: [f64; JOINT_OUTPUT_COUNT],
     max_ms: [f64; JOINT_OUTPUT_COUNT],
     peak: [(f64, usize); JOINT_OUTPUT_COUNT],
+    /// The outputs at the last sample, m or rad.
+    now: [f64; JOINT_OUTPUT_COUNT],
 }
 
 impl JointTracker {
@@ -75,12 +77,14 @@ impl JointTracker {
             ms: [0.0; JOINT_OUTPUT_COUNT],
             max_ms: [0.0; JOINT_OUTPUT_COUNT],
             peak: [(0.0, 0); JOINT_OUTPUT_COUNT],
+            now: [0.0; JOINT_OUTPUT_COUNT],
         })
     }
 
     /// Takes the next support acceleration (x, y, z, m/s^2).
     pub fn step(&mut self, platform_m_s2: [f64; 3]) {
         let y = self.realization.step(&mut self.state, platform_m_s2);
+        self.now = y;
         let k = self.samples;
         let settled = k >= self.warmup_samples;
         for (o, v) in y.iter().enumerate() {
@@ -95,6 +99,16 @@ impl JointTracker {
             }
         }
         self.samples += 1;
+    }
+
+    /// Each output at the last sample, in its display unit (mm or degrees), in
+    /// [`JointOutput::ALL`]'s order.
+    pub fn outputs_display(&self) -> [f64; JOINT_OUTPUT_COUNT] {
+        let mut out = [0.0; JOINT_OUTPUT_COUNT];
+        for (v, output) in out.iter_mut().zip(JointOutput::ALL) {
+            *v = display_unit(output).1 * self.now[output.index()];
+        }
+        out
     }
 
     /// Each output's running rms now, in its display unit (mm or degrees), in

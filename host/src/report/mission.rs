@@ -324,7 +324,16 @@ pub fn evaluate_leg(
                         }
                     }
                     pending_events.clear();
-                    builder.push(k, place, t.head_acc_m_s2, t.valid, rms, level);
+                    let outputs = joints.map(|j| j.outputs_display());
+                    builder.push(
+                        k,
+                        place,
+                        t.head_acc_m_s2,
+                        t.valid,
+                        rms,
+                        level,
+                        outputs.as_ref(),
+                    );
                 }
                 at_level[usize::from(level.min(3))] += 1;
                 spectra.push(input_m_s2, t.head_acc_m_s2.map(f64::from));

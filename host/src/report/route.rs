@@ -19,6 +19,7 @@
 
 use serde::Serialize;
 use supine_core::exposure::ExposureSettings;
+use supine_core::model::{JOINT_OUTPUT_COUNT, JointOutput};
 use supine_core::weighting::WeightingState;
 
 use crate::report::level_time::TimeAtLevel;
@@ -59,9 +60,41 @@ pub struct Segment {
     pub max_running_rms_m_s2: f64,
     /// Time at each alert level within it, s.
     pub time_at_level_s: TimeAtLevel,
+    /// The largest excursion of each neck and lower-back output within it, after the
+    /// warm-up, as the leg's joints count them (absent when the model's joints are not
+    /// tracked).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub largest_joint_excursions: Option<JointPeaks>,
     /// Its evaluated time (after the warm-up), s: the rms's weight.
     #[serde(skip)]
     pub evaluated_s: f64,
+}
+
+/// The largest |value| of each joint output over some samples, in its display unit, in
+/// [`JointOutput::ALL`]'s order; written as an object keyed by output and unit
+/// (`neck_x_mm`, ..., `low_back_rz_deg`), the units the report's joint tables use.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct JointPeaks(pub [f64; JOINT_OUTPUT_COUNT]);
+
+impl JointPeaks {
+    /// Takes the outputs of one sample (display units).
+    fn take(&mut self, outputs: &[f64; JOINT_OUTPUT_COUNT]) {
+        for (peak, v) in self.0.iter_mut().zip(outputs) {
+            *peak = peak.max(v.abs());
+        }
+    }
+}
+
+impl Serialize for JointPeaks {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap as _;
+        let mut map = serializer.serialize_map(Some(JOINT_OUTPUT_COUNT))?;
+        for (output, v) in JointOutput::ALL.iter().zip(self.0) {
+            let (unit, _) = output.unit().display();
+            map.serialize_entry(&format!("{}_{unit}", output.name()), &v)?;
+        }
+        map.end()
+    }
 }
 
 /// A point of the map's line.
@@ -136,6 +169,7 @@ struct Open {
     speed_sum: f64,
     max_running_rms: f64,
     at_level: [usize; 4],
+    joints: Option<JointPeaks>,
 }
 
 /// Builds a leg's [`Route`] sample by sample.
@@ -178,8 +212,9 @@ impl RouteBuilder {
     }
 
     /// Sample `k` (0, 1, ... in order): its place (if any), the pipeline's head
-    /// acceleration, whether it is evaluated (after the warm-up), its vector running rms
-    /// and its alert level.
+    /// acceleration, whether it is evaluated (after the warm-up), its vector running rms,
+    /// its alert level and the joint outputs (display units), when tracked.
+    #[allow(clippy::too_many_arguments)]
     pub fn push(
         &mut self,
         k: usize,
@@ -188,6 +223,7 @@ impl RouteBuilder {
         evaluated: bool,
         running_rms_m_s2: f64,
         level: u8,
+        joints: Option<&[f64; JOINT_OUTPUT_COUNT]>,
     ) {
         let mut a2 = [0.0f32; 3];
         for i in 0..3 {
@@ -214,6 +250,9 @@ impl RouteBuilder {
             open.evaluated += 1;
             open.sq += f64::from(av2);
             open.q += f64::from(av2 * av2);
+            if let Some(outputs) = joints {
+                open.joints.get_or_insert_default().take(outputs);
+            }
         }
         open.speed_sum += place.speed_m_s;
         open.max_running_rms = open.max_running_rms.max(running_rms_m_s2);
@@ -275,6 +314,7 @@ impl RouteBuilder {
             vdv_m_s175: (open.q * dt).sqrt().sqrt(),
             max_running_rms_m_s2: open.max_running_rms,
             time_at_level_s: TimeAtLevel::from_array(open.at_level.map(|c| c as f64 * dt)),
+            largest_joint_excursions: open.joints,
             evaluated_s: open.evaluated as f64 * dt,
         });
     }
@@ -355,7 +395,7 @@ mod tests {
                 sq += f64::from(av2);
                 q += f64::from(av2 * av2);
             }
-            builder.push(k, track.at(t), head, evaluated, 0.1, 0);
+            builder.push(k, track.at(t), head, evaluated, 0.1, 0, None);
         }
         let route = builder.finish(n, Vec::new());
         // 12.5 m/s for 60 s: 750 m in 15 segments of 50 m (to a sample's 0.125 m).
