@@ -325,6 +325,9 @@ fn bad_tracks_are_refused_in_one_line_or_flagged() {
     let legs = legs(&[ride], &RideInputArgs::default(), &tracks).unwrap();
     let route = legs[0].route.as_ref().unwrap();
     assert_eq!(route.track.jumps_excluded, 1);
+    // The data-quality account flags it too.
+    let quality = legs[0].data_quality.as_ref().expect("a ride's account");
+    assert_eq!(quality.positions.as_ref().unwrap().jumps_excluded, 1);
     assert!((route.length_m - 100.0).abs() < 0.5, "{}", route.length_m);
     // --track given for one of two rides.
     let args = report_args(

@@ -359,7 +359,10 @@ pub fn evaluate_leg(
         time_at_level_s: TimeAtLevel::from_array(at_level.map(|c| c as f64 / fs)),
         max_level: exposure.max_level,
         joints: exposure.joints.clone(),
-        data_quality: exposure.data_quality.clone(),
+        data_quality: exposure.data_quality.clone().map(|mut q| {
+            q.positions = route.as_ref().map(|r| r.track.clone());
+            q
+        }),
         series: series.finish(),
         third_octave_bands: head_weighted_bands(&spectra),
         spectra,

@@ -102,10 +102,13 @@ pub struct TrackAccount {
     /// Fixes read.
     pub fixes: usize,
     /// Fixes excluded: a jump faster than [`MAX_PLAUSIBLE_SPEED_M_S`] from the last kept.
+    #[serde(rename = "jump_excluded_fixes")]
     pub jumps_excluded: usize,
     /// Fixes excluded: time not after the last kept fix's.
+    #[serde(rename = "out_of_order_fixes")]
     pub out_of_order: usize,
     /// Kept fixes whose accuracy is worse than [`POOR_ACCURACY_M`].
+    #[serde(rename = "poor_accuracy_fixes")]
     pub poor_accuracy: usize,
 }
 

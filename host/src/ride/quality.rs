@@ -15,6 +15,7 @@ use supine_core::mounting::STANDARD_GRAVITY_M_S2;
 use supine_core::weighting::{WeightingKind, analog_response};
 
 use crate::ride::level::Levelling;
+use crate::ride::position::TrackAccount;
 use crate::ride::regular::RowFate;
 
 /// Lowest effective rate a ride is usable at, Hz.
@@ -106,6 +107,10 @@ pub struct DataQuality {
     pub gravity_scale_error: bool,
     /// Clipping per axis (axes without it are left out).
     pub clipping: Vec<Clipping>,
+    /// What the checks made of the ride's position track, when it has one: its fixes,
+    /// those excluded (jumps, out of order) and those of poor accuracy.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub positions: Option<TrackAccount>,
 }
 
 /// Per-axis state of the clipping search: the extreme so far and its runs.
@@ -375,6 +380,7 @@ impl Scan {
             levelling,
             gravity_scale_error,
             clipping,
+            positions: None,
         };
         q.judge(self.kept);
         q

@@ -39,6 +39,7 @@ pub const UNITLESS: &[&str] = &[
     "subjects",
     "cases",
     "segments",
+    "fixes",
     "frequencies",
     "components",
     "residuals",
@@ -67,6 +68,7 @@ pub const UNITLESS: &[&str] = &[
 pub const UNITLESS_SUFFIXES: &[&str] = &[
     "_samples",
     "_frames",
+    "_fixes",
     "_records",
     "_events",
     "_raised",
