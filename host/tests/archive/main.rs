@@ -616,7 +616,7 @@ fn two_concurrent_adds_both_land_and_a_killed_add_leaves_no_half_mission() {
 }
 
 /// The errors HL7's FHIR R4 JSON schema finds in `bundle`, by the Python `jsonschema`
-/// validator (Debian's python3-jsonschema, installed by .ci/setup): an implementation
+/// validator (jsonschema for the python3 on the PATH, installed by .ci/setup): an implementation
 /// independent of this project's.
 fn fhir_errors(bundle: &Value) -> Vec<String> {
     let schema = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/fhir-r4.schema.json");
