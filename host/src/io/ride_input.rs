@@ -30,7 +30,7 @@ use supine_core::mounting::STANDARD_GRAVITY_M_S2;
 use supine_core::sample_rate::SampleRate;
 
 use crate::io::csv_lines::CsvLines;
-use crate::io::excerpt::{name, quoted_name};
+use crate::io::excerpt::{name, number, quoted_name};
 use crate::io::output::write_atomically;
 use crate::io::recording::{
     COLUMNS, Layout, PLATFORM_HEADER_LINE, PlatformStream, Recording, RecordingError,
@@ -223,8 +223,8 @@ impl RideInputArgs {
                  delete that row)",
                 behind.line,
                 name(&format.columns.names[0]),
-                seconds(behind.time_s),
-                seconds(behind.step_s),
+                number(behind.time_s),
+                number(behind.step_s),
                 behind.rows
             );
         }
@@ -369,15 +369,6 @@ impl RideInputArgs {
             tracks,
             inputs,
         })
-    }
-}
-
-/// A time as an error shows it: plain, or in exponent form when it is too large to read.
-fn seconds(t: f64) -> String {
-    if t.abs() < 1e9 {
-        format!("{t}")
-    } else {
-        format!("{t:e}")
     }
 }
 
