@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Speed and memory of reading a one-hour ride (issue 26), against an independent numpy
-computation of the same quantities.
+"""Speed and memory of reading a one-hour ride (issue 26), against phonometry and an
+independent numpy computation of the same quantities.
 
 Two rides of one hour: the 500 Hz file `supine ride` writes (66 MB), and a phone's
 200 Hz Sensor Logger export of the same kind of road (nanosecond epoch clock jittered by
@@ -8,24 +8,35 @@ up to +-1 ms, gravity on the phone's tilted y axis). For each it times, as separ
 processes, median of --runs:
 
 - `supine exposure --channel platform_z --weighting wk` (one axis, no model), against
-  the numpy reference of one axis: `numpy.loadtxt` of the time and that column, linear
-  interpolation onto a uniform grid (the phone's jittered clock), Wk applied in the
-  frequency domain from the analog transfer function (docs/exposure.md's table), the
-  1 s running rms (exponential, `scipy.signal.lfilter`), MTVV, VDV and rms;
+  phonometry on one axis as its user calls it: `numpy.loadtxt` of the time and the
+  columns (phonometry reads audio files, not CSV), on the phone's jittered clock linear
+  interpolation onto a uniform grid (phonometry wants a uniform record), then
+  `phonometry.vibration.human_vibration`'s `apply_weighting(x, fs, name="Wk")` (the
+  ISO 8041-1 response in the frequency domain), `mtvv` and `running_rms`, and
+  `vibration_dose_value`; and against the numpy reference of the same steps (Wk from
+  its analog transfer function, docs/exposure.md's table; the 1 s running rms,
+  exponential, `scipy.signal.lfilter`);
 - `supine report` (three axes through the model, the joints, the spectra, the charts,
   report.html), against the numpy reference of three axes (the same steps per axis; no
   model, no charts: a lower bound of what a script would spend).
 
-Peak memory is each process's maximum resident set (`/usr/bin/time`). The numpy reference's
-values are printed beside supine's as a check that both computed the same thing
-(the weighted z rms within 1 %; the reference skips the 5 s warm-up as supine does).
+phonometry's time is given two ways: the whole process (the interpreter, importing
+numpy, scipy and phonometry, the loader, the evaluation) and its loader and evaluation
+alone (timed inside the process, the interpreter and imports left out). The speed-ups are
+against the second, the stricter. Peak memory is each process's maximum resident set
+(`/usr/bin/time`). The values of phonometry and of the numpy reference are printed beside
+supine's as a check that all computed the same thing (rms, MTVV from the exponential 1 s
+running rms as supine's, VDV, after supine's 5 s warm-up; phonometry's default `mtvv`,
+a linear 1 s average, is printed too: another of ISO 2631-1's running rms forms).
 
 Run from the repository after `cargo build --release -p supine-host`:
 
-    python3 host/benches/ride_speed.py --supine target/release/supine --runs 3
+    python3 host/benches/ride_speed.py --supine target/release/supine --runs 3 \
+        --phonometry-python /path/to/venv/bin/python
 
-numpy's loader stands in for phonometry, which the issue measured and which is not
-installable on this machine; the figures say which.
+phonometry (PyPI, `pip install phonometry`) needs Python 3.13 or later: install it in a
+virtual environment of its own (`python3.13 -m venv V && V/bin/pip install phonometry`)
+and give that interpreter; without `--phonometry-python` its columns are left out.
 """
 
 import argparse
@@ -63,14 +74,17 @@ def wk_response(f_hz):
 
 
 def uniform(t, x, fs):
-    """`x` sampled at times `t` on a uniform grid at `fs` (linear interpolation)."""
+    """`x` sampled at times `t` on a uniform grid at `fs` (linear interpolation; `x`
+    itself when its clock already is that grid)."""
+    if np.all(np.abs(np.diff(t) - 1 / fs) < 1e-6 / fs):
+        return x
     grid = np.arange(t[0], t[-1], 1 / fs)
     return np.interp(grid, t, x)
 
 
 def weighted_values(x, fs):
     """Wk-weighted rms, MTVV (1 s running rms) and VDV of `x` at `fs`, after the
-    warm-up."""
+    warm-up, by numpy and scipy."""
     from scipy.signal import lfilter
 
     n = len(x)
@@ -87,22 +101,58 @@ def weighted_values(x, fs):
     }
 
 
-def reference(path, columns, time_scale, fs, axes):
-    """The numpy reference: load `columns` (time, x, y, z), put them on a uniform grid,
-    weight and evaluate `axes` (1, 2, 3: x, y, z). A ride with gravity (a phone's) has
-    its z taken along the mean acceleration, less its magnitude: the litter's vertical
-    however the phone lay."""
-    data = np.loadtxt(path, delimiter=",", skiprows=1, usecols=columns)
+def phonometry_values(x, fs):
+    """The same values by phonometry, as its user calls it: the weighted record, its
+    MTVV (phonometry's default, the linear 1 s running rms), its VDV, each from the end
+    of supine's warm-up. Also gives a function for the MTVV of the exponential running
+    rms (supine's), called after the timing."""
+    from phonometry.vibration import human_vibration as hv
+
+    y = hv.apply_weighting(x, fs, name="Wk")[int(WARMUP_S * fs):]
+    values = {
+        "rms_m_s2": float(np.sqrt(np.mean(y * y))),
+        "mtvv_linear_m_s2": hv.mtvv(y, fs, integration_time=1.0),
+        "vdv_m_s175": hv.vibration_dose_value(y, fs),
+    }
+
+    def exponential_mtvv():
+        ms = hv.running_rms(y, fs, integration_time=1.0, method="exponential")
+        values["mtvv_m_s2"] = float(ms.max())
+
+    return values, exponential_mtvv
+
+
+def reference(path, columns, time_scale, fs, gravity, axes, engine):
+    """The reference `engine` (numpy, phonometry): load the time and the acceleration
+    `columns` (x, y, z; all three for a ride with `gravity`, else those of `axes`), put
+    them on a uniform grid, weight and evaluate `axes` (1, 2, 3: x, y, z). A ride with
+    gravity (a phone's) has its z taken along the mean acceleration, less its magnitude:
+    the litter's vertical however the phone lay. Gives the values and the seconds the
+    loader and the evaluation took (interpreter and imports left out)."""
+    start = time.perf_counter()
+    wanted = [1, 2, 3] if gravity else axes
+    loaded = np.loadtxt(path, delimiter=",", skiprows=1,
+                        usecols=[columns[0]] + [columns[a] for a in wanted])
+    data = np.zeros((len(loaded), 4))
+    data[:, [0, *wanted]] = loaded
     t = (data[:, 0] - data[0, 0]) * time_scale
-    mean = data[:, 1:4].mean(axis=0)
-    if np.linalg.norm(mean) > G / 2:
+    if gravity:
+        mean = data[:, 1:4].mean(axis=0)
         up = mean / np.linalg.norm(mean)
         data[:, 3] = data[:, 1:4] @ up - np.linalg.norm(mean)
-    out = []
+    out, after = [], []
     for a in axes:
         x = uniform(t, data[:, a], fs)
-        out.append(weighted_values(x, fs))
-    return out
+        if engine == "phonometry":
+            values, check = phonometry_values(x, fs)
+            out.append(values)
+            after.append(check)
+        else:
+            out.append(weighted_values(x, fs))
+    compute_s = time.perf_counter() - start
+    for check in after:
+        check()
+    return {"values": out, "compute_s": compute_s}
 
 
 def run_measured(cmd):
@@ -148,6 +198,7 @@ def main():
     p.add_argument("--supine", default="target/release/supine")
     p.add_argument("--runs", type=int, default=3)
     p.add_argument("--duration-s", type=float, default=3600)
+    p.add_argument("--phonometry-python", help="a Python interpreter with phonometry")
     a = p.parse_args()
     work = tempfile.mkdtemp(prefix="ride_speed_")
     logger = os.path.join(work, "logger_500hz.csv")
@@ -162,11 +213,23 @@ def main():
                    capture_output=True)
     phone_ride(phone_src, phone)
     here = os.path.abspath(__file__)
+
+    def ref(python, path, setup, axes, engine):
+        """The reference in its own process: (wall, CPU, peak MB, values, compute s)."""
+        cols, scale, fs, gravity = setup
+        runs = [run_measured([python, here, "--reference", path,
+                              json.dumps([list(cols), scale, fs, gravity, axes, engine])])
+                for _ in range(a.runs)]
+        out = [json.loads(r[3]) for r in runs]
+        return (statistics.median(r[0] for r in runs),
+                statistics.median(r[1] for r in runs), max(r[2] for r in runs),
+                out[-1]["values"], statistics.median(o["compute_s"] for o in out))
+
     rows = []
-    for name, path, ride_args, cols, scale, fs, channel_col in [
-        ("500 Hz logger", logger, [], (0, 1, 2, 3), 1.0, 500.0, 3),
+    for name, path, ride_args, setup, channel_col in [
+        ("500 Hz logger", logger, [], ((0, 1, 2, 3), 1.0, 500.0, False), 3),
         ("200 Hz phone, jittered", phone, ["--remove-gravity", "--fs", "200"],
-         (0, 4, 3, 2), 1e-9, 200.0, 3),
+         ((0, 4, 3, 2), 1e-9, 200.0, True), 3),
     ]:
         size_mb = os.path.getsize(path) / 1e6
         channel = median_of(a.runs, [a.supine, "exposure", "--input", path, *ride_args,
@@ -175,29 +238,44 @@ def main():
         report = median_of(a.runs, lambda i: [
             a.supine, "report", "--input", path, *ride_args,
             "--out", os.path.join(work, f"report_{len(rows)}_{i}"), "--json"])
-        ref1 = median_of(a.runs, [sys.executable, here, "--reference", path,
-                                  json.dumps([list(cols), scale, fs, [channel_col]])])
-        ref3 = median_of(a.runs, [sys.executable, here, "--reference", path,
-                                  json.dumps([list(cols), scale, fs, [1, 2, 3]])])
-        supine_z = json.loads(channel[3])
-        ref_z = json.loads(ref1[3])[0]
-        rows.append((name, size_mb, channel, report, ref1, ref3, supine_z, ref_z))
-    print("wall time, median of", a.runs, "(CPU time, peak memory)")
-    print("| ride | size | supine exposure --channel | numpy, one axis | speed-up "
-          "| supine report | numpy, three axes | speed-up |")
-    print("|---|---|---|---|---|---|---|---|")
-    for name, size, ch, rep, r1, r3, _, _ in rows:
-        fmt = lambda m: f"{m[0]:.2f} s ({m[1]:.2f} s, {m[2]:.0f} MB)"  # noqa: E731
-        print(f"| {name} | {size:.0f} MB | {fmt(ch)} | {fmt(r1)} | {r1[0] / ch[0]:.1f}x "
-              f"| {fmt(rep)} | {fmt(r3)} | {r3[0] / rep[0]:.1f}x |")
-    for name, *_, sz, rz in rows:
-        print(f"{name}: weighted z rms supine {sz['rms_m_s2']:.4f}, "
-              f"numpy {rz['rms_m_s2']:.4f} m/s^2")
+        phono = (ref(a.phonometry_python, path, setup, [channel_col], "phonometry")
+                 if a.phonometry_python else None)
+        ref1 = ref(sys.executable, path, setup, [channel_col], "numpy")
+        ref3 = ref(sys.executable, path, setup, [1, 2, 3], "numpy")
+        rows.append((name, size_mb, channel, report, phono, ref1, ref3,
+                     json.loads(channel[3])))
+    fmt = lambda m: f"{m[0]:.2f} s ({m[1]:.2f} s CPU, {m[2]:.0f} MB)"  # noqa: E731
+    print(f"wall time, median of {a.runs} (CPU time, peak memory); load average "
+          f"{os.getloadavg()[0]:.1f} at the end")
+    for name, size, ch, rep, ph, r1, r3, _ in rows:
+        print(f"\n{name}, {size:.0f} MB:")
+        print(f"  supine exposure --channel: {fmt(ch)}")
+        print(f"  supine report:             {fmt(rep)}")
+        if ph:
+            base = ph[4]
+            print(f"  phonometry, one axis:      {fmt(ph)}; loader and evaluation "
+                  f"{base:.2f} s")
+            print(f"  speed-up over phonometry's loader and evaluation: channel "
+                  f"{base / ch[0]:.1f}x (reach 3x), report {base / rep[0]:.1f}x "
+                  f"(reach 1.5x); over its whole process {ph[0] / ch[0]:.1f}x, "
+                  f"{ph[0] / rep[0]:.1f}x")
+        print(f"  numpy, one axis:           {fmt(r1)}, {r1[0] / ch[0]:.1f}x the channel")
+        print(f"  numpy, three axes:         {fmt(r3)}, {r3[0] / rep[0]:.1f}x the report")
+    print("\nweighted z after the warm-up: rms m/s^2, MTVV m/s^2 (exponential 1 s), "
+          "VDV m/s^1.75")
+    keys = ("rms_m_s2", "mtvv_m_s2", "vdv_m_s175")
+    for name, _, _, _, ph, r1, _, sz in rows:
+        for who, v in [("supine", sz), ("phonometry", ph and ph[3][0]), ("numpy", r1[3][0])]:
+            if v:
+                extra = (f"; phonometry's default mtvv (linear) {v['mtvv_linear_m_s2']:.4f}"
+                         if "mtvv_linear_m_s2" in v else "")
+                diffs = ", ".join(f"{100 * (v[k] / sz[k] - 1):+.2f} %" for k in keys)
+                print(f"  {name}, {who}: " + " ".join(f"{v[k]:.4f}" for k in keys)
+                      + (f" ({diffs} from supine)" if who != "supine" else "") + extra)
 
 
 if __name__ == "__main__":
     if len(sys.argv) == 4 and sys.argv[1] == "--reference":
-        cols, scale, fs, axes = json.loads(sys.argv[3])
-        print(json.dumps(reference(sys.argv[2], cols, scale, fs, axes)))
+        print(json.dumps(reference(sys.argv[2], *json.loads(sys.argv[3]))))
     else:
         main()
