@@ -35,6 +35,16 @@ pub struct JointReport {
 
 pub use crate::io::wording::display_unit;
 
+/// The joint outputs after one sample, in display units (mm or degrees), in
+/// [`JointOutput::ALL`]'s order: what a report charts of each sample.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct JointSample {
+    /// Each output's value.
+    pub outputs: [f64; JOINT_OUTPUT_COUNT],
+    /// Each output's running rms.
+    pub running_rms: [f64; JOINT_OUTPUT_COUNT],
+}
+
 /// The ten joint outputs followed sample by sample: the model in f64 from rest, each
 /// output's running rms, and from the end of the warm-up its overall rms, its largest
 /// running rms and its largest excursion. One pass, so a report can take its chart series
@@ -99,6 +109,14 @@ impl JointTracker {
             }
         }
         self.samples += 1;
+    }
+
+    /// The outputs and their running rms at the last sample, in display units.
+    pub fn sample(&self) -> JointSample {
+        JointSample {
+            outputs: self.outputs_display(),
+            running_rms: self.running_rms_display(),
+        }
     }
 
     /// Each output at the last sample, in its display unit (mm or degrees), in

@@ -7,7 +7,7 @@ use supine_core::blob::{DeviceParams, TelemetryConfig};
 use supine_core::exposure::ExposureValues;
 use supine_core::pipeline::{PipelineOutput, PipelineState, Telemetry};
 
-use crate::exposure::joints::{JointReport, JointTracker};
+use crate::exposure::joints::{JointReport, JointSample, JointTracker};
 use crate::exposure::timed_event::TimedEvent;
 
 /// Samples handed to the device pipeline per call (bounds the chunk buffer).
@@ -21,15 +21,15 @@ pub const MAX_LISTED_EVENTS: usize = 1000;
 pub enum Step<'a> {
     /// An alert event (before the telemetry of its sample).
     Alert(&'a AlertEvent),
-    /// A sample's telemetry, its input (x, y, z at the evaluation's rate) and the joint
-    /// tracker after it.
+    /// A sample's telemetry, its input (x, y, z at the evaluation's rate) and the
+    /// joints after it.
     Sample {
         /// The pipeline's telemetry of the sample.
         telemetry: &'a Telemetry,
         /// The sample's platform input, m/s^2.
         input_m_s2: [f64; 3],
         /// The joints after the sample, when tracked.
-        joints: Option<&'a JointTracker>,
+        joints: Option<&'a JointSample>,
     },
 }
 
@@ -37,7 +37,10 @@ pub enum Step<'a> {
 /// f32 on chunks of `CHUNK_SAMPLES` with sample indices `0, 1, ...`, exactly what the
 /// device computes, and beside it what `supine exposure` reports: the alert timeline (its
 /// first [`MAX_LISTED_EVENTS`] events), the platform's unweighted mean squares, and the
-/// joints when tracked. Memory: the pipeline state and one chunk.
+/// joints when tracked. The joints (the model in f64, independent of the device's f32
+/// pipeline) are run over each chunk on a thread of their own while the pipeline runs,
+/// and the observer is shown both in the pipeline's order after. Memory: the pipeline
+/// state and one chunk of inputs, outputs and joint samples.
 pub struct ModelRun {
     params: DeviceParams,
     state: PipelineState,
@@ -51,6 +54,8 @@ pub struct ModelRun {
     max_level: Level,
     platform_sum2: [f64; 3],
     joints: Option<JointTracker>,
+    outputs: Vec<PipelineOutput>,
+    joint_samples: Vec<JointSample>,
 }
 
 /// What a [`ModelRun`] found over the whole ride.
@@ -96,6 +101,8 @@ impl ModelRun {
             max_level: Level::Normal,
             platform_sum2: [0.0; 3],
             joints,
+            outputs: Vec::with_capacity(CHUNK_SAMPLES),
+            joint_samples: Vec::with_capacity(CHUNK_SAMPLES),
         }
     }
 
@@ -142,32 +149,50 @@ impl ModelRun {
             events_omitted,
             max_level,
             joints,
+            outputs,
+            joint_samples,
             ..
         } = self;
-        params.process(state, indices, samples_f32, |out| match out {
-            PipelineOutput::Alert(e) => {
-                if let AlertEvent::Level { to, .. } = e {
-                    *max_level = (*max_level).max(to);
-                }
-                if events.len() < MAX_LISTED_EVENTS {
-                    events.push(TimedEvent::new(&e, *start_s, fs));
-                } else {
-                    *events_omitted += 1;
-                }
-                observe(Step::Alert(&e));
+        outputs.clear();
+        joint_samples.clear();
+        let track = |joints: &mut JointTracker, samples: &mut Vec<JointSample>| {
+            for &input_m_s2 in chunk.iter() {
+                joints.step(input_m_s2);
+                samples.push(joints.sample());
             }
-            PipelineOutput::Telemetry(t) => {
-                let input_m_s2 = chunk[(t.sample_index - first) as usize];
-                if let Some(j) = joints.as_mut() {
-                    j.step(input_m_s2);
-                }
-                observe(Step::Sample {
-                    telemetry: &t,
-                    input_m_s2,
-                    joints: joints.as_ref(),
-                });
+        };
+        let run = |state: &mut PipelineState, outputs: &mut Vec<PipelineOutput>| {
+            params.process(state, indices, samples_f32, |out| outputs.push(out))
+        };
+        match joints.as_mut() {
+            Some(j) => {
+                rayon::join(|| track(j, joint_samples), || run(state, outputs));
             }
-        });
+            None => run(state, outputs),
+        }
+        for out in outputs.drain(..) {
+            match out {
+                PipelineOutput::Alert(e) => {
+                    if let AlertEvent::Level { to, .. } = e {
+                        *max_level = (*max_level).max(to);
+                    }
+                    if events.len() < MAX_LISTED_EVENTS {
+                        events.push(TimedEvent::new(&e, *start_s, fs));
+                    } else {
+                        *events_omitted += 1;
+                    }
+                    observe(Step::Alert(&e));
+                }
+                PipelineOutput::Telemetry(t) => {
+                    let k = (t.sample_index - first) as usize;
+                    observe(Step::Sample {
+                        telemetry: &t,
+                        input_m_s2: chunk[k],
+                        joints: joint_samples.get(k),
+                    });
+                }
+            }
+        }
         self.chunk.clear();
     }
 

@@ -219,6 +219,13 @@ impl<R: Read> CsvLines<R> {
         }
     }
 
+    /// The source, the bytes read from it and not yet returned, and the number of the
+    /// last line returned: for a reader that goes on from here by other means
+    /// ([`crate::io::csv_blocks`]).
+    pub fn into_rest(self) -> (R, Vec<u8>, u64) {
+        (self.source, self.buffer[self.start..self.end].to_vec(), self.line)
+    }
+
     /// The next line's bounds in `buffer` (without its LF; a last line without one
     /// counts), or `None` at the end of the file.
     fn next_line_bounds(&mut self) -> Result<Option<(usize, usize)>, LineError> {

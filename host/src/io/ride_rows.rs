@@ -20,12 +20,14 @@ use std::sync::Arc;
 use anyhow::{Result, anyhow, bail};
 use supine_core::calibration::SensorFrame;
 
+use crate::io::csv_blocks::{BlockError, ParsedLines};
 use crate::io::csv_lines::{CsvLines, MAX_LINE_BYTES};
+use crate::io::decimal::{exact_decimal, parse_f64};
 use crate::io::excerpt::{excerpt, quoted_name};
 use crate::io::recording::{
     Layout, MAX_ACCELERATION_M_S2, PLATFORM_HEADER_LINE, PlatformStream, Recording,
 };
-use crate::ride::clock::Clock;
+use crate::ride::clock::{CellTime, Clock};
 use crate::ride::conditioned::{Conditioned, FileRows, RawRows};
 use crate::ride::formats::PositionColumns;
 use crate::ride::position::Track;
@@ -141,22 +143,112 @@ pub struct ForeignFormat {
     pub units: AccelUnit,
 }
 
-/// The rows of another logger's file, parsed one line at a time: each its line and time
-/// (s), x, y, z (m/s^2). Every cell is checked; time may go backwards or repeat (the
-/// conditioning drops and counts such rows, [`crate::ride::regular`]). Quoted cells
+/// The rows of another logger's file: each its line and time (s), x, y, z (m/s^2). Every
+/// cell is checked; time may go backwards or repeat (the conditioning drops and counts
+/// such rows, [`crate::ride::regular`]). The lines are parsed on every core
+/// ([`crate::io::csv_blocks`]) and placed on the clock in the file's order. Quoted cells
 /// (RFC 4180, as apps and spreadsheets write them) are read by the `csv` crate, a line
 /// at a time; a line without a quote is split directly.
 pub struct ForeignRows {
     path: PathBuf,
-    lines: CsvLines<std::fs::File>,
+    lines: ParsedLines<std::fs::File, (CellTime, [f64; 3]), ReadLine>,
+    clock: Clock,
+}
+
+/// A [`LineReader`]'s reading, as [`ParsedLines`] takes it.
+type ReadLine = Box<dyn Fn(&[u8]) -> Result<(CellTime, [f64; 3]), String> + Send + Sync>;
+
+/// How a data line of another logger's file is read: which cells, in which units.
+/// It depends on the line alone, so that lines can be read on several threads.
+struct LineReader {
     delimiter: u8,
     width: usize,
     index: [usize; 4],
     names: [String; 4],
-    scale: [f64; 3],
+    scale: f64,
+    time_unit: TimeUnit,
+    /// What each column holds, as errors say it.
     what: [String; 4],
-    clock: Clock,
-    quoted: Vec<Vec<u8>>,
+}
+
+impl LineReader {
+    /// The time and x, y, z (m/s^2) of the line `text` (without its LF); an error says
+    /// what is wrong after the line's number (`, column time: expected ...`).
+    fn read(&self, text: &[u8]) -> Result<(CellTime, [f64; 3]), String> {
+        let text = text.strip_suffix(b"\r").unwrap_or(text);
+        let mut cells: [&[u8]; 4] = [&[]; 4];
+        // One walk over the line: each wanted cell picked, every cell counted, a quote
+        // sending the line to the `csv` crate.
+        let (mut start, mut found, mut has_quote) = (0usize, 0usize, false);
+        let ends = text.iter().enumerate().map(|(i, b)| (i, *b)).chain([(text.len(), self.delimiter)]);
+        for (end, b) in ends {
+            if b == b'"' {
+                has_quote = true;
+                break;
+            }
+            if b != self.delimiter {
+                continue;
+            }
+            for (cell, &i) in cells.iter_mut().zip(&self.index) {
+                if i == found {
+                    *cell = &text[start..end];
+                }
+            }
+            found += 1;
+            start = end + 1;
+        }
+        let quoted;
+        if has_quote {
+            quoted = unquoted_cells(text, self.delimiter)
+                .ok_or(": expected RFC 4180 quoting, found an unclosed quote")?;
+            found = quoted.len();
+            if found == self.width {
+                for (cell, &i) in cells.iter_mut().zip(&self.index) {
+                    let raw = quoted[i].as_slice();
+                    *cell = raw.strip_suffix(b"\r").unwrap_or(raw);
+                }
+            }
+        }
+        if found != self.width {
+            return Err(format!(
+                ": expected {} {:?}-separated cells as in the header, found {found}",
+                self.width, self.delimiter as char,
+            ));
+        }
+        let bad = |k: usize, expected: String| {
+            format!(
+                ", column {}: expected {expected}, found {}",
+                self.names[k],
+                excerpt(cells[k])
+            )
+        };
+        // A plain decimal in s or ms read directly; any other cell as the clock reads it.
+        let time = match self.time_unit {
+            TimeUnit::S | TimeUnit::Ms => exact_decimal(cells[0].trim_ascii())
+                .map(|v| CellTime::Seconds(v * self.time_unit.to_s())),
+            _ => None,
+        }
+        .or_else(|| {
+            std::str::from_utf8(cells[0])
+                .ok()
+                .and_then(|t| CellTime::read(self.time_unit, t))
+        })
+        .ok_or_else(|| bad(0, self.what[0].clone()))?;
+        let mut value = [0.0f64; 3];
+        for (k, slot) in (1..4).zip(value.iter_mut()) {
+            *slot = parse_f64(cells[k].trim_ascii())
+                .filter(|v| v.is_finite())
+                .map(|v| v * self.scale)
+                .ok_or_else(|| bad(k, format!("{} (a finite number)", self.what[k])))?;
+            if slot.abs() > MAX_ACCELERATION_M_S2 {
+                return Err(bad(
+                    k,
+                    "an acceleration within the f32 range the device computes in".to_string(),
+                ));
+            }
+        }
+        Ok((time, value))
+    }
 }
 
 /// The cells of a line that holds a quote, unquoted (RFC 4180) by the `csv` crate.
@@ -208,106 +300,53 @@ impl ForeignRows {
         }
         let file =
             std::fs::File::open(path).map_err(|e| anyhow!("{shown}: cannot read the ride: {e}"))?;
-        let mut lines = CsvLines::with_delimiter(file, MAX_LINE_BYTES, delimiter);
-        lines.next_line().map_err(|e| anyhow!("{shown}: {e}"))?;
+        let mut header_lines = CsvLines::with_delimiter(file, MAX_LINE_BYTES, delimiter);
+        header_lines
+            .next_line()
+            .map_err(|e| anyhow!("{shown}: {e}"))?;
+        let (file, pending, line) = header_lines.into_rest();
         let accel = format!("an acceleration in {}", format.units.name());
-        Ok(Self {
-            path: path.to_path_buf(),
-            lines,
+        let reader = LineReader {
             delimiter,
             width,
             index,
             names: format.columns.names.clone(),
-            scale: [format.units.to_m_s2(); 3],
+            scale: format.units.to_m_s2(),
+            time_unit: format.time_unit,
             what: [
                 format.time_unit.expected().to_string(),
                 accel.clone(),
                 accel.clone(),
                 accel,
             ],
+        };
+        Ok(Self {
+            path: path.to_path_buf(),
+            lines: ParsedLines::new(
+                file,
+                pending,
+                line,
+                delimiter,
+                MAX_LINE_BYTES,
+                Box::new(move |text| reader.read(text)),
+            ),
             clock: Clock::new(format.time_unit),
-            quoted: Vec::new(),
         })
     }
 
     /// The next row: its line, and time (s), x, y, z (m/s^2).
     pub fn next_row(&mut self) -> Result<Option<(u64, [f64; 4])>> {
         let shown = self.path.display();
-        let Some(line) = self
-            .lines
-            .next_line()
-            .map_err(|e| anyhow!("{shown}: {e}"))?
-        else {
-            return Ok(None);
-        };
-        let number = line.line;
-        let has_quote = memchr::memchr(b'"', line.text()).is_some();
-        // The four cells read, picked in place: no allocation per row.
-        let mut cells: [&[u8]; 4] = [&[]; 4];
-        let row;
-        let cells_len = if has_quote {
-            self.quoted = unquoted_cells(line.text(), self.delimiter).ok_or_else(|| {
-                anyhow!(
-                    "{shown}: line {number}: expected RFC 4180 quoting, found an unclosed quote"
-                )
-            })?;
-            if self.quoted.len() == self.width {
-                for (cell, &i) in cells.iter_mut().zip(&self.index) {
-                    let raw = self.quoted[i].as_slice();
-                    *cell = raw.strip_suffix(b"\r").unwrap_or(raw);
-                }
+        match self.lines.next_row() {
+            None => Ok(None),
+            Some(Ok((line, (time, [x, y, z])))) => {
+                Ok(Some((line, [self.clock.place(time), x, y, z])))
             }
-            self.quoted.len()
-        } else {
-            row = line.split();
-            if row.len() == self.width {
-                for (cell, &i) in cells.iter_mut().zip(&self.index) {
-                    *cell = row.cell(i);
-                }
-            }
-            row.len()
-        };
-        if cells_len != self.width {
-            bail!(
-                "{shown}: line {number}: expected {} {:?}-separated cells as in the header, found {}",
-                self.width,
-                self.delimiter as char,
-                cells_len
-            );
-        }
-        let mut value = [0.0f64; 4];
-        for (k, (slot, cell)) in value.iter_mut().zip(cells).enumerate() {
-            let name = &self.names[k];
-            let parsed = if k == 0 {
-                std::str::from_utf8(cell)
-                    .ok()
-                    .and_then(|t| self.clock.seconds(t))
-            } else {
-                fast_float2::parse::<f64, _>(cell.trim_ascii())
-                    .ok()
-                    .filter(|v| v.is_finite())
-                    .map(|v| v * self.scale[k - 1])
-            };
-            *slot = parsed.ok_or_else(|| {
-                anyhow!(
-                    "{shown}: line {number}, column {name}: expected {}, found {}",
-                    if k == 0 {
-                        self.what[0].clone()
-                    } else {
-                        format!("{} (a finite number)", self.what[k])
-                    },
-                    excerpt(cell)
-                )
-            })?;
-            if k > 0 && slot.abs() > MAX_ACCELERATION_M_S2 {
-                bail!(
-                    "{shown}: line {number}, column {name}: expected an acceleration within the f32 \
-                     range the device computes in, found {}",
-                    excerpt(cell)
-                );
+            Some(Err(BlockError::Line(e))) => Err(anyhow!("{shown}: {e}")),
+            Some(Err(BlockError::Parse { line, message })) => {
+                Err(anyhow!("{shown}: line {line}{message}"))
             }
         }
-        Ok(Some((number, value)))
     }
 }
 

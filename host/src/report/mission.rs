@@ -324,7 +324,7 @@ pub fn evaluate_leg(
                         }
                     }
                     pending_events.clear();
-                    let outputs = joints.map(|j| j.outputs_display());
+                    let outputs = joints.map(|j| j.outputs);
                     builder.push(
                         k,
                         place,
@@ -338,7 +338,7 @@ pub fn evaluate_leg(
                 at_level[usize::from(level.min(3))] += 1;
                 spectra.push(input_m_s2, t.head_acc_m_s2.map(f64::from));
                 dose.push(k, vdv);
-                let joints = joints.map(|j| j.running_rms_display()).unwrap_or_default();
+                let joints = joints.map(|j| j.running_rms).unwrap_or_default();
                 series.push(k, rms, vdv, level, input_m_s2[2], joints);
             }
         })?;

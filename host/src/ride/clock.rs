@@ -93,26 +93,23 @@ impl Clock {
 
     /// The time of `cell`, s; `None` when it is not a time of this clock's form.
     pub fn seconds(&mut self, cell: &str) -> Option<f64> {
-        let cell = cell.trim();
-        match self.unit {
-            TimeUnit::S | TimeUnit::Ms => fast_float2::parse::<f64, _>(cell)
-                .ok()
-                .filter(|v| v.is_finite())
-                .map(|v| v * self.unit.to_s()),
-            TimeUnit::Us | TimeUnit::Ns => {
-                if let Ok(i) = cell.parse::<i128>() {
-                    let origin = *self.integer_origin.get_or_insert(i);
-                    return Some((i - origin) as f64 * self.unit.to_s());
-                }
-                // A decimal count (some exports write ns as floats): no exact origin.
-                let v = fast_float2::parse::<f64, _>(cell)
-                    .ok()
-                    .filter(|v| v.is_finite())?;
-                let origin = *self.integer_origin.get_or_insert(v as i128);
-                Some((v - origin as f64) * self.unit.to_s())
+        CellTime::read(self.unit, cell).map(|t| self.place(t))
+    }
+
+    /// The time of a cell read by [`CellTime::read`] (in this clock's unit), s, its
+    /// origin and midnights counted from the cells placed before it.
+    pub fn place(&mut self, time: CellTime) -> f64 {
+        match time {
+            CellTime::Seconds(s) => s,
+            CellTime::Count(i) => {
+                let origin = *self.integer_origin.get_or_insert(i);
+                (i - origin) as f64 * self.unit.to_s()
             }
-            TimeUnit::Text => {
-                let (raw_ns, dated) = parse_text_ns(cell)?;
+            CellTime::DecimalCount(v) => {
+                let origin = *self.integer_origin.get_or_insert(v as i128);
+                (v - origin as f64) * self.unit.to_s()
+            }
+            CellTime::Text { ns: raw_ns, dated } => {
                 let mut ns = raw_ns;
                 if !dated {
                     if let Some(previous) = self.previous_text_ns
@@ -124,7 +121,53 @@ impl Clock {
                 }
                 self.previous_text_ns = Some(ns);
                 let origin = *self.text_origin_ns.get_or_insert(ns);
-                Some((ns - origin) as f64 * 1e-9)
+                (ns - origin) as f64 * 1e-9
+            }
+        }
+    }
+}
+
+/// A time cell as read, before a [`Clock`] places it on the ride's time line: reading
+/// depends on the cell alone, so a file's lines can be read on several threads and placed
+/// in order after.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CellTime {
+    /// A time in s (a cell in s or ms).
+    Seconds(f64),
+    /// An integer count of us or ns.
+    Count(i128),
+    /// A decimal count of us or ns (some exports write ns as floats).
+    DecimalCount(f64),
+    /// Date-time text (`dated`, ns since the Unix epoch) or a clock time (ns since the
+    /// day's start).
+    Text {
+        /// Nanoseconds.
+        ns: i128,
+        /// Whether the text has a date.
+        dated: bool,
+    },
+}
+
+impl CellTime {
+    /// `cell` as a time in `unit`; `None` when it is not one.
+    pub fn read(unit: TimeUnit, cell: &str) -> Option<Self> {
+        let cell = cell.trim();
+        match unit {
+            TimeUnit::S | TimeUnit::Ms => fast_float2::parse::<f64, _>(cell)
+                .ok()
+                .filter(|v| v.is_finite())
+                .map(|v| CellTime::Seconds(v * unit.to_s())),
+            TimeUnit::Us | TimeUnit::Ns => {
+                if let Ok(i) = cell.parse::<i128>() {
+                    return Some(CellTime::Count(i));
+                }
+                fast_float2::parse::<f64, _>(cell)
+                    .ok()
+                    .filter(|v| v.is_finite())
+                    .map(CellTime::DecimalCount)
+            }
+            TimeUnit::Text => {
+                parse_text_ns(cell).map(|(ns, dated)| CellTime::Text { ns, dated })
             }
         }
     }

@@ -1,0 +1,104 @@
+//! Reading a number from a CSV cell: the f64 nearest its decimal value, as `fast_float2`
+//! gives it, in a fraction of the time for the short decimals a ride is made of.
+//!
+//! `fast_float2` reads every form (exponents, `inf`, long mantissas) and spends about 200
+//! instructions on a cell; a ride's cells are a sign, at most 19 digits and a point,
+//! which the exact fast path (Clinger, 1990) reads in a few instructions a digit: when
+//! the digits, as an integer `w`, are at most 2^53 and there are `f <= 22` after the
+//! point, `w` and `10^f` are exact f64 values and one IEEE division rounds `w / 10^f`
+//! correctly, so the result is the correctly rounded one `fast_float2` gives, bit for bit.
+//! Any other cell goes to `fast_float2`. No crate offers the fast path alone.
+
+/// The powers of ten an f64 holds exactly.
+const POW10: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+    1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+];
+/// Digits read by the fast path, at most (their integer fits in a u64).
+const MAX_DIGITS: usize = 19;
+/// The largest integer below which every integer is an exact f64.
+const MAX_EXACT: u64 = 1 << 53;
+
+/// The f64 nearest the number `cell` writes (the whole cell, no white space around it),
+/// as `fast_float2::parse` reads it; `None` when it is not a number.
+pub fn parse_f64(cell: &[u8]) -> Option<f64> {
+    exact_decimal(cell).or_else(|| fast_float2::parse::<f64, _>(cell).ok())
+}
+
+/// The fast path alone: `[-]digits[.digits]` within the exact range, else `None`.
+pub fn exact_decimal(cell: &[u8]) -> Option<f64> {
+    let (negative, digits) = match cell.split_first()? {
+        (b'-', rest) => (true, rest),
+        _ => (false, cell),
+    };
+    let (mut mantissa, mut count, mut fraction, mut point) = (0u64, 0usize, 0usize, false);
+    for &b in digits {
+        match b {
+            b'0'..=b'9' if count < MAX_DIGITS => {
+                mantissa = mantissa * 10 + u64::from(b - b'0');
+                count += 1;
+                fraction += usize::from(point);
+            }
+            b'.' if !point => point = true,
+            _ => return None,
+        }
+    }
+    if count == 0 || mantissa > MAX_EXACT || fraction >= POW10.len() {
+        return None;
+    }
+    let value = mantissa as f64 / POW10[fraction];
+    Some(if negative { -value } else { value })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn same(cell: &str) {
+        let ours = parse_f64(cell.as_bytes());
+        let theirs = fast_float2::parse::<f64, _>(cell).ok();
+        assert_eq!(ours.map(f64::to_bits), theirs.map(f64::to_bits), "{cell:?}");
+    }
+
+    #[test]
+    fn every_cell_reads_as_fast_float2_reads_it_bit_for_bit() {
+        for cell in [
+            "0", "-0", "0.0", "-0.000", "1.", ".5", "-.5", "00012.50", "0.1", "0.2", "0.3",
+            "9.80665", "-0.255448", "1718030736.872695300", "9007199254740992",
+            "9007199254740993", "12345678901234567890", "1234567890123456789",
+            "0.0000000000000000000001", "0.00000000000000000000001", "1e3", "1E-3",
+            "-2.5e+2", "inf", "-infinity", "nan", "NaN", "", "-", ".", "-.", "1.2.3",
+            "+5", "5+", "1,5", " 1", "1 ", "0x10", "--1", "1e", "3.14159265358979323846",
+        ] {
+            same(cell);
+        }
+        // Random decimals of the lengths loggers write, and at the fast path's edges.
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        for _ in 0..200_000 {
+            let digits = 1 + (next() % 19) as usize;
+            let mut cell: String = (0..digits).map(|_| char::from(b'0' + (next() % 10) as u8)).collect();
+            let point = (next() % (digits as u64 + 1)) as usize;
+            cell.insert(point, '.');
+            if next() % 2 == 0 {
+                cell.insert(0, '-');
+            }
+            same(&cell);
+        }
+    }
+
+    #[test]
+    fn the_fast_path_takes_rides_cells_and_leaves_the_rest() {
+        assert_eq!(exact_decimal(b"-0.255448"), Some(-0.255448));
+        assert_eq!(exact_decimal(b"3599.998"), Some(3599.998));
+        assert_eq!(exact_decimal(b"1e3"), None);
+        assert_eq!(exact_decimal(b"9007199254740993"), None);
+        assert_eq!(parse_f64(b"1e3"), Some(1000.0));
+        assert_eq!(parse_f64(b"x"), None);
+    }
+}
