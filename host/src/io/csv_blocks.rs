@@ -206,7 +206,8 @@ fn parse_block<T>(
     let mut rows = Vec::new();
     let mut offset = 0u64;
     let mut start = 0usize;
-    let ends = memchr::memchr_iter(b'\n', text).chain((!text.ends_with(b"\n")).then_some(text.len()));
+    let ends =
+        memchr::memchr_iter(b'\n', text).chain((!text.ends_with(b"\n")).then_some(text.len()));
     for end in ends {
         offset += 1;
         let line = &text[start..end];

@@ -223,7 +223,11 @@ impl<R: Read> CsvLines<R> {
     /// last line returned: for a reader that goes on from here by other means
     /// ([`crate::io::csv_blocks`]).
     pub fn into_rest(self) -> (R, Vec<u8>, u64) {
-        (self.source, self.buffer[self.start..self.end].to_vec(), self.line)
+        (
+            self.source,
+            self.buffer[self.start..self.end].to_vec(),
+            self.line,
+        )
     }
 
     /// The next line's bounds in `buffer` (without its LF; a last line without one

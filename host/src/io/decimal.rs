@@ -11,8 +11,8 @@
 
 /// The powers of ten an f64 holds exactly.
 const POW10: [f64; 23] = [
-    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
-    1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
 ];
 /// Digits read by the fast path, at most (their integer fits in a u64).
 const MAX_DIGITS: usize = 19;
@@ -31,19 +31,37 @@ pub fn exact_decimal(cell: &[u8]) -> Option<f64> {
         (b'-', rest) => (true, rest),
         _ => (false, cell),
     };
-    let (mut mantissa, mut count, mut fraction, mut point) = (0u64, 0usize, 0usize, false);
-    for &b in digits {
-        match b {
-            b'0'..=b'9' if count < MAX_DIGITS => {
-                mantissa = mantissa * 10 + u64::from(b - b'0');
-                count += 1;
-                fraction += usize::from(point);
-            }
-            b'.' if !point => point = true,
-            _ => return None,
-        }
+    // At most MAX_DIGITS digits and a point: the integer cannot overflow a u64.
+    if digits.len() > MAX_DIGITS + 1 {
+        return None;
     }
-    if count == 0 || mantissa > MAX_EXACT || fraction >= POW10.len() {
+    let mut mantissa = 0u64;
+    let mut i = 0;
+    while let Some(d) = digits
+        .get(i)
+        .map(|b| b.wrapping_sub(b'0'))
+        .filter(|d| *d <= 9)
+    {
+        mantissa = mantissa * 10 + u64::from(d);
+        i += 1;
+    }
+    let mut count = i;
+    let mut fraction = 0;
+    if let Some(&b) = digits.get(i) {
+        if b != b'.' {
+            return None;
+        }
+        for &b in &digits[i + 1..] {
+            let d = b.wrapping_sub(b'0');
+            if d > 9 {
+                return None;
+            }
+            mantissa = mantissa * 10 + u64::from(d);
+        }
+        fraction = digits.len() - i - 1;
+        count += fraction;
+    }
+    if count == 0 || count > MAX_DIGITS || mantissa > MAX_EXACT || fraction >= POW10.len() {
         return None;
     }
     let value = mantissa as f64 / POW10[fraction];
@@ -63,12 +81,47 @@ mod tests {
     #[test]
     fn every_cell_reads_as_fast_float2_reads_it_bit_for_bit() {
         for cell in [
-            "0", "-0", "0.0", "-0.000", "1.", ".5", "-.5", "00012.50", "0.1", "0.2", "0.3",
-            "9.80665", "-0.255448", "1718030736.872695300", "9007199254740992",
-            "9007199254740993", "12345678901234567890", "1234567890123456789",
-            "0.0000000000000000000001", "0.00000000000000000000001", "1e3", "1E-3",
-            "-2.5e+2", "inf", "-infinity", "nan", "NaN", "", "-", ".", "-.", "1.2.3",
-            "+5", "5+", "1,5", " 1", "1 ", "0x10", "--1", "1e", "3.14159265358979323846",
+            "0",
+            "-0",
+            "0.0",
+            "-0.000",
+            "1.",
+            ".5",
+            "-.5",
+            "00012.50",
+            "0.1",
+            "0.2",
+            "0.3",
+            "9.80665",
+            "-0.255448",
+            "1718030736.872695300",
+            "9007199254740992",
+            "9007199254740993",
+            "12345678901234567890",
+            "1234567890123456789",
+            "0.0000000000000000000001",
+            "0.00000000000000000000001",
+            "1e3",
+            "1E-3",
+            "-2.5e+2",
+            "inf",
+            "-infinity",
+            "nan",
+            "NaN",
+            "",
+            "-",
+            ".",
+            "-.",
+            "1.2.3",
+            "+5",
+            "5+",
+            "1,5",
+            " 1",
+            "1 ",
+            "0x10",
+            "--1",
+            "1e",
+            "3.14159265358979323846",
         ] {
             same(cell);
         }
@@ -82,7 +135,9 @@ mod tests {
         };
         for _ in 0..200_000 {
             let digits = 1 + (next() % 19) as usize;
-            let mut cell: String = (0..digits).map(|_| char::from(b'0' + (next() % 10) as u8)).collect();
+            let mut cell: String = (0..digits)
+                .map(|_| char::from(b'0' + (next() % 10) as u8))
+                .collect();
             let point = (next() % (digits as u64 + 1)) as usize;
             cell.insert(point, '.');
             if next() % 2 == 0 {

@@ -180,22 +180,26 @@ impl LineReader {
         // One walk over the line: each wanted cell picked, every cell counted, a quote
         // sending the line to the `csv` crate.
         let (mut start, mut found, mut has_quote) = (0usize, 0usize, false);
-        let ends = text.iter().enumerate().map(|(i, b)| (i, *b)).chain([(text.len(), self.delimiter)]);
-        for (end, b) in ends {
-            if b == b'"' {
-                has_quote = true;
-                break;
-            }
-            if b != self.delimiter {
-                continue;
-            }
+        let mut pick = |found: usize, start: usize, end: usize| {
             for (cell, &i) in cells.iter_mut().zip(&self.index) {
                 if i == found {
                     *cell = &text[start..end];
                 }
             }
+        };
+        for (end, &b) in text.iter().enumerate() {
+            if b == self.delimiter {
+                pick(found, start, end);
+                found += 1;
+                start = end + 1;
+            } else if b == b'"' {
+                has_quote = true;
+                break;
+            }
+        }
+        if !has_quote {
+            pick(found, start, text.len());
             found += 1;
-            start = end + 1;
         }
         let quoted;
         if has_quote {

@@ -166,9 +166,7 @@ impl CellTime {
                     .filter(|v| v.is_finite())
                     .map(CellTime::DecimalCount)
             }
-            TimeUnit::Text => {
-                parse_text_ns(cell).map(|(ns, dated)| CellTime::Text { ns, dated })
-            }
+            TimeUnit::Text => parse_text_ns(cell).map(|(ns, dated)| CellTime::Text { ns, dated }),
         }
     }
 }
