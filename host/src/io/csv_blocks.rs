@@ -22,7 +22,7 @@ use crate::io::csv_lines::LineError;
 use crate::parallel::in_parallel;
 
 /// Bytes of text in a block, about (a block ends at a line end).
-pub const BLOCK_BYTES: usize = 256 * 1024;
+pub const BLOCK_BYTES: usize = 512 * 1024;
 /// Blocks parsed together, one a job on rayon's threads.
 pub const BATCH_BLOCKS: usize = 4;
 /// Bytes asked of the source per read.
@@ -263,7 +263,7 @@ mod tests {
         let mut text = Vec::new();
         let mut expected = Vec::new();
         let mut line = 3;
-        for k in 0..200_000u64 {
+        for k in 0..400_000u64 {
             line += 1;
             if k % 7 == 3 {
                 text.extend(b"  \r\n");
