@@ -40,7 +40,7 @@ pub fn in_parallel<T: Send>(
 
 /// Items handed from the reading thread to the computing one at a time: a few dozen
 /// hand-overs a second, each of which can wait for a core on a busy machine.
-const READ_AHEAD_CHUNK: usize = 32 * 1024;
+const READ_AHEAD_CHUNK: usize = 16 * 1024;
 /// Chunks read ahead of the computation at most: memory stays bounded whatever the
 /// input's length.
 const READ_AHEAD_CHUNKS: usize = 2;

@@ -11,7 +11,7 @@ use crate::exposure::joints::{JointReport, JointSample, JointTracker};
 use crate::exposure::timed_event::TimedEvent;
 
 /// Samples handed to the device pipeline per call (bounds the chunk buffer).
-const CHUNK_SAMPLES: usize = 16 * 1024;
+const CHUNK_SAMPLES: usize = 8 * 1024;
 /// Most alert events a report lists: a sensor fault that comes and goes on every sample
 /// would otherwise grow the list with the ride; the rest are counted, not kept.
 pub const MAX_LISTED_EVENTS: usize = 1000;

@@ -22,7 +22,7 @@ use crate::io::csv_lines::LineError;
 use crate::parallel::in_parallel;
 
 /// Bytes of text in a block, about (a block ends at a line end).
-pub const BLOCK_BYTES: usize = 512 * 1024;
+pub const BLOCK_BYTES: usize = 256 * 1024;
 /// Blocks parsed together, one a job on rayon's threads.
 pub const BATCH_BLOCKS: usize = 4;
 /// Bytes asked of the source per read.
