@@ -53,6 +53,11 @@ fn csv_problems(csv: &Path, out: &mut Vec<String>) {
 }
 
 fn csv_files(dir: &Path) -> Vec<PathBuf> {
+    files_named(dir, "csv")
+}
+
+/// The files under `dir` whose extension is `extension`, sorted.
+fn files_named(dir: &Path, extension: &str) -> Vec<PathBuf> {
     let mut files = Vec::new();
     let mut dirs = vec![dir.to_path_buf()];
     while let Some(d) = dirs.pop() {
@@ -60,7 +65,7 @@ fn csv_files(dir: &Path) -> Vec<PathBuf> {
             let p = entry.unwrap().path();
             if p.is_dir() {
                 dirs.push(p);
-            } else if p.extension().is_some_and(|e| e == "csv") {
+            } else if p.extension().is_some_and(|e| e == extension) {
                 files.push(p);
             }
         }
@@ -203,9 +208,59 @@ fn every_commands_json_and_every_csv_header_follow_the_naming_rules() {
             "--json",
         ]),
     );
+    let validated = (
+        "validate",
+        json(&[
+            "validate",
+            "--params",
+            s(&rigid),
+            "--input",
+            s(&recording),
+            "--report",
+            s(&d.join("validation")),
+            "--json",
+        ]),
+    );
+    // A tumble test's readings: each orientation 1 g along its axis, a little offset.
+    let tumble = d.join("tumble.in");
+    let rows: String = ["+x", "-x", "+y", "-y", "+z", "-z"]
+        .iter()
+        .enumerate()
+        .map(|(k, o)| {
+            let mut g = [0.02, -0.01, 0.03];
+            g[k / 2] += if k % 2 == 0 { 9.81 } else { -9.81 };
+            format!("{o},{},{},{}\n", g[0], g[1], g[2])
+        })
+        .collect();
+    std::fs::write(&tumble, format!("orientation,x_m_s2,y_m_s2,z_m_s2\n{rows}")).unwrap();
+    let tumbled = (
+        "calibrate --tumble",
+        json(&["calibrate", "--tumble", s(&tumble), "--json"]),
+    );
+    let flashed = (
+        "flash --qemu-image",
+        json(&[
+            "flash",
+            "--preset",
+            "paper-litter",
+            "--qemu-image",
+            s(&d.join("params.bin")),
+            "--json",
+        ]),
+    );
     let mut problems = Vec::new();
-    for (command, value) in runs.iter().chain([&predicted]) {
+    for (command, value) in runs
+        .iter()
+        .chain([&predicted, &validated, &tumbled, &flashed])
+    {
         json_problems(value, command, false, &mut problems);
+    }
+    // The JSON files the commands write (validate's validation.json, ...).
+    for file in files_named(d, "json") {
+        let text = std::fs::read_to_string(&file).unwrap();
+        let value: Value = serde_json::from_str(&text).unwrap_or_else(|e| panic!("{file:?}: {e}"));
+        let name = file.file_name().unwrap().to_string_lossy().to_string();
+        json_problems(&value, &name, false, &mut problems);
     }
     let csvs = csv_files(d);
     assert!(csvs.len() >= 8, "{csvs:?}");
@@ -276,6 +331,71 @@ fn the_device_records_follow_the_naming_rules() {
         let events = dir.path().join("device.events.csv");
         write_events(&events, &[e], 500.0).unwrap();
         csv_problems(&events, &mut problems);
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+/// `supine archive`'s JSON, on a temporary SQLite archive of two missions (one ride with
+/// a track, so that the road segments are there): `add --json`, `list --json`,
+/// `show --json` and `fleet --json`. (`export --fhir` writes FHIR R4's own names,
+/// `resourceType`, `valueQuantity`, ...: the standard's, which a receiver's parser
+/// expects, so it is left out; `the_fhir_bundle_validates_against_the_r4_schema` holds
+/// it to the standard instead.)
+#[test]
+fn every_archive_subcommands_json_follows_the_naming_rules() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let db = d.join("archive.sqlite");
+    let db = s(&db);
+    // A straight road north at 15 m/s, a fix a second.
+    let fixes: String = (0..=20)
+        .map(|k| {
+            let lat = 48.1 + 15.0 * f64::from(k) / 111_195.0;
+            format!("<trkpt lat=\"{lat:.7}\" lon=\"11.5\"><time>2026-03-01T10:00:{k:02}Z</time></trkpt>")
+        })
+        .collect();
+    let track = d.join("track.gpx");
+    std::fs::write(
+        &track,
+        format!(
+            "<gpx version=\"1.1\" creator=\"test\" xmlns=\"http://www.topografix.com/GPX/1/1\">\
+             <trk><trkseg>{fixes}</trkseg></trk></gpx>\n"
+        ),
+    )
+    .unwrap();
+    let mut runs = Vec::new();
+    for (k, (profile, vehicle)) in [("rough-road", "A1"), ("ambulance", "A2")].iter().enumerate() {
+        let ride = d.join(format!("{profile}.csv"));
+        supine(&[
+            "ride", "--profile", profile, "--duration-s", "20", "--out", s(&ride),
+        ]);
+        let start = format!("2026-03-0{}T10:00:00Z", k + 1);
+        let mut add = vec![
+            "archive", "--archive", db, "add", "--preset", "paper-litter", "--input", s(&ride),
+            "--vehicle", vehicle, "--start", start.as_str(), "--patient", "P1", "--json",
+        ];
+        if k == 0 {
+            add.extend(["--track", s(&track)]);
+        }
+        runs.push(("archive add", json(&add)));
+    }
+    let fleet = d.join("fleet");
+    runs.extend([
+        ("archive list", json(&["archive", "--archive", db, "list", "--json"])),
+        ("archive show", json(&["archive", "--archive", db, "show", "1", "--json"])),
+        (
+            "archive fleet",
+            json(&["archive", "--archive", db, "fleet", "--out", s(&fleet), "--json"]),
+        ),
+    ]);
+    let view = &runs.last().unwrap().1;
+    assert!(
+        !view["road_segments"].as_array().unwrap().is_empty() && view["compare"].is_object(),
+        "the view has places and a compare: {view}"
+    );
+    let mut problems = Vec::new();
+    for (command, value) in &runs {
+        json_problems(value, command, false, &mut problems);
     }
     assert!(problems.is_empty(), "{}", problems.join("\n"));
 }

@@ -10,6 +10,7 @@ use supine_core::model::{ModelParams, Preset};
 use supine_core::protocol::Telemetry;
 
 use supine_host::commands::band_args::BandArgs;
+use supine_host::commands::report::MissionArgs;
 use supine_host::commands::{exposure, report};
 use supine_host::exposure::ride::{Profile, generate, write_ride};
 use supine_host::identify::transmissibility::model_h;
@@ -39,13 +40,15 @@ fn preset() -> ModelSource {
 
 fn report_json(inputs: &[PathBuf], out: &Path, height_mass: Option<(f64, f64)>) -> Value {
     let args = report::Args {
-        input: inputs.to_vec(),
-        ride: RideInputArgs::default(),
-        track: Default::default(),
-        model: preset(),
-        subject: SubjectArgs {
-            height_m: height_mass.map(|h| h.0),
-            mass_kg: height_mass.map(|h| h.1),
+        mission: MissionArgs {
+            input: inputs.to_vec(),
+            ride: RideInputArgs::default(),
+            track: Default::default(),
+            model: preset(),
+            subject: SubjectArgs {
+                height_m: height_mass.map(|h| h.0),
+                mass_kg: height_mass.map(|h| h.1),
+            },
         },
         out: out.to_path_buf(),
         json: true,
@@ -300,11 +303,13 @@ fn a_ride_with_gravity_is_refused_by_the_report_too() {
     }
     std::fs::write(&raw, text).unwrap();
     let args = report::Args {
-        input: vec![raw],
-        ride: RideInputArgs::default(),
-        track: Default::default(),
-        model: preset(),
-        subject: SubjectArgs::default(),
+        mission: MissionArgs {
+            input: vec![raw],
+            ride: RideInputArgs::default(),
+            track: Default::default(),
+            model: preset(),
+            subject: SubjectArgs::default(),
+        },
         out: dir.path().join("out"),
         json: false,
         compare: false,
