@@ -364,7 +364,7 @@ fn the_json_has_route_per_leg_and_null_without_positions() {
     report::run_to(&args, &mut text).unwrap();
     let json: serde_json::Value = serde_json::from_slice(&text).unwrap();
     let route = &json["legs"][0]["route"];
-    assert_eq!(route["points"], 20 * 10 + 1);
+    assert_eq!(route["fixes"], 20 * 10 + 1);
     let segment = &route["segments"][0];
     for key in [
         "start_s",

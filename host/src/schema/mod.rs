@@ -70,6 +70,12 @@ pub const UNITLESS: &[&str] = &[
     "u_statistic",
     "z_score",
     "p_value",
+    // A prediction's agreement with a recording (`validate`): the paper's R^2 both ways,
+    // and errors relative to the measured values.
+    "r2_determination",
+    "r2_pearson",
+    "normalized_rms_error",
+    "mean_relative_error",
 ];
 
 /// Endings of numeric names without a unit: counts of a thing (`dropped_samples`,
