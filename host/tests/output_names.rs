@@ -351,7 +351,9 @@ fn every_archive_subcommands_json_follows_the_naming_rules() {
     let fixes: String = (0..=20)
         .map(|k| {
             let lat = 48.1 + 15.0 * f64::from(k) / 111_195.0;
-            format!("<trkpt lat=\"{lat:.7}\" lon=\"11.5\"><time>2026-03-01T10:00:{k:02}Z</time></trkpt>")
+            format!(
+                "<trkpt lat=\"{lat:.7}\" lon=\"11.5\"><time>2026-03-01T10:00:{k:02}Z</time></trkpt>"
+            )
         })
         .collect();
     let track = d.join("track.gpx");
@@ -364,15 +366,37 @@ fn every_archive_subcommands_json_follows_the_naming_rules() {
     )
     .unwrap();
     let mut runs = Vec::new();
-    for (k, (profile, vehicle)) in [("rough-road", "A1"), ("ambulance", "A2")].iter().enumerate() {
+    for (k, (profile, vehicle)) in [("rough-road", "A1"), ("ambulance", "A2")]
+        .iter()
+        .enumerate()
+    {
         let ride = d.join(format!("{profile}.csv"));
         supine(&[
-            "ride", "--profile", profile, "--duration-s", "20", "--out", s(&ride),
+            "ride",
+            "--profile",
+            profile,
+            "--duration-s",
+            "20",
+            "--out",
+            s(&ride),
         ]);
         let start = format!("2026-03-0{}T10:00:00Z", k + 1);
         let mut add = vec![
-            "archive", "--archive", db, "add", "--preset", "paper-litter", "--input", s(&ride),
-            "--vehicle", vehicle, "--start", start.as_str(), "--patient", "P1", "--json",
+            "archive",
+            "--archive",
+            db,
+            "add",
+            "--preset",
+            "paper-litter",
+            "--input",
+            s(&ride),
+            "--vehicle",
+            vehicle,
+            "--start",
+            start.as_str(),
+            "--patient",
+            "P1",
+            "--json",
         ];
         if k == 0 {
             add.extend(["--track", s(&track)]);
@@ -381,11 +405,25 @@ fn every_archive_subcommands_json_follows_the_naming_rules() {
     }
     let fleet = d.join("fleet");
     runs.extend([
-        ("archive list", json(&["archive", "--archive", db, "list", "--json"])),
-        ("archive show", json(&["archive", "--archive", db, "show", "1", "--json"])),
+        (
+            "archive list",
+            json(&["archive", "--archive", db, "list", "--json"]),
+        ),
+        (
+            "archive show",
+            json(&["archive", "--archive", db, "show", "1", "--json"]),
+        ),
         (
             "archive fleet",
-            json(&["archive", "--archive", db, "fleet", "--out", s(&fleet), "--json"]),
+            json(&[
+                "archive",
+                "--archive",
+                db,
+                "fleet",
+                "--out",
+                s(&fleet),
+                "--json",
+            ]),
         ),
     ]);
     let view = &runs.last().unwrap().1;

@@ -164,7 +164,14 @@ mod tests {
     #[test]
     fn a_places_rms_is_the_time_weighted_energy_mean() {
         // 1 s at 1 m/s^2 and 3 s at 2 m/s^2: sqrt((1 + 12) / 4).
-        let s = RoadSegment::from_sums(Cell { row: 0, column: 0 }, (0.0, 0.0), (2, 2), 13.0, 4.0, 2.0);
+        let s = RoadSegment::from_sums(
+            Cell { row: 0, column: 0 },
+            (0.0, 0.0),
+            (2, 2),
+            13.0,
+            4.0,
+            2.0,
+        );
         assert!((s.rms_m_s2 - (13.0_f64 / 4.0).sqrt()).abs() < 1e-15);
     }
 }
