@@ -1,6 +1,6 @@
 //! Every name a user's script reads follows the output vocabulary (`supine_host::schema`):
-//! each command's `--json` object and the header of every CSV file the commands write,
-//! run as a user runs them. Names are lower-case `snake_case`; a number carries its unit
+//! each command's `--json` object, the JSON and the header of every CSV file the commands
+//! write, run as a user runs them, and the archive's JSON and its database columns. Names are lower-case `snake_case`; a number carries its unit
 //! as the name's suffix, or is a count or ratio the schema names unitless, or sits in an
 //! object whose key carries the unit (`"rms_m_s2": {"x": ..}`) or that states it in a
 //! `unit` field (a joint output's `rms` in `mm` or `deg`). As `cli_conventions.rs` does
@@ -11,9 +11,12 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use serde_json::Value;
+use sqlx::Row as _;
 use supine_core::alerts::{AlertEvent, Criterion, FaultFlags, JointCriterion, Level, SensorFault};
 use supine_core::joint_exposure::JointValues;
 use supine_core::pipeline::Telemetry;
+use supine_host::archive::db::Archive;
+use supine_host::archive::location::Location;
 use supine_host::io::recording::COLUMNS;
 use supine_host::io::telemetry_csv::{write_events, write_telemetry};
 use supine_host::monitor::json::{event_json, telemetry_json};
@@ -435,5 +438,52 @@ fn every_archive_subcommands_json_follows_the_naming_rules() {
     for (command, value) in &runs {
         json_problems(value, command, false, &mut problems);
     }
+    problems.extend(column_problems(db));
     assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+/// The archive's numeric columns that break the rules: `docs/archive.md` gives the tables
+/// for queries, which name the columns as a script names JSON keys. A number beside a
+/// `unit` column (a joint's `rms`), or a `NAME_unit` one (an alert's `value`), is in that
+/// unit; the keys that tie rows together are indices.
+fn column_problems(db: &str) -> Vec<String> {
+    const KEYS: [&str; 4] = ["mission_id", "leg", "seq", "version"];
+    let archive = Archive::open(&Location::resolve(Some(db)).unwrap()).unwrap();
+    let rows = archive
+        .run(
+            sqlx::query(
+                "SELECT m.name AS table_name, p.name AS column_name, p.type AS column_type \
+                 FROM sqlite_master m, pragma_table_info(m.name) p \
+                 WHERE m.type = 'table' AND m.name NOT LIKE 'sqlite_%' ORDER BY m.name, p.cid",
+            )
+            .fetch_all(archive.pool()),
+        )
+        .unwrap();
+    let column = |r: &sqlx::any::AnyRow, k: &str| r.try_get::<String, _>(k).unwrap();
+    let columns: Vec<(String, String, String)> = rows
+        .iter()
+        .map(|r| {
+            (
+                column(r, "table_name"),
+                column(r, "column_name"),
+                column(r, "column_type"),
+            )
+        })
+        .collect();
+    assert!(columns.len() > 50, "the archive's columns: {columns:?}");
+    let has = |table: &str, name: &str| columns.iter().any(|(t, c, _)| t == table && c == name);
+    columns
+        .iter()
+        .filter(|(table, name, kind)| {
+            let numeric = ["BIGINT", "INTEGER", "DOUBLE PRECISION"].contains(&kind.as_str());
+            numeric
+                && !supine_host::schema::names_a_number(name)
+                && !KEYS.contains(&name.as_str())
+                && !has(table, "unit")
+                && !has(table, &format!("{name}_unit"))
+                // The series' count of rows, one a second.
+                && !(table == "leg_seconds" && name == "seconds")
+        })
+        .map(|(table, name, _)| format!("archive column {table}.{name}: a number without a unit"))
+        .collect()
 }

@@ -95,6 +95,9 @@ pub const UNITLESS_SUFFIXES: &[&str] = &[
     "_factor",
     "_magnitude",
     "_cost",
+    // A grid cell's indices (the archive's `cell_row`, `cell_column` of a road place).
+    "_row",
+    "_column",
 ];
 
 /// An f32 as the shortest decimal that reads back as it (`1.82`, not
