@@ -10,13 +10,14 @@
 
 use serde::Serialize;
 
-use crate::report::route::Segment;
+use crate::report::route::{SEGMENT_LENGTH_M, Segment};
+use crate::ride::position::EARTH_RADIUS_M;
 
 /// Side of a place's cell, m: the report's segment length, so a pass lands in one or two.
-pub const CELL_M: f64 = 50.0;
+pub const CELL_M: f64 = SEGMENT_LENGTH_M;
 
-/// Metres per degree of latitude on the mean Earth sphere (radius 6,371,008.8 m).
-const M_PER_DEG: f64 = 6_371_008.8 * std::f64::consts::PI / 180.0;
+/// Metres per degree of latitude on the mean Earth sphere.
+const M_PER_DEG: f64 = EARTH_RADIUS_M * std::f64::consts::PI / 180.0;
 
 /// A place: its cell's row and column (the road segments table's key, `cell_row` and
 /// `cell_column`).
