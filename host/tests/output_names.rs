@@ -476,13 +476,14 @@ fn column_problems(db: &str) -> Vec<String> {
         .iter()
         .filter(|(table, name, kind)| {
             let numeric = ["BIGINT", "INTEGER", "DOUBLE PRECISION"].contains(&kind.as_str());
-            numeric
-                && !supine_host::schema::names_a_number(name)
-                && !KEYS.contains(&name.as_str())
-                && !has(table, "unit")
-                && !has(table, &format!("{name}_unit"))
-                // The series' count of rows, one a second.
-                && !(table == "leg_seconds" && name == "seconds")
+            // The series' count of rows, one a second.
+            let series_rows = table == "leg_seconds" && name == "seconds";
+            let named = supine_host::schema::names_a_number(name)
+                || KEYS.contains(&name.as_str())
+                || has(table, "unit")
+                || has(table, &format!("{name}_unit"))
+                || series_rows;
+            numeric && !named
         })
         .map(|(table, name, _)| format!("archive column {table}.{name}: a number without a unit"))
         .collect()
