@@ -138,6 +138,19 @@ fn every_commands_json_and_every_csv_header_follow_the_naming_rules() {
             ]),
         ),
         (
+            "model --quantity joints",
+            json(&[
+                "model",
+                "--preset",
+                "paper-litter",
+                "--quantity",
+                "joints",
+                "--out",
+                s(&d.join("joints.csv")),
+                "--json",
+            ]),
+        ),
+        (
             "weighting",
             json(&[
                 "weighting",
