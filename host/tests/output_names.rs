@@ -381,6 +381,8 @@ fn every_archive_subcommands_json_follows_the_naming_rules() {
         ),
     )
     .unwrap();
+    // `supine archive --archive DB ARGS...`'s JSON.
+    let archive = |args: &[&str]| json(&[&["archive", "--archive", db][..], args].concat());
     let mut runs = Vec::new();
     for (k, (profile, vehicle)) in [("rough-road", "A1"), ("ambulance", "A2")]
         .iter()
@@ -398,9 +400,6 @@ fn every_archive_subcommands_json_follows_the_naming_rules() {
         ]);
         let start = format!("2026-03-0{}T10:00:00Z", k + 1);
         let mut add = vec![
-            "archive",
-            "--archive",
-            db,
             "add",
             "--preset",
             "paper-litter",
@@ -417,29 +416,15 @@ fn every_archive_subcommands_json_follows_the_naming_rules() {
         if k == 0 {
             add.extend(["--track", s(&track)]);
         }
-        runs.push(("archive add", json(&add)));
+        runs.push(("archive add", archive(&add)));
     }
     let fleet = d.join("fleet");
     runs.extend([
-        (
-            "archive list",
-            json(&["archive", "--archive", db, "list", "--json"]),
-        ),
-        (
-            "archive show",
-            json(&["archive", "--archive", db, "show", "1", "--json"]),
-        ),
+        ("archive list", archive(&["list", "--json"])),
+        ("archive show", archive(&["show", "1", "--json"])),
         (
             "archive fleet",
-            json(&[
-                "archive",
-                "--archive",
-                db,
-                "fleet",
-                "--out",
-                s(&fleet),
-                "--json",
-            ]),
+            archive(&["fleet", "--out", s(&fleet), "--json"]),
         ),
     ]);
     let view = &runs.last().unwrap().1;

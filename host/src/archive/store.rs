@@ -544,15 +544,16 @@ pub async fn list(archive: &Archive, filter: &Filter) -> Result<Vec<MissionSumma
 fn summary(row: &AnyRow, tags: Vec<String>, rides: Vec<RideSummary>) -> Result<MissionSummary> {
     let mission: String = row.try_get("mission_json")?;
     let id: i64 = row.try_get("id")?;
+    let [vehicle, crew, driver, route] = group_keys(row)?;
     Ok(MissionSummary {
         id,
         added_at: row.try_get("added_at")?,
         meta: MissionMeta {
             start: row.try_get("start_time")?,
-            vehicle: row.try_get("vehicle")?,
-            crew: row.try_get("crew")?,
-            driver: row.try_get("driver")?,
-            route: row.try_get("route")?,
+            vehicle,
+            crew,
+            driver,
+            route,
             position: row.try_get("position")?,
             origin: row.try_get("origin")?,
             destination: row.try_get("destination")?,
@@ -572,6 +573,17 @@ fn summary(row: &AnyRow, tags: Vec<String>, rides: Vec<RideSummary>) -> Result<M
         mission: serde_json::from_str(&mission)
             .with_context(|| format!("mission {id}: its stored values are not JSON"))?,
     })
+}
+
+/// The columns missions are grouped by, in [`FleetRow::keys`]' order: vehicle, crew,
+/// driver, route.
+fn group_keys(row: &AnyRow) -> Result<[Option<String>; 4]> {
+    Ok([
+        row.try_get("vehicle")?,
+        row.try_get("crew")?,
+        row.try_get("driver")?,
+        row.try_get("route")?,
+    ])
 }
 
 /// A leg's per-second series as `show --json` gives it.
@@ -744,12 +756,7 @@ pub async fn fleet_rows(archive: &Archive, filter: &Filter) -> Result<Vec<FleetR
                 id,
                 start: r.try_get("start_time")?,
                 start_epoch_s: r.try_get("start_epoch_s")?,
-                keys: [
-                    r.try_get("vehicle")?,
-                    r.try_get("crew")?,
-                    r.try_get("driver")?,
-                    r.try_get("route")?,
-                ],
+                keys: group_keys(r)?,
                 duration_s: r.try_get("duration_s")?,
                 vdv_m_s175: r.try_get("vdv_m_s175")?,
                 mtvv_m_s2: r.try_get("mtvv_m_s2")?,
