@@ -39,25 +39,17 @@ fn preset() -> ModelSource {
 }
 
 fn report_json(inputs: &[PathBuf], out: &Path, height_mass: Option<(f64, f64)>) -> Value {
-    let args = report::Args {
-        mission: MissionArgs {
-            input: inputs.to_vec(),
-            ride: RideInputArgs::default(),
-            track: Default::default(),
-            model: preset(),
-            subject: SubjectArgs {
-                height_m: height_mass.map(|h| h.0),
-                mass_kg: height_mass.map(|h| h.1),
-            },
+    let mission = MissionArgs {
+        input: inputs.to_vec(),
+        ride: RideInputArgs::default(),
+        track: Default::default(),
+        model: preset(),
+        subject: SubjectArgs {
+            height_m: height_mass.map(|h| h.0),
+            mass_kg: height_mass.map(|h| h.1),
         },
-        out: out.to_path_buf(),
-        json: true,
-        compare: false,
-        band: BandArgs::default(),
     };
-    let mut text = Vec::new();
-    report::run_to(&args, &mut text).unwrap();
-    serde_json::from_slice(&text).unwrap()
+    crate::common::report_json(mission, out)
 }
 
 fn exposure_json(input: &Path) -> Value {

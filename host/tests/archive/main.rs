@@ -23,8 +23,7 @@ use supine_host::archive::road::Cell;
 use supine_host::archive::schema;
 use supine_host::archive::store::STALL_ENV;
 use supine_host::commands::archive::{self, AddArgs, Command as Sub, MetaArgs};
-use supine_host::commands::band_args::BandArgs;
-use supine_host::commands::report::{self, MissionArgs};
+use supine_host::commands::report::MissionArgs;
 use supine_host::exposure::ride::{Profile, generate, write_ride};
 use supine_host::io::params_file::{ModelSource, PresetArg};
 use supine_host::io::ride_input::{RideInputArgs, TrackArgs};
@@ -114,16 +113,7 @@ fn show(archive: &str, id: i64) -> Value {
 }
 
 fn report_json(inputs: &[PathBuf], out: &Path) -> Value {
-    let args = report::Args {
-        mission: mission(inputs),
-        out: out.to_path_buf(),
-        json: true,
-        compare: false,
-        band: BandArgs::default(),
-    };
-    let mut text = Vec::new();
-    report::run_to(&args, &mut text).unwrap();
-    serde_json::from_slice(&text).unwrap()
+    crate::common::report_json(mission(inputs), out)
 }
 
 fn open(archive: &str) -> Archive {

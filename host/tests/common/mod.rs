@@ -1,6 +1,25 @@
-//! Test scaffolding shared by the identification tests.
+//! Test scaffolding shared by the integration tests.
 
+use std::path::Path;
+
+use serde_json::Value;
 use supine_core::model::{ModelParams, ParamId, Preset};
+use supine_host::commands::band_args::BandArgs;
+use supine_host::commands::report::{self, MissionArgs};
+
+/// `supine report --json` of `mission` (its page written into `out`), as a script reads it.
+pub fn report_json(mission: MissionArgs, out: &Path) -> Value {
+    let args = report::Args {
+        mission,
+        out: out.to_path_buf(),
+        json: true,
+        compare: false,
+        band: BandArgs::default(),
+    };
+    let mut text = Vec::new();
+    report::run_to(&args, &mut text).unwrap();
+    serde_json::from_slice(&text).unwrap()
+}
 
 /// A truth away from the paper's values: every parameter the paper's rigid value times a
 /// factor in 0.88..1.12, so that starting a fit at the paper's values is not starting at
