@@ -12,9 +12,9 @@ use supine_core::protocol::Telemetry;
 use supine_host::commands::band_args::BandArgs;
 use supine_host::commands::report::MissionArgs;
 use supine_host::commands::{exposure, report};
-use supine_host::exposure::ride::{Profile, generate, write_ride};
+use supine_host::exposure::ride::Profile;
 use supine_host::identify::transmissibility::model_h;
-use supine_host::io::params_file::{ModelSource, ParamFile, PresetArg};
+use supine_host::io::params_file::{ParamFile, PresetArg};
 use supine_host::io::recording::read_input;
 use supine_host::io::ride_input::RideInputArgs;
 use supine_host::io::subject_args::SubjectArgs;
@@ -25,18 +25,7 @@ use supine_host::report::device_check::{DeviceLog, DeviceRun, PassResult};
 use supine_host::report::device_series::{DeviceSeries, TraceSeriesBuilder};
 use supine_host::report::page::render;
 
-fn ride(dir: &Path, profile: Profile, duration_s: f64, seed: u64) -> PathBuf {
-    let path = dir.join(format!("{}-{seed}.csv", profile.name()));
-    write_ride(&path, &generate(profile, duration_s, 500.0, seed).unwrap()).unwrap();
-    path
-}
-
-fn preset() -> ModelSource {
-    ModelSource {
-        preset: Some(PresetArg::PaperLitter),
-        params: None,
-    }
-}
+use crate::common::{paper_litter as preset, ride};
 
 fn report_json(inputs: &[PathBuf], out: &Path, height_mass: Option<(f64, f64)>) -> Value {
     let mission = MissionArgs {

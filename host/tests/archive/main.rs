@@ -24,10 +24,11 @@ use supine_host::archive::schema;
 use supine_host::archive::store::STALL_ENV;
 use supine_host::commands::archive::{self, AddArgs, Command as Sub, MetaArgs};
 use supine_host::commands::report::MissionArgs;
-use supine_host::exposure::ride::{Profile, generate, write_ride};
-use supine_host::io::params_file::{ModelSource, PresetArg};
+use supine_host::exposure::ride::Profile;
 use supine_host::io::ride_input::{RideInputArgs, TrackArgs};
 use supine_host::io::subject_args::SubjectArgs;
+
+use crate::common::{paper_litter as preset, ride};
 
 /// The two databases: a fresh SQLite file under `dir` and a fresh PostgreSQL database.
 fn archives(dir: &Path) -> Vec<String> {
@@ -35,21 +36,6 @@ fn archives(dir: &Path) -> Vec<String> {
         dir.join("archive.sqlite").display().to_string(),
         postgres::database(),
     ]
-}
-
-fn ride(dir: &Path, profile: Profile, duration_s: f64, seed: u64) -> PathBuf {
-    let path = dir.join(format!("{}-{seed}.csv", profile.name()));
-    if !path.exists() {
-        write_ride(&path, &generate(profile, duration_s, 500.0, seed).unwrap()).unwrap();
-    }
-    path
-}
-
-fn preset() -> ModelSource {
-    ModelSource {
-        preset: Some(PresetArg::PaperLitter),
-        params: None,
-    }
 }
 
 fn run(archive: &str, command: Sub) -> anyhow::Result<String> {
