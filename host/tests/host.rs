@@ -36,4 +36,5 @@ mod report_route;
 mod report_streamed;
 mod ride_clocks;
 mod ride_profiles;
+mod test_files_declared;
 mod weighting_cli;
