@@ -51,39 +51,9 @@ pub enum Command {
 /// The metadata flags of `add` (each overrides the same key of `--meta`).
 #[derive(Debug, Default, clap::Args)]
 pub struct MetaArgs {
-    /// The vehicle.
-    #[arg(long, value_name = "ID")]
-    pub vehicle: Option<String>,
-    /// The unit or crew.
-    #[arg(long, value_name = "ID")]
-    pub crew: Option<String>,
-    /// The driver.
-    #[arg(long, value_name = "ID")]
-    pub driver: Option<String>,
-    /// The route's name.
-    #[arg(long, value_name = "NAME")]
-    pub route: Option<String>,
-    /// The patient's transport position (e.g. supine).
-    #[arg(long, value_name = "NAME")]
-    pub position: Option<String>,
-    /// Where the mission started.
-    #[arg(long, value_name = "PLACE")]
-    pub origin: Option<String>,
-    /// Where it ended.
-    #[arg(long, value_name = "PLACE")]
-    pub destination: Option<String>,
-    /// The start, ISO 8601 with an offset (2026-11-28T05:00:00Z).
-    #[arg(long, value_name = "ISO8601")]
-    pub start: Option<String>,
-    /// A free tag (repeat for more).
-    #[arg(long = "tag", value_name = "T")]
-    pub tags: Vec<String>,
-    /// A patient identifier (kept as given; used by `export --fhir`).
-    #[arg(long, value_name = "ID")]
-    pub patient: Option<String>,
-    /// An encounter identifier (kept as given; used by `export --fhir`).
-    #[arg(long, value_name = "ID")]
-    pub encounter: Option<String>,
+    /// The metadata given as flags.
+    #[command(flatten)]
+    pub flags: MissionMeta,
     /// The metadata as a TOML file (the keys above; tags = [...]).
     #[arg(long, value_name = "FILE.toml")]
     pub meta: Option<PathBuf>,
@@ -96,19 +66,7 @@ impl MetaArgs {
             Some(path) => MissionMeta::load(path)?,
             None => MissionMeta::default(),
         };
-        let meta = file.overlaid(MissionMeta {
-            vehicle: self.vehicle.clone(),
-            crew: self.crew.clone(),
-            driver: self.driver.clone(),
-            route: self.route.clone(),
-            position: self.position.clone(),
-            origin: self.origin.clone(),
-            destination: self.destination.clone(),
-            start: self.start.clone(),
-            tags: self.tags.clone(),
-            patient: self.patient.clone(),
-            encounter: self.encounter.clone(),
-        });
+        let meta = file.overlaid(self.flags.clone());
         // A bad start is refused before the rides are evaluated.
         meta.start_time()?;
         Ok(meta)

@@ -19,6 +19,7 @@ use serde_json::Value;
 use sqlx::Row as _;
 use supine_host::archive::db::Archive;
 use supine_host::archive::location::Location;
+use supine_host::archive::meta::MissionMeta;
 use supine_host::archive::road::Cell;
 use supine_host::archive::schema;
 use supine_host::archive::store::STALL_ENV;
@@ -123,14 +124,14 @@ fn stored_values_equal_report_json_on_both_databases() {
     ];
     let expected = report_json(&legs, &dir.path().join("report"));
     for db in archives(dir.path()) {
-        let meta = MetaArgs {
+        let meta = flags(MissionMeta {
             vehicle: Some("A1".into()),
             crew: Some("red".into()),
             route: Some("A9 north".into()),
             start: Some("2026-11-28T06:00:00+01:00".into()),
             tags: vec!["night".into(), "rain".into()],
             ..Default::default()
-        };
+        });
         let id = add(&db, &legs, meta).unwrap();
         let shown = show(&db, id);
         assert_eq!(shown["mission"], expected["mission"], "{db}");
@@ -244,15 +245,23 @@ mod independent {
     }
 }
 
-fn meta(vehicle: &str, route: &str, day: usize) -> MetaArgs {
+/// `add`'s metadata given as flags, without a `--meta` file.
+fn flags(meta: MissionMeta) -> MetaArgs {
     MetaArgs {
+        flags: meta,
+        meta: None,
+    }
+}
+
+fn meta(vehicle: &str, route: &str, day: usize) -> MetaArgs {
+    flags(MissionMeta {
         vehicle: Some(vehicle.into()),
         crew: Some(format!("crew-{}", day % 3)),
         driver: Some(format!("driver-{}", day % 2)),
         route: Some(route.into()),
         start: Some(format!("2026-10-{:02}T08:30:00Z", day + 1)),
         ..Default::default()
-    }
+    })
 }
 
 /// `archive fleet --out OUT --json` with these groupings, filter and compare: its JSON.
@@ -629,12 +638,12 @@ fn the_fhir_bundle_validates_against_the_r4_schema() {
         let id = add(
             &db,
             &legs,
-            MetaArgs {
+            flags(MissionMeta {
                 start: Some("2026-11-28T05:00:00Z".into()),
                 patient: Some("MRN-0042".into()),
                 encounter: Some("ENC-7".into()),
                 ..Default::default()
-            },
+            }),
         )
         .unwrap();
         let file = dir.path().join("bundle.json");
