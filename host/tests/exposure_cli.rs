@@ -168,11 +168,22 @@ fn a_recording_written_before_the_columns_carried_their_unit_reads_as_before() {
     assert!(text.starts_with("time_s,platform_x_m_s2,"), "{text:.80}");
     let old_header = supine_host::io::recording::OLD_COLUMNS.join(",");
     std::fs::write(&old, text.replacen(HEADER_LINE, &old_header, 1)).unwrap();
-    // Either name of the column, in either file: the same numbers.
-    let channel = |path: &Path, name: &str| {
-        let mut v = json(&["--input", s(path), "--channel", name, "--weighting", "wj"]);
+    // Either name of the column, in either file: the same numbers (the file's and the
+    // column's names aside).
+    let unnamed = |mut v: Value| {
+        v["input"] = Value::Null;
         v["channel"] = Value::Null;
         v
+    };
+    let channel = |path: &Path, name: &str| {
+        unnamed(json(&[
+            "--input",
+            s(path),
+            "--channel",
+            name,
+            "--weighting",
+            "wj",
+        ]))
     };
     let today = channel(&new, "head_z_m_s2");
     assert!(num(&today, "rms_m_s2") > 0.1, "{today}");
@@ -180,13 +191,8 @@ fn a_recording_written_before_the_columns_carried_their_unit_reads_as_before() {
     assert_eq!(channel(&old, "head_z"), today);
     assert_eq!(channel(&new, "head_z"), today);
     // And through the model.
-    let model = |path: &Path| json(&["--preset", "paper-litter", "--input", s(path)]);
-    let mut from_old = model(&old);
-    let mut from_new = model(&new);
-    for v in [&mut from_old, &mut from_new] {
-        v["input"] = Value::Null;
-    }
-    assert_eq!(from_old, from_new);
+    let model = |path: &Path| unnamed(json(&["--preset", "paper-litter", "--input", s(path)]));
+    assert_eq!(model(&old), model(&new));
 }
 
 /// The ride's platform columns as the file holds them (parsed here, independently).
