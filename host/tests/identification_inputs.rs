@@ -183,7 +183,9 @@ fn a_non_numeric_cell_names_line_and_column() {
     set_cell(&file, 17, 2, "abc");
     let e = transmissibility_error(&ds, &[]);
     assert!(
-        e.contains("s2_rigid.csv: line 17, column platform_y: expected a number, found \"abc\""),
+        e.contains(
+            "s2_rigid.csv: line 17, column platform_y_m_s2: expected a number, found \"abc\""
+        ),
         "{e}"
     );
 }
@@ -197,7 +199,7 @@ fn nan_and_infinite_values_are_refused() {
         let e = transmissibility_error(&ds, &[]);
         assert!(
             e.contains(&format!(
-                "s1_rigid.csv: line 40, column head_z: expected a finite number, found \"{bad}\""
+                "s1_rigid.csv: line 40, column head_z_m_s2: expected a finite number, found \"{bad}\""
             )),
             "{e}"
         );
@@ -380,10 +382,9 @@ fn the_binary_exits_non_zero_with_one_line_on_stderr() {
     let stderr = String::from_utf8(output.stderr).unwrap();
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
     assert!(stderr.starts_with("supine: "), "{stderr}");
-    assert!(
-        stderr
-            .contains("s2_rigid.csv: line 17, column platform_y: expected a number, found \"abc\"")
-    );
+    assert!(stderr.contains(
+        "s2_rigid.csv: line 17, column platform_y_m_s2: expected a number, found \"abc\""
+    ));
     assert!(!out.exists());
 }
 
