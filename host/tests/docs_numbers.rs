@@ -157,9 +157,8 @@ fn quoted_columns(text: &str, at: usize) -> Vec<String> {
     let mut quoted = String::new();
     let mut chars = text[at..].chars().peekable();
     while let Some(c) = chars.next() {
-        if c.is_ascii_alphanumeric() || c == '_' {
-            quoted.push(c);
-        } else if c == ',' && chars.peek().is_some_and(|n| n.is_ascii_alphanumeric()) {
+        let in_name = c.is_ascii_alphanumeric() || c == '_';
+        if in_name || (c == ',' && chars.peek().is_some_and(|n| n.is_ascii_alphanumeric())) {
             quoted.push(c);
         } else if c == ',' && chars.peek() == Some(&'\n') {
             quoted.push(c);
