@@ -17,7 +17,6 @@ use supine_core::joint_exposure::JointValues;
 use supine_core::pipeline::Telemetry;
 use supine_host::archive::db::Archive;
 use supine_host::archive::location::Location;
-use supine_host::io::recording::COLUMNS;
 use supine_host::io::telemetry_csv::{write_events, write_telemetry};
 use supine_host::monitor::json::{event_json, telemetry_json};
 use supine_host::schema::names;
@@ -49,10 +48,7 @@ fn json_problems(value: &Value, path: &str, _unit_given: bool, out: &mut Vec<Str
 fn csv_problems(csv: &Path, out: &mut Vec<String>) {
     let text = std::fs::read_to_string(csv).expect("a CSV written");
     let name = csv.file_name().unwrap().to_string_lossy();
-    // The recording and ride formats (docs/fitting.md) are in m/s^2 by definition and
-    // keep their names for the files already written (the ride reader's rewrite may rename
-    // them); nothing else may go without a unit.
-    out.extend(names::csv_problems(&text, &name, &COLUMNS));
+    out.extend(names::csv_problems(&text, &name));
 }
 
 fn csv_files(dir: &Path) -> Vec<PathBuf> {

@@ -193,7 +193,7 @@ fn the_json_keys_are_the_contract() {
 
 /// A vertical sine at `freq_hz` on the litter, 60 s at 500 Hz.
 fn sine_ride(path: &Path, freq_hz: f64, amplitude_m_s2: f64) {
-    let mut text = String::from("time_s,platform_x,platform_y,platform_z\n");
+    let mut text = String::from("time_s,platform_x_m_s2,platform_y_m_s2,platform_z_m_s2\n");
     for k in 0..30_000 {
         let t = k as f64 / 500.0;
         text.push_str(&format!(
@@ -274,7 +274,7 @@ fn the_page_is_self_contained_prints_on_a4_and_names_every_leg() {
 fn a_ride_with_gravity_is_refused_by_the_report_too() {
     let dir = tempfile::tempdir().unwrap();
     let raw = dir.path().join("raw.csv");
-    let mut text = String::from("time_s,platform_x,platform_y,platform_z\n");
+    let mut text = String::from("time_s,platform_x_m_s2,platform_y_m_s2,platform_z_m_s2\n");
     for k in 0..5000 {
         text.push_str(&format!(
             "{},0,0,{}\n",

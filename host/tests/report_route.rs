@@ -227,7 +227,7 @@ fn gpx(dir: &Path, seconds: usize, speed_m_s: f64) -> PathBuf {
 /// The project's own ride file (no positions), `seconds` long at [`FS_HZ`].
 fn plain_ride(dir: &Path, name: &str, seconds: f64) -> PathBuf {
     let path = dir.join(name);
-    let mut text = String::from("time_s,platform_x,platform_y,platform_z\n");
+    let mut text = String::from("time_s,platform_x_m_s2,platform_y_m_s2,platform_z_m_s2\n");
     for k in 0..(seconds * FS_HZ) as usize {
         let t = k as f64 / FS_HZ;
         text.push_str(&format!("{t},0.1,0.05,{}\n", vertical_m_s2(t, seconds)));
