@@ -13,8 +13,8 @@ same machine:
 2. `scipy_fit.py --case pipeline`: SciPy's own two stages (its two-start rigid fit, the
    paper's two starts; then its litter-board fit bounded by its own rigid minimum);
 3. `supine fit --case litter --joints RIGID.toml`: supine's second stage, which also
-   explores the rigid minima of step 1 within its noise (pipeline against pipeline:
-   against step 2's litter-board cost);
+   explores the other rigid minima of step 1 (pipeline against pipeline: against step 2's
+   litter-board cost, and the kept pair's rigid cost against step 2's rigid cost);
 4. `supine fit --case litter --no-explore --joints RIGID.toml` and
    `scipy_fit.py --case litter --joints RIGID.toml`: both litter-board fits on the same
    fixed joints, step 1's (stage by stage).
