@@ -38,8 +38,12 @@ Pipeline against pipeline is also scored on both cases' data together: m_r ln C_
 ln C_l of supine's kept pair less SciPy's pair's (-2 ln of their likelihood ratio, each
 case's noise variance unknown; below 0: supine's pair is the likelier).
 
+`--speed-only` times only the two rigid fits, back to back, for the speed-up on a quiet
+machine after a full pass has recorded the costs.
+
 Usage: fit_robustness.py --set NAME [--set NAME ...] [--only K ...] [--supine BIN]
        [--root DIR] [--tolerance 1e-8] [--supine-tolerance T] [--json OUT.json]
+       [--speed-only]
 """
 
 import argparse
@@ -170,6 +174,32 @@ def measure(supine, d, directory, tolerance, supine_tolerance):
     return row
 
 
+def measure_speed(supine, d, directory, tolerance, supine_tolerance):
+    """Only the rigid fits, back to back (`--speed-only`): for a quiet machine."""
+    rigid = os.path.join(directory, "rigid-speed.toml")
+    row = dict(d, load=os.getloadavg()[0])
+    _, row["rust_rigid_s"] = run([supine, "fit", "--dataset", directory, "--case", "rigid",
+                                  "--out", rigid] + tolerance_args(supine_tolerance))
+    row["rust_rigid_cpu_s"] = run.cpu_s
+    out, _ = run([sys.executable, os.path.join(HERE, "scipy_fit.py"), "--dataset", directory,
+                  "--json", "--case", "rigid"] + tolerance_args(tolerance))
+    sp = json.loads(out.stdout)
+    row["scipy_rigid_s"], row["scipy_rigid_cpu_s"] = sp["fit_s"], sp["fit_cpu_s"]
+    row["speedup"] = row["scipy_rigid_s"] / row["rust_rigid_s"]
+    row["cpu_speedup"] = row["scipy_rigid_cpu_s"] / row["rust_rigid_cpu_s"]
+    return row
+
+
+def speed_summary(rows):
+    for r in rows:
+        print(f"seed {r['seed']}: load {r['load']:.2f}, supine {r['rust_rigid_s']:.3f} s, "
+              f"SciPy {r['scipy_rigid_s']:.2f} s, {r['speedup']:.1f}x ({r['cpu_speedup']:.1f}x CPU)")
+    for name in ("speedup", "cpu_speedup", "load", "rust_rigid_s", "scipy_rigid_s"):
+        values = [r[name] for r in rows]
+        print(f"{name}: min {min(values):.3f}, median {statistics.median(values):.3f}, "
+              f"max {max(values):.3f}")
+
+
 def compare(ours, scipy):
     """`below`, `equal` (within SAME_MINIMUM) or `above`."""
     if ours <= scipy:
@@ -246,6 +276,8 @@ def main():
     ap.add_argument("--supine-tolerance", type=float, help="supine's (default: its own)")
     ap.add_argument("--json", help="also write the rows here")
     ap.add_argument("--summary", help="only print the table and summary of this --json file")
+    ap.add_argument("--speed-only", action="store_true",
+                    help="only time the rigid fits (supine's command, SciPy's fit) back to back")
     args = ap.parse_args()
     if args.summary:
         with open(args.summary) as fh:
@@ -258,6 +290,14 @@ def main():
     for d in datasets:
         directory = os.path.join(args.root, f"seed{d['seed']}")
         synth(args.supine, d, directory)
+        if args.speed_only:
+            rows.append(measure_speed(args.supine, d, directory, args.tolerance,
+                                      args.supine_tolerance))
+            print(f"seed {d['seed']}: {rows[-1]['speedup']:.1f}x", file=sys.stderr)
+            if args.json:
+                with open(args.json, "w") as fh:
+                    json.dump(rows, fh, indent=1)
+            continue
         rows.append(measure(args.supine, d, directory, args.tolerance, args.supine_tolerance))
         r = rows[-1]
         print(f"seed {d['seed']}: rigid {r['rust_rigid_cost']:.6f} vs {r['scipy_rigid_cost']:.6f}"
@@ -269,6 +309,9 @@ def main():
             # After every dataset, so that an interrupted run keeps what it measured.
             with open(args.json, "w") as fh:
                 json.dump(rows, fh, indent=1)
+    if args.speed_only:
+        speed_summary(rows)
+        return
     summary(rows)
 
 
