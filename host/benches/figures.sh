@@ -24,8 +24,8 @@ machine() {
 # The lines of a QEMU test's output that carry figures.
 qemu_test() {
     local test=$1 filter=$2 pattern=$3
-    cargo test --quiet -p supine-qemu-tests --test "$test" -- --nocapture --test-threads 1 \
-        "$filter" 2>&1 | grep -E "$pattern"
+    cargo test --quiet -p supine-qemu-tests --test qemu -- --nocapture --test-threads 1 \
+        "$test::$filter" 2>&1 | grep -E "$pattern"
 }
 
 device() {

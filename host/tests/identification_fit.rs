@@ -30,9 +30,7 @@ fn exact_target(params: &ModelParams) -> Target {
     Target { freqs_hz, h }
 }
 
-mod common;
-
-use common::perturbed_truth as truth;
+use crate::common::perturbed_truth as truth;
 
 /// Stated tolerance: every parameter the fit calls determined comes back within 2 %.
 const RECOVERY_TOLERANCE: f64 = 0.02;

@@ -11,9 +11,7 @@ use supine_host::identify::geomean::geometric_mean_h;
 use supine_host::identify::spectral::{DEFAULT_RESOLUTION_HZ, WelchSettings, h1};
 use supine_host::identify::synth::{SynthSettings, synth_recording};
 
-mod common;
-
-use common::perturbed_truth as truth;
+use crate::common::perturbed_truth as truth;
 
 /// Three 120 s recordings of `truth` at 200 Hz with synth's default noise (0.01 m/s^2 on
 /// every channel), each with its own random input; H1 per recording with the default

@@ -15,8 +15,6 @@ use supine_host::identify::fit::{self, Determination, FitSettings};
 use supine_host::identify::synth::band_limited_input;
 use supine_host::io::recording::Recording;
 
-mod common;
-
 /// r(x) = A x - y: linear least squares.
 struct Linear {
     a: DMatrix<f64>,
@@ -196,7 +194,7 @@ fn input_recording() -> Recording {
 /// draws at about half the time (a band far too wide would contain it every time).
 #[test]
 fn the_prediction_band_contains_the_truth_at_about_its_nominal_rate() {
-    let truth = common::perturbed_truth();
+    let truth = crate::common::perturbed_truth();
     let recording = input_recording();
     let truth_exposure = head_exposure(&truth, &recording).unwrap().vector_rms_m_s2;
     let mut rng = ChaCha8Rng::seed_from_u64(2025);
@@ -248,7 +246,7 @@ fn the_prediction_band_contains_the_truth_at_about_its_nominal_rate() {
 /// digits; a `[fit]` table without it (files written before it existed) reads as none.
 #[test]
 fn the_stored_uncertainty_reads_back_and_old_files_have_none() {
-    let truth = common::perturbed_truth();
+    let truth = crate::common::perturbed_truth();
     let mut rng = ChaCha8Rng::seed_from_u64(6);
     let settings = FitSettings {
         starts: 1,

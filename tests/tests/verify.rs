@@ -1,7 +1,7 @@
 //! ISO 8041-1 self-verification through the shipping firmware image in QEMU
 //! (`supine verify --qemu`, docs/exposure.md "ISO 8041-1 verification"): every test passes
 //! at one rate here, at every supported rate under `--ignored`
-//! (`cargo test --release -p supine-qemu-tests --test verify -- --ignored --nocapture`),
+//! (`cargo test --release -p supine-qemu-tests --test qemu verify:: -- --ignored --nocapture`),
 //! and the verification can fail: a detuned weighting fails the frequency response, a
 //! wrong time constant the decay test.
 
@@ -160,7 +160,7 @@ fn a_running_rms_with_the_wrong_time_constant_fails_the_decay_test() {
 }
 
 /// The full run, every supported rate (minutes): `cargo test --release -p
-/// supine-qemu-tests --test verify -- --ignored --nocapture`; the figures go to
+/// supine-qemu-tests --test qemu verify:: -- --ignored --nocapture`; the figures go to
 /// BENCHMARKS.md.
 #[test]
 #[ignore]

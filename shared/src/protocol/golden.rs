@@ -255,5 +255,5 @@ pub fn blob_example() -> Result<DeviceParams, BlobError> {
 }
 
 /// The bytes of [`blob_example`]: header and payload (recorded with `cargo test -p supine-core
-/// --test golden_bytes`, which writes the file when `SUPINE_RECORD_GOLDEN=1`).
+/// --test core golden_bytes::`, which writes the file when `SUPINE_RECORD_GOLDEN=1`).
 pub const BLOB: &[u8] = include_bytes!("../../fixtures/golden_blob.bin");
