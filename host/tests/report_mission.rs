@@ -10,10 +10,11 @@ use supine_core::model::{ModelParams, Preset};
 use supine_core::protocol::Telemetry;
 
 use supine_host::commands::band_args::BandArgs;
+use supine_host::commands::report::MissionArgs;
 use supine_host::commands::{exposure, report};
-use supine_host::exposure::ride::{Profile, generate, write_ride};
+use supine_host::exposure::ride::Profile;
 use supine_host::identify::transmissibility::model_h;
-use supine_host::io::params_file::{ModelSource, ParamFile, PresetArg};
+use supine_host::io::params_file::{ParamFile, PresetArg};
 use supine_host::io::recording::read_input;
 use supine_host::io::ride_input::RideInputArgs;
 use supine_host::io::subject_args::SubjectArgs;
@@ -24,21 +25,10 @@ use supine_host::report::device_check::{DeviceLog, DeviceRun, PassResult};
 use supine_host::report::device_series::{DeviceSeries, TraceSeriesBuilder};
 use supine_host::report::page::render;
 
-fn ride(dir: &Path, profile: Profile, duration_s: f64, seed: u64) -> PathBuf {
-    let path = dir.join(format!("{}-{seed}.csv", profile.name()));
-    write_ride(&path, &generate(profile, duration_s, 500.0, seed).unwrap()).unwrap();
-    path
-}
-
-fn preset() -> ModelSource {
-    ModelSource {
-        preset: Some(PresetArg::PaperLitter),
-        params: None,
-    }
-}
+use crate::common::{paper_litter as preset, ride};
 
 fn report_json(inputs: &[PathBuf], out: &Path, height_mass: Option<(f64, f64)>) -> Value {
-    let args = report::Args {
+    let mission = MissionArgs {
         input: inputs.to_vec(),
         ride: RideInputArgs::default(),
         track: Default::default(),
@@ -47,14 +37,8 @@ fn report_json(inputs: &[PathBuf], out: &Path, height_mass: Option<(f64, f64)>) 
             height_m: height_mass.map(|h| h.0),
             mass_kg: height_mass.map(|h| h.1),
         },
-        out: out.to_path_buf(),
-        json: true,
-        compare: false,
-        band: BandArgs::default(),
     };
-    let mut text = Vec::new();
-    report::run_to(&args, &mut text).unwrap();
-    serde_json::from_slice(&text).unwrap()
+    crate::common::report_json(mission, out)
 }
 
 fn exposure_json(input: &Path) -> Value {
@@ -300,11 +284,13 @@ fn a_ride_with_gravity_is_refused_by_the_report_too() {
     }
     std::fs::write(&raw, text).unwrap();
     let args = report::Args {
-        input: vec![raw],
-        ride: RideInputArgs::default(),
-        track: Default::default(),
-        model: preset(),
-        subject: SubjectArgs::default(),
+        mission: MissionArgs {
+            input: vec![raw],
+            ride: RideInputArgs::default(),
+            track: Default::default(),
+            model: preset(),
+            subject: SubjectArgs::default(),
+        },
         out: dir.path().join("out"),
         json: false,
         compare: false,
