@@ -26,7 +26,7 @@ use supine_host::archive::location::Location;
 use supine_host::archive::meta::MissionMeta;
 use supine_host::archive::record::{MissionRecord, RideFile};
 use supine_host::archive::store::{self, Filter};
-use supine_host::commands::report::mission_report;
+use supine_host::commands::report::{MissionArgs, mission_report};
 use supine_host::exposure::ride::{Profile, generate, write_ride};
 use supine_host::io::params_file::{ModelSource, PresetArg};
 use supine_host::io::ride_input::{RideInputArgs, TrackArgs};
@@ -72,15 +72,14 @@ fn main() {
             let seed = 10_000 + (k * POOL + j) as u64;
             write_ride(&path, &generate(profile, duration_s, 200.0, seed).unwrap()).unwrap();
             let t = Instant::now();
-            let (_, _, report) = mission_report(
-                std::slice::from_ref(&path),
-                &RideInputArgs::default(),
-                &TrackArgs::default(),
-                &model,
-                &SubjectArgs::default(),
-                false,
-            )
-            .unwrap();
+            let args = MissionArgs {
+                input: vec![path.clone()],
+                ride: RideInputArgs::default(),
+                track: TrackArgs::default(),
+                model: model.clone(),
+                subject: SubjectArgs::default(),
+            };
+            let (_, _, report) = mission_report(&args, false).unwrap();
             evaluate += t.elapsed();
             let bytes = std::fs::read(&path).unwrap();
             pool.push((profile, report, path, bytes));

@@ -13,8 +13,8 @@ same machine:
 2. `scipy_fit.py --case pipeline`: SciPy's own two stages (its two-start rigid fit, the
    paper's two starts; then its litter-board fit bounded by its own rigid minimum);
 3. `supine fit --case litter --joints RIGID.toml`: supine's second stage, which also
-   explores the rigid minima of step 1 within its noise (pipeline against pipeline:
-   against step 2's litter-board cost);
+   explores the other rigid minima of step 1 (pipeline against pipeline: against step 2's
+   litter-board cost, and the kept pair's rigid cost against step 2's rigid cost);
 4. `supine fit --case litter --no-explore --joints RIGID.toml` and
    `scipy_fit.py --case litter --joints RIGID.toml`: both litter-board fits on the same
    fixed joints, step 1's (stage by stage).
@@ -30,14 +30,25 @@ machine runs. The load average is recorded with each dataset.
 Sets, disjoint: `selection` (seeds 1001-1012) and `selection-wide` (1101-1112), on which
 settings may be chosen; `report` (2001-2024) and `report-wide` (2101-2124), on which they
 are reported. The `-wide` sets cycle through (spread 0.5, independent), (0.5, correlated
-0.8) and (0.3, correlated 0.8).
+0.8) and (0.3, correlated 0.8). Issue 30's choice of the pipeline's rigid minimum was made
+on `selection-pipeline` (3001-3012, as wide), after `report-wide` had been seen; its
+figures come from `report-pipeline` (4001-4024, as wide), run once after it.
+
+Pipeline against pipeline is also scored on both cases' data together: m_r ln C_r + m_l
+ln C_l of supine's kept pair less SciPy's pair's (-2 ln of their likelihood ratio, each
+case's noise variance unknown; below 0: supine's pair is the likelier).
+
+`--speed-only` times only the two rigid fits, back to back, for the speed-up on a quiet
+machine after a full pass has recorded the costs.
 
 Usage: fit_robustness.py --set NAME [--set NAME ...] [--only K ...] [--supine BIN]
        [--root DIR] [--tolerance 1e-8] [--supine-tolerance T] [--json OUT.json]
+       [--speed-only]
 """
 
 import argparse
 import json
+import math
 import os
 import re
 import resource
@@ -55,7 +66,8 @@ NOISES_M_S2 = [0.005, 0.01, 0.02, 0.05]
 NARROW = [(0.15, 0.0), (0.3, 0.0)]
 WIDE = [(0.5, 0.0), (0.5, 0.8), (0.3, 0.8)]
 SETS = {"selection": (1001, 12, NARROW), "report": (2001, 24, NARROW),
-        "selection-wide": (1101, 12, WIDE), "report-wide": (2101, 24, WIDE)}
+        "selection-wide": (1101, 12, WIDE), "report-wide": (2101, 24, WIDE),
+        "selection-pipeline": (3001, 12, WIDE), "report-pipeline": (4001, 24, WIDE)}
 # Costs this close (relative) are the same minimum up to the rounding of the sum of 3,792
 # squares: counted as equal, not as above.
 SAME_MINIMUM = 1e-12
@@ -130,7 +142,10 @@ def measure(supine, d, directory, tolerance, supine_tolerance):
                                      "--out", rigid] + tol_args)
     row["rust_rigid_cpu_s"] = run.cpu_s
     row["rust_rigid_cost"] = final_cost(rigid)
-    row["rust_rigid_minima"] = len(fit_table(rigid)["rigid_minima"]["minimum"])
+    stored = fit_table(rigid)["rigid_minima"]
+    row["rust_rigid_minima"] = len(stored["minimum"])
+    row["rust_rigid_residuals"] = stored["residuals"]
+    row["rust_rigid_budget"] = stored["cost_budget"]
     split = re.search(r"reading and spectra ([0-9.]+) s, solver ([0-9.]+) s", done.stderr)
     row["rust_spectra_s"], row["rust_solver_s"] = float(split[1]), float(split[2])
     out, row["scipy_total_s"] = run(scipy + ["--case", "pipeline"])
@@ -145,7 +160,9 @@ def measure(supine, d, directory, tolerance, supine_tolerance):
     table = fit_table(litter)
     row["rust_litter_cost"] = table["final_cost"]
     explored = table["rigid_minima_explored"]
-    row["rust_pair_rigid_cost"] = row["rust_rigid_cost"] + explored["rigid_cost_above_kept"]
+    row["rust_pair_rigid_cost"] = explored["rigid_cost"]
+    row["rust_explored"] = explored["option"]
+    row["residuals"] = 24 * table["frequencies"]
     # Stage by stage: both litter-board fits on supine's rigid joints.
     run([supine, "fit", "--dataset", directory, "--case", "litter", "--no-explore",
          "--joints", rigid, "--out", stage] + tol_args)
@@ -155,6 +172,32 @@ def measure(supine, d, directory, tolerance, supine_tolerance):
     row["speedup"] = row["scipy_rigid_s"] / row["rust_rigid_s"]
     row["cpu_speedup"] = row["scipy_rigid_cpu_s"] / row["rust_rigid_cpu_s"]
     return row
+
+
+def measure_speed(supine, d, directory, tolerance, supine_tolerance):
+    """Only the rigid fits, back to back (`--speed-only`): for a quiet machine."""
+    rigid = os.path.join(directory, "rigid-speed.toml")
+    row = dict(d, load=os.getloadavg()[0])
+    _, row["rust_rigid_s"] = run([supine, "fit", "--dataset", directory, "--case", "rigid",
+                                  "--out", rigid] + tolerance_args(supine_tolerance))
+    row["rust_rigid_cpu_s"] = run.cpu_s
+    out, _ = run([sys.executable, os.path.join(HERE, "scipy_fit.py"), "--dataset", directory,
+                  "--json", "--case", "rigid"] + tolerance_args(tolerance))
+    sp = json.loads(out.stdout)
+    row["scipy_rigid_s"], row["scipy_rigid_cpu_s"] = sp["fit_s"], sp["fit_cpu_s"]
+    row["speedup"] = row["scipy_rigid_s"] / row["rust_rigid_s"]
+    row["cpu_speedup"] = row["scipy_rigid_cpu_s"] / row["rust_rigid_cpu_s"]
+    return row
+
+
+def speed_summary(rows):
+    for r in rows:
+        print(f"seed {r['seed']}: load {r['load']:.2f}, supine {r['rust_rigid_s']:.3f} s, "
+              f"SciPy {r['scipy_rigid_s']:.2f} s, {r['speedup']:.1f}x ({r['cpu_speedup']:.1f}x CPU)")
+    for name in ("speedup", "cpu_speedup", "load", "rust_rigid_s", "scipy_rigid_s"):
+        values = [r[name] for r in rows]
+        print(f"{name}: min {min(values):.3f}, median {statistics.median(values):.3f}, "
+              f"max {max(values):.3f}")
 
 
 def compare(ours, scipy):
@@ -202,6 +245,14 @@ def summary(rows):
     spread("SciPy rigid fit s", [r["scipy_rigid_s"] for r in rows], lambda v: f"{v:.2f}")
     spread("rigid minima kept for the litter-board fit", [r["rust_rigid_minima"] for r in rows],
            lambda v: f"{v}")
+    both = [r["residuals"] * (math.log(r["rust_pair_rigid_cost"] / r["scipy_rigid_cost"])
+                              + math.log(r["rust_litter_cost"] / r["scipy_litter_cost"]))
+            for r in rows]
+    spread(f"pipeline on both cases' data: m ln C_r + m ln C_l, supine's pair less SciPy's "
+           f"({sum(v > 0 for v in both)} above 0)", both, lambda v: f"{v:+.1f}")
+    spread("pipeline: the kept pair's rigid rise / the rigid fit's noise budget",
+           [(r["rust_pair_rigid_cost"] - r["rust_rigid_cost"]) / r["rust_rigid_budget"]
+            for r in rows], lambda v: f"{v:.2f}")
     for name, ours, theirs in (
             ("rigid", "rust_rigid_cost", "scipy_rigid_cost"),
             ("pipeline litter-board", "rust_litter_cost", "scipy_litter_cost"),
@@ -225,6 +276,8 @@ def main():
     ap.add_argument("--supine-tolerance", type=float, help="supine's (default: its own)")
     ap.add_argument("--json", help="also write the rows here")
     ap.add_argument("--summary", help="only print the table and summary of this --json file")
+    ap.add_argument("--speed-only", action="store_true",
+                    help="only time the rigid fits (supine's command, SciPy's fit) back to back")
     args = ap.parse_args()
     if args.summary:
         with open(args.summary) as fh:
@@ -237,6 +290,14 @@ def main():
     for d in datasets:
         directory = os.path.join(args.root, f"seed{d['seed']}")
         synth(args.supine, d, directory)
+        if args.speed_only:
+            rows.append(measure_speed(args.supine, d, directory, args.tolerance,
+                                      args.supine_tolerance))
+            print(f"seed {d['seed']}: {rows[-1]['speedup']:.1f}x", file=sys.stderr)
+            if args.json:
+                with open(args.json, "w") as fh:
+                    json.dump(rows, fh, indent=1)
+            continue
         rows.append(measure(args.supine, d, directory, args.tolerance, args.supine_tolerance))
         r = rows[-1]
         print(f"seed {d['seed']}: rigid {r['rust_rigid_cost']:.6f} vs {r['scipy_rigid_cost']:.6f}"
@@ -248,6 +309,9 @@ def main():
             # After every dataset, so that an interrupted run keeps what it measured.
             with open(args.json, "w") as fh:
                 json.dump(rows, fh, indent=1)
+    if args.speed_only:
+        speed_summary(rows)
+        return
     summary(rows)
 
 

@@ -75,8 +75,11 @@ LITTER_FLOOR = 1e-3
 # (output row, input column) of the 12 fitted components.
 COMPONENTS = [(0, 0), (1, 1), (2, 2), (3, 0), (4, 1), (5, 2), (6, 0), (7, 1), (8, 2),
               (0, 2), (3, 2), (6, 2)]
-HEADER = ("time_s,platform_x,platform_y,platform_z,head_x,head_y,head_z,torso_x,torso_y,"
-          "torso_z,pelvis_x,pelvis_y,pelvis_z")
+ACCELERATIONS = ["platform", "head", "torso", "pelvis"]
+# The recording's header (docs/model.md#recording-format), and the one before its
+# acceleration columns carried their unit.
+HEADERS = [",".join(["time_s"] + [f"{p}_{a}{unit}" for p in ACCELERATIONS for a in "xyz"])
+           for unit in ("_m_s2", "")]
 
 
 def trans(seg, axis):
@@ -195,7 +198,7 @@ class Objective:
 
 def read_recording(path):
     with open(path) as fh:
-        if fh.readline().strip() != HEADER:
+        if fh.readline().strip() not in HEADERS:
             raise SystemExit(f"{path}: line 1: unexpected header")
     data = np.loadtxt(path, delimiter=",", skiprows=1)
     return data

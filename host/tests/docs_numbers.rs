@@ -1,7 +1,8 @@
 //! The numbers the README and `docs/` quote that the code defines: every statement of the
 //! protocol version, the blob format version, the largest frame, the blob header, the
-//! exposure warm-up and the PARAMS region equals the code's constant (or `memory.x`), so a
-//! bump or a change of default that leaves a document behind fails here.
+//! exposure warm-up and the PARAMS region equals the code's constant (or `memory.x`), and
+//! every recording header quoted is the code's, so a bump, a change of default or a renamed
+//! column that leaves a document behind fails here.
 //!
 //! Checked on the text: each pattern finds the number right after its words; a sentence
 //! about an older version says so with "bump", "older", "earlier" or "was" just before.
@@ -12,6 +13,7 @@ use std::path::{Path, PathBuf};
 use supine_core::blob::{BLOB_FORMAT_VERSION, BLOB_HEADER_LEN};
 use supine_core::exposure::ExposureConfig;
 use supine_core::protocol::{MAX_FRAME_LEN, PROTOCOL_VERSION};
+use supine_host::io::recording::{COLUMNS, HEADER_LINE, OLD_COLUMNS};
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -147,4 +149,56 @@ fn the_readme_states_the_params_region_memory_x_reserves() {
         readme.contains("64 KiB PARAMS region at 0x0007_0000"),
         "README.md: expected the PARAMS region memory.x reserves ({line})"
     );
+}
+
+/// The column names a document quotes from `at` on (`time_s,platform_x_m_s2,...`), read
+/// across a line break after a comma.
+fn quoted_columns(text: &str, at: usize) -> Vec<String> {
+    let mut quoted = String::new();
+    let mut chars = text[at..].chars().peekable();
+    while let Some(c) = chars.next() {
+        let in_name = c.is_ascii_alphanumeric() || c == '_';
+        if in_name || (c == ',' && chars.peek().is_some_and(|n| n.is_ascii_alphanumeric())) {
+            quoted.push(c);
+        } else if c == ',' && chars.peek() == Some(&'\n') {
+            quoted.push(c);
+            while chars.peek().is_some_and(|n| n.is_whitespace()) {
+                chars.next();
+            }
+        } else {
+            break;
+        }
+    }
+    quoted.split(',').map(String::from).collect()
+}
+
+#[test]
+fn the_recording_headers_the_documents_quote_are_the_codes() {
+    // The format's own pages give the header whole.
+    let all = documents();
+    for page in ["docs/fitting.md", "docs/model.md"] {
+        let (_, text) = all.iter().find(|(name, _)| name == page).expect(page);
+        assert!(
+            text.contains(HEADER_LINE),
+            "{page} does not quote {HEADER_LINE}"
+        );
+    }
+    // Every header quoted anywhere is the first columns of today's names or of the names
+    // before units, in order.
+    let mut quoted = 0;
+    for (name, text) in &all {
+        for (at, _) in text.match_indices("time_s,platform_") {
+            let columns = quoted_columns(text, at);
+            let prefix_of = |naming: &[&str; 13]| {
+                columns.len() <= naming.len() && columns.iter().zip(naming).all(|(c, n)| c == n)
+            };
+            assert!(
+                prefix_of(&COLUMNS) || prefix_of(&OLD_COLUMNS),
+                "{name}: a recording header {} that is not the code's",
+                columns.join(",")
+            );
+            quoted += 1;
+        }
+    }
+    assert!(quoted >= 6, "{quoted} headers quoted");
 }

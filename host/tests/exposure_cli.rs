@@ -144,18 +144,55 @@ fn the_channel_form_prints_a_readable_table() {
         "--input",
         s(&path),
         "--channel",
-        "head_z",
+        "head_z_m_s2",
         "--weighting",
         "wk",
     ])
     .unwrap();
-    assert!(text.contains("exposure of column head_z"), "{text}");
+    assert!(text.contains("exposure of column head_z_m_s2"), "{text}");
     assert!(text.contains("m/s^1.75"), "{text}");
     assert!(
         text.lines()
-            .any(|l| l.starts_with("head_z") && l.contains("wk")),
+            .any(|l| l.starts_with("head_z_m_s2") && l.contains("wk")),
         "{text}"
     );
+}
+
+#[test]
+fn a_recording_written_before_the_columns_carried_their_unit_reads_as_before() {
+    let dir = tempfile::tempdir().unwrap();
+    let new = dir.path().join("new.csv");
+    write_recording(&new, 500.0, 4000, 6, |t| (2.0 * PI * 5.0 * t).sin());
+    let old = dir.path().join("old.csv");
+    let text = std::fs::read_to_string(&new).unwrap();
+    assert!(text.starts_with("time_s,platform_x_m_s2,"), "{text:.80}");
+    let old_header = supine_host::io::recording::OLD_COLUMNS.join(",");
+    std::fs::write(&old, text.replacen(HEADER_LINE, &old_header, 1)).unwrap();
+    // Either name of the column, in either file: the same numbers (the file's and the
+    // column's names aside).
+    let unnamed = |mut v: Value| {
+        v["input"] = Value::Null;
+        v["channel"] = Value::Null;
+        v
+    };
+    let channel = |path: &Path, name: &str| {
+        unnamed(json(&[
+            "--input",
+            s(path),
+            "--channel",
+            name,
+            "--weighting",
+            "wj",
+        ]))
+    };
+    let today = channel(&new, "head_z_m_s2");
+    assert!(num(&today, "rms_m_s2") > 0.1, "{today}");
+    assert_eq!(channel(&old, "head_z_m_s2"), today);
+    assert_eq!(channel(&old, "head_z"), today);
+    assert_eq!(channel(&new, "head_z"), today);
+    // And through the model.
+    let model = |path: &Path| unnamed(json(&["--preset", "paper-litter", "--input", s(path)]));
+    assert_eq!(model(&old), model(&new));
 }
 
 /// The ride's platform columns as the file holds them (parsed here, independently).
@@ -395,7 +432,7 @@ fn bad_cells_are_reported_with_file_line_and_column() {
     let e = err(&["--preset", "paper-litter", "--input", s(&ride)]);
     assert!(
         e.contains(
-            "line 10, column platform_z: expected an acceleration in m/s^2 (a finite number)"
+            "line 10, column platform_z_m_s2: expected an acceleration in m/s^2 (a finite number)"
         ),
         "{e}"
     );
@@ -431,7 +468,7 @@ fn an_unknown_or_absent_channel_is_refused_with_the_columns_there_are() {
     ]);
     assert!(
         e.contains("--channel head_w")
-            && e.contains("platform_x, platform_y")
+            && e.contains("platform_x_m_s2, platform_y_m_s2")
             && e.contains("pelvis_z"),
         "{e}"
     );
@@ -455,7 +492,7 @@ fn an_unknown_or_absent_channel_is_refused_with_the_columns_there_are() {
         "wj",
     ]);
     assert!(
-        e.contains("platform_x, platform_y, platform_z") && !e.contains("pelvis"),
+        e.contains("platform_x_m_s2, platform_y_m_s2, platform_z_m_s2") && !e.contains("pelvis"),
         "{e}"
     );
 }

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use clap::Parser;
 use supine_host::cli::{Cli, one_line, run};
 use supine_host::identify::synth::{SynthSettings, write_dataset};
+use supine_host::io::recording::OLD_COLUMNS;
 
 fn supine(args: &[&str]) -> anyhow::Result<()> {
     let mut argv = vec!["supine"];
@@ -121,7 +122,32 @@ fn a_missing_dataset_description_names_it() {
 fn a_wrong_header_names_the_first_differing_field() {
     let (_dir, ds) = dataset();
     let file = ds.join("s1_rigid.csv");
-    edit_line(&file, 1, |l| l.replace("head_x", "head_X"));
+    edit_line(&file, 1, |l| l.replace("head_x_m_s2", "head_X_m_s2"));
+    let e = transmissibility_error(&ds, &[]);
+    assert!(
+        e.contains(
+            "s1_rigid.csv: line 1, column 5: expected the header field \"head_x_m_s2\", found \"head_X_m_s2\""
+        ),
+        "{e}"
+    );
+    // A header written before the columns carried their unit is read; a slip in one is
+    // named in its own naming.
+    let old = OLD_COLUMNS.join(",");
+    edit_line(&file, 1, |_| old.clone());
+    let out = ds.join("H.csv");
+    let (ds_arg, out_arg) = (ds.to_str().unwrap(), out.to_str().unwrap());
+    supine(&[
+        "transmissibility",
+        "--dataset",
+        ds_arg,
+        "--case",
+        "rigid",
+        "--out",
+        out_arg,
+    ])
+    .unwrap();
+    std::fs::remove_file(&out).unwrap();
+    edit_line(&file, 1, |_| old.replace("head_x", "head_X"));
     let e = transmissibility_error(&ds, &[]);
     assert!(
         e.contains(
@@ -136,12 +162,15 @@ fn a_reordered_header_is_refused() {
     let (_dir, ds) = dataset();
     let file = ds.join("s1_rigid.csv");
     edit_line(&file, 1, |l| {
-        l.replace("platform_x,platform_y", "platform_y,platform_x")
+        l.replace(
+            "platform_x_m_s2,platform_y_m_s2",
+            "platform_y_m_s2,platform_x_m_s2",
+        )
     });
     let e = transmissibility_error(&ds, &[]);
     assert!(
         e.contains(
-            "line 1, column 2: expected the header field \"platform_x\", found \"platform_y\""
+            "line 1, column 2: expected the header field \"platform_x_m_s2\", found \"platform_y_m_s2\""
         ),
         "{e}"
     );
@@ -154,7 +183,9 @@ fn a_non_numeric_cell_names_line_and_column() {
     set_cell(&file, 17, 2, "abc");
     let e = transmissibility_error(&ds, &[]);
     assert!(
-        e.contains("s2_rigid.csv: line 17, column platform_y: expected a number, found \"abc\""),
+        e.contains(
+            "s2_rigid.csv: line 17, column platform_y_m_s2: expected a number, found \"abc\""
+        ),
         "{e}"
     );
 }
@@ -168,7 +199,7 @@ fn nan_and_infinite_values_are_refused() {
         let e = transmissibility_error(&ds, &[]);
         assert!(
             e.contains(&format!(
-                "s1_rigid.csv: line 40, column head_z: expected a finite number, found \"{bad}\""
+                "s1_rigid.csv: line 40, column head_z_m_s2: expected a finite number, found \"{bad}\""
             )),
             "{e}"
         );
@@ -351,10 +382,9 @@ fn the_binary_exits_non_zero_with_one_line_on_stderr() {
     let stderr = String::from_utf8(output.stderr).unwrap();
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
     assert!(stderr.starts_with("supine: "), "{stderr}");
-    assert!(
-        stderr
-            .contains("s2_rigid.csv: line 17, column platform_y: expected a number, found \"abc\"")
-    );
+    assert!(stderr.contains(
+        "s2_rigid.csv: line 17, column platform_y_m_s2: expected a number, found \"abc\""
+    ));
     assert!(!out.exists());
 }
 

@@ -63,7 +63,7 @@ fn ride_json_describes_the_file_it_wrote() {
     // The rms in the JSON is the file's (written to 1e-6 m/s^2).
     let rms_z = j["rms_m_s2"]["z"].as_f64().unwrap();
     assert!(
-        (rms_z - column_rms(&out, "platform_z")).abs() < 1e-5,
+        (rms_z - column_rms(&out, "platform_z_m_s2")).abs() < 1e-5,
         "{rms_z}"
     );
 }

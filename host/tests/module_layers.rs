@@ -20,7 +20,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "parallel", "ride", "verify", "schema",
         ],
     ),
-    ("archive", &["report"]),
+    ("archive", &["report", "ride"]),
     ("verify", &["report", "device", "io"]),
     (
         "demo",

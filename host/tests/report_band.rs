@@ -10,7 +10,7 @@ use serde_json::Value;
 use supine_core::model::{ParamId, Preset};
 
 use supine_host::commands::band_args::BandArgs;
-use supine_host::commands::report;
+use supine_host::commands::report::{self, MissionArgs};
 use supine_host::exposure::ride::{Profile, generate, write_ride};
 use supine_host::identify::fit::uncertainty::{FIT_KEY, StoredUncertainty};
 use supine_host::io::params_file::{self, ModelSource, ParamFile, PresetArg};
@@ -48,13 +48,15 @@ fn params_with_covariance(dir: &Path, sd_ln_p: f64) -> PathBuf {
 
 fn args(inputs: &[PathBuf], model: ModelSource, out: &Path, draws: Option<usize>) -> report::Args {
     report::Args {
-        input: inputs.to_vec(),
-        ride: RideInputArgs::default(),
-        track: Default::default(),
-        model,
-        subject: SubjectArgs {
-            height_m: None,
-            mass_kg: None,
+        mission: MissionArgs {
+            input: inputs.to_vec(),
+            ride: RideInputArgs::default(),
+            track: Default::default(),
+            model,
+            subject: SubjectArgs {
+                height_m: None,
+                mass_kg: None,
+            },
         },
         out: out.to_path_buf(),
         json: true,

@@ -10,10 +10,11 @@ use supine_core::model::{ModelParams, Preset};
 use supine_core::protocol::Telemetry;
 
 use supine_host::commands::band_args::BandArgs;
+use supine_host::commands::report::MissionArgs;
 use supine_host::commands::{exposure, report};
-use supine_host::exposure::ride::{Profile, generate, write_ride};
+use supine_host::exposure::ride::Profile;
 use supine_host::identify::transmissibility::model_h;
-use supine_host::io::params_file::{ModelSource, ParamFile, PresetArg};
+use supine_host::io::params_file::{ParamFile, PresetArg};
 use supine_host::io::recording::read_input;
 use supine_host::io::ride_input::RideInputArgs;
 use supine_host::io::subject_args::SubjectArgs;
@@ -24,21 +25,10 @@ use supine_host::report::device_check::{DeviceLog, DeviceRun, PassResult};
 use supine_host::report::device_series::{DeviceSeries, TraceSeriesBuilder};
 use supine_host::report::page::render;
 
-fn ride(dir: &Path, profile: Profile, duration_s: f64, seed: u64) -> PathBuf {
-    let path = dir.join(format!("{}-{seed}.csv", profile.name()));
-    write_ride(&path, &generate(profile, duration_s, 500.0, seed).unwrap()).unwrap();
-    path
-}
-
-fn preset() -> ModelSource {
-    ModelSource {
-        preset: Some(PresetArg::PaperLitter),
-        params: None,
-    }
-}
+use crate::common::{paper_litter as preset, ride};
 
 fn report_json(inputs: &[PathBuf], out: &Path, height_mass: Option<(f64, f64)>) -> Value {
-    let args = report::Args {
+    let mission = MissionArgs {
         input: inputs.to_vec(),
         ride: RideInputArgs::default(),
         track: Default::default(),
@@ -47,14 +37,8 @@ fn report_json(inputs: &[PathBuf], out: &Path, height_mass: Option<(f64, f64)>) 
             height_m: height_mass.map(|h| h.0),
             mass_kg: height_mass.map(|h| h.1),
         },
-        out: out.to_path_buf(),
-        json: true,
-        compare: false,
-        band: BandArgs::default(),
     };
-    let mut text = Vec::new();
-    report::run_to(&args, &mut text).unwrap();
-    serde_json::from_slice(&text).unwrap()
+    crate::common::report_json(mission, out)
 }
 
 fn exposure_json(input: &Path) -> Value {
@@ -209,7 +193,7 @@ fn the_json_keys_are_the_contract() {
 
 /// A vertical sine at `freq_hz` on the litter, 60 s at 500 Hz.
 fn sine_ride(path: &Path, freq_hz: f64, amplitude_m_s2: f64) {
-    let mut text = String::from("time_s,platform_x,platform_y,platform_z\n");
+    let mut text = String::from("time_s,platform_x_m_s2,platform_y_m_s2,platform_z_m_s2\n");
     for k in 0..30_000 {
         let t = k as f64 / 500.0;
         text.push_str(&format!(
@@ -290,7 +274,7 @@ fn the_page_is_self_contained_prints_on_a4_and_names_every_leg() {
 fn a_ride_with_gravity_is_refused_by_the_report_too() {
     let dir = tempfile::tempdir().unwrap();
     let raw = dir.path().join("raw.csv");
-    let mut text = String::from("time_s,platform_x,platform_y,platform_z\n");
+    let mut text = String::from("time_s,platform_x_m_s2,platform_y_m_s2,platform_z_m_s2\n");
     for k in 0..5000 {
         text.push_str(&format!(
             "{},0,0,{}\n",
@@ -300,11 +284,13 @@ fn a_ride_with_gravity_is_refused_by_the_report_too() {
     }
     std::fs::write(&raw, text).unwrap();
     let args = report::Args {
-        input: vec![raw],
-        ride: RideInputArgs::default(),
-        track: Default::default(),
-        model: preset(),
-        subject: SubjectArgs::default(),
+        mission: MissionArgs {
+            input: vec![raw],
+            ride: RideInputArgs::default(),
+            track: Default::default(),
+            model: preset(),
+            subject: SubjectArgs::default(),
+        },
         out: dir.path().join("out"),
         json: false,
         compare: false,

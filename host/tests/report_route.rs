@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use supine_core::model::Preset;
 use supine_host::commands::band_args::BandArgs;
-use supine_host::commands::report;
+use supine_host::commands::report::{self, MissionArgs};
 use supine_host::io::params_file::{ModelSource, ParamFile, PresetArg};
 use supine_host::io::ride_input::{RideInputArgs, TrackArgs};
 use supine_host::io::ride_rows::ColumnNames;
@@ -82,14 +82,16 @@ fn report_args(
     out: &Path,
 ) -> report::Args {
     report::Args {
-        input,
-        ride,
-        track,
-        model: ModelSource {
-            preset: Some(PresetArg::PaperLitter),
-            params: None,
+        mission: MissionArgs {
+            input,
+            ride,
+            track,
+            model: ModelSource {
+                preset: Some(PresetArg::PaperLitter),
+                params: None,
+            },
+            subject: SubjectArgs::default(),
         },
-        subject: SubjectArgs::default(),
         out: out.to_path_buf(),
         json: true,
         compare: false,
@@ -225,7 +227,7 @@ fn gpx(dir: &Path, seconds: usize, speed_m_s: f64) -> PathBuf {
 /// The project's own ride file (no positions), `seconds` long at [`FS_HZ`].
 fn plain_ride(dir: &Path, name: &str, seconds: f64) -> PathBuf {
     let path = dir.join(name);
-    let mut text = String::from("time_s,platform_x,platform_y,platform_z\n");
+    let mut text = String::from("time_s,platform_x_m_s2,platform_y_m_s2,platform_z_m_s2\n");
     for k in 0..(seconds * FS_HZ) as usize {
         let t = k as f64 / FS_HZ;
         text.push_str(&format!("{t},0.1,0.05,{}\n", vertical_m_s2(t, seconds)));
@@ -362,7 +364,7 @@ fn the_json_has_route_per_leg_and_null_without_positions() {
     report::run_to(&args, &mut text).unwrap();
     let json: serde_json::Value = serde_json::from_slice(&text).unwrap();
     let route = &json["legs"][0]["route"];
-    assert_eq!(route["points"], 20 * 10 + 1);
+    assert_eq!(route["fixes"], 20 * 10 + 1);
     let segment = &route["segments"][0];
     for key in [
         "start_s",
@@ -394,8 +396,11 @@ fn the_json_has_route_per_leg_and_null_without_positions() {
 
     let plain = plain_ride(dir.path(), "plain.csv", 10.0);
     let args = report::Args {
-        input: vec![plain],
-        ride: RideInputArgs::default(),
+        mission: MissionArgs {
+            input: vec![plain],
+            ride: RideInputArgs::default(),
+            ..args.mission
+        },
         ..args
     };
     let mut text = Vec::new();

@@ -81,7 +81,11 @@ fn write(path: &Path, header: &str, rows: &[(String, [f64; 3])]) {
 
 fn ride_file(path: &Path, rows: &[(f64, [f64; 3])]) -> PathBuf {
     let rows: Vec<(String, [f64; 3])> = rows.iter().map(|(t, v)| (format!("{t}"), *v)).collect();
-    write(path, "time_s,platform_x,platform_y,platform_z", &rows);
+    write(
+        path,
+        "time_s,platform_x_m_s2,platform_y_m_s2,platform_z_m_s2",
+        &rows,
+    );
     path.to_path_buf()
 }
 
@@ -440,7 +444,7 @@ fn a_tilted_phone_file_in_g_is_refused_without_units_g_and_read_with_them() {
             })
             .collect()
     };
-    let columns = "time=time_s,x=platform_x,y=platform_y,z=platform_z";
+    let columns = "time=time_s,x=platform_x_m_s2,y=platform_y_m_s2,z=platform_z_m_s2";
     let g_file = ride_file(&dir.path().join("g.csv"), &rows(G));
     let m_file = ride_file(&dir.path().join("m.csv"), &rows(1.0));
     let removing = RideInputArgs {

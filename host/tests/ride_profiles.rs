@@ -45,7 +45,7 @@ fn columns(path: &Path) -> [Vec<f64>; 4] {
     let mut lines = text.lines();
     assert_eq!(
         lines.next(),
-        Some("time_s,platform_x,platform_y,platform_z")
+        Some("time_s,platform_x_m_s2,platform_y_m_s2,platform_z_m_s2")
     );
     let mut cols: [Vec<f64>; 4] = Default::default();
     for line in lines {

@@ -331,8 +331,10 @@ impl fmt::Display for AlertError {
 
 impl core::error::Error for AlertError {}
 
-/// Exposure alert configuration as carried in the parameter blob (SI units).
+/// Exposure alert configuration as carried in the parameter blob (SI units); a parameter
+/// file's `[device.alerts]`, where a key left out keeps its [`DEFAULT`](Self::DEFAULT).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "file-form", serde(default, deny_unknown_fields))]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct AlertConfig {
     /// Running-rms thresholds of the vector sum for advisory, warning, alarm, m/s^2.
@@ -602,8 +604,11 @@ impl AlertSettings {
     }
 }
 
-/// Sensor-fault check configuration (SI units), for the litter accelerometer's samples.
+/// Sensor-fault check configuration (SI units), for the litter accelerometer's samples; a
+/// parameter file's `[device.sensor_checks]`, where a key left out keeps its
+/// [`DEFAULT`](Self::DEFAULT).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "file-form", serde(default, deny_unknown_fields))]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SensorCheckConfig {
     /// |sample| at or above this is saturation, m/s^2 (set a little below the range).

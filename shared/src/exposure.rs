@@ -57,14 +57,24 @@ pub const BLOCK_SAMPLES: u32 = 256;
 /// Longest accepted warm-up, s (a typo of 5000 s should not silence a monitor for an hour).
 pub const MAX_WARMUP_S: f32 = 120.0;
 
-/// The weighting and vector-sum factor `k` applied to one head axis.
+/// The weighting and vector-sum factor `k` applied to one head axis. In a parameter file
+/// the weighting is required (the defaults differ by axis) and `k` defaults to 1.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "file-form", serde(deny_unknown_fields))]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct AxisWeighting {
     /// Frequency weighting for this axis.
     pub kind: WeightingKind,
     /// Multiplying factor `k` in the vector sum (1 for recumbent persons), dimensionless.
+    #[cfg_attr(feature = "file-form", serde(default = "AxisWeighting::recumbent_k"))]
     pub k: f32,
+}
+
+impl AxisWeighting {
+    /// The factor `k` of every axis of a recumbent person: 1.
+    const fn recumbent_k() -> f32 {
+        1.0
+    }
 }
 
 /// Which weighting goes on which predicted head axis (litter/body axes of the head).
@@ -74,8 +84,9 @@ pub struct AxisWeighting {
 /// weights a recumbent person's vertical under the head with Wj and both horizontal axes
 /// with Wd, all with `k = 1`. Applying Wj to the *predicted head* acceleration (rather
 /// than to a measurement on the support under the head) is this product's choice:
-/// [`AxisMapping::SUPINE_HEAD`].
+/// [`AxisMapping::SUPINE_HEAD`]. An axis a parameter file leaves out keeps its default.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "file-form", serde(default, deny_unknown_fields))]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct AxisMapping {
     /// Head x: longitudinal (along the litter, toward the head).
@@ -91,15 +102,15 @@ impl AxisMapping {
     pub const SUPINE_HEAD: AxisMapping = AxisMapping {
         x: AxisWeighting {
             kind: WeightingKind::Wd,
-            k: 1.0,
+            k: AxisWeighting::recumbent_k(),
         },
         y: AxisWeighting {
             kind: WeightingKind::Wd,
-            k: 1.0,
+            k: AxisWeighting::recumbent_k(),
         },
         z: AxisWeighting {
             kind: WeightingKind::Wj,
-            k: 1.0,
+            k: AxisWeighting::recumbent_k(),
         },
     };
 
@@ -115,8 +126,10 @@ impl Default for AxisMapping {
     }
 }
 
-/// The evaluation's configuration as carried in the parameter blob (SI units).
+/// The evaluation's configuration as carried in the parameter blob (SI units); a parameter
+/// file's `[device.exposure]`, where a key left out keeps its [`DEFAULT`](Self::DEFAULT).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "file-form", serde(default, deny_unknown_fields))]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ExposureConfig {
     /// Weighting and `k` per head axis.

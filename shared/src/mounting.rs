@@ -16,8 +16,10 @@ use serde::{Deserialize, Serialize};
 /// Standard gravity, m/s^2.
 pub const STANDARD_GRAVITY_M_S2: f64 = 9.806_65;
 
-/// Sensor-to-litter rotation and the gravity to remove.
+/// Sensor-to-litter rotation and the gravity to remove; a parameter file's
+/// `[device.mounting]`, where a key left out keeps its value in [`LEVEL`](Self::LEVEL).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "file-form", serde(default, deny_unknown_fields))]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Mounting {
     /// Rows are the litter's x, y, z axes in sensor coordinates.
@@ -54,6 +56,12 @@ impl fmt::Display for MountingError {
 }
 
 impl core::error::Error for MountingError {}
+
+impl Default for Mounting {
+    fn default() -> Self {
+        Self::LEVEL
+    }
+}
 
 impl Mounting {
     /// A sensor mounted level with its axes along the litter's.

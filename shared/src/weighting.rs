@@ -44,7 +44,8 @@
 use core::cmp::Ordering;
 use core::fmt;
 
-use serde::{Deserialize, Serialize};
+use serde::de::{self, Visitor};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::gain_bound::{Amplification, Recursion2};
 use crate::sample_rate::SampleRate;
@@ -53,7 +54,11 @@ const TAU: f64 = 2.0 * core::f64::consts::PI;
 const Q_BAND: f64 = core::f64::consts::FRAC_1_SQRT_2;
 
 /// Which ISO 2631-1 frequency weighting.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+///
+/// Serialized by its [`name`](Self::name) in a human-readable format (a parameter file's
+/// `kind = "wd"`, read in either case, `"Wd"` too) and by its variant index in the blob
+/// (postcard), exactly as a derived enum: the device's decoding is the derived one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum WeightingKind {
     /// Wk: vertical; recumbent persons, vertical under the pelvis.
@@ -126,6 +131,69 @@ impl WeightingKind {
 impl fmt::Display for WeightingKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
+    }
+}
+
+/// The blob's form of [`WeightingKind`]: the derived variant-index encoding, unchanged since
+/// blob format 1, so the device's decoder stays the derived one.
+#[derive(Serialize, Deserialize)]
+#[serde(rename = "WeightingKind")]
+enum Indexed {
+    Wk,
+    Wd,
+    Wj,
+}
+
+impl Serialize for WeightingKind {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        if s.is_human_readable() {
+            return s.serialize_str(self.name());
+        }
+        match self {
+            WeightingKind::Wk => Indexed::Wk,
+            WeightingKind::Wd => Indexed::Wd,
+            WeightingKind::Wj => Indexed::Wj,
+        }
+        .serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for WeightingKind {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        if d.is_human_readable() {
+            return d.deserialize_str(NameVisitor);
+        }
+        Ok(match Indexed::deserialize(d)? {
+            Indexed::Wk => WeightingKind::Wk,
+            Indexed::Wd => WeightingKind::Wd,
+            Indexed::Wj => WeightingKind::Wj,
+        })
+    }
+}
+
+/// Reads a weighting's name in either case (`wd`, `Wd`, `WD`), white space around it
+/// ignored.
+struct NameVisitor;
+
+impl Visitor<'_> for NameVisitor {
+    type Value = WeightingKind;
+
+    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("one of wk, wd, wj (either case)")
+    }
+
+    fn visit_str<E: de::Error>(self, text: &str) -> Result<WeightingKind, E> {
+        WeightingKind::ALL
+            .into_iter()
+            .find(|w| w.name().eq_ignore_ascii_case(text.trim()))
+            .ok_or_else(|| {
+                // At most 40 characters of what was written, escaped: one line.
+                let end = text.char_indices().nth(40).map_or(text.len(), |(i, _)| i);
+                E::custom(format_args!(
+                    "expected one of wk, wd, wj (either case), found {:?}",
+                    &text[..end]
+                ))
+            })
     }
 }
 

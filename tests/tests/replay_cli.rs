@@ -299,7 +299,7 @@ fn a_finished_replay_leaves_no_qemu_and_no_socket_folder() {
     // Its names, and the telemetry CSV's, follow the output vocabulary.
     let mut problems = names::json_problems(&report, "replay");
     let telemetry = std::fs::read_to_string(dir.path().join("device.csv")).expect("device.csv");
-    problems.extend(names::csv_problems(&telemetry, "device.csv", &[]));
+    problems.extend(names::csv_problems(&telemetry, "device.csv"));
     assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
 

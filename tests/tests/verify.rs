@@ -43,7 +43,7 @@ fn failures(c: &Conformance) -> Vec<String> {
 }
 
 /// The command at one rate: every test passes, the report and the JSON are written, and
-/// the JSON has exactly the keys.
+/// the JSON has exactly the keys, named by the output vocabulary's rules.
 #[test]
 fn every_test_passes_at_100_hz_and_the_report_is_written() {
     let dir = tempfile::tempdir().unwrap();
@@ -95,6 +95,9 @@ fn every_test_passes_at_100_hz_and_the_report_is_written() {
         assert!(test.contains_key(key), "{key} in {test:?}");
     }
     assert_eq!(json["firmware_sha256"].as_str().unwrap().len(), 64);
+    // The output vocabulary (host/tests/output_names.rs holds the host's commands to it).
+    let problems = supine_host::schema::names::json_problems(&json, "verify");
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
     let names: Vec<&str> = json["tests"]
         .as_array()
         .unwrap()

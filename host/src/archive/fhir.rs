@@ -30,14 +30,14 @@ pub const UCUM: &str = "http://unitsofmeasure.org";
 
 /// A mission's Bundle. Needs the mission's start and a patient or encounter identifier.
 pub fn bundle(m: &MissionSummary) -> Result<Value> {
-    if m.patient.is_none() && m.encounter.is_none() {
+    if m.meta.patient.is_none() && m.meta.encounter.is_none() {
         bail!(
             "mission {}: no patient or encounter identifier to refer to (add the mission with \
              --patient ID or --encounter ID)",
             m.id
         );
     }
-    let start_text = m.start.as_deref().ok_or_else(|| {
+    let start_text = m.meta.start.as_deref().ok_or_else(|| {
         anyhow!(
             "mission {}: no start time, so no period for the Observations (add it with --start)",
             m.id
@@ -72,10 +72,10 @@ pub fn bundle(m: &MissionSummary) -> Result<Value> {
             "effectivePeriod": period,
             "note": [{"text": note}]
         });
-        if let Some(p) = &m.patient {
+        if let Some(p) = &m.meta.patient {
             o["subject"] = json!({"identifier": {"value": p}});
         }
-        if let Some(e) = &m.encounter {
+        if let Some(e) = &m.meta.encounter {
             o["encounter"] = json!({"identifier": {"value": e}});
         }
         o

@@ -53,19 +53,19 @@ pub struct Group {
     /// The number of missions.
     pub missions: usize,
     /// Their ride time, h.
-    pub hours: f64,
+    pub duration_h: f64,
     /// The head's VDV per hour of ride, m/s^1.75.
     pub vdv_per_hour_m_s175: Distribution,
     /// Seconds at warning, summed.
     pub warning_s: f64,
     /// Seconds at alarm, summed.
     pub alarm_s: f64,
-    /// The share of ride time at warning or alarm.
-    pub warning_or_alarm_share: f64,
+    /// The fraction of ride time at warning or alarm.
+    pub warning_or_alarm_fraction: f64,
     /// Missions whose highest level was warning or alarm.
-    pub missions_reaching_warning: usize,
+    pub warning_or_alarm_missions: usize,
     /// Missions whose highest level was alarm.
-    pub missions_reaching_alarm: usize,
+    pub alarm_missions: usize,
     /// The joints' largest excursions.
     pub joints: Vec<JointGroup>,
 }
@@ -239,9 +239,9 @@ pub struct FleetView {
     /// Missions covered.
     pub missions: usize,
     /// Their ride time, h.
-    pub hours: f64,
+    pub duration_h: f64,
     /// Missions without a start time (left off the time axis).
-    pub missions_without_start: usize,
+    pub undated_missions: usize,
     /// Each mission on the time axis, oldest first.
     pub timeline: Vec<TimePoint>,
     /// Missions per week.
@@ -317,8 +317,8 @@ pub fn build(
         .map(|[a, b]| compared(rows, a, b));
     FleetView {
         missions: rows.len(),
-        hours: rows.iter().map(|r| r.duration_s).sum::<f64>() / 3600.0,
-        missions_without_start: rows.iter().filter(|r| r.start_epoch_s.is_none()).count(),
+        duration_h: rows.iter().map(|r| r.duration_s).sum::<f64>() / 3600.0,
+        undated_missions: rows.iter().filter(|r| r.start_epoch_s.is_none()).count(),
         weeks: weeks(&timeline),
         timeline,
         groups,
@@ -346,20 +346,20 @@ fn group(by: &'static str, key: &str, members: &[&FleetRow]) -> Option<Group> {
         by,
         key: key.to_string(),
         missions: members.len(),
-        hours: seconds / 3600.0,
+        duration_h: seconds / 3600.0,
         vdv_per_hour_m_s175: Distribution::of(&rates)?,
         warning_s,
         alarm_s,
-        warning_or_alarm_share: if seconds > 0.0 {
+        warning_or_alarm_fraction: if seconds > 0.0 {
             (warning_s + alarm_s) / seconds
         } else {
             0.0
         },
-        missions_reaching_warning: members
+        warning_or_alarm_missions: members
             .iter()
             .filter(|r| r.max_level == "warning" || r.max_level == "alarm")
             .count(),
-        missions_reaching_alarm: members.iter().filter(|r| r.max_level == "alarm").count(),
+        alarm_missions: members.iter().filter(|r| r.max_level == "alarm").count(),
         joints: joints
             .into_iter()
             .filter_map(|((output, unit), v)| {

@@ -74,11 +74,11 @@ pub fn render(view: &FleetView) -> String {
          by their median, quartiles and 10th and 90th percentiles; the median's 95&nbsp;% \
          interval comes from order statistics (none below 6 missions).</p>\n",
         view.missions,
-        view.hours,
-        if view.missions_without_start > 0 {
+        view.duration_h,
+        if view.undated_missions > 0 {
             format!(
                 "; {} without a start time are left off the time axis",
-                view.missions_without_start
+                view.undated_missions
             )
         } else {
             String::new()
@@ -294,16 +294,16 @@ fn dimension(h: &mut String, by: &str, groups: &[&Group]) {
              <td>{:.0}</td><td>{:.0}</td><td>{:.1} %</td><td>{} / {}</td></tr>",
             escape(&g.key),
             g.missions,
-            g.hours,
+            g.duration_h,
             d.median,
             ci(d),
             d.p25,
             d.p75,
             g.warning_s,
             g.alarm_s,
-            100.0 * g.warning_or_alarm_share,
-            g.missions_reaching_warning,
-            g.missions_reaching_alarm
+            100.0 * g.warning_or_alarm_fraction,
+            g.warning_or_alarm_missions,
+            g.alarm_missions
         );
     }
     h.push_str("</table>\n");
@@ -364,7 +364,7 @@ fn compare(h: &mut String, view: &FleetView) {
                     h,
                     "<tr><td>{}</td><td>{}</td><td>{:.3} {}</td><td>{:.3} to {:.3}</td></tr>",
                     escape(&side.label),
-                    d.n,
+                    d.missions,
                     d.median,
                     ci(d),
                     d.p25,
@@ -396,8 +396,8 @@ fn compare(h: &mut String, view: &FleetView) {
                 } else {
                     "<span class=\"ok\">The difference could be chance</span>"
                 },
-                t.u,
-                t.z,
+                t.u_statistic,
+                t.z_score,
                 t.p_value,
                 c.test
             );

@@ -8,32 +8,44 @@ use anyhow::{Result, anyhow};
 use jiff::Timestamp;
 use serde::{Deserialize, Serialize};
 
-/// The metadata of one mission. Every field is optional.
-#[derive(Clone, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+/// The metadata of one mission. Every field is optional. The same fields are `add`'s
+/// flags (their help is these comments) and the keys of its `--meta` file.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Deserialize, Serialize, clap::Args)]
 #[serde(deny_unknown_fields)]
 pub struct MissionMeta {
     /// The vehicle (e.g. an ambulance's call sign).
+    #[arg(long, value_name = "ID")]
     pub vehicle: Option<String>,
     /// The unit or crew.
+    #[arg(long, value_name = "ID")]
     pub crew: Option<String>,
     /// The driver.
+    #[arg(long, value_name = "ID")]
     pub driver: Option<String>,
-    /// The route's name (e.g. `A9 north`).
+    /// The route's name (e.g. A9 north).
+    #[arg(long, value_name = "NAME")]
     pub route: Option<String>,
-    /// The patient's transport position (e.g. `supine`).
+    /// The patient's transport position (e.g. supine).
+    #[arg(long, value_name = "NAME")]
     pub position: Option<String>,
     /// Where the mission started.
+    #[arg(long, value_name = "PLACE")]
     pub origin: Option<String>,
     /// Where it ended.
+    #[arg(long, value_name = "PLACE")]
     pub destination: Option<String>,
-    /// The start, ISO 8601 with an offset (`2026-11-28T05:00:00Z`, `...+01:00`).
+    /// The start, ISO 8601 with an offset (2026-11-28T05:00:00Z, 2026-11-28T06:00:00+01:00).
+    #[arg(long, value_name = "ISO8601")]
     pub start: Option<String>,
-    /// Free tags.
+    /// A free tag (repeat for more).
+    #[arg(long = "tag", value_name = "T")]
     #[serde(default)]
     pub tags: Vec<String>,
-    /// A patient identifier the user supplies (the archive stores it as given).
+    /// A patient identifier (kept as given; used by `export --fhir`).
+    #[arg(long, value_name = "ID")]
     pub patient: Option<String>,
-    /// An encounter identifier the user supplies.
+    /// An encounter identifier (kept as given; used by `export --fhir`).
+    #[arg(long, value_name = "ID")]
     pub encounter: Option<String>,
 }
 

@@ -154,17 +154,14 @@ impl<'a> MissionRecord<'a> {
             .iter()
             .zip(rides)
             .zip(legs_json)
-            .enumerate()
-            .map(|(i, ((leg, ride), json))| {
-                Ok(LegRecord {
-                    data_quality: json.get("data_quality").cloned(),
-                    seconds: SecondSeries::of_leg(leg),
-                    passes: road::passes(&json).map_err(|e| anyhow!("leg {}: {e}", i + 1))?,
-                    ride,
-                    json,
-                })
+            .map(|((leg, ride), json)| LegRecord {
+                data_quality: json.get("data_quality").cloned(),
+                seconds: SecondSeries::of_leg(leg),
+                passes: road::passes(leg.route.as_ref().map_or(&[], |r| &r.segments)),
+                ride,
+                json,
             })
-            .collect::<Result<_>>()?;
+            .collect();
         let start = meta.start_time()?;
         Ok(Self {
             report,

@@ -16,10 +16,10 @@ use sqlx::Row as _;
 use crate::archive::db::{Archive, Backend};
 
 /// The schema this program writes.
-pub const CURRENT_VERSION: i64 = 2;
+pub const CURRENT_VERSION: i64 = 3;
 
 /// The migrations, in order: `MIGRATIONS[n - 1]` makes version `n`.
-pub const MIGRATIONS: [&[&str]; 2] = [V1, V2];
+pub const MIGRATIONS: [&[&str]; 3] = [V1, V2, V3];
 
 /// Version 1: missions with their metadata and values, legs with their rides' hashes,
 /// alert events, joint outputs, per-second series and tags.
@@ -153,6 +153,19 @@ const V2: &[&str] = &[
         FOREIGN KEY (cell_lat, cell_lon) REFERENCES road_segments (cell_lat, cell_lon)
     )",
     "CREATE INDEX segment_passes_cell ON segment_passes (cell_lat, cell_lon)",
+];
+
+/// Version 3: the columns named as the outputs name them (`docs/architecture.md`, the
+/// output vocabulary): an alert that raises is `raised` (as in `report --json`), a
+/// place's cell is its `cell_row` and `cell_column` (as `fleet --json`'s `"cell"`), not
+/// a latitude and longitude. Both databases rename a column in place, keeping its key,
+/// index and foreign key.
+const V3: &[&str] = &[
+    "ALTER TABLE alerts RENAME COLUMN raise TO raised",
+    "ALTER TABLE segment_passes RENAME COLUMN cell_lat TO cell_row",
+    "ALTER TABLE segment_passes RENAME COLUMN cell_lon TO cell_column",
+    "ALTER TABLE road_segments RENAME COLUMN cell_lat TO cell_row",
+    "ALTER TABLE road_segments RENAME COLUMN cell_lon TO cell_column",
 ];
 
 /// A migration statement in `backend`'s spelling.

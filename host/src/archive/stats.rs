@@ -22,11 +22,12 @@ pub fn quantile(sorted: &[f64], q: f64) -> Option<f64> {
     Some(sorted[lo] + (h - lo as f64) * (sorted[hi] - sorted[lo]))
 }
 
-/// A group's distribution of one quantity.
+/// A group's distribution of one quantity over its missions, each number in the
+/// quantity's unit (the key it is written under carries it: `"vdv_per_hour_m_s175": {..}`).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Distribution {
-    /// Values.
-    pub n: usize,
+    /// The missions (values) it is over.
+    pub missions: usize,
     /// Smallest.
     pub min: f64,
     /// 10th percentile.
@@ -58,7 +59,7 @@ impl Distribution {
         s.sort_by(f64::total_cmp);
         let q = |p| quantile(&s, p).unwrap_or(f64::NAN);
         Some(Self {
-            n: s.len(),
+            missions: s.len(),
             min: s[0],
             p10: q(0.10),
             p25: q(0.25),
@@ -108,9 +109,9 @@ pub fn median_interval(sorted: &[f64], level: f64) -> Option<[f64; 2]> {
 pub struct MannWhitney {
     /// U of the first sample (the number of pairs in which its value is the larger, ties
     /// counting a half).
-    pub u: f64,
+    pub u_statistic: f64,
     /// The normal approximation's z (tie-corrected variance, continuity correction).
-    pub z: f64,
+    pub z_score: f64,
     /// Two-sided p-value.
     pub p_value: f64,
 }
@@ -157,8 +158,8 @@ pub fn mann_whitney(a: &[f64], b: &[f64]) -> Option<MannWhitney> {
     let normal = Normal::standard();
     let p_value = (2.0 * (1.0 - normal.cdf(z))).min(1.0);
     Some(MannWhitney {
-        u,
-        z: if u >= mean { z } else { -z },
+        u_statistic: u,
+        z_score: if u >= mean { z } else { -z },
         p_value,
     })
 }
@@ -194,18 +195,18 @@ mod tests {
         let x = [1.83, 0.50, 1.62, 2.48, 1.68, 1.88, 1.55, 3.06, 1.30];
         let y = [0.878, 0.647, 0.598, 2.05, 1.06, 1.29, 1.06, 3.17, 1.29];
         let t = mann_whitney(&x, &y).unwrap();
-        assert_eq!(t.u, 58.0);
+        assert_eq!(t.u_statistic, 58.0);
         assert!((t.p_value - 0.132_919_458_185_318_92).abs() < 1e-9, "{t:?}");
         // With ties: U = 7.5, p = 0.006373133838085873.
         let x = [1.0, 2.0, 2.0, 3.0, 3.0, 3.0, 4.0, 5.0];
         let y = [3.0, 4.0, 4.0, 5.0, 5.0, 6.0, 7.0, 7.0, 8.0];
         let t = mann_whitney(&x, &y).unwrap();
-        assert_eq!(t.u, 7.5);
+        assert_eq!(t.u_statistic, 7.5);
         assert!(
             (t.p_value - 0.006_373_133_838_085_873).abs() < 1e-9,
             "{t:?}"
         );
-        assert!(t.z < 0.0);
+        assert!(t.z_score < 0.0);
         assert!(mann_whitney(&[1.0], &[]).is_none());
         assert!(mann_whitney(&[1.0, 1.0], &[1.0]).is_none());
     }

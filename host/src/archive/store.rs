@@ -19,9 +19,12 @@ use sqlx::any::AnyRow;
 use sqlx::{Any, Row as _};
 
 use crate::archive::db::Archive;
+use crate::archive::meta::MissionMeta;
 use crate::archive::record::MissionRecord;
 use crate::archive::road::{Cell, RoadSegment};
 use crate::archive::series::SecondSeries;
+use crate::report::level_time::TimeAtLevel;
+use supine_core::alerts::Level;
 
 /// An environment variable for the tests of a killed add: the milliseconds `add` holds its
 /// transaction open, after writing everything and before committing (it says so on
@@ -46,9 +49,48 @@ pub struct Filter {
     pub route: Vec<String>,
 }
 
+/// A value bound to a query's `$n`.
 enum Bind {
-    Real(f64),
-    Text(String),
+    Int(i64),
+    Real(Option<f64>),
+    Text(Option<String>),
+    Blob(Option<Vec<u8>>),
+}
+
+impl From<i64> for Bind {
+    fn from(v: i64) -> Self {
+        Self::Int(v)
+    }
+}
+
+impl From<f64> for Bind {
+    fn from(v: f64) -> Self {
+        Self::Real(Some(v))
+    }
+}
+
+impl From<Option<f64>> for Bind {
+    fn from(v: Option<f64>) -> Self {
+        Self::Real(v)
+    }
+}
+
+impl From<&str> for Bind {
+    fn from(v: &str) -> Self {
+        Self::Text(Some(v.to_string()))
+    }
+}
+
+impl From<Option<String>> for Bind {
+    fn from(v: Option<String>) -> Self {
+        Self::Text(v)
+    }
+}
+
+impl From<Option<Vec<u8>>> for Bind {
+    fn from(v: Option<Vec<u8>>) -> Self {
+        Self::Blob(v)
+    }
 }
 
 impl Filter {
@@ -57,11 +99,11 @@ impl Filter {
         let mut terms = Vec::new();
         let mut binds = Vec::new();
         if let Some(t) = self.since {
-            binds.push(Bind::Real(t.as_millisecond() as f64 / 1e3));
+            binds.push(epoch_s(t).into());
             terms.push(format!("m.start_epoch_s >= ${}", binds.len()));
         }
         if let Some(t) = self.until {
-            binds.push(Bind::Real(t.as_millisecond() as f64 / 1e3));
+            binds.push(epoch_s(t).into());
             terms.push(format!("m.start_epoch_s < ${}", binds.len()));
         }
         for (column, values) in [
@@ -75,7 +117,7 @@ impl Filter {
             }
             let mut slots = Vec::new();
             for v in values {
-                binds.push(Bind::Text(v.clone()));
+                binds.push(v.as_str().into());
                 slots.push(format!("${}", binds.len()));
             }
             terms.push(format!("m.{column} IN ({})", slots.join(", ")));
@@ -89,17 +131,85 @@ impl Filter {
     }
 }
 
+/// An instant as the archive keeps it: seconds since 1970 (UTC).
+fn epoch_s(t: Timestamp) -> f64 {
+    t.as_millisecond() as f64 / 1e3
+}
+
 fn bound<'q>(
     mut query: sqlx::query::Query<'q, Any, sqlx::any::AnyArguments<'q>>,
     binds: &'q [Bind],
 ) -> sqlx::query::Query<'q, Any, sqlx::any::AnyArguments<'q>> {
     for b in binds {
         query = match b {
+            Bind::Int(v) => query.bind(*v),
             Bind::Real(v) => query.bind(*v),
-            Bind::Text(v) => query.bind(v.as_str()),
+            Bind::Text(v) => query.bind(v.as_deref()),
+            Bind::Blob(v) => query.bind(v.as_deref()),
         };
     }
     query
+}
+
+/// One row to insert: each column with its value, the statement written from them (so
+/// a column and its value stand side by side, never counted into a `$n` list).
+struct Insert {
+    table: &'static str,
+    columns: Vec<&'static str>,
+    values: Vec<Bind>,
+}
+
+impl Insert {
+    fn into(table: &'static str) -> Self {
+        Self {
+            table,
+            columns: Vec::new(),
+            values: Vec::new(),
+        }
+    }
+
+    fn set(mut self, column: &'static str, value: impl Into<Bind>) -> Self {
+        self.columns.push(column);
+        self.values.push(value.into());
+        self
+    }
+
+    /// The head's weighted vector values and the time at each level, as both `missions`
+    /// and `legs` keep them.
+    fn exposure(self, vector: [f64; 3], levels: TimeAtLevel, max_level: Level) -> Self {
+        let [rms, mtvv, vdv] = vector;
+        self.set("rms_m_s2", rms)
+            .set("mtvv_m_s2", mtvv)
+            .set("vdv_m_s175", vdv)
+            .set("normal_s", levels.normal)
+            .set("advisory_s", levels.advisory)
+            .set("warning_s", levels.warning)
+            .set("alarm_s", levels.alarm)
+            .set("max_level", max_level.name())
+    }
+
+    /// The statement, followed by `tail` (`ON CONFLICT ..`, `RETURNING ..`).
+    fn sql(&self, tail: &str) -> String {
+        let slots: Vec<String> = (1..=self.values.len()).map(|i| format!("${i}")).collect();
+        format!(
+            "INSERT INTO {} ({}) VALUES ({}){tail}",
+            self.table,
+            self.columns.join(", "),
+            slots.join(", ")
+        )
+    }
+
+    async fn execute(
+        &self,
+        tx: &mut sqlx::Transaction<'_, Any>,
+        tail: &str,
+    ) -> Result<(), sqlx::Error> {
+        let sql = self.sql(tail);
+        bound(sqlx::query(&sql), &self.values)
+            .execute(&mut **tx)
+            .await?;
+        Ok(())
+    }
 }
 
 /// The mission and leg that already hold a ride with this content, if any.
@@ -140,182 +250,145 @@ pub async fn add(archive: &Archive, record: &MissionRecord<'_>) -> Result<i64> {
     let r = record.report;
     let m = &r.mission;
     let meta = &record.meta;
-    let levels = m.time_at_level_s;
     let mut tx = archive.pool().begin().await?;
-    let id: i64 = sqlx::query(
-        "INSERT INTO missions (added_at, start_time, start_epoch_s, vehicle, crew, driver, \
-         route, position, origin, destination, patient_id, encounter_id, model_name, \
-         params_identity, height_m, mass_kg, duration_s, rms_m_s2, mtvv_m_s2, vdv_m_s175, \
-         normal_s, advisory_s, warning_s, alarm_s, max_level, mission_json) VALUES ($1, $2, \
-         $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18, $19, $20, \
-         $21, $22, $23, $24, $25, $26) RETURNING id",
-    )
-    .bind(Timestamp::now().to_string())
-    .bind(record.start.map(|t| t.to_string()))
-    .bind(record.start.map(|t| t.as_millisecond() as f64 / 1e3))
-    .bind(meta.vehicle.clone())
-    .bind(meta.crew.clone())
-    .bind(meta.driver.clone())
-    .bind(meta.route.clone())
-    .bind(meta.position.clone())
-    .bind(meta.origin.clone())
-    .bind(meta.destination.clone())
-    .bind(meta.patient.clone())
-    .bind(meta.encounter.clone())
-    .bind(r.model.name.clone())
-    .bind(r.model.identity.clone())
-    .bind(r.subject.height_m)
-    .bind(r.subject.mass_kg)
-    .bind(m.duration_s)
-    .bind(m.vector.rms_m_s2)
-    .bind(m.vector.mtvv_m_s2)
-    .bind(m.vector.vdv_m_s175)
-    .bind(levels.normal)
-    .bind(levels.advisory)
-    .bind(levels.warning)
-    .bind(levels.alarm)
-    .bind(m.max_level.name())
-    .bind(record.mission_json.to_string())
-    .fetch_one(&mut *tx)
-    .await?
-    .try_get("id")?;
+    let mission = Insert::into("missions")
+        .set("added_at", Timestamp::now().to_string().as_str())
+        .set("start_time", record.start.map(|t| t.to_string()))
+        .set("start_epoch_s", record.start.map(epoch_s))
+        .set("vehicle", meta.vehicle.clone())
+        .set("crew", meta.crew.clone())
+        .set("driver", meta.driver.clone())
+        .set("route", meta.route.clone())
+        .set("position", meta.position.clone())
+        .set("origin", meta.origin.clone())
+        .set("destination", meta.destination.clone())
+        .set("patient_id", meta.patient.clone())
+        .set("encounter_id", meta.encounter.clone())
+        .set("model_name", r.model.name.as_str())
+        .set("params_identity", r.model.identity.as_str())
+        .set("height_m", r.subject.height_m)
+        .set("mass_kg", r.subject.mass_kg)
+        .set("duration_s", m.duration_s)
+        .exposure(
+            [m.vector.rms_m_s2, m.vector.mtvv_m_s2, m.vector.vdv_m_s175],
+            m.time_at_level_s,
+            m.max_level,
+        )
+        .set("mission_json", record.mission_json.to_string().as_str());
+    let sql = mission.sql(" RETURNING id");
+    let id: i64 = bound(sqlx::query(&sql), &mission.values)
+        .fetch_one(&mut *tx)
+        .await?
+        .try_get("id")?;
     for tag in &meta.tags {
-        sqlx::query("INSERT INTO mission_tags (mission_id, tag) VALUES ($1, $2)")
-            .bind(id)
-            .bind(tag.as_str())
-            .execute(&mut *tx)
+        Insert::into("mission_tags")
+            .set("mission_id", id)
+            .set("tag", tag.as_str())
+            .execute(&mut tx, "")
             .await?;
     }
     for j in &m.joints {
-        insert_joint(
-            &mut tx,
-            id,
-            0,
-            (j.output, j.unit),
-            [
-                j.rms,
-                j.max_running_rms,
-                j.largest_excursion,
-                j.largest_excursion_at_mission_s,
-            ],
-        )
-        .await?;
+        let values = [
+            j.rms,
+            j.max_running_rms,
+            j.largest_excursion,
+            j.largest_excursion_at_mission_s,
+        ];
+        joint(id, 0, (j.output, j.unit), values)
+            .execute(&mut tx, "")
+            .await?;
     }
     for (i, (leg, stored)) in r.legs.iter().zip(&record.legs).enumerate() {
         let n = i as i64 + 1;
-        let t = leg.time_at_level_s;
-        sqlx::query(
-            "INSERT INTO legs (mission_id, leg, input, ride_sha256, ride_bytes, ride_content, \
-             duration_s, start_s, rms_m_s2, mtvv_m_s2, vdv_m_s175, peak_m_s2, normal_s, \
-             advisory_s, warning_s, alarm_s, max_level, leg_json, data_quality_json) VALUES \
-             ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18, \
-             $19)",
-        )
-        .bind(id)
-        .bind(n)
-        .bind(stored.ride.input.as_str())
-        .bind(stored.ride.sha256.as_str())
-        .bind(stored.ride.bytes as i64)
-        .bind(stored.ride.content.clone())
-        .bind(leg.duration_s)
-        .bind(leg.start_s)
-        .bind(leg.vector.rms_m_s2)
-        .bind(leg.vector.mtvv_m_s2)
-        .bind(leg.vector.vdv_m_s175)
-        .bind(leg.vector.peak_m_s2)
-        .bind(t.normal)
-        .bind(t.advisory)
-        .bind(t.warning)
-        .bind(t.alarm)
-        .bind(leg.max_level.name())
-        .bind(stored.json.to_string())
-        .bind(stored.data_quality.as_ref().map(Value::to_string))
-        .execute(&mut *tx)
-        .await
-        .map_err(|e| duplicate_or(e, &stored.ride.input))?;
-        for (seq, a) in leg.alerts.iter().enumerate() {
-            sqlx::query(
-                "INSERT INTO alerts (mission_id, leg, seq, mission_time_s, kind, event, raise, \
-                 criterion, value, value_unit, running_rms_m_s2, vdv_m_s175) VALUES ($1, $2, \
-                 $3, $4, $5, $6, $7, $8, $9, $10, $11, $12)",
+        let v = &leg.vector;
+        Insert::into("legs")
+            .set("mission_id", id)
+            .set("leg", n)
+            .set("input", stored.ride.input.as_str())
+            .set("ride_sha256", stored.ride.sha256.as_str())
+            .set("ride_bytes", stored.ride.bytes as i64)
+            .set("ride_content", stored.ride.content.clone())
+            .set("duration_s", leg.duration_s)
+            .set("start_s", leg.start_s)
+            .set("peak_m_s2", v.peak_m_s2)
+            .exposure(
+                [v.rms_m_s2, v.mtvv_m_s2, v.vdv_m_s175],
+                leg.time_at_level_s,
+                leg.max_level,
             )
-            .bind(id)
-            .bind(n)
-            .bind(seq as i64)
-            .bind(a.mission_time_s)
-            .bind(a.kind)
-            .bind(a.event.as_str())
-            .bind(i64::from(a.raised))
-            .bind(a.criterion.map(|c| c.name()))
-            .bind(a.criterion.map(|c| c.value().1))
-            .bind(a.criterion.map(|c| c.unit()))
-            .bind(a.running_rms_m_s2)
-            .bind(a.vdv_m_s175)
-            .execute(&mut *tx)
-            .await?;
+            .set("leg_json", stored.json.to_string().as_str())
+            .set(
+                "data_quality_json",
+                stored.data_quality.as_ref().map(Value::to_string),
+            )
+            .execute(&mut tx, "")
+            .await
+            .map_err(|e| duplicate_or(e, &stored.ride.input))?;
+        for (seq, a) in leg.alerts.iter().enumerate() {
+            Insert::into("alerts")
+                .set("mission_id", id)
+                .set("leg", n)
+                .set("seq", seq as i64)
+                .set("mission_time_s", a.mission_time_s)
+                .set("kind", a.kind)
+                .set("event", a.event.as_str())
+                .set("raised", i64::from(a.raised))
+                .set("criterion", a.criterion.map(|c| c.name().to_string()))
+                .set("value", a.criterion.map(|c| c.value().1))
+                .set("value_unit", a.criterion.map(|c| c.unit().to_string()))
+                .set("running_rms_m_s2", a.running_rms_m_s2)
+                .set("vdv_m_s175", a.vdv_m_s175)
+                .execute(&mut tx, "")
+                .await?;
         }
         for j in &leg.joints {
-            insert_joint(
-                &mut tx,
-                id,
-                n,
-                (j.output, j.unit),
-                [
-                    j.rms,
-                    j.max_running_rms,
-                    j.largest_excursion,
-                    j.largest_excursion_at_s,
-                ],
-            )
-            .await?;
+            let values = [
+                j.rms,
+                j.max_running_rms,
+                j.largest_excursion,
+                j.largest_excursion_at_s,
+            ];
+            joint(id, n, (j.output, j.unit), values)
+                .execute(&mut tx, "")
+                .await?;
         }
         for (seq, p) in stored.passes.iter().enumerate() {
+            let s = &p.segment;
             // The place is kept once, where its first pass put it.
-            sqlx::query(
-                "INSERT INTO road_segments (cell_lat, cell_lon, lat_deg, lon_deg) VALUES ($1, \
-                 $2, $3, $4) ON CONFLICT (cell_lat, cell_lon) DO NOTHING",
-            )
-            .bind(p.cell.lat)
-            .bind(p.cell.lon)
-            .bind(p.lat_deg)
-            .bind(p.lon_deg)
-            .execute(&mut *tx)
-            .await?;
-            sqlx::query(
-                "INSERT INTO segment_passes (mission_id, leg, seq, cell_lat, cell_lon, start_s, \
-                 end_s, lat_deg, lon_deg, length_m, speed_m_s, rms_m_s2, vdv_m_s175, \
-                 max_running_rms_m_s2) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, \
-                 $12, $13, $14)",
-            )
-            .bind(id)
-            .bind(n)
-            .bind(seq as i64)
-            .bind(p.cell.lat)
-            .bind(p.cell.lon)
-            .bind(p.start_s)
-            .bind(p.end_s)
-            .bind(p.lat_deg)
-            .bind(p.lon_deg)
-            .bind(p.length_m)
-            .bind(p.speed_m_s)
-            .bind(p.rms_m_s2)
-            .bind(p.vdv_m_s175)
-            .bind(p.max_running_rms_m_s2)
-            .execute(&mut *tx)
-            .await?;
+            Insert::into("road_segments")
+                .set("cell_row", p.cell.row)
+                .set("cell_column", p.cell.column)
+                .set("lat_deg", s.lat_deg)
+                .set("lon_deg", s.lon_deg)
+                .execute(&mut tx, " ON CONFLICT (cell_row, cell_column) DO NOTHING")
+                .await?;
+            Insert::into("segment_passes")
+                .set("mission_id", id)
+                .set("leg", n)
+                .set("seq", seq as i64)
+                .set("cell_row", p.cell.row)
+                .set("cell_column", p.cell.column)
+                .set("start_s", s.start_s)
+                .set("end_s", s.end_s)
+                .set("lat_deg", s.lat_deg)
+                .set("lon_deg", s.lon_deg)
+                .set("length_m", s.length_m)
+                .set("speed_m_s", s.speed_m_s)
+                .set("rms_m_s2", s.rms_m_s2)
+                .set("vdv_m_s175", s.vdv_m_s175)
+                .set("max_running_rms_m_s2", s.max_running_rms_m_s2)
+                .execute(&mut tx, "")
+                .await?;
         }
         let s = &stored.seconds;
-        sqlx::query(
-            "INSERT INTO leg_seconds (mission_id, leg, seconds, columns, series) VALUES ($1, \
-             $2, $3, $4, $5)",
-        )
-        .bind(id)
-        .bind(n)
-        .bind(s.rows() as i64)
-        .bind(s.columns.join(","))
-        .bind(s.to_blob())
-        .execute(&mut *tx)
-        .await?;
+        Insert::into("leg_seconds")
+            .set("mission_id", id)
+            .set("leg", n)
+            .set("seconds", s.rows() as i64)
+            .set("columns", s.columns.join(",").as_str())
+            .set("series", Some(s.to_blob()))
+            .execute(&mut tx, "")
+            .await?;
     }
     if let Some(ms) = std::env::var(STALL_ENV)
         .ok()
@@ -330,28 +403,22 @@ pub async fn add(archive: &Archive, record: &MissionRecord<'_>) -> Result<i64> {
     Ok(id)
 }
 
-async fn insert_joint(
-    tx: &mut sqlx::Transaction<'_, Any>,
+/// A row of `joints`: an output's values over leg `leg` (0: the mission) of mission `id`.
+fn joint(
     id: i64,
     leg: i64,
     (output, unit): (&str, &str),
     [rms, max_running_rms, largest, at_s]: [f64; 4],
-) -> Result<()> {
-    sqlx::query(
-        "INSERT INTO joints (mission_id, leg, output, unit, rms, max_running_rms, \
-         largest_excursion, largest_excursion_at_s) VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
-    )
-    .bind(id)
-    .bind(leg)
-    .bind(output)
-    .bind(unit)
-    .bind(rms)
-    .bind(max_running_rms)
-    .bind(largest)
-    .bind(at_s)
-    .execute(&mut **tx)
-    .await?;
-    Ok(())
+) -> Insert {
+    Insert::into("joints")
+        .set("mission_id", id)
+        .set("leg", leg)
+        .set("output", output)
+        .set("unit", unit)
+        .set("rms", rms)
+        .set("max_running_rms", max_running_rms)
+        .set("largest_excursion", largest)
+        .set("largest_excursion_at_s", at_s)
 }
 
 /// A unique-index violation on a ride's hash as the message a user can act on.
@@ -373,9 +440,21 @@ pub struct RideSummary {
     /// SHA-256 of its content, hex.
     pub sha256: String,
     /// Its size, bytes.
-    pub bytes: i64,
+    pub size_bytes: i64,
     /// Whether the archive holds a copy.
     pub copied: bool,
+}
+
+impl RideSummary {
+    /// From a row of `legs` with `input`, `ride_sha256`, `ride_bytes` and `copied` (0 or 1).
+    fn of(row: &AnyRow) -> Result<Self> {
+        Ok(Self {
+            input: row.try_get("input")?,
+            sha256: row.try_get("ride_sha256")?,
+            size_bytes: row.try_get("ride_bytes")?,
+            copied: row.try_get::<i64, _>("copied")? != 0,
+        })
+    }
 }
 
 /// The patient's height and mass (as `report --json`'s `"subject"`).
@@ -403,28 +482,9 @@ pub struct MissionSummary {
     pub id: i64,
     /// When it was added (UTC).
     pub added_at: String,
-    /// Its start (UTC), when given.
-    pub start: Option<String>,
-    /// Vehicle.
-    pub vehicle: Option<String>,
-    /// Crew.
-    pub crew: Option<String>,
-    /// Driver.
-    pub driver: Option<String>,
-    /// Route.
-    pub route: Option<String>,
-    /// The patient's transport position.
-    pub position: Option<String>,
-    /// Origin.
-    pub origin: Option<String>,
-    /// Destination.
-    pub destination: Option<String>,
-    /// The patient identifier given.
-    pub patient: Option<String>,
-    /// The encounter identifier given.
-    pub encounter: Option<String>,
-    /// Tags.
-    pub tags: Vec<String>,
+    /// Its metadata (`start` in UTC).
+    #[serde(flatten)]
+    pub meta: MissionMeta,
     /// The patient's size.
     pub subject: SubjectSummary,
     /// The model.
@@ -467,12 +527,7 @@ pub async fn list(archive: &Archive, filter: &Filter) -> Result<Vec<MissionSumma
         rides
             .entry(row.try_get("mission_id")?)
             .or_default()
-            .push(RideSummary {
-                input: row.try_get("input")?,
-                sha256: row.try_get("ride_sha256")?,
-                bytes: row.try_get("ride_bytes")?,
-                copied: row.try_get::<i64, _>("copied")? != 0,
-            });
+            .push(RideSummary::of(&row)?);
     }
     rows.iter()
         .map(|row| {
@@ -489,20 +544,23 @@ pub async fn list(archive: &Archive, filter: &Filter) -> Result<Vec<MissionSumma
 fn summary(row: &AnyRow, tags: Vec<String>, rides: Vec<RideSummary>) -> Result<MissionSummary> {
     let mission: String = row.try_get("mission_json")?;
     let id: i64 = row.try_get("id")?;
+    let [vehicle, crew, driver, route] = group_keys(row)?;
     Ok(MissionSummary {
         id,
         added_at: row.try_get("added_at")?,
-        start: row.try_get("start_time")?,
-        vehicle: row.try_get("vehicle")?,
-        crew: row.try_get("crew")?,
-        driver: row.try_get("driver")?,
-        route: row.try_get("route")?,
-        position: row.try_get("position")?,
-        origin: row.try_get("origin")?,
-        destination: row.try_get("destination")?,
-        patient: row.try_get("patient_id")?,
-        encounter: row.try_get("encounter_id")?,
-        tags,
+        meta: MissionMeta {
+            start: row.try_get("start_time")?,
+            vehicle,
+            crew,
+            driver,
+            route,
+            position: row.try_get("position")?,
+            origin: row.try_get("origin")?,
+            destination: row.try_get("destination")?,
+            tags,
+            patient: row.try_get("patient_id")?,
+            encounter: row.try_get("encounter_id")?,
+        },
         subject: SubjectSummary {
             height_m: row.try_get("height_m")?,
             mass_kg: row.try_get("mass_kg")?,
@@ -515,6 +573,17 @@ fn summary(row: &AnyRow, tags: Vec<String>, rides: Vec<RideSummary>) -> Result<M
         mission: serde_json::from_str(&mission)
             .with_context(|| format!("mission {id}: its stored values are not JSON"))?,
     })
+}
+
+/// The columns missions are grouped by, in [`FleetRow::keys`]' order: vehicle, crew,
+/// driver, route.
+fn group_keys(row: &AnyRow) -> Result<[Option<String>; 4]> {
+    Ok([
+        row.try_get("vehicle")?,
+        row.try_get("crew")?,
+        row.try_get("driver")?,
+        row.try_get("route")?,
+    ])
 }
 
 /// A leg's per-second series as `show --json` gives it.
@@ -566,12 +635,7 @@ pub async fn show(archive: &Archive, id: i64) -> Result<MissionDetail> {
     let mut legs = Vec::new();
     let mut seconds = Vec::new();
     for r in &leg_rows {
-        rides.push(RideSummary {
-            input: r.try_get("input")?,
-            sha256: r.try_get("ride_sha256")?,
-            bytes: r.try_get("ride_bytes")?,
-            copied: r.try_get::<i64, _>("copied")? != 0,
-        });
+        rides.push(RideSummary::of(r)?);
         let text: String = r.try_get("leg_json")?;
         legs.push(serde_json::from_str(&text)?);
         let columns: String = r.try_get("columns")?;
@@ -692,12 +756,7 @@ pub async fn fleet_rows(archive: &Archive, filter: &Filter) -> Result<Vec<FleetR
                 id,
                 start: r.try_get("start_time")?,
                 start_epoch_s: r.try_get("start_epoch_s")?,
-                keys: [
-                    r.try_get("vehicle")?,
-                    r.try_get("crew")?,
-                    r.try_get("driver")?,
-                    r.try_get("route")?,
-                ],
+                keys: group_keys(r)?,
                 duration_s: r.try_get("duration_s")?,
                 vdv_m_s175: r.try_get("vdv_m_s175")?,
                 mtvv_m_s2: r.try_get("mtvv_m_s2")?,
@@ -723,13 +782,13 @@ pub async fn count(archive: &Archive) -> Result<i64> {
 pub async fn road_segments(archive: &Archive, filter: &Filter) -> Result<Vec<RoadSegment>> {
     let (clause, binds) = filter.clause();
     let sql = format!(
-        "SELECT p.cell_lat, p.cell_lon, s.lat_deg, s.lon_deg, COUNT(*) AS passes, \
+        "SELECT p.cell_row, p.cell_column, s.lat_deg, s.lon_deg, COUNT(*) AS passes, \
          COUNT(DISTINCT p.mission_id) AS missions, \
          SUM(p.rms_m_s2 * p.rms_m_s2 * (p.end_s - p.start_s)) AS energy, \
          SUM(p.end_s - p.start_s) AS seconds, MAX(p.rms_m_s2) AS max_rms \
          FROM segment_passes p JOIN missions m ON m.id = p.mission_id \
-         JOIN road_segments s ON s.cell_lat = p.cell_lat AND s.cell_lon = p.cell_lon{clause} \
-         GROUP BY p.cell_lat, p.cell_lon, s.lat_deg, s.lon_deg"
+         JOIN road_segments s ON s.cell_row = p.cell_row AND s.cell_column = p.cell_column{clause} \
+         GROUP BY p.cell_row, p.cell_column, s.lat_deg, s.lon_deg"
     );
     let mut segments = bound(sqlx::query(&sql), &binds)
         .fetch_all(archive.pool())
@@ -738,8 +797,8 @@ pub async fn road_segments(archive: &Archive, filter: &Filter) -> Result<Vec<Roa
         .map(|r| {
             Ok(RoadSegment::from_sums(
                 Cell {
-                    lat: r.try_get("cell_lat")?,
-                    lon: r.try_get("cell_lon")?,
+                    row: r.try_get("cell_row")?,
+                    column: r.try_get("cell_column")?,
                 },
                 (r.try_get("lat_deg")?, r.try_get("lon_deg")?),
                 (r.try_get("passes")?, r.try_get("missions")?),

@@ -13,11 +13,8 @@ use crate::archive::meta::{MissionMeta, parse_bound};
 use crate::archive::record::{AddedMission, MissionRecord, RideFile};
 use crate::archive::store::{self, Filter};
 use crate::archive::{fhir, fleet_html};
-use crate::commands::report::mission_report;
+use crate::commands::report::{MissionArgs, mission_report};
 use crate::io::output::{write_all_atomically, write_atomically};
-use crate::io::params_file::ModelSource;
-use crate::io::ride_input::{RideInputArgs, TrackArgs};
-use crate::io::subject_args::SubjectArgs;
 
 /// Arguments of `supine archive`.
 #[derive(Debug, clap::Args)]
@@ -54,39 +51,9 @@ pub enum Command {
 /// The metadata flags of `add` (each overrides the same key of `--meta`).
 #[derive(Debug, Default, clap::Args)]
 pub struct MetaArgs {
-    /// The vehicle.
-    #[arg(long, value_name = "ID")]
-    pub vehicle: Option<String>,
-    /// The unit or crew.
-    #[arg(long, value_name = "ID")]
-    pub crew: Option<String>,
-    /// The driver.
-    #[arg(long, value_name = "ID")]
-    pub driver: Option<String>,
-    /// The route's name.
-    #[arg(long, value_name = "NAME")]
-    pub route: Option<String>,
-    /// The patient's transport position (e.g. supine).
-    #[arg(long, value_name = "NAME")]
-    pub position: Option<String>,
-    /// Where the mission started.
-    #[arg(long, value_name = "PLACE")]
-    pub origin: Option<String>,
-    /// Where it ended.
-    #[arg(long, value_name = "PLACE")]
-    pub destination: Option<String>,
-    /// The start, ISO 8601 with an offset (2026-11-28T05:00:00Z).
-    #[arg(long, value_name = "ISO8601")]
-    pub start: Option<String>,
-    /// A free tag (repeat for more).
-    #[arg(long = "tag", value_name = "T")]
-    pub tags: Vec<String>,
-    /// A patient identifier (kept as given; used by `export --fhir`).
-    #[arg(long, value_name = "ID")]
-    pub patient: Option<String>,
-    /// An encounter identifier (kept as given; used by `export --fhir`).
-    #[arg(long, value_name = "ID")]
-    pub encounter: Option<String>,
+    /// The metadata given as flags.
+    #[command(flatten)]
+    pub flags: MissionMeta,
     /// The metadata as a TOML file (the keys above; tags = [...]).
     #[arg(long, value_name = "FILE.toml")]
     pub meta: Option<PathBuf>,
@@ -99,19 +66,7 @@ impl MetaArgs {
             Some(path) => MissionMeta::load(path)?,
             None => MissionMeta::default(),
         };
-        let meta = file.overlaid(MissionMeta {
-            vehicle: self.vehicle.clone(),
-            crew: self.crew.clone(),
-            driver: self.driver.clone(),
-            route: self.route.clone(),
-            position: self.position.clone(),
-            origin: self.origin.clone(),
-            destination: self.destination.clone(),
-            start: self.start.clone(),
-            tags: self.tags.clone(),
-            patient: self.patient.clone(),
-            encounter: self.encounter.clone(),
-        });
+        let meta = file.overlaid(self.flags.clone());
         // A bad start is refused before the rides are evaluated.
         meta.start_time()?;
         Ok(meta)
@@ -121,21 +76,9 @@ impl MetaArgs {
 /// Arguments of `supine archive add`.
 #[derive(Debug, clap::Args)]
 pub struct AddArgs {
-    /// A ride (one leg, in order), or one `supine monitor --log` log, as for `supine report`.
-    #[arg(long, value_name = "RIDE.csv", required = true)]
-    pub input: Vec<PathBuf>,
-    /// How to read the rides.
+    /// The rides and how to evaluate them, as for `supine report`.
     #[command(flatten)]
-    pub ride: RideInputArgs,
-    /// Where each ride happened (its road segments are kept for the fleet view's map).
-    #[command(flatten)]
-    pub track: TrackArgs,
-    /// The model parameters.
-    #[command(flatten)]
-    pub model: ModelSource,
-    /// The patient.
-    #[command(flatten)]
-    pub subject: SubjectArgs,
+    pub mission: MissionArgs,
     /// The mission's metadata.
     #[command(flatten)]
     pub meta: MetaArgs,
@@ -260,9 +203,9 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
         Command::Add(a) => {
             let meta = a.meta.resolve()?;
             // A monitor log is one leg (its input stream), hashed as the log file itself.
-            let (_, _, report) =
-                mission_report(&a.input, &a.ride, &a.track, &a.model, &a.subject, false)?;
+            let (_, _, report) = mission_report(&a.mission, false)?;
             let rides = a
+                .mission
                 .input
                 .iter()
                 .map(|p| RideFile::read(p, a.copy_rides))
@@ -299,10 +242,10 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
                     text += &format!(
                         "{:>6}  {:<20}  {:<10}  {:<10}  {:<12}  {:>8.1}  {:>10.3}  {}\n",
                         m.id,
-                        m.start.as_deref().unwrap_or("-"),
-                        m.vehicle.as_deref().unwrap_or("-"),
-                        m.crew.as_deref().unwrap_or("-"),
-                        m.route.as_deref().unwrap_or("-"),
+                        m.meta.start.as_deref().unwrap_or("-"),
+                        m.meta.vehicle.as_deref().unwrap_or("-"),
+                        m.meta.crew.as_deref().unwrap_or("-"),
+                        m.meta.route.as_deref().unwrap_or("-"),
                         f("duration_s").as_f64().unwrap_or(0.0) / 60.0,
                         m.mission["vector"]["vdv_m_s175"].as_f64().unwrap_or(0.0),
                         f("max_level").as_str().unwrap_or("?")
@@ -384,23 +327,24 @@ fn dimensions(by: &[String]) -> Result<Vec<&'static str>> {
 
 fn show_text(m: &store::MissionDetail) -> String {
     let s = &m.summary;
+    let meta = &s.meta;
     let opt = |v: &Option<String>| v.clone().unwrap_or_else(|| "-".into());
     let mut t = format!(
         "mission {}\n  start        {}\n  vehicle      {}\n  crew         {}\n  driver       {}\n  \
          route        {}\n  position     {}\n  from / to    {} / {}\n  patient      {}\n  \
          encounter    {}\n  tags         {}\n  model        {} ({})\n  patient size {} m, {} kg\n",
         s.id,
-        opt(&s.start),
-        opt(&s.vehicle),
-        opt(&s.crew),
-        opt(&s.driver),
-        opt(&s.route),
-        opt(&s.position),
-        opt(&s.origin),
-        opt(&s.destination),
-        opt(&s.patient),
-        opt(&s.encounter),
-        s.tags.join(", "),
+        opt(&meta.start),
+        opt(&meta.vehicle),
+        opt(&meta.crew),
+        opt(&meta.driver),
+        opt(&meta.route),
+        opt(&meta.position),
+        opt(&meta.origin),
+        opt(&meta.destination),
+        opt(&meta.patient),
+        opt(&meta.encounter),
+        meta.tags.join(", "),
         s.model.name,
         s.model.identity,
         s.subject.height_m,

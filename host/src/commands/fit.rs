@@ -44,7 +44,7 @@ pub struct Args {
     #[arg(long)]
     pub no_polish: bool,
     /// Litter board: fit on --joints' own rigid minimum only, not also on the rigid fit's
-    /// other minima within its noise (`[fit.rigid_minima]`, docs/model.md#the-pipeline-over-indistinguishable-rigid-minima).
+    /// other minima (`[fit.rigid_minima]`, docs/model.md#the-pipeline-over-the-rigid-fits-minima).
     #[arg(long)]
     pub no_explore: bool,
     /// Stop when an accepted step lowers the cost by less than this fraction (1e-6, docs/model.md#solver-and-tolerances).

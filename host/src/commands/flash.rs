@@ -111,7 +111,7 @@ pub fn run(args: &Args) -> Result<()> {
             ),
             FlashSummary::QemuImage {
                 path: out.clone(),
-                bytes: image.len(),
+                size_bytes: image.len(),
                 params_identity: id,
                 sample_rate_hz: args.fs_hz,
                 subject,

@@ -17,9 +17,10 @@ use crate::io::wording::count;
 use crate::report::device_check::{CheckedReport, DeviceCheckRecord};
 use crate::report::{self, monitor_log, page};
 
-/// Arguments of `supine report`.
+/// The rides of a mission and how to evaluate them: what `supine report` and
+/// `supine archive add` both take.
 #[derive(Debug, clap::Args)]
-pub struct Args {
+pub struct MissionArgs {
     /// A ride (one leg of the mission); give one per leg, in order. A log of
     /// `supine monitor --log` (recognized by its header) is re-analysed instead: its input
     /// stream is the ride, and the device's own values are shown beside the host's.
@@ -37,6 +38,14 @@ pub struct Args {
     /// The patient.
     #[command(flatten)]
     pub subject: SubjectArgs,
+}
+
+/// Arguments of `supine report`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The rides and how to evaluate them.
+    #[command(flatten)]
+    pub mission: MissionArgs,
     /// Output folder for report.html (created if missing).
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
@@ -86,16 +95,19 @@ impl ReportInputs {
     }
 }
 
-/// The parameters for the patient and the mission report of `inputs` (the legs in order),
-/// as `supine report` computes them; `supine archive add` stores this same report.
+/// The parameters for the patient and the mission report of `args`' rides (the legs in
+/// order), as `supine report` computes them; `supine archive add` stores this same report.
 pub fn mission_report(
-    inputs: &[PathBuf],
-    ride: &RideInputArgs,
-    tracks: &TrackArgs,
-    model: &ModelSource,
-    subject: &SubjectArgs,
+    args: &MissionArgs,
     compare: bool,
 ) -> Result<(ParamFile, ReportInputs, report::MissionReport)> {
+    let MissionArgs {
+        input: inputs,
+        ride,
+        track: tracks,
+        model,
+        subject,
+    } = args;
     let mut file = model.load_for_ride()?;
     subject.apply(&mut file)?;
     let frame = file.device.unwrap_or_default().sensor_frame();
@@ -129,24 +141,20 @@ pub fn mission_report(
 
 /// Builds the report, writes `report.html`, and the JSON to `out` with `--json`.
 pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
-    let (file, found, mut report) = mission_report(
-        &args.input,
-        &args.ride,
-        &args.track,
-        &args.model,
-        &args.subject,
-        args.compare,
-    )?;
-    let band = args.band.request(&args.model, &file)?;
+    let (file, found, mut report) = mission_report(&args.mission, args.compare)?;
+    let MissionArgs {
+        ride, track, model, ..
+    } = &args.mission;
+    let band = args.band.request(model, &file)?;
     let frame = file.device.unwrap_or_default().sensor_frame();
     let ReportInputs {
         logged,
         rides: inputs,
     } = found;
-    let rides = args.ride.opener_with_tracks(frame, &args.track, &inputs)?;
+    let rides = ride.opener_with_tracks(frame, track, &inputs)?;
     let device = match &logged {
         Some((log, session)) => {
-            let ride = args.ride.open(&session.ride, &frame)?;
+            let ride = ride.open(&session.ride, &frame)?;
             Some(monitor_log::device_log(log, session, &file, &ride)?)
         }
         None => None,
@@ -236,19 +244,9 @@ mod calibration_tests {
             sample_rate_hz: 500.0,
             height_m: 1.75,
             mass_kg: 70.0,
-            params_changed: false,
-            input_frames: 0,
-            input_samples: 0,
-            input_samples_lost: 0,
-            input_frames_bad: 0,
-            first_input_sample: None,
-            status: None,
-            link_frames: 0,
-            link_lost_frames: 0,
-            link_bad_frames: 0,
-            link_reordered_frames: 0,
             started_utc: started.map(str::to_string),
             calibration: calibration.map(Into::into),
+            ..SessionInfo::default()
         }
     }
 

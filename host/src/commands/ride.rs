@@ -39,7 +39,7 @@ pub struct Args {
     /// Seed of every random draw (ChaCha8): the same seed gives the same file.
     #[arg(long, default_value_t = values::DEFAULT_SEED)]
     pub seed: u64,
-    /// Where to write the recording (`time_s,platform_x,platform_y,platform_z`).
+    /// Where to write the recording (`time_s,platform_x_m_s2,platform_y_m_s2,platform_z_m_s2`).
     #[arg(long, value_name = "RIDE.csv")]
     pub out: PathBuf,
     /// Also write where the ride happened, as a GPX 1.1 track (a fix a second on a

@@ -105,7 +105,7 @@ pub enum FlashSummary {
         /// The image file.
         path: PathBuf,
         /// Its size, bytes.
-        bytes: usize,
+        size_bytes: usize,
         /// The parameters' identity (hex).
         params_identity: String,
         /// The sample rate the parameters are built for, Hz.

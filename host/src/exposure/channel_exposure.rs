@@ -15,7 +15,7 @@ use supine_core::weighting::WeightingKind;
 
 use crate::exposure::evaluation_input::{EvaluationInput, check_warmup};
 use crate::exposure::reported_values::{AxisReport, tidy};
-use crate::io::recording::{COLUMNS, Layout};
+use crate::io::recording::{COLUMNS, Layout, OLD_COLUMNS};
 use crate::io::ride_rows::RideSource;
 use crate::parallel::read_ahead;
 use crate::ride::quality::DataQuality;
@@ -130,14 +130,21 @@ pub fn evaluate_channel(
     })
 }
 
-/// The column index (0-based, in [`COLUMNS`]) of an acceleration column; an error that
-/// lists the columns `layout` holds otherwise.
+/// The column index (0-based, in [`COLUMNS`]) of an acceleration column, named as today
+/// (`head_x_m_s2`) or as before units ([`OLD_COLUMNS`], `head_x`); an error that lists the
+/// columns `layout` holds otherwise.
 pub fn channel_index(name: &str, layout: Layout, path: &Path) -> Result<usize> {
-    let available: &[&str] = match layout {
-        Layout::Full | Layout::Prediction => &COLUMNS[1..],
-        Layout::PlatformOnly => &COLUMNS[1..4],
+    let columns = match layout {
+        Layout::Full | Layout::Prediction => 1..COLUMNS.len(),
+        Layout::PlatformOnly => 1..4,
     };
-    match available.iter().position(|c| *c == name) {
+    let available = &COLUMNS[columns.clone()];
+    let old = &OLD_COLUMNS[columns];
+    match available
+        .iter()
+        .position(|c| *c == name)
+        .or_else(|| old.iter().position(|c| *c == name))
+    {
         Some(i) => Ok(i + 1),
         None => bail!(
             "{}: line 1: --channel {name}: expected one of the acceleration columns {}",

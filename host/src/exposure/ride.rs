@@ -22,7 +22,7 @@
 //!
 //! # File
 //! [`write_ride`] writes the time and the three platform columns only
-//! (`time_s,platform_x,platform_y,platform_z`): a generated ride has no sensor data, and
+//! ([`PLATFORM_HEADER_LINE`]): a generated ride has no sensor data, and
 //! the recording reader requires every one of its 13 cells to be a number, so the sensor
 //! columns are absent rather than empty or invented. `supine exposure` reads such a file.
 

@@ -68,6 +68,33 @@ impl From<CalibrationTable> for SensorCalibration {
     }
 }
 
+/// `#[serde(with = ...)]` for a [`SensorCalibration`] written as its table
+/// ([`CalibrationTable`]).
+pub mod as_table {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+    use supine_core::calibration::SensorCalibration;
+
+    use super::CalibrationTable;
+
+    /// `calibration` as its table.
+    pub fn serialize<S: Serializer>(
+        calibration: &SensorCalibration,
+        s: S,
+    ) -> Result<S::Ok, S::Error> {
+        CalibrationTable::from(*calibration).serialize(s)
+    }
+
+    /// The record a table holds.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<SensorCalibration, D::Error> {
+        CalibrationTable::deserialize(d).map(SensorCalibration::from)
+    }
+}
+
+/// Whether `calibration` is the datasheet record (a file need not spell it out).
+pub fn is_datasheet(calibration: &SensorCalibration) -> bool {
+    CalibrationTable::from(*calibration).is_default()
+}
+
 /// Today's date, UTC: the day a session starts or a report is made.
 pub fn today() -> time::Date {
     time::OffsetDateTime::now_utc().date()

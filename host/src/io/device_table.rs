@@ -10,9 +10,10 @@
 //!
 //! The table is written by hand, so every key may be left out (a partial
 //! `[device.alerts]` with only the thresholds takes the other alert defaults) and a
-//! weighting is spelled as on the command line, in either case (`wd`, `Wd`). The file's
-//! form is `DeviceTable` and its parts, mirrors of the core's configurations whose
-//! defaults are the core's own constants; a test checks that they have the same keys.
+//! weighting is spelled as on the command line, in either case (`wd`, `Wd`). The core's
+//! configurations read themselves so (its `file-form` feature: their own defaults, unknown
+//! keys refused); this module adds the keys that are the host's: telemetry, the joint
+//! outputs and their alerts, and the calibration record's written form.
 
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use supine_core::alerts::{
@@ -20,22 +21,22 @@ use supine_core::alerts::{
 };
 use supine_core::blob::{DeviceParams, Patient, TelemetryConfig};
 use supine_core::calibration::{SensorCalibration, SensorFrame};
-use supine_core::exposure::{AxisMapping, AxisWeighting, ExposureConfig, ExposureSettings};
+use supine_core::exposure::{ExposureConfig, ExposureSettings};
 use supine_core::model::{
     DeviceRealization, JOINT_OUTPUT_COUNT, JointOutput, JointReadout, Subject,
 };
 use supine_core::mounting::Mounting;
 use supine_core::sample_rate::SampleRate;
-use supine_core::weighting::WeightingKind;
 
-use crate::io::calibration_section::CalibrationTable;
+use crate::io::calibration_section;
 use crate::io::excerpt::value;
 use crate::io::joint_alerts_section::JointAlertsSection;
 use crate::io::text_position::line_column;
 
 /// The optional `[device]` table: what goes into the parameter blob besides the model.
+/// Every key may be left out; a key the file form does not know is refused.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(from = "DeviceTable", into = "DeviceTable")]
+#[serde(default, deny_unknown_fields)]
 pub struct DeviceSection {
     /// Weighting per head axis, running-rms time constant, warm-up.
     pub exposure: ExposureConfig,
@@ -48,14 +49,19 @@ pub struct DeviceSection {
     pub mounting: Mounting,
     /// Telemetry every this many samples; absent, about 100 Hz at the blob's sample rate
     /// ([`TelemetryConfig::default_for`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub telemetry_decimation: Option<u16>,
     /// The joint outputs the device reads and reports (`joint_outputs = ["neck_x", ...]`;
     /// all ten by default, `[]` for none).
+    #[serde(skip_serializing_if = "JointSelection::is_all")]
     pub joint_outputs: JointSelection,
     /// Thresholds on the joint outputs (`[device.joint_alerts]`): none by default.
+    #[serde(skip_serializing_if = "JointAlertsSection::is_default")]
     pub joint_alerts: JointAlertsSection,
     /// The sensor's calibration record (`[device.calibration]`): the datasheet's nominal
-    /// values, undated, by default.
+    /// values, undated, by default. Written in the file's form ([`calibration_section`]).
+    #[serde(with = "calibration_section::as_table")]
+    #[serde(skip_serializing_if = "calibration_section::is_datasheet")]
     pub calibration: SensorCalibration,
 }
 
@@ -120,239 +126,6 @@ impl<'de> Deserialize<'de> for JointSelection {
             mask |= bit;
         }
         Ok(Self { mask })
-    }
-}
-
-/// The `[device]` table as a file holds it: every key optional.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-struct DeviceTable {
-    exposure: ExposureTable,
-    alerts: AlertTable,
-    sensor_checks: SensorChecksTable,
-    mounting: Mounting,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    telemetry_decimation: Option<u16>,
-    #[serde(skip_serializing_if = "JointSelection::is_all")]
-    joint_outputs: JointSelection,
-    #[serde(skip_serializing_if = "JointAlertsSection::is_default")]
-    joint_alerts: JointAlertsSection,
-    #[serde(skip_serializing_if = "CalibrationTable::is_default")]
-    calibration: CalibrationTable,
-}
-
-/// `[device.exposure]`: the core's [`ExposureConfig`], every key optional.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-struct ExposureTable {
-    axes: AxesTable,
-    running_tau_s: f32,
-    warmup_s: f32,
-}
-
-/// `[device.exposure.axes]`: an axis left out keeps its default weighting.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-struct AxesTable {
-    x: AxisTable,
-    y: AxisTable,
-    z: AxisTable,
-}
-
-/// One axis: its weighting (required: the defaults differ by axis) and `k` (default 1).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct AxisTable {
-    kind: WeightingName,
-    #[serde(default = "default_k")]
-    k: f32,
-}
-
-fn default_k() -> f32 {
-    AxisMapping::SUPINE_HEAD.x.k
-}
-
-/// `[device.alerts]`: the core's [`AlertConfig`], every key optional.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-struct AlertTable {
-    running_rms_m_s2: [f32; 3],
-    vdv_m_s175: [f32; 3],
-    hysteresis: f32,
-    raise_dwell_s: f32,
-    clear_dwell_s: f32,
-}
-
-/// `[device.sensor_checks]`: the core's [`SensorCheckConfig`], every key optional.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-struct SensorChecksTable {
-    full_scale_m_s2: f32,
-    stuck_after_s: f32,
-    clear_after_s: f32,
-}
-
-/// A weighting as the command line spells it (`wk`, `wd`, `wj`), read in either case.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct WeightingName(WeightingKind);
-
-impl WeightingName {
-    fn name(self) -> &'static str {
-        match self.0 {
-            WeightingKind::Wk => "wk",
-            WeightingKind::Wd => "wd",
-            WeightingKind::Wj => "wj",
-        }
-    }
-}
-
-impl Serialize for WeightingName {
-    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(self.name())
-    }
-}
-
-impl<'de> Deserialize<'de> for WeightingName {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        let text = String::deserialize(d)?;
-        WeightingKind::ALL
-            .into_iter()
-            .map(WeightingName)
-            .find(|w| w.name().eq_ignore_ascii_case(text.trim()))
-            .ok_or_else(|| {
-                serde::de::Error::custom(format!(
-                    "expected one of wk, wd, wj (either case), found {}",
-                    crate::io::excerpt::value(&text)
-                ))
-            })
-    }
-}
-
-impl Default for DeviceTable {
-    fn default() -> Self {
-        DeviceSection::default().into()
-    }
-}
-
-impl Default for ExposureTable {
-    fn default() -> Self {
-        ExposureConfig::DEFAULT.into()
-    }
-}
-
-impl Default for AxesTable {
-    fn default() -> Self {
-        ExposureConfig::DEFAULT.axes.into()
-    }
-}
-
-impl Default for AlertTable {
-    fn default() -> Self {
-        AlertConfig::DEFAULT.into()
-    }
-}
-
-impl Default for SensorChecksTable {
-    fn default() -> Self {
-        SensorCheckConfig::DEFAULT.into()
-    }
-}
-
-impl From<DeviceTable> for DeviceSection {
-    fn from(t: DeviceTable) -> Self {
-        let axis = |a: AxisTable| AxisWeighting {
-            kind: a.kind.0,
-            k: a.k,
-        };
-        Self {
-            exposure: ExposureConfig {
-                axes: AxisMapping {
-                    x: axis(t.exposure.axes.x),
-                    y: axis(t.exposure.axes.y),
-                    z: axis(t.exposure.axes.z),
-                },
-                running_tau_s: t.exposure.running_tau_s,
-                warmup_s: t.exposure.warmup_s,
-            },
-            alerts: AlertConfig {
-                running_rms_m_s2: t.alerts.running_rms_m_s2,
-                vdv_m_s175: t.alerts.vdv_m_s175,
-                hysteresis: t.alerts.hysteresis,
-                raise_dwell_s: t.alerts.raise_dwell_s,
-                clear_dwell_s: t.alerts.clear_dwell_s,
-            },
-            sensor_checks: SensorCheckConfig {
-                full_scale_m_s2: t.sensor_checks.full_scale_m_s2,
-                stuck_after_s: t.sensor_checks.stuck_after_s,
-                clear_after_s: t.sensor_checks.clear_after_s,
-            },
-            mounting: t.mounting,
-            telemetry_decimation: t.telemetry_decimation,
-            joint_outputs: t.joint_outputs,
-            joint_alerts: t.joint_alerts,
-            calibration: t.calibration.into(),
-        }
-    }
-}
-
-impl From<DeviceSection> for DeviceTable {
-    fn from(s: DeviceSection) -> Self {
-        Self {
-            exposure: s.exposure.into(),
-            alerts: s.alerts.into(),
-            sensor_checks: s.sensor_checks.into(),
-            mounting: s.mounting,
-            telemetry_decimation: s.telemetry_decimation,
-            joint_outputs: s.joint_outputs,
-            joint_alerts: s.joint_alerts,
-            calibration: s.calibration.into(),
-        }
-    }
-}
-
-impl From<ExposureConfig> for ExposureTable {
-    fn from(c: ExposureConfig) -> Self {
-        Self {
-            axes: c.axes.into(),
-            running_tau_s: c.running_tau_s,
-            warmup_s: c.warmup_s,
-        }
-    }
-}
-
-impl From<AxisMapping> for AxesTable {
-    fn from(m: AxisMapping) -> Self {
-        let axis = |a: AxisWeighting| AxisTable {
-            kind: WeightingName(a.kind),
-            k: a.k,
-        };
-        Self {
-            x: axis(m.x),
-            y: axis(m.y),
-            z: axis(m.z),
-        }
-    }
-}
-
-impl From<AlertConfig> for AlertTable {
-    fn from(c: AlertConfig) -> Self {
-        Self {
-            running_rms_m_s2: c.running_rms_m_s2,
-            vdv_m_s175: c.vdv_m_s175,
-            hysteresis: c.hysteresis,
-            raise_dwell_s: c.raise_dwell_s,
-            clear_dwell_s: c.clear_dwell_s,
-        }
-    }
-}
-
-impl From<SensorCheckConfig> for SensorChecksTable {
-    fn from(c: SensorCheckConfig) -> Self {
-        Self {
-            full_scale_m_s2: c.full_scale_m_s2,
-            stuck_after_s: c.stuck_after_s,
-            clear_after_s: c.clear_after_s,
-        }
     }
 }
 
@@ -591,7 +364,9 @@ pub fn locate(text: &str, key: &str) -> Option<(usize, usize, String)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use supine_core::exposure::AxisMapping;
     use supine_core::model::{ModelParams, Preset, device_realization};
+    use supine_core::weighting::WeightingKind;
 
     fn rate(hz: f32) -> SampleRate {
         SampleRate::new(hz).unwrap()
@@ -642,44 +417,10 @@ mod tests {
     }
 
     #[test]
-    fn the_files_form_has_the_cores_keys_and_defaults() {
-        let keys = |v: toml::Value| -> Vec<String> {
-            let toml::Value::Table(t) = v else {
-                panic!("a table")
-            };
-            let mut k: Vec<String> = leaves(&t, Vec::new())
-                .into_iter()
-                .map(|(p, _)| p.join("."))
-                .collect();
-            k.sort();
-            k
-        };
-        // The core's own serialization (its field names) against the file's form.
-        let core = toml::Value::try_from(DeviceCore {
-            exposure: ExposureConfig::DEFAULT,
-            alerts: AlertConfig::DEFAULT,
-            sensor_checks: SensorCheckConfig::DEFAULT,
-            mounting: Mounting::LEVEL,
-        })
-        .unwrap();
-        let file = toml::Value::try_from(DeviceSection::default()).unwrap();
-        assert_eq!(keys(core), keys(file));
-        // An empty table is every default.
+    fn a_partial_table_takes_the_defaults_and_weightings_are_read_in_either_case() {
+        // An empty table is every default: the core's own constants.
         let empty: DeviceSection = toml::from_str("").unwrap();
         assert_eq!(empty, DeviceSection::default());
-    }
-
-    /// The core's configurations as they serialize themselves.
-    #[derive(Serialize)]
-    struct DeviceCore {
-        exposure: ExposureConfig,
-        alerts: AlertConfig,
-        sensor_checks: SensorCheckConfig,
-        mounting: Mounting,
-    }
-
-    #[test]
-    fn a_partial_table_takes_the_defaults_and_weightings_are_read_in_either_case() {
         let s: DeviceSection = toml::from_str(
             "[alerts]\nrunning_rms_m_s2 = [0.4, 0.7, 1.1]\n\
              [exposure.axes]\nz = { kind = \"wk\" }\ny = { kind = \"WD\", k = 1.4 }\n",
@@ -698,13 +439,21 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(
-            err.contains("expected one of wk, wd, wj (either case), found wb"),
+            err.contains("expected one of wk, wd, wj (either case), found \"wb\""),
             "{err}"
         );
         let err = toml::from_str::<DeviceSection>("[alerts]\nhysterisis = 0.1\n")
             .unwrap_err()
             .to_string();
         assert!(err.contains("unknown field `hysterisis`"), "{err}");
+        let err = toml::from_str::<DeviceSection>("[mounting]\ngravity = 9.8\n")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("unknown field `gravity`"), "{err}");
+        let err = toml::from_str::<DeviceSection>("[exposure.axes.z]\nk = 1.0\n")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("missing field `kind`"), "{err}");
     }
 
     #[test]

@@ -50,8 +50,9 @@ pub fn input_row(sample_index: u32, counts: [i16; 3], sample_rate_hz: f64) -> St
     format!("{},{x},{y},{z}\n", f64::from(sample_index) / sample_rate_hz)
 }
 
-/// What `<stem>.session.json` holds.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// What `<stem>.session.json` holds. Its default is a session that has received
+/// nothing yet (every counter zero), of a device still to be named.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct SessionInfo {
     /// The device's protocol version.
     pub protocol_version: u16,

@@ -1,7 +1,9 @@
 //! Recordings: the CSV files of support and sensor accelerations that datasets, `predict`,
 //! `validate` and the ride tools read, as `docs/model.md#recording-format` defines them.
 //!
-//! The first line is exactly [`HEADER_LINE`]; every following line holds 13 finite numbers:
+//! The first line is [`HEADER_LINE`] ([`COLUMNS`], units in the names), or the same names
+//! without their unit ([`OLD_COLUMNS`]) in files written before the columns carried it;
+//! every following line holds 13 finite numbers:
 //! time in s, then accelerations in m/s^2 at the support (x, y, z) and at the head, torso and
 //! pelvis sensors (x, y, z each). Time must increase strictly and uniformly: every step must
 //! lie within [`UNIFORM_TOLERANCE`] (1 %) of the mean step. A 1 % timing jitter is a phase
@@ -27,11 +29,29 @@ use crate::io::csv_lines::{CsvLines, Line, LineError, Row};
 use crate::io::excerpt::{excerpt, number};
 use crate::io::output::write_atomically;
 
-/// The exact first line of a recording.
-pub const HEADER_LINE: &str = "time_s,platform_x,platform_y,platform_z,head_x,head_y,head_z,torso_x,torso_y,torso_z,pelvis_x,pelvis_y,pelvis_z";
+/// The first line of a recording, as the tools write it: [`COLUMNS`].
+pub const HEADER_LINE: &str = "time_s,platform_x_m_s2,platform_y_m_s2,platform_z_m_s2,head_x_m_s2,head_y_m_s2,head_z_m_s2,torso_x_m_s2,torso_y_m_s2,torso_z_m_s2,pelvis_x_m_s2,pelvis_y_m_s2,pelvis_z_m_s2";
 
-/// The 13 column names, in order.
+/// The 13 column names, in order, units in the names: time in s, accelerations in m/s^2.
 pub const COLUMNS: [&str; 13] = [
+    "time_s",
+    "platform_x_m_s2",
+    "platform_y_m_s2",
+    "platform_z_m_s2",
+    "head_x_m_s2",
+    "head_y_m_s2",
+    "head_z_m_s2",
+    "torso_x_m_s2",
+    "torso_y_m_s2",
+    "torso_z_m_s2",
+    "pelvis_x_m_s2",
+    "pelvis_y_m_s2",
+    "pelvis_z_m_s2",
+];
+
+/// The column names of files written before the accelerations' columns carried their unit
+/// (`platform_x`, `head_x`, ...): the same columns in the same order, still read.
+pub const OLD_COLUMNS: [&str; 13] = [
     "time_s",
     "platform_x",
     "platform_y",
@@ -46,6 +66,21 @@ pub const COLUMNS: [&str; 13] = [
     "pelvis_y",
     "pelvis_z",
 ];
+
+/// The namings a recording's header may use: today's, then the one before units.
+const NAMINGS: [&[&str; 13]; 2] = [&COLUMNS, &OLD_COLUMNS];
+
+/// Whether `header` names the 13 recording columns, in either naming ([`COLUMNS`],
+/// [`OLD_COLUMNS`]).
+pub fn is_recording_header<S: AsRef<[u8]>>(header: &[S]) -> bool {
+    NAMINGS.iter().any(|naming| {
+        header.len() == naming.len()
+            && header
+                .iter()
+                .zip(naming.iter())
+                .all(|(h, c)| h.as_ref() == c.as_bytes())
+    })
+}
 
 /// The joint columns `supine predict` adds after the 13 recording columns: the predicted
 /// neck and lower-back motion (`docs/model.md`, "Joint motion"), translations in mm and
@@ -65,10 +100,11 @@ pub const PREDICTED_JOINT_COLUMNS: [&str; 10] = [
     "low_back_rz_deg",
 ];
 
-/// The name of column `c` (0-based) of a file in the prediction layout, the widest.
-fn column_name(c: usize) -> &'static str {
-    match c.checked_sub(COLUMNS.len()) {
-        None => COLUMNS[c],
+/// The name of column `c` (0-based) of a file in the prediction layout, the widest, in
+/// `naming` ([`NAMINGS`]).
+fn column_name(naming: &[&'static str; 13], c: usize) -> &'static str {
+    match c.checked_sub(naming.len()) {
+        None => naming[c],
         Some(j) => PREDICTED_JOINT_COLUMNS.get(j).copied().unwrap_or("(none)"),
     }
 }
@@ -354,8 +390,9 @@ pub fn device_samples(platform_m_s2: &[Vec<f64>; 3]) -> Vec<[f32; 3]> {
         .collect()
 }
 
-/// The header of a recording that holds only the support (platform) accelerations.
-pub const PLATFORM_HEADER_LINE: &str = "time_s,platform_x,platform_y,platform_z";
+/// The header of a recording that holds only the support (platform) accelerations: the
+/// first four of [`COLUMNS`].
+pub const PLATFORM_HEADER_LINE: &str = "time_s,platform_x_m_s2,platform_y_m_s2,platform_z_m_s2";
 
 /// Which columns a recording file holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -491,7 +528,8 @@ fn split_row(path: &Path, cells: Row, columns: usize) -> Result<[f64; 13], Recor
     }
     let mut row = [0.0f64; 13];
     for (c, cell) in cells.cells().enumerate() {
-        let value = parse_cell(cell, column_name(c)).map_err(|e| e.at(path.to_path_buf(), line))?;
+        let value = parse_cell(cell, column_name(&COLUMNS, c))
+            .map_err(|e| e.at(path.to_path_buf(), line))?;
         if let Some(slot) = row.get_mut(c) {
             *slot = value;
         }
@@ -518,7 +556,7 @@ fn plain_row(line: &Line, columns: usize) -> Option<[f64; 13]> {
     for c in 0..columns {
         let (value, used) = fast_float2::parse_partial::<f64, _>(rest).ok()?;
         let cell = &rest[..used];
-        check_value(value, cell, column_name(c)).ok()?;
+        check_value(value, cell, column_name(&COLUMNS, c)).ok()?;
         if let Some(slot) = row.get_mut(c) {
             *slot = value;
         }
@@ -673,8 +711,8 @@ fn read_layouts(path: &Path, accepted: &[Layout]) -> Result<(Recording, Layout),
     Recording::from_reader(file, path, accepted)
 }
 
-/// Which of the `accepted` layouts the header names, or where it first differs from the
-/// full header.
+/// Which of the `accepted` layouts the header names (in either naming), or where it first
+/// differs from the full header in the naming it follows further.
 fn check_header(
     header: &Row<'_>,
     path: &Path,
@@ -682,22 +720,34 @@ fn check_header(
 ) -> Result<Layout, RecordingError> {
     for layout in accepted {
         let n = layout.columns();
-        if header.len() == n
-            && header
-                .cells()
-                .enumerate()
-                .all(|(c, cell)| cell == column_name(c).as_bytes())
-        {
-            return Ok(*layout);
+        for naming in NAMINGS {
+            if header.len() == n
+                && header
+                    .cells()
+                    .enumerate()
+                    .all(|(c, cell)| cell == column_name(naming, c).as_bytes())
+            {
+                return Ok(*layout);
+            }
         }
     }
+    let agreeing = |naming: &[&str; 13]| {
+        (0..header.len().min(naming.len()))
+            .take_while(|&i| header.cell(i) == naming[i].as_bytes())
+            .count()
+    };
+    let naming = if agreeing(&OLD_COLUMNS) > agreeing(&COLUMNS) {
+        &OLD_COLUMNS
+    } else {
+        &COLUMNS
+    };
     let mismatch = |column: usize, expected: &str, found: String| RecordingError::Header {
         path: path.to_path_buf(),
         column,
         expected: expected.to_string(),
         found,
     };
-    for (i, expected) in COLUMNS.iter().enumerate() {
+    for (i, expected) in naming.iter().enumerate() {
         if i >= header.len() {
             return Err(mismatch(i + 1, expected, "end of line".to_string()));
         }

@@ -33,7 +33,7 @@ use crate::io::csv_lines::CsvLines;
 use crate::io::excerpt::{name, number, quoted_name};
 use crate::io::output::write_atomically;
 use crate::io::recording::{
-    COLUMNS, Layout, PLATFORM_HEADER_LINE, PlatformStream, Recording, RecordingError,
+    Layout, PLATFORM_HEADER_LINE, PlatformStream, Recording, RecordingError, is_recording_header,
 };
 pub use crate::io::ride_rows::{AccelUnit, ColumnNames, TimeUnit};
 use crate::io::ride_rows::{
@@ -152,7 +152,7 @@ impl RideInputArgs {
             }));
         }
         let (delimiter, header) = read_header(path)?;
-        if header.len() == COLUMNS.len() && header.iter().zip(COLUMNS).all(|(h, c)| h == c) {
+        if is_recording_header(&header) {
             return Ok(None);
         }
         let Some(known) = recognize(&header) else {
@@ -671,7 +671,7 @@ mod tests {
             .read(&own, &SensorFrame::LEVEL)
             .unwrap();
         // The same ride from a sensor mounted upside down about x: z reads -(a_z + g).
-        let mut text = String::from("time_s,platform_x,platform_y,platform_z\n");
+        let mut text = format!("{PLATFORM_HEADER_LINE}\n");
         let g = STANDARD_GRAVITY_M_S2;
         for k in 0..clean.len() {
             text.push_str(&format!(
@@ -778,7 +778,7 @@ mod tests {
             format!(
                 "{}: line 1: --columns x=: expected a field \"Acc X\", found \"Time (ms)\", \
                  \"AccX\", \"AccY\", \"AccZ\" (';'-separated; a ride: \
-                 time_s,platform_x,platform_y,platform_z)",
+                 time_s,platform_x_m_s2,platform_y_m_s2,platform_z_m_s2)",
                 path.display()
             )
         );

@@ -169,19 +169,9 @@ impl MonitorLog {
                     sample_rate_hz: rate_hz,
                     height_m: shortest(g.height_m),
                     mass_kg: shortest(g.mass_kg),
-                    params_changed: false,
-                    input_frames: 0,
-                    input_samples: 0,
-                    input_samples_lost: 0,
-                    input_frames_bad: 0,
-                    first_input_sample: None,
-                    status: None,
-                    link_frames: 0,
-                    link_lost_frames: 0,
-                    link_bad_frames: 0,
-                    link_reordered_frames: 0,
                     started_utc: Some(crate::io::calibration_section::today().to_string()),
                     calibration: Some(g.calibration.into()),
+                    ..SessionInfo::default()
                 });
             }
         }

@@ -245,19 +245,11 @@ mod tests {
             sample_rate_hz: 500.0,
             height_m,
             mass_kg,
-            params_changed: false,
             input_frames: 10,
             input_samples: 1000,
-            input_samples_lost: 0,
-            input_frames_bad: 0,
             first_input_sample: Some(0),
-            status: None,
             link_frames: 10,
-            link_lost_frames: 0,
-            link_bad_frames: 0,
-            link_reordered_frames: 0,
-            started_utc: None,
-            calibration: None,
+            ..SessionInfo::default()
         }
         .write(&session_path(&log))
         .unwrap();

@@ -133,7 +133,7 @@ pub struct PlacedEvent {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Route {
     /// Position fixes in the track.
-    pub points: usize,
+    pub fixes: usize,
     /// Distance travelled while placed, m.
     pub length_m: f64,
     /// The road segments in order.
@@ -177,7 +177,7 @@ pub struct RouteBuilder {
     fs_hz: f64,
     weighting: [supine_core::weighting::WeightingSettings; 3],
     states: [WeightingState; 3],
-    points: usize,
+    fixes: usize,
     map_step_m: f64,
     open: Option<Open>,
     segments: Vec<Segment>,
@@ -197,7 +197,7 @@ impl RouteBuilder {
             fs_hz,
             weighting: exposure.weighting,
             states: [WeightingState::new(); 3],
-            points: track.fixes().len(),
+            fixes: track.fixes().len(),
             map_step_m: (track.length_m() / MAX_MAP_POINTS as f64).max(MIN_MAP_STEP_M),
             open: None,
             segments: Vec::new(),
@@ -329,7 +329,7 @@ impl RouteBuilder {
         worst.sort_by(|a, b| b.rms_m_s2.total_cmp(&a.rms_m_s2));
         worst.truncate(WORST_SEGMENTS);
         Route {
-            points: self.points,
+            fixes: self.fixes,
             length_m: self.travelled_m,
             segments: self.segments,
             worst_segments: worst,

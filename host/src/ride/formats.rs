@@ -9,7 +9,9 @@
 //!   in s; m/s^2. The nanosecond column is read (exact, relative to the first row).
 //! - Physics Toolbox Sensor Suite (g-force meter): `time,gFx,gFy,gFz,...` in g, the time
 //!   as date-time text (`2018-10-03 17:23:55.4640`, iOS) or a clock time.
-//! - The project's own ride (`time_s,platform_x,platform_y,platform_z`), s and m/s^2.
+//! - The project's own ride (`time_s,platform_x_m_s2,platform_y_m_s2,platform_z_m_s2`;
+//!   `time_s,platform_x,platform_y,platform_z` before the columns carried their unit), s
+//!   and m/s^2.
 
 use crate::ride::clock::TimeUnit;
 use crate::ride::units::AccelUnit;
@@ -28,7 +30,19 @@ pub struct KnownFormat {
 }
 
 /// The formats recognized, in the order they are tried.
-pub const KNOWN_FORMATS: [KnownFormat; 5] = [
+pub const KNOWN_FORMATS: [KnownFormat; 6] = [
+    KnownFormat {
+        name: "supine ride",
+        columns: [
+            "time_s",
+            "platform_x_m_s2",
+            "platform_y_m_s2",
+            "platform_z_m_s2",
+        ],
+        time_unit: TimeUnit::S,
+        units: AccelUnit::MS2,
+    },
+    // The same ride as written before its columns carried their unit.
     KnownFormat {
         name: "supine ride",
         columns: ["time_s", "platform_x", "platform_y", "platform_z"],
@@ -180,6 +194,10 @@ mod tests {
         assert_eq!(
             found("time,gFx,gFy,gFz,TgF"),
             Some("Physics Toolbox Sensor Suite")
+        );
+        assert_eq!(
+            found("time_s,platform_x_m_s2,platform_y_m_s2,platform_z_m_s2"),
+            Some("supine ride")
         );
         assert_eq!(
             found("time_s,platform_x,platform_y,platform_z"),

@@ -23,7 +23,7 @@ pub mod subject;
 
 /// The unit suffixes a numeric name may end with.
 pub const UNIT_SUFFIXES: &[&str] = &[
-    "_m_s175", "_m_s2", "_hz", "_kg", "_mm", "_deg", "_rad", "_m", "_s", "_bytes", "_months",
+    "_m_s175", "_m_s2", "_hz", "_kg", "_mm", "_deg", "_rad", "_m", "_s", "_h", "_bytes", "_months",
 ];
 
 /// Numeric names without a unit: counts, indices, seeds and dimensionless ratios. Any
@@ -40,6 +40,8 @@ pub const UNITLESS: &[&str] = &[
     "cases",
     "segments",
     "fixes",
+    "missions",
+    "passes",
     "frequencies",
     "components",
     "residuals",
@@ -60,6 +62,20 @@ pub const UNITLESS: &[&str] = &[
     "telemetry_decimation",
     "slot",
     "counter",
+    // An archive's mission number, and a road place's cell (row and column of its grid).
+    "id",
+    "row",
+    "column",
+    // A two-group test's statistics (the Mann-Whitney U, its normal z, its p-value).
+    "u_statistic",
+    "z_score",
+    "p_value",
+    // A prediction's agreement with a recording (`validate`): the paper's R^2 both ways,
+    // and errors relative to the measured values.
+    "r2_determination",
+    "r2_pearson",
+    "normalized_rms_error",
+    "mean_relative_error",
 ];
 
 /// Endings of numeric names without a unit: counts of a thing (`dropped_samples`,
@@ -69,6 +85,7 @@ pub const UNITLESS_SUFFIXES: &[&str] = &[
     "_samples",
     "_frames",
     "_fixes",
+    "_missions",
     "_records",
     "_events",
     "_raised",
@@ -78,6 +95,9 @@ pub const UNITLESS_SUFFIXES: &[&str] = &[
     "_factor",
     "_magnitude",
     "_cost",
+    // A grid cell's indices (the archive's `cell_row`, `cell_column` of a road place).
+    "_row",
+    "_column",
 ];
 
 /// An f32 as the shortest decimal that reads back as it (`1.82`, not

@@ -50,9 +50,8 @@ fn numeric_or_array(v: &Value) -> bool {
 
 /// The header names of a CSV file's `text` (called `file` in the messages) that break
 /// the rules: not `snake_case`, or a column whose first value is a number without a unit
-/// in its name (none is needed beside a `unit` column). `exempt` columns may go without
-/// one: a format's names kept for the files already written.
-pub fn csv_problems(text: &str, file: &str, exempt: &[&str]) -> Vec<String> {
+/// in its name (none is needed beside a `unit` column).
+pub fn csv_problems(text: &str, file: &str) -> Vec<String> {
     let mut out = Vec::new();
     let mut lines = text.lines().filter(|l| !l.starts_with('#'));
     let Some(header) = lines.next() else {
@@ -66,7 +65,7 @@ pub fn csv_problems(text: &str, file: &str, exempt: &[&str]) -> Vec<String> {
             out.push(format!("{file}: column {column}: not snake_case"));
         }
         let numeric = first.get(k).is_some_and(|v| v.parse::<f64>().is_ok());
-        if numeric && !unit_column && !exempt.contains(column) && !names_a_number(column) {
+        if numeric && !unit_column && !names_a_number(column) {
             out.push(format!("{file}: column {column}: a number without a unit"));
         }
     }
@@ -90,8 +89,11 @@ mod tests {
         );
         let csv = "sample,time_s,head_accel,platform_x,alert_level\n1,0.002,0.5,0.1,normal\n";
         assert_eq!(
-            csv_problems(csv, "t.csv", &["platform_x"]),
-            ["t.csv: column head_accel: a number without a unit"]
+            csv_problems(csv, "t.csv"),
+            [
+                "t.csv: column head_accel: a number without a unit",
+                "t.csv: column platform_x: a number without a unit"
+            ]
         );
     }
 }

@@ -19,16 +19,17 @@ use serde_json::Value;
 use sqlx::Row as _;
 use supine_host::archive::db::Archive;
 use supine_host::archive::location::Location;
+use supine_host::archive::meta::MissionMeta;
 use supine_host::archive::road::Cell;
 use supine_host::archive::schema;
 use supine_host::archive::store::STALL_ENV;
 use supine_host::commands::archive::{self, AddArgs, Command as Sub, MetaArgs};
-use supine_host::commands::band_args::BandArgs;
-use supine_host::commands::report;
-use supine_host::exposure::ride::{Profile, generate, write_ride};
-use supine_host::io::params_file::{ModelSource, PresetArg};
+use supine_host::commands::report::MissionArgs;
+use supine_host::exposure::ride::Profile;
 use supine_host::io::ride_input::{RideInputArgs, TrackArgs};
 use supine_host::io::subject_args::SubjectArgs;
+
+use crate::common::{paper_litter as preset, ride};
 
 /// The two databases: a fresh SQLite file under `dir` and a fresh PostgreSQL database.
 fn archives(dir: &Path) -> Vec<String> {
@@ -36,21 +37,6 @@ fn archives(dir: &Path) -> Vec<String> {
         dir.join("archive.sqlite").display().to_string(),
         postgres::database(),
     ]
-}
-
-fn ride(dir: &Path, profile: Profile, duration_s: f64, seed: u64) -> PathBuf {
-    let path = dir.join(format!("{}-{seed}.csv", profile.name()));
-    if !path.exists() {
-        write_ride(&path, &generate(profile, duration_s, 500.0, seed).unwrap()).unwrap();
-    }
-    path
-}
-
-fn preset() -> ModelSource {
-    ModelSource {
-        preset: Some(PresetArg::PaperLitter),
-        params: None,
-    }
 }
 
 fn run(archive: &str, command: Sub) -> anyhow::Result<String> {
@@ -63,8 +49,9 @@ fn run(archive: &str, command: Sub) -> anyhow::Result<String> {
     Ok(String::from_utf8(out).unwrap())
 }
 
-fn add_args(inputs: &[PathBuf], meta: MetaArgs) -> AddArgs {
-    AddArgs {
+/// The rides `inputs` with the preset for a patient of 1.80 m and 82 kg.
+fn mission(inputs: &[PathBuf]) -> MissionArgs {
+    MissionArgs {
         input: inputs.to_vec(),
         ride: RideInputArgs::default(),
         track: TrackArgs::default(),
@@ -73,6 +60,12 @@ fn add_args(inputs: &[PathBuf], meta: MetaArgs) -> AddArgs {
             height_m: Some(1.80),
             mass_kg: Some(82.0),
         },
+    }
+}
+
+fn add_args(inputs: &[PathBuf], meta: MetaArgs) -> AddArgs {
+    AddArgs {
+        mission: mission(inputs),
         meta,
         copy_rides: false,
         json: true,
@@ -107,23 +100,7 @@ fn show(archive: &str, id: i64) -> Value {
 }
 
 fn report_json(inputs: &[PathBuf], out: &Path) -> Value {
-    let args = report::Args {
-        input: inputs.to_vec(),
-        ride: RideInputArgs::default(),
-        track: TrackArgs::default(),
-        model: preset(),
-        subject: SubjectArgs {
-            height_m: Some(1.80),
-            mass_kg: Some(82.0),
-        },
-        out: out.to_path_buf(),
-        json: true,
-        compare: false,
-        band: BandArgs::default(),
-    };
-    let mut text = Vec::new();
-    report::run_to(&args, &mut text).unwrap();
-    serde_json::from_slice(&text).unwrap()
+    crate::common::report_json(mission(inputs), out)
 }
 
 fn open(archive: &str) -> Archive {
@@ -147,14 +124,14 @@ fn stored_values_equal_report_json_on_both_databases() {
     ];
     let expected = report_json(&legs, &dir.path().join("report"));
     for db in archives(dir.path()) {
-        let meta = MetaArgs {
+        let meta = flags(MissionMeta {
             vehicle: Some("A1".into()),
             crew: Some("red".into()),
             route: Some("A9 north".into()),
             start: Some("2026-11-28T06:00:00+01:00".into()),
             tags: vec!["night".into(), "rain".into()],
             ..Default::default()
-        };
+        });
         let id = add(&db, &legs, meta).unwrap();
         let shown = show(&db, id);
         assert_eq!(shown["mission"], expected["mission"], "{db}");
@@ -268,15 +245,23 @@ mod independent {
     }
 }
 
-fn meta(vehicle: &str, route: &str, day: usize) -> MetaArgs {
+/// `add`'s metadata given as flags, without a `--meta` file.
+fn flags(meta: MissionMeta) -> MetaArgs {
     MetaArgs {
+        flags: meta,
+        meta: None,
+    }
+}
+
+fn meta(vehicle: &str, route: &str, day: usize) -> MetaArgs {
+    flags(MissionMeta {
         vehicle: Some(vehicle.into()),
         crew: Some(format!("crew-{}", day % 3)),
         driver: Some(format!("driver-{}", day % 2)),
         route: Some(route.into()),
         start: Some(format!("2026-10-{:02}T08:30:00Z", day + 1)),
         ..Default::default()
-    }
+    })
 }
 
 /// `archive fleet --out OUT --json` with these groupings, filter and compare: its JSON.
@@ -371,14 +356,14 @@ fn fleet_statistics_equal_an_independent_computation_from_list_json() {
                 .map(|m| m["mission"]["duration_s"].as_f64().unwrap())
                 .sum::<f64>()
                 / 3600.0;
-            assert!((g["hours"].as_f64().unwrap() - hours).abs() < 1e-12);
+            assert!((g["duration_h"].as_f64().unwrap() - hours).abs() < 1e-12);
             let reaching = members
                 .iter()
                 .filter(|m| {
                     ["warning", "alarm"].contains(&m["mission"]["max_level"].as_str().unwrap())
                 })
                 .count();
-            assert_eq!(g["missions_reaching_warning"], reaching);
+            assert_eq!(g["warning_or_alarm_missions"], reaching);
             for j in g["joints"].as_array().unwrap() {
                 let output = j["output"].as_str().unwrap();
                 let mut v: Vec<f64> = members
@@ -434,11 +419,11 @@ fn fleet_statistics_equal_an_independent_computation_from_list_json() {
             let cell = Cell::of(lat, lon);
             a.run(
                 sqlx::query(
-                    "INSERT INTO road_segments (cell_lat, cell_lon, lat_deg, lon_deg) VALUES \
-                     ($1, $2, $3, $4) ON CONFLICT (cell_lat, cell_lon) DO NOTHING",
+                    "INSERT INTO road_segments (cell_row, cell_column, lat_deg, lon_deg) VALUES \
+                     ($1, $2, $3, $4) ON CONFLICT (cell_row, cell_column) DO NOTHING",
                 )
-                .bind(cell.lat)
-                .bind(cell.lon)
+                .bind(cell.row)
+                .bind(cell.column)
                 .bind(lat)
                 .bind(lon)
                 .execute(a.pool()),
@@ -446,15 +431,15 @@ fn fleet_statistics_equal_an_independent_computation_from_list_json() {
             .unwrap();
             a.run(
                 sqlx::query(
-                    "INSERT INTO segment_passes (mission_id, leg, seq, cell_lat, cell_lon, \
+                    "INSERT INTO segment_passes (mission_id, leg, seq, cell_row, cell_column, \
                      start_s, end_s, lat_deg, lon_deg, length_m, speed_m_s, rms_m_s2, \
                      vdv_m_s175, max_running_rms_m_s2) VALUES ($1, 1, $2, $3, $4, 1.0, $5, \
                      $6, $7, 50.0, 12.0, $8, 0.1, $8)",
                 )
                 .bind(mission)
                 .bind(seq as i64)
-                .bind(cell.lat)
-                .bind(cell.lon)
+                .bind(cell.row)
+                .bind(cell.column)
                 .bind(1.0 + seconds)
                 .bind(lat)
                 .bind(lon)
@@ -653,12 +638,12 @@ fn the_fhir_bundle_validates_against_the_r4_schema() {
         let id = add(
             &db,
             &legs,
-            MetaArgs {
+            flags(MissionMeta {
                 start: Some("2026-11-28T05:00:00Z".into()),
                 patient: Some("MRN-0042".into()),
                 encounter: Some("ENC-7".into()),
                 ..Default::default()
-            },
+            }),
         )
         .unwrap();
         let file = dir.path().join("bundle.json");
@@ -794,6 +779,42 @@ fn an_archive_of_the_previous_schema_is_migrated_and_a_newer_one_refused() {
                     .execute(old.pool()),
                 )
                 .unwrap();
+                // An alert that raised, in version 1's column `raise`.
+                old.run(
+                    sqlx::query(
+                        "INSERT INTO alerts (mission_id, leg, seq, mission_time_s, kind, event, \
+                         raise, running_rms_m_s2, vdv_m_s175) VALUES ($1, 1, 0, 2.5, 'level', \
+                         'normal -> warning', 1, 0.9, 0.4)",
+                    )
+                    .bind(id)
+                    .execute(old.pool()),
+                )
+                .unwrap();
+            }
+        }
+        {
+            // Version 2 added the places, keyed by `cell_lat`, `cell_lon`: one pass over one.
+            let old = Archive::open_at_version(&location, 2).unwrap();
+            let first: i64 = old
+                .run(sqlx::query("SELECT MIN(id) AS id FROM missions").fetch_one(old.pool()))
+                .unwrap()
+                .try_get("id")
+                .unwrap();
+            for statement in [
+                "INSERT INTO road_segments (cell_lat, cell_lon, lat_deg, lon_deg) \
+                 VALUES (7, -3, 48.1, 11.5)",
+                "INSERT INTO segment_passes (mission_id, leg, seq, cell_lat, cell_lon, start_s, \
+                 end_s, lat_deg, lon_deg, length_m, speed_m_s, rms_m_s2, vdv_m_s175, \
+                 max_running_rms_m_s2) VALUES ($1, 1, 0, 7, -3, 0, 4, 48.1, 11.5, 50, 12.5, \
+                 0.4, 0.6, 0.5)",
+            ] {
+                let query = sqlx::query(statement);
+                let query = if statement.contains("$1") {
+                    query.bind(first)
+                } else {
+                    query
+                };
+                old.run(query.execute(old.pool())).unwrap();
             }
         }
         // Opened by this supine: migrated, every mission kept with its values.
@@ -812,15 +833,47 @@ fn an_archive_of_the_previous_schema_is_migrated_and_a_newer_one_refused() {
             archive.run(schema::version(&archive)).unwrap(),
             schema::CURRENT_VERSION
         );
-        // Version 2's tables are there and usable.
-        assert_eq!(count(&archive, "segment_passes"), 0);
+        // Version 3's names: the alerts raised and the pass's place, kept.
+        let raised: i64 = archive
+            .run(
+                sqlx::query("SELECT COUNT(*) AS n FROM alerts WHERE raised = 1")
+                    .fetch_one(archive.pool()),
+            )
+            .unwrap()
+            .try_get("n")
+            .unwrap();
+        assert_eq!(raised, 3, "{db}");
+        let pass = archive
+            .run(
+                sqlx::query(
+                    "SELECT p.cell_row, p.cell_column, s.lat_deg FROM segment_passes p \
+                     JOIN road_segments s ON s.cell_row = p.cell_row \
+                     AND s.cell_column = p.cell_column",
+                )
+                .fetch_one(archive.pool()),
+            )
+            .unwrap();
+        assert_eq!(pass.try_get::<i64, _>("cell_row").unwrap(), 7);
+        assert_eq!(pass.try_get::<i64, _>("cell_column").unwrap(), -3);
+        let places = fleet(
+            &db,
+            &dir.path().join("fleet-migrated"),
+            vec![],
+            Default::default(),
+            vec![],
+        );
+        assert_eq!(places["road_segments"][0]["cell"]["row"], 7, "{db}");
+        assert_eq!(places["road_segments"][0]["passes"], 1);
         archive
             .run(sqlx::query("UPDATE archive_schema SET version = 99").execute(archive.pool()))
             .unwrap();
         drop(archive);
         let err = Archive::open(&location).err().unwrap().to_string();
         assert!(
-            err.contains("schema version 99, newer than this supine's (2)"),
+            err.contains(&format!(
+                "schema version 99, newer than this supine's ({})",
+                schema::CURRENT_VERSION
+            )),
             "{err}"
         );
         // Refused, not changed.

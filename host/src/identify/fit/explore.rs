@@ -1,14 +1,16 @@
-//! The litter-board fit over the rigid minima the rigid data cannot tell apart
-//! ([`RigidMinima`]): the pipeline's result, not only each stage's.
+//! The litter-board fit over the rigid fit's minima ([`RigidMinima`]): the pipeline's
+//! result, not only each stage's.
 //!
 //! Each part's litter-board cost depends only on that part's rigid parameters (its joints
 //! and the contacts that bound it), so every part's options are fitted once: the kept
 //! rigid minimum and each stored alternative. Rank r fits, in one litter-board fit, every
-//! part's r-th option; the pipeline then keeps, over every combination of the parts'
-//! options whose rigid costs together rise by at most the budget, the one with the lowest
-//! litter-board cost (the kept rigid minimum on a tie), and refits it as a whole. Every
-//! fit is the deterministic [`super::run`], so the choice and the result are the same
-//! bits whatever the number of threads.
+//! part's r-th option. The pipeline then keeps, over every combination of the parts'
+//! options, the one under which the rigid and the litter-board data together are likeliest
+//! (the joints are the same person's in both cases): the lowest m_r ln C_r + m_l ln C_l,
+//! each case's cost C over its m residuals with its own unknown noise variance (the kept
+//! rigid minimum on a tie), and refits it as a whole. Every fit is the deterministic
+//! [`super::run`], so the choice and the result are the same bits whatever the number of
+//! threads (docs/model.md#the-pipeline-over-the-rigid-fits-minima).
 
 use anyhow::{Result, bail};
 use supine_core::model::{ModelParams, Subject};
@@ -43,12 +45,14 @@ pub struct PartOption {
 /// What the exploration compared and what it kept.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Exploration {
-    /// The largest rise of the rigid cost allowed over all parts.
+    /// The rigid fit's noise: the rise of its cost its data cannot tell from its minimum.
     pub cost_budget: f64,
     /// Every part's options, by part.
     pub options: Vec<PartOption>,
     /// The rigid parameters of the kept pair (the joints and the contacts' bounds).
     pub rigid: ModelParams,
+    /// Their rigid cost.
+    pub rigid_cost: f64,
     /// Their rigid cost above the rigid fit's.
     pub rigid_cost_above_kept: f64,
 }
@@ -63,8 +67,13 @@ fn part_cost(result: &FitResult, name: &str) -> Option<f64> {
     )
 }
 
-/// The litter-board fit on `rigid` and on each of its indistinguishable `minima`: the
-/// setup and result of the kept pair, and what was compared.
+/// -2 ln L of a case up to a constant, its noise variance unknown: m ln C.
+fn neg_log_likelihood(residuals: usize, cost: f64) -> f64 {
+    residuals as f64 * cost.max(f64::MIN_POSITIVE).ln()
+}
+
+/// The litter-board fit on `rigid` and on each of its other `minima`: the setup and result
+/// of the kept pair, and what was compared.
 pub fn litter_over_minima(
     target: &Target,
     subject: Subject,
@@ -80,6 +89,12 @@ pub fn litter_over_minima(
             Some((_, options)) => options.push(Some(i)),
             None => parts.push((m.part.clone(), vec![None, Some(i)])),
         }
+    }
+    let count: usize = parts.iter().map(|(_, o)| o.len()).product();
+    if count > MOST_COMBINATIONS {
+        bail!(
+            "[fit.rigid_minima]: {count} combinations of rigid minima, expected at most {MOST_COMBINATIONS}"
+        );
     }
     let params_of = |choice: &[usize]| {
         let mut p = *rigid;
@@ -99,7 +114,7 @@ pub fn litter_over_minima(
     // Rank r: every part's r-th option (or its kept one) in one fit.
     let ranks = parts.iter().map(|(_, o)| o.len()).max().unwrap_or(1);
     let mut litter_costs: Vec<Vec<f64>> = parts.iter().map(|_| Vec::new()).collect();
-    let mut first = None;
+    let mut first: Option<(Setup, FitResult)> = None;
     for r in 0..ranks {
         let choice: Vec<usize> = parts
             .iter()
@@ -118,17 +133,23 @@ pub fn litter_over_minima(
             first = Some((setup, result));
         }
     }
+    let Some(first) = first else {
+        bail!("the litter-board fit ran on no rigid minimum");
+    };
+    // The parts without another rigid minimum: the same cost in every combination.
+    let unexplored: f64 = first
+        .1
+        .parts
+        .iter()
+        .filter(|p| !parts.iter().any(|(n, _)| *n == p.name))
+        .filter_map(|p| part_cost(&first.1, &p.name))
+        .sum();
+    let litter_residuals = first.1.solution.residuals.len();
 
-    // Every combination within the budget; the lowest litter-board cost, the first
-    // (the kept rigid minimum's) on a tie.
+    // Every combination; the likeliest on both cases' data, the first (the kept rigid
+    // minimum's) on a tie.
     let above =
         |k: usize, c: usize| parts[k].1[c].map_or(0.0, |i| minima.minima[i].cost_above_kept);
-    let count: usize = parts.iter().map(|(_, o)| o.len()).product();
-    if count > MOST_COMBINATIONS {
-        bail!(
-            "[fit.rigid_minima]: {count} combinations of rigid minima, expected at most {MOST_COMBINATIONS}"
-        );
-    }
     let mut best: Option<(f64, Vec<usize>)> = None;
     for index in 0..count {
         let mut rest = index;
@@ -141,24 +162,25 @@ pub fn litter_over_minima(
             })
             .collect();
         let rise: f64 = choice.iter().enumerate().map(|(k, &c)| above(k, c)).sum();
-        if rise > minima.cost_budget {
-            continue;
-        }
-        let cost: f64 = choice
-            .iter()
-            .enumerate()
-            .map(|(k, &c)| litter_costs[k][c])
-            .sum();
-        if best.as_ref().is_none_or(|(b, _)| cost < *b) {
-            best = Some((cost, choice));
+        let litter: f64 = unexplored
+            + choice
+                .iter()
+                .enumerate()
+                .map(|(k, &c)| litter_costs[k][c])
+                .sum::<f64>();
+        let score = neg_log_likelihood(minima.residuals, minima.rigid_cost + rise)
+            + neg_log_likelihood(litter_residuals, litter);
+        if best.as_ref().is_none_or(|(b, _)| score < *b) {
+            best = Some((score, choice));
         }
     }
     let choice = best.map_or_else(|| vec![0; parts.len()], |(_, c)| c);
 
     let rigid_kept = params_of(&choice);
-    let (setup, result) = match first {
-        Some(first) if choice.iter().all(|&c| c == 0) => first,
-        _ => fit(&rigid_kept)?,
+    let (setup, result) = if choice.iter().all(|&c| c == 0) {
+        first
+    } else {
+        fit(&rigid_kept)?
     };
     let mut options = Vec::new();
     for (k, (name, part_options)) in parts.iter().enumerate() {
@@ -188,7 +210,7 @@ pub fn litter_over_minima(
             });
         }
     }
-    let rigid_cost_above_kept = choice.iter().enumerate().map(|(k, &c)| above(k, c)).sum();
+    let rigid_cost_above_kept: f64 = choice.iter().enumerate().map(|(k, &c)| above(k, c)).sum();
     Ok((
         setup,
         result,
@@ -196,6 +218,7 @@ pub fn litter_over_minima(
             cost_budget: minima.cost_budget,
             options,
             rigid: rigid_kept,
+            rigid_cost: minima.rigid_cost + rigid_cost_above_kept,
             rigid_cost_above_kept,
         },
     ))
@@ -206,8 +229,15 @@ impl Exploration {
     pub fn markdown(&self) -> String {
         use std::fmt::Write as _;
         let mut s = format!(
-            "\nThe rigid fit's other minima within its noise (rigid cost at most {:.6} above its own over all parts together: 2 x rise / s^2 below chi-square(1, 95 %) = 3.84) were each given to the litter-board fit, part by part; the pair with the lowest litter-board cost was kept (*). Its rigid cost is {:.6} above the rigid fit's.\n\n| part | rigid minimum from | rigid cost above the kept | litter-board cost of the part |\n|---|---|---|---|\n",
-            self.cost_budget, self.rigid_cost_above_kept
+            "\nThe rigid fit's other minima were each given to the litter-board fit, part by part; the pair kept (*) is the one under which the rigid and litter-board data together are likeliest (lowest m ln C summed over both cases). Its rigid cost {:.6} is {:.6} above the rigid fit's, {} the rigid fit's noise ({:.6}: 2 x rise / s^2 below chi-square(1, 95 %) = 3.84).\n\n| part | rigid minimum from | rigid cost above the kept | litter-board cost of the part |\n|---|---|---|---|\n",
+            self.rigid_cost,
+            self.rigid_cost_above_kept,
+            if self.rigid_cost_above_kept <= self.cost_budget {
+                "within"
+            } else {
+                "beyond"
+            },
+            self.cost_budget
         );
         for o in &self.options {
             let mark = if o.kept { " *" } else { "" };
@@ -224,6 +254,7 @@ impl Exploration {
     pub fn to_toml(&self) -> toml::Table {
         let mut t = toml::Table::new();
         t.insert("cost_budget".into(), self.cost_budget.into());
+        t.insert("rigid_cost".into(), self.rigid_cost.into());
         t.insert(
             "rigid_cost_above_kept".into(),
             self.rigid_cost_above_kept.into(),

@@ -1,20 +1,21 @@
-//! The rigid fit's other minima that its own data cannot tell apart from the kept one,
-//! kept in the parameter file (`[fit.rigid_minima]`) for the litter-board fit to explore
-//! ([`super::explore`]).
+//! The rigid fit's other minima, kept in the parameter file (`[fit.rigid_minima]`) for the
+//! litter-board fit to explore ([`super::explore`]).
 //!
 //! Why: the litter-board contacts are bounded by the rigid fit's contacts and share its
 //! joints, yet the rigid data barely determine some of them: two starts can end a part
 //! at almost the same rigid cost with contacts 10^4 apart, and which one bounds the
-//! litter-board problem decides its cost. A part's minimum counts as indistinguishable
-//! when its cost is above the kept one's by less than the likelihood-ratio test allows
-//! at 95 %: 2 (cost - kept) / s^2 below the chi-square(1) quantile 3.84, with s^2 = 2
-//! cost / (m - n) the rigid fit's residual variance (docs/model.md#the-pipeline-over-indistinguishable-rigid-minima).
-//! The budget holds for the sum over parts, so the pair the litter-board fit keeps is
-//! itself within it.
+//! litter-board problem decides its cost. Every start's minimum of a part that converged
+//! (not abandoned far above the others) is kept, at most [`MOST_PER_PART`] besides the
+//! lowest, with its rise over the kept one; the litter-board fit weighs that rise against
+//! what it gains on its own data
+//! (docs/model.md#the-pipeline-over-the-rigid-fits-minima). The rigid fit's noise budget
+//! (a rise of 0.5 chi-square(1, 95 %) s^2, s^2 = 2 cost / (m - n)) is stored beside them,
+//! to say which of them its own data cannot tell from the kept one.
 
 use anyhow::{Result, anyhow};
 use supine_core::model::{ModelParams, ParamId};
 
+use super::solver::Termination;
 use super::uncertainty::parse_id;
 use super::{FitResult, Setup};
 
@@ -50,14 +51,19 @@ impl RigidMinimum {
     }
 }
 
-/// The kept rigid fit's indistinguishable minima, by part.
+/// The rigid fit's other minima, by part.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RigidMinima {
+    /// The kept rigid fit's cost.
+    pub rigid_cost: f64,
+    /// Its number of residuals (m).
+    pub residuals: usize,
     /// s^2 = 2 cost / (m - n) of the rigid fit.
     pub residual_variance: f64,
-    /// The largest rise of the rigid cost over all parts together: 0.5 chi2(1, 95 %) s^2.
+    /// The rigid fit's noise: a rise of the rigid cost below 0.5 chi2(1, 95 %) s^2 its
+    /// data cannot tell from the kept minimum.
     pub cost_budget: f64,
-    /// The minima within it, by part, then by rising cost.
+    /// The other converged minima, by part, then by rising cost.
     pub minima: Vec<RigidMinimum>,
 }
 
@@ -81,8 +87,8 @@ fn string(t: &toml::Table, key: &str, at: &str) -> Result<String> {
 }
 
 impl RigidMinima {
-    /// The minima of a rigid fit's parts within the budget of its residual variance:
-    /// every start's minimum of a part, but the kept one and repeats of another.
+    /// The other minima of a rigid fit's parts: every converged start's minimum of a
+    /// part, but the kept one and repeats of another, the lowest [`MOST_PER_PART`].
     pub fn of_fit(setup: &Setup, result: &FitResult) -> Self {
         let m = result.solution.residuals.len();
         let n = setup.objective.free.len();
@@ -110,7 +116,8 @@ impl RigidMinima {
                         .zip(y.iter())
                         .all(|(a, b)| (a - b).abs() < SAME_MINIMUM_LN)
                 });
-                if above > cost_budget || repeat || of_part.len() == MOST_PER_PART {
+                let abandoned = part.starts[i].termination == Termination::Abandoned;
+                if abandoned || repeat || of_part.len() == MOST_PER_PART {
                     continue;
                 }
                 listed.push(x);
@@ -129,16 +136,21 @@ impl RigidMinima {
             minima.extend(of_part);
         }
         Self {
+            rigid_cost: result.solution.cost,
+            residuals: m,
             residual_variance,
             cost_budget,
             minima,
         }
     }
 
-    /// The `[fit.rigid_minima]` table: the variance, the budget, and one sub-table per
-    /// minimum (`part`, `start`, `cost_above_kept`, and its parameters by name).
+    /// The `[fit.rigid_minima]` table: the rigid cost, its residuals, the variance, the
+    /// budget, and one sub-table per minimum (`part`, `start`, `cost_above_kept`, and its
+    /// parameters by name).
     pub fn to_toml(&self) -> toml::Table {
         let mut t = toml::Table::new();
+        t.insert("rigid_cost".into(), self.rigid_cost.into());
+        t.insert("residuals".into(), (self.residuals as i64).into());
         t.insert("residual_variance".into(), self.residual_variance.into());
         t.insert("cost_budget".into(), self.cost_budget.into());
         let minima: Vec<toml::Value> = self
@@ -171,6 +183,13 @@ impl RigidMinima {
         let t = value
             .as_table()
             .ok_or_else(|| anyhow!("[{at}]: expected a table"))?;
+        let rigid_cost = float(t, "rigid_cost", at)?;
+        let residuals = t
+            .get("residuals")
+            .and_then(toml::Value::as_integer)
+            .and_then(|v| usize::try_from(v).ok())
+            .filter(|&v| v > 0)
+            .ok_or_else(|| anyhow!("[{at}] residuals: expected a whole number > 0"))?;
         let residual_variance = float(t, "residual_variance", at)?;
         let cost_budget = float(t, "cost_budget", at)?;
         let entries = t
@@ -206,6 +225,8 @@ impl RigidMinima {
             });
         }
         Ok(Some(Self {
+            rigid_cost,
+            residuals,
             residual_variance,
             cost_budget,
             minima,

@@ -36,8 +36,8 @@ pub struct FitRequest {
     pub resolution_hz: f64,
     /// Starts, seed and solver settings.
     pub settings: FitSettings,
-    /// Litter board: also fit on the rigid fit's other indistinguishable minima
-    /// (`[fit.rigid_minima]`) and keep the pair with the lowest litter-board cost.
+    /// Litter board: also fit on the rigid fit's other minima (`[fit.rigid_minima]`) and
+    /// keep the pair likeliest on both cases' data.
     pub explore: bool,
 }
 
@@ -52,7 +52,7 @@ pub struct DatasetFit {
     pub result: FitResult,
     /// What the data determine.
     pub identifiability: Identifiability,
-    /// Rigid fit: its other minima within its noise, for the litter-board fit.
+    /// Rigid fit: its other converged minima, for the litter-board fit.
     pub rigid_minima: Option<RigidMinima>,
     /// Litter board: the rigid minima explored and the pair kept.
     pub exploration: Option<Exploration>,
@@ -98,7 +98,7 @@ fn target(estimate: &CaseEstimate) -> Target {
 }
 
 /// The case's problem, solved: the rigid fit, or the litter-board fit on the rigid fit's
-/// joints (and, with `explore` and stored minima, on each indistinguishable rigid minimum).
+/// joints (and, with `explore` and stored minima, on each of the rigid fit's other minima).
 fn solve(
     request: &FitRequest,
     estimate: &CaseEstimate,
@@ -177,8 +177,13 @@ impl DatasetFit {
             self.solver_s,
         );
         if let Some(m) = &self.rigid_minima {
+            let within = m
+                .minima
+                .iter()
+                .filter(|x| x.cost_above_kept <= m.cost_budget)
+                .count();
             s.push_str(&format!(
-                "\n{} other minima of the parts within this fit's noise (rigid cost at most {:.6} above it, 2 x rise / s^2 below chi-square(1, 95 %) = 3.84) are kept in [fit.rigid_minima] for the litter-board fit to explore.\n",
+                "\n{} other converged minima of the parts are kept in [fit.rigid_minima] for the litter-board fit to explore, {within} of them within this fit's noise (rigid cost at most {:.6} above it: 2 x rise / s^2 below chi-square(1, 95 %) = 3.84).\n",
                 m.minima.len(),
                 m.cost_budget
             ));
