@@ -42,6 +42,7 @@ and give that interpreter; without `--phonometry-python` its columns are left ou
 import argparse
 import json
 import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -129,6 +130,10 @@ def reference(path, columns, time_scale, fs, gravity, axes, engine):
     gravity (a phone's) has its z taken along the mean acceleration, less its magnitude:
     the litter's vertical however the phone lay. Gives the values and the seconds the
     loader and the evaluation took (interpreter and imports left out)."""
+    if engine == "phonometry":
+        from phonometry.vibration import human_vibration  # noqa: F401
+    else:
+        from scipy.signal import lfilter  # noqa: F401
     start = time.perf_counter()
     wanted = [1, 2, 3] if gravity else axes
     loaded = np.loadtxt(path, delimiter=",", skiprows=1,
@@ -201,6 +206,14 @@ def main():
     p.add_argument("--phonometry-python", help="a Python interpreter with phonometry")
     a = p.parse_args()
     work = tempfile.mkdtemp(prefix="ride_speed_")
+    try:
+        measure(a, work)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def measure(a, work):
+    """Makes the two rides in `work`, times every tool on them and prints the table."""
     logger = os.path.join(work, "logger_500hz.csv")
     phone_src = os.path.join(work, "phone_src.csv")
     phone = os.path.join(work, "phone_200hz.csv")
