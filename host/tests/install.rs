@@ -78,6 +78,23 @@ fn cargo_install_into_a_temporary_root_gives_a_tool_that_runs_the_demo() {
     demo_runs_from_an_empty_folder(root.path());
 }
 
+/// Runs `command`, whose program was just written. Another test of this binary that
+/// starts a child while the program's file is still open for writing hands that child a
+/// copy of the descriptor until the child's own exec closes it; an exec meanwhile fails
+/// with "text file busy" (ETXTBSY), so that one error is retried, for a second at most.
+fn run_fresh_executable(command: &mut Command) -> std::process::Output {
+    let mut tries = 0;
+    loop {
+        match command.output() {
+            Err(e) if e.kind() == std::io::ErrorKind::ExecutableFileBusy && tries < 100 => {
+                tries += 1;
+                std::thread::sleep(std::time::Duration::from_millis(10));
+            }
+            result => return result.expect("supine runs"),
+        }
+    }
+}
+
 /// Runs `ROOT/bin/supine demo` from an empty folder as described above and checks what it
 /// wrote.
 fn demo_runs_from_an_empty_folder(root: &Path) {
@@ -88,14 +105,13 @@ fn demo_runs_from_an_empty_folder(root: &Path) {
     let work = tempfile::tempdir().expect("empty folder");
     let home = tempfile::tempdir().expect("home");
 
-    let output = Command::new(&supine)
-        .args(["demo", "--duration-s", "10", "--out", "out"])
+    let mut demo = Command::new(&supine);
+    demo.args(["demo", "--duration-s", "10", "--out", "out"])
         .current_dir(work.path())
         .env_clear()
         .env("PATH", format!("{}:/usr/bin:/bin", bin.display()))
-        .env("HOME", home.path())
-        .output()
-        .expect("supine runs");
+        .env("HOME", home.path());
+    let output = run_fresh_executable(&mut demo);
     let stdout = String::from_utf8_lossy(&output.stdout);
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(
