@@ -403,7 +403,7 @@ fn a_dead_platform_axis_names_the_recording_and_the_band() {
     let e = transmissibility_error(&ds, &[]);
     // 2048-sample segments at 200 Hz: bins of 0.0977 Hz, the 158 in 0.5-16 Hz span 0.586-15.918.
     assert!(
-        e.contains("s2_rigid.csv: columns platform_x,y,z: the inputs' cross-spectral matrix Sxx is singular or ill-conditioned"),
+        e.contains("s2_rigid.csv: columns platform_x_m_s2, platform_y_m_s2, platform_z_m_s2: the inputs' cross-spectral matrix Sxx is singular or ill-conditioned"),
         "{e}"
     );
     assert!(e.contains("at 158 of 158 bins in 0.586-15.918 Hz"), "{e}");

@@ -45,6 +45,17 @@ fn ticks(lo: f64, hi: f64) -> Vec<f64> {
     (first..=last).map(|k| k as f64 * step).collect()
 }
 
+/// `n` and the noun, plural but for one: "1 mission", "2 missions", "3 passes" (any
+/// integer type: the view's counts are `usize`, the database's `i64`).
+fn counted(n: impl std::fmt::Display, noun: &str) -> String {
+    let n = n.to_string();
+    match (n.as_str(), noun.ends_with('s')) {
+        ("1", _) => format!("1 {noun}"),
+        (_, true) => format!("{n} {noun}es"),
+        (_, false) => format!("{n} {noun}s"),
+    }
+}
+
 fn date(epoch_s: f64) -> String {
     Timestamp::from_second(epoch_s as i64)
         .map(|t| t.strftime("%Y-%m-%d").to_string())
@@ -67,13 +78,13 @@ pub fn render(view: &FleetView) -> String {
     };
     let _ = write!(
         h,
-        "<p class=\"sub\">{} missions, {:.1} hours of ride{span}{}.</p>\n\
+        "<p class=\"sub\">{}, {:.1} hours of ride{span}{}.</p>\n\
          <p>Missions are compared by the head's <b>VDV per hour of ride</b>: the vibration \
          dose value (ISO 2631-1, m/s<sup>1.75</sup>) one hour at the mission's own dose rate \
          would give, VDV&nbsp;(3600&nbsp;s&nbsp;/&nbsp;T)<sup>1/4</sup>. Groups are described \
          by their median, quartiles and 10th and 90th percentiles; the median's 95&nbsp;% \
          interval comes from order statistics (none below 6 missions).</p>\n",
-        view.missions,
+        counted(view.missions, "mission"),
         view.duration_h,
         if view.undated_missions > 0 {
             format!(
@@ -188,14 +199,15 @@ fn timeline(h: &mut String, view: &FleetView) {
     h.push_str("; the line is each week's median.</figcaption></figure>\n");
     let _ = writeln!(
         h,
-        "<p>{} weeks; busiest: {}.</p>",
-        view.weeks.len(),
+        "<p>{}; busiest: {}.</p>",
+        counted(view.weeks.len(), "week"),
         view.weeks
             .iter()
             .max_by_key(|w| w.missions)
             .map_or(String::new(), |w| format!(
-                "week of {} with {} missions",
-                w.week_of, w.missions
+                "week of {} with {}",
+                w.week_of,
+                counted(w.missions, "mission")
             ))
     );
 }
@@ -489,13 +501,13 @@ fn road(h: &mut String, view: &FleetView) {
         let _ = writeln!(
             h,
             "<circle cx=\"{x:.1}\" cy=\"{y:.1}\" r=\"{r:.1}\" fill=\"{}\"><title>{:.5}, \
-             {:.5}: rms {:.3} m/s^2 over {} passes ({} missions)</title></circle>",
+             {:.5}: rms {:.3} m/s^2 over {} ({})</title></circle>",
             rms_colour(p.rms_m_s2, low, high),
             p.lat_deg,
             p.lon_deg,
             p.rms_m_s2,
-            p.passes,
-            p.missions
+            counted(p.passes, "pass"),
+            counted(p.missions, "mission")
         );
     }
     let _ = writeln!(
@@ -541,5 +553,14 @@ mod tests {
         let t = ticks(3.0, 47.0);
         assert_eq!(t.first().copied(), Some(10.0));
         assert_eq!(t.last().copied(), Some(40.0));
+    }
+
+    #[test]
+    fn counts_are_singular_for_one_and_plural_otherwise() {
+        assert_eq!(super::counted(1usize, "mission"), "1 mission");
+        assert_eq!(super::counted(0usize, "mission"), "0 missions");
+        assert_eq!(super::counted(1i64, "pass"), "1 pass");
+        assert_eq!(super::counted(3i64, "pass"), "3 passes");
+        assert_eq!(super::counted(2usize, "week"), "2 weeks");
     }
 }

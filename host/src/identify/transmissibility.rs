@@ -88,7 +88,10 @@ pub fn estimate(
                 rec.path.display(),
                 rec.duration_s()
             ),
-            _ => anyhow!("{}: columns platform_x,y,z: {e}", rec.path.display()),
+            _ => anyhow!(
+                "{}: columns platform_x_m_s2, platform_y_m_s2, platform_z_m_s2: {e}",
+                rec.path.display()
+            ),
         })?;
         if estimate.freqs_hz.is_empty() {
             bail!(
