@@ -20,7 +20,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "parallel", "ride", "verify", "schema",
         ],
     ),
-    ("archive", &["report", "ride"]),
+    ("archive", &["report", "ride", "io"]),
     ("verify", &["report", "device", "io"]),
     (
         "demo",

@@ -7,6 +7,7 @@ use jiff::Timestamp;
 
 use crate::archive::fleet::{DIMENSIONS, FleetView, Group, SIGNIFICANCE};
 use crate::archive::stats::Distribution;
+use crate::io::wording::count;
 use crate::report::markup::{escape, tag as level_tag};
 use crate::report::page::STYLE;
 use supine_core::alerts::Level;
@@ -45,17 +46,6 @@ fn ticks(lo: f64, hi: f64) -> Vec<f64> {
     (first..=last).map(|k| k as f64 * step).collect()
 }
 
-/// `n` and the noun, plural but for one: "1 mission", "2 missions", "3 passes" (any
-/// integer type: the view's counts are `usize`, the database's `i64`).
-fn counted(n: impl std::fmt::Display, noun: &str) -> String {
-    let n = n.to_string();
-    match (n.as_str(), noun.ends_with('s')) {
-        ("1", _) => format!("1 {noun}"),
-        (_, true) => format!("{n} {noun}es"),
-        (_, false) => format!("{n} {noun}s"),
-    }
-}
-
 fn date(epoch_s: f64) -> String {
     Timestamp::from_second(epoch_s as i64)
         .map(|t| t.strftime("%Y-%m-%d").to_string())
@@ -84,7 +74,7 @@ pub fn render(view: &FleetView) -> String {
          would give, VDV&nbsp;(3600&nbsp;s&nbsp;/&nbsp;T)<sup>1/4</sup>. Groups are described \
          by their median, quartiles and 10th and 90th percentiles; the median's 95&nbsp;% \
          interval comes from order statistics (none below 6 missions).</p>\n",
-        counted(view.missions, "mission"),
+        count(view.missions, "mission"),
         view.duration_h,
         if view.undated_missions > 0 {
             format!(
@@ -200,14 +190,14 @@ fn timeline(h: &mut String, view: &FleetView) {
     let _ = writeln!(
         h,
         "<p>{}; busiest: {}.</p>",
-        counted(view.weeks.len(), "week"),
+        count(view.weeks.len(), "week"),
         view.weeks
             .iter()
             .max_by_key(|w| w.missions)
             .map_or(String::new(), |w| format!(
                 "week of {} with {}",
                 w.week_of,
-                counted(w.missions, "mission")
+                count(w.missions, "mission")
             ))
     );
 }
@@ -506,8 +496,8 @@ fn road(h: &mut String, view: &FleetView) {
             p.lat_deg,
             p.lon_deg,
             p.rms_m_s2,
-            counted(p.passes, "pass"),
-            counted(p.missions, "mission")
+            count(p.passes, "pass"),
+            count(p.missions, "mission")
         );
     }
     let _ = writeln!(
@@ -553,14 +543,5 @@ mod tests {
         let t = ticks(3.0, 47.0);
         assert_eq!(t.first().copied(), Some(10.0));
         assert_eq!(t.last().copied(), Some(40.0));
-    }
-
-    #[test]
-    fn counts_are_singular_for_one_and_plural_otherwise() {
-        assert_eq!(super::counted(1usize, "mission"), "1 mission");
-        assert_eq!(super::counted(0usize, "mission"), "0 missions");
-        assert_eq!(super::counted(1i64, "pass"), "1 pass");
-        assert_eq!(super::counted(3i64, "pass"), "3 passes");
-        assert_eq!(super::counted(2usize, "week"), "2 weeks");
     }
 }

@@ -22,12 +22,14 @@ pub fn joint_alert_text(output: JointOutput, criterion: &JointCriterion, raised:
     )
 }
 
-/// `n` and the noun, plural unless `n` is 1: `1 shock`, `3 shocks`, `0 shocks`.
-pub fn count(n: usize, noun: &str) -> String {
-    if n == 1 {
-        format!("1 {noun}")
-    } else {
-        format!("{n} {noun}s")
+/// `n` and the noun, plural unless `n` is 1: `1 shock`, `3 shocks`, `0 shocks`, `2
+/// passes`. Any integer type: lengths are `usize`, an archive's counts `i64`.
+pub fn count(n: impl std::fmt::Display, noun: &str) -> String {
+    let n = n.to_string();
+    match (n.as_str(), noun.ends_with('s')) {
+        ("1", _) => format!("1 {noun}"),
+        (_, true) => format!("{n} {noun}es"),
+        (_, false) => format!("{n} {noun}s"),
     }
 }
 
@@ -60,5 +62,7 @@ mod tests {
         assert_eq!(count(0, "shock"), "0 shocks");
         assert_eq!(count(1, "shock"), "1 shock");
         assert_eq!(count(2, "level change"), "2 level changes");
+        assert_eq!(count(1i64, "pass"), "1 pass");
+        assert_eq!(count(3i64, "pass"), "3 passes");
     }
 }
