@@ -18,7 +18,7 @@
 use std::collections::VecDeque;
 use std::io::{ErrorKind, Read};
 
-use crate::io::csv_lines::LineError;
+use crate::io::csv_lines::{LineError, is_blank};
 use crate::parallel::in_parallel;
 
 /// Bytes of text in a block, about (a block ends at a line end).
@@ -214,7 +214,7 @@ fn parse_block<T>(
         start = end + 1;
         let failure = if line.len() > max_line_bytes {
             Some(Failure::TooLong)
-        } else if line.iter().all(u8::is_ascii_whitespace) && !line.contains(&delimiter) {
+        } else if is_blank(line, delimiter) {
             continue;
         } else {
             match parse(line) {

@@ -39,6 +39,13 @@ pub enum LineError {
     Read(String),
 }
 
+/// A line that is no row: empty or only white space, and holding no delimiter (a line of
+/// only delimiters is a row of empty cells). Every reader of these files skips the same
+/// lines.
+pub fn is_blank(line: &[u8], delimiter: u8) -> bool {
+    line.iter().all(u8::is_ascii_whitespace) && !line.contains(&delimiter)
+}
+
 /// One non-blank line of the file, split at its delimiter.
 #[derive(Debug)]
 pub struct Row<'a> {
@@ -205,7 +212,7 @@ impl<R: Read> CsvLines<R> {
                 true => text.strip_prefix(UTF8_BOM).unwrap_or(text),
                 false => text,
             };
-            if body.iter().all(u8::is_ascii_whitespace) && !text.contains(&self.delimiter) {
+            if is_blank(body, self.delimiter) {
                 continue;
             }
             self.rows_read += 1;
