@@ -655,7 +655,7 @@ fn fold(
     }
     totals.blocks = totals.blocks.saturating_add(1);
     // Capped so that adding a block's sum and scaling by dt stays finite however long the
-    // run (a blob's gains are bounded so that a block's sum is under 1e32); no real dose
+    // run (a blob's gains are bounded so that a block's sum is under 1e36); no real dose
     // comes near it.
     let total = totals.q[3];
     // Comparisons, not f64::min/max: no NaN to handle, and no soft-float call on the device.
