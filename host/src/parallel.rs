@@ -52,6 +52,13 @@ const READ_AHEAD_CHUNKS: usize = 2;
 /// at most `READ_AHEAD_CHUNKS` chunks ahead. The first error, of the stream or of
 /// `consume`, stops both and is returned; so does a thread that cannot be spawned.
 ///
+/// Called on a thread of a rayon pool (a ride read inside a parallel job: `report
+/// --band`'s sets), the stream is read on the caller's thread instead: a pool's thread
+/// waiting on the channel could not run other jobs, and the reading's own parallel
+/// parsing ([`crate::io::csv_blocks`]) waits for the pool's threads, so every thread of
+/// the pool waiting on its reader would be a deadlock. Read in line, a pool's thread only
+/// ever waits inside rayon, which runs other jobs meanwhile.
+///
 /// Written here rather than taken from a crate: it is `std`'s scoped threads and bounded
 /// channel, a dozen lines; rayon's pools and crossbeam's channels serve other shapes.
 pub fn read_ahead<T, I>(
@@ -62,6 +69,12 @@ where
     T: Send,
     I: Iterator<Item = anyhow::Result<T>>,
 {
+    if rayon::current_thread_index().is_some() {
+        for item in open()? {
+            consume(item?)?;
+        }
+        return Ok(());
+    }
     let (sender, receiver) =
         std::sync::mpsc::sync_channel::<anyhow::Result<Vec<T>>>(READ_AHEAD_CHUNKS);
     std::thread::scope(|scope| {
@@ -121,6 +134,33 @@ mod tests {
     fn zero_threads_means_one_per_core() {
         assert_eq!(thread_count(3), 3);
         assert!(thread_count(0) >= 1);
+    }
+
+    #[test]
+    fn rides_read_inside_every_job_of_a_busy_pool_all_finish() {
+        // More jobs than the global pool has threads, each reading a stream whose items
+        // are themselves made on that pool (as a ride's blocks are parsed): with each
+        // reader on a thread of its own and every thread of the pool waiting for one,
+        // none would finish.
+        let jobs = 4 * thread_count(0);
+        let streams = in_parallel(jobs, 0, |k| {
+            let mut sum = 0u64;
+            super::read_ahead(
+                || {
+                    Ok((0..4 * super::READ_AHEAD_CHUNK as u64)
+                        .map(move |i| Ok(in_parallel(2, 0, |j| i + j as u64 + k as u64)[1])))
+                },
+                |v| {
+                    sum += v;
+                    Ok(())
+                },
+            )
+            .map(|()| sum)
+        });
+        let n = 4 * super::READ_AHEAD_CHUNK as u64;
+        for (k, sum) in streams.into_iter().enumerate() {
+            assert_eq!(sum.unwrap(), n * (n - 1) / 2 + n * (k as u64 + 1));
+        }
     }
 
     #[test]

@@ -27,45 +27,68 @@ pub fn parse_f64(cell: &[u8]) -> Option<f64> {
 
 /// The fast path alone: `[-]digits[.digits]` within the exact range, else `None`.
 pub fn exact_decimal(cell: &[u8]) -> Option<f64> {
-    let (negative, digits) = match cell.split_first()? {
-        (b'-', rest) => (true, rest),
-        _ => (false, cell),
-    };
-    // At most MAX_DIGITS digits and a point: the integer cannot overflow a u64.
-    if digits.len() > MAX_DIGITS + 1 {
-        return None;
-    }
+    leading_decimal(cell)
+        .filter(|&(_, used)| used == cell.len())
+        .map(|(value, _)| value)
+}
+
+/// The fast path's number at the start of `text` and the bytes it takes: `[-]digits
+/// [.digits]`, read up to the first byte that cannot continue it, within the exact range;
+/// `None` when no such number starts `text`. A cell that ends where the number does
+/// reads as [`exact_decimal`] reads it (it is that function), so a line's cells can be
+/// read where they start, without being cut out first.
+pub fn leading_decimal(text: &[u8]) -> Option<(f64, usize)> {
+    let negative = text.first() == Some(&b'-');
+    let start = usize::from(negative);
+    // Wrapping: a number of more than MAX_DIGITS digits is refused after the walk.
     let mut mantissa = 0u64;
-    let mut i = 0;
-    while let Some(d) = digits
+    let mut i = start;
+    while let Some(d) = text
         .get(i)
         .map(|b| b.wrapping_sub(b'0'))
         .filter(|d| *d <= 9)
     {
-        mantissa = mantissa * 10 + u64::from(d);
+        mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
         i += 1;
     }
-    let mut count = i;
+    let mut count = i - start;
     let mut fraction = 0;
-    if let Some(&b) = digits.get(i) {
-        if b != b'.' {
-            return None;
+    if text.get(i) == Some(&b'.') {
+        i += 1;
+        let first = i;
+        while let Some(d) = text
+            .get(i)
+            .map(|b| b.wrapping_sub(b'0'))
+            .filter(|d| *d <= 9)
+        {
+            mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
+            i += 1;
         }
-        for &b in &digits[i + 1..] {
-            let d = b.wrapping_sub(b'0');
-            if d > 9 {
-                return None;
-            }
-            mantissa = mantissa * 10 + u64::from(d);
-        }
-        fraction = digits.len() - i - 1;
+        fraction = i - first;
         count += fraction;
     }
-    if count == 0 || count > MAX_DIGITS || mantissa > MAX_EXACT || fraction >= POW10.len() {
+    if count == 0 || count > MAX_DIGITS || mantissa > MAX_EXACT {
         return None;
     }
     let value = mantissa as f64 / POW10[fraction];
-    Some(if negative { -value } else { value })
+    Some((if negative { -value } else { value }, i))
+}
+
+/// The unsigned integer of at most [`MAX_DIGITS`] digits at the start of `text` and the
+/// digits it takes; `None` when `text` does not start with a digit or the integer is
+/// longer.
+pub fn leading_integer(text: &[u8]) -> Option<(u64, usize)> {
+    let mut value = 0u64;
+    let mut i = 0;
+    while let Some(d) = text
+        .get(i)
+        .map(|b| b.wrapping_sub(b'0'))
+        .filter(|d| *d <= 9)
+    {
+        value = value.wrapping_mul(10).wrapping_add(u64::from(d));
+        i += 1;
+    }
+    (i > 0 && i <= MAX_DIGITS).then_some((value, i))
 }
 
 #[cfg(test)]
@@ -145,6 +168,45 @@ mod tests {
             }
             same(&cell);
         }
+    }
+
+    #[test]
+    fn a_number_read_where_it_starts_is_the_cell_read_whole() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let alphabet = b"0123456789.-,;e ";
+        for _ in 0..200_000 {
+            let len = (next() % 24) as usize;
+            let cell: Vec<u8> = (0..len)
+                .map(|_| alphabet[(next() % 12) as usize])
+                .filter(|b| *b != b',' && *b != b';')
+                .collect();
+            // A cell, then a delimiter and more: the leading number is the cell's when
+            // it takes the whole cell, and a number never reads past its end.
+            let mut line = cell.clone();
+            line.extend(b",1.5");
+            let whole = exact_decimal(&cell).map(f64::to_bits);
+            let leading = leading_decimal(&line).filter(|&(_, used)| used == cell.len());
+            assert_eq!(leading.map(|(v, _)| v.to_bits()), whole, "{cell:?}");
+            if let Some((_, used)) = leading_decimal(&line) {
+                assert!(used <= cell.len(), "{cell:?}");
+            }
+        }
+        assert_eq!(leading_decimal(b"-0.25,3"), Some((-0.25, 5)));
+        assert_eq!(leading_decimal(b"12\r"), Some((12.0, 2)));
+        assert_eq!(leading_decimal(b",1"), None);
+        assert_eq!(
+            leading_integer(b"1718030736872718943,0.1"),
+            Some((1718030736872718943, 19))
+        );
+        assert_eq!(leading_integer(b"17180307368727189430"), None);
+        assert_eq!(leading_integer(b"-5"), None);
+        assert_eq!(leading_integer(b"0"), Some((0, 1)));
     }
 
     #[test]

@@ -148,7 +148,7 @@ impl<I: Iterator<Item = (f64, [f64; 3])>> GridSamples<I> {
 /// The value at `t` from `nodes` (times and values), by Lagrange interpolation through
 /// `count` of them around `at` (the last node at or before `t`), fewer while the weights'
 /// absolute sum exceeds [`MAX_LEBESGUE`].
-fn interpolate(nodes: &VecDeque<(f64, [f64; 3])>, at: usize, t: f64) -> [f64; 3] {
+fn interpolate(nodes: &[(f64, [f64; 3])], at: usize, t: f64) -> [f64; 3] {
     let n = nodes.len();
     let mut weights = [0.0f64; 2 * HALF_WIDTH_ROWS];
     for half in [HALF_WIDTH_ROWS, 2, 1] {
@@ -156,24 +156,22 @@ fn interpolate(nodes: &VecDeque<(f64, [f64; 3])>, at: usize, t: f64) -> [f64; 3]
             .saturating_sub(half)
             .min(n.saturating_sub(2 * half));
         let hi = (lo + 2 * half).min(n);
-        let used = hi - lo;
+        let used = &nodes[lo..hi];
         let mut lebesgue = 0.0;
-        for i in 0..used {
-            let ti = nodes[lo + i].0;
+        for (i, (weight, &(ti, _))) in weights.iter_mut().zip(used).enumerate() {
             let mut w = 1.0;
-            for j in 0..used {
+            for (j, &(tj, _)) in used.iter().enumerate() {
                 if j != i {
-                    let tj = nodes[lo + j].0;
                     w *= (t - tj) / (ti - tj);
                 }
             }
-            weights[i] = w;
+            *weight = w;
             lebesgue += w.abs();
         }
         if lebesgue <= MAX_LEBESGUE || half == 1 {
             let mut y = [0.0; 3];
-            for (i, w) in weights[..used].iter().enumerate() {
-                for (c, v) in y.iter_mut().zip(nodes[lo + i].1) {
+            for (w, (_, v)) in weights.iter().zip(used) {
+                for (c, v) in y.iter_mut().zip(v) {
                     *c += w * v;
                 }
             }
@@ -222,7 +220,7 @@ impl<I: Iterator<Item = (f64, [f64; 3])>> Iterator for GridSamples<I> {
         if self.window.len() == 1 {
             return Some(self.window[0].1);
         }
-        Some(interpolate(&self.window, self.pos, t))
+        Some(interpolate(self.window.make_contiguous(), self.pos, t))
     }
 }
 
