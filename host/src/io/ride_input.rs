@@ -44,6 +44,7 @@ use crate::ride::conditioned::{Conditioned, Conditioning};
 use crate::ride::formats::recognize;
 use crate::ride::level::{Levelling, angles_rad, level_by_mean};
 use crate::ride::regular::DEFAULT_MAX_GAP_S;
+use crate::ride::scratch_rows::ScratchWriter;
 
 /// A vertical mean within this of +-g means gravity was left in, m/s^2: a kinematic
 /// acceleration averages to about zero over any ride (the litter ends where it started,
@@ -207,13 +208,16 @@ impl RideInputArgs {
                 SampleRate::MAX_HZ
             );
         }
-        let rows = WindowedRows {
+        let mut rows = WindowedRows {
             path: path.to_path_buf(),
             format: format.clone(),
             from_s: self.from_s.unwrap_or(f64::NEG_INFINITY),
             to_s: self.to_s.unwrap_or(f64::INFINITY),
+            parsed: None,
         };
-        let scan = Conditioned::scan(&rows, self.max_gap_s)?;
+        let mut keep = ScratchWriter::new();
+        let scan = Conditioned::scan(&rows, self.max_gap_s, &mut keep)?;
+        rows.parsed = keep.finish();
         let shown = path.display();
         let behind = scan.longest_run_behind();
         if behind.rows >= MAX_ROWS_BEHIND_A_JUMP && behind.step_s > self.max_gap_s {

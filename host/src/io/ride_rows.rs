@@ -32,6 +32,7 @@ use crate::ride::conditioned::{Conditioned, FileRows, RawRows};
 use crate::ride::formats::PositionColumns;
 use crate::ride::position::Track;
 use crate::ride::quality::DataQuality;
+use crate::ride::scratch_rows::ScratchRows;
 
 /// Most characters of header fields an error lists (a logger's header can be long, and an
 /// error stays within about 200 characters).
@@ -514,7 +515,8 @@ pub struct RideSource {
 }
 
 /// The rows of a logger's file within a time window (`--from-s`, `--to-s`), raw: time
-/// (s), x, y, z (m/s^2, the file's axes).
+/// (s), x, y, z (m/s^2, the file's axes); parsed from the text, or read from the scan's
+/// scratch copy once there is one.
 #[derive(Clone, Debug)]
 pub struct WindowedRows {
     /// The file.
@@ -525,10 +527,15 @@ pub struct WindowedRows {
     pub from_s: f64,
     /// Rows after this time are skipped, s.
     pub to_s: f64,
+    /// The rows in the window as the scan parsed them.
+    pub parsed: Option<ScratchRows>,
 }
 
 impl RawRows for WindowedRows {
     fn open_rows(&self) -> Result<FileRows<'_>> {
+        if let Some(parsed) = &self.parsed {
+            return parsed.open_rows();
+        }
         let mut rows = ForeignRows::open(&self.path, &self.format)?;
         let (from_s, to_s) = (self.from_s, self.to_s);
         Ok(Box::new(std::iter::from_fn(move || {

@@ -1,6 +1,8 @@
 //! A ride from any clock, as the evaluations take it: one pass over the file gathers the
-//! data-quality account and the stretches between gaps ([`Conditioned::scan`]); each
-//! later pass reads the rows again and gives the levelled samples on a uniform grid at
+//! data-quality account and the stretches between gaps ([`Conditioned::scan`]), and
+//! keeps the rows it parsed in a scratch file ([`crate::ride::scratch_rows`]); each
+//! later pass reads the rows again (from there, or the text where no scratch file could
+//! be written) and gives the levelled samples on a uniform grid at
 //! the evaluation's rate ([`Conditioned::samples`]), stretch after stretch, so the
 //! exposure pauses across each gap. Memory holds a line, the interpolation's 9 rows, the
 //! resampling kernel's width and the step histogram, whatever the ride's length.
@@ -21,6 +23,7 @@ use crate::ride::level::Levelling;
 use crate::ride::quality::{DataQuality, Scan};
 use crate::ride::regular::{Cleaner, GridSamples, RowFate, grid_len};
 use crate::ride::resample::Resampler;
+use crate::ride::scratch_rows::ScratchWriter;
 
 /// Rates closer than this (relative) are taken as the same: no rate conversion.
 pub const SAME_RATE_TOLERANCE: f64 = 0.01;
@@ -65,12 +68,14 @@ pub struct Conditioned {
 }
 
 impl Conditioned {
-    /// One pass over `rows`: the scan, from which the rest is decided.
-    pub fn scan(rows: &dyn RawRows, max_gap_s: f64) -> Result<Scan> {
+    /// One pass over `rows`: the scan, from which the rest is decided; each row is
+    /// written to `keep` as it is read, for the passes after.
+    pub fn scan(rows: &dyn RawRows, max_gap_s: f64, keep: &mut ScratchWriter) -> Result<Scan> {
         let mut cleaner = Cleaner::new(max_gap_s);
         let mut scan = Scan::new();
         for row in rows.open_rows()? {
             let (line, t, v) = row?;
+            keep.push(line, t, v);
             let fate = cleaner.take(t, v);
             scan.take(line, t, v, fate);
         }

@@ -12,6 +12,8 @@
 //! - [`units`]: the acceleration columns' unit.
 //! - [`resample`]: the band-limited, zero-phase resampler.
 //! - [`conditioned`]: the passes over a ride that give its uniform, levelled samples.
+//! - [`scratch_rows`]: a ride's rows parsed once, kept in a scratch file for the passes
+//!   after the scan.
 
 pub mod clock;
 pub mod conditioned;
@@ -21,4 +23,5 @@ pub mod position;
 pub mod quality;
 pub mod regular;
 pub mod resample;
+pub mod scratch_rows;
 pub mod units;
