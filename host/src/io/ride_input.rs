@@ -186,7 +186,8 @@ impl RideInputArgs {
     }
 
     /// Opens the ride at `path` to be read row by row (see the module's description):
-    /// one pass for the scan and the checks; each of the source's passes reads it again.
+    /// one pass for the scan and the checks, which keeps the rows it parsed
+    /// ([`crate::ride::scratch_rows`]); each of the source's passes reads them again.
     /// `frame` is the parameters' `[device.calibration]` and `[device.mounting]`, used with
     /// `--mounting` or when either is not the default.
     pub fn open(&self, path: &Path, frame: &SensorFrame) -> Result<RideSource> {
@@ -216,7 +217,7 @@ impl RideInputArgs {
             parsed: None,
         };
         let mut keep = ScratchWriter::new();
-        let scan = Conditioned::scan(&rows, self.max_gap_s, &mut keep)?;
+        let scan = Conditioned::scan_keeping(&rows, self.max_gap_s, &mut keep)?;
         rows.parsed = keep.finish();
         let shown = path.display();
         let behind = scan.longest_run_behind();

@@ -7,7 +7,8 @@
 //! uniform; [`crate::io::ride_input`] adds the gravity check) and whose length, rate and
 //! start are known, so that evaluations that need them before the first sample (the
 //! warm-up check, the spectra's segment length, the charts' bucket width) have them.
-//! Each [`RideSource::rows`] reads the file once more. A recording already in memory (the
+//! Each [`RideSource::rows`] reads the rows once more (a logger's file: from the scan's
+//! scratch copy, [`crate::ride::scratch_rows`]). A recording already in memory (the
 //! demo's, tests') is a source too, so there is one evaluation code path.
 //!
 //! Another logger's file (`--columns`) is read by [`ForeignRows`]: the four named columns

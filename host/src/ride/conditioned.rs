@@ -68,9 +68,18 @@ pub struct Conditioned {
 }
 
 impl Conditioned {
-    /// One pass over `rows`: the scan, from which the rest is decided; each row is
-    /// written to `keep` as it is read, for the passes after.
-    pub fn scan(rows: &dyn RawRows, max_gap_s: f64, keep: &mut ScratchWriter) -> Result<Scan> {
+    /// One pass over `rows`: the scan, from which the rest is decided.
+    pub fn scan(rows: &dyn RawRows, max_gap_s: f64) -> Result<Scan> {
+        Self::scan_keeping(rows, max_gap_s, &mut ScratchWriter::nowhere())
+    }
+
+    /// [`scan`](Self::scan), each row written to `keep` as it is read, for the passes
+    /// after.
+    pub fn scan_keeping(
+        rows: &dyn RawRows,
+        max_gap_s: f64,
+        keep: &mut ScratchWriter,
+    ) -> Result<Scan> {
         let mut cleaner = Cleaner::new(max_gap_s);
         let mut scan = Scan::new();
         for row in rows.open_rows()? {
