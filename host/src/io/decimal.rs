@@ -40,90 +40,56 @@ pub fn exact_decimal(cell: &[u8]) -> Option<f64> {
 pub fn leading_decimal(text: &[u8]) -> Option<(f64, usize)> {
     let negative = text.first() == Some(&b'-');
     let start = usize::from(negative);
-    let (mut mantissa, mut count) = digit_run(&text[start..], 0);
-    let mut end = start + count;
+    // Wrapping: a number of more than MAX_DIGITS digits is refused after the walk.
+    let mut mantissa = 0u64;
+    let mut i = start;
+    while let Some(d) = text
+        .get(i)
+        .map(|b| b.wrapping_sub(b'0'))
+        .filter(|d| *d <= 9)
+    {
+        mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
+        i += 1;
+    }
+    let mut count = i - start;
     let mut fraction = 0;
-    if text.get(end) == Some(&b'.') {
-        let (whole, digits) = digit_run(&text[end + 1..], mantissa);
-        mantissa = whole;
-        fraction = digits;
-        count += digits;
-        end += 1 + digits;
+    if text.get(i) == Some(&b'.') {
+        i += 1;
+        let first = i;
+        while let Some(d) = text
+            .get(i)
+            .map(|b| b.wrapping_sub(b'0'))
+            .filter(|d| *d <= 9)
+        {
+            mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
+            i += 1;
+        }
+        fraction = i - first;
+        count += fraction;
     }
     if count == 0 || count > MAX_DIGITS || mantissa > MAX_EXACT {
         return None;
     }
     let value = mantissa as f64 / POW10[fraction];
-    Some((if negative { -value } else { value }, end))
+    Some((if negative { -value } else { value }, i))
 }
 
 /// The unsigned integer of at most [`MAX_DIGITS`] digits at the start of `text` and the
 /// digits it takes; `None` when `text` does not start with a digit or the integer is
 /// longer.
 pub fn leading_integer(text: &[u8]) -> Option<(u64, usize)> {
-    let (value, count) = digit_run(text, 0);
-    (count > 0 && count <= MAX_DIGITS).then_some((value, count))
-}
-
-/// `mantissa` followed by the digits at the start of `text` (wrapping past u64: callers
-/// refuse more than [`MAX_DIGITS`] digits), and how many digits there are (past
-/// `MAX_DIGITS`, at least that many: the walk stops there).
-fn digit_run(text: &[u8], mut mantissa: u64) -> (u64, usize) {
-    let mut used = 0;
-    loop {
-        let (value, count) = eight_digits(&text[used..]);
-        mantissa = mantissa.wrapping_mul(POW10_U64[count]).wrapping_add(value);
-        used += count;
-        if count < 8 || used > MAX_DIGITS {
-            return (mantissa, used);
-        }
+    let mut value = 0u64;
+    let mut i = 0;
+    while let Some(d) = text
+        .get(i)
+        .map(|b| b.wrapping_sub(b'0'))
+        .filter(|d| *d <= 9)
+    {
+        value = value.wrapping_mul(10).wrapping_add(u64::from(d));
+        i += 1;
     }
+    (i > 0 && i <= MAX_DIGITS).then_some((value, i))
 }
-
-/// The digits at the start of `text`, up to 8 of them, read at once as one u64's bytes
-/// (the SWAR way `fast_float2` reads eight digits): their value and count.
-#[inline]
-fn eight_digits(text: &[u8]) -> (u64, usize) {
-    let word = match text.first_chunk::<8>() {
-        Some(bytes) => u64::from_le_bytes(*bytes),
-        None => {
-            // Zero bytes after the text: not digits, so the run ends with it.
-            let mut bytes = [0u8; 8];
-            bytes[..text.len()].copy_from_slice(text);
-            u64::from_le_bytes(bytes)
-        }
-    };
-    // Each byte less '0': a digit is 0..=9; any other byte is 10 or more, or has its top
-    // bit set (not ASCII). Adding 0x76 to the low seven bits sets the top bit from 10 on,
-    // without a carry into the next byte.
-    let x = word ^ 0x3030_3030_3030_3030;
-    let not_digit =
-        (((x & 0x7f7f_7f7f_7f7f_7f7f) + 0x7676_7676_7676_7676) | x) & 0x8080_8080_8080_8080;
-    let count = (not_digit.trailing_zeros() / 8) as usize;
-    if count == 0 {
-        return (0, 0);
-    }
-    // The first digit is the lowest byte: shifted up, the digits keep their order and the
-    // zero bytes below them are leading zeros.
-    let v = x << (8 * (8 - count));
-    let v = v.wrapping_mul(10).wrapping_add(v >> 8);
-    let low = (v & 0x0000_00ff_0000_00ff).wrapping_mul(100 + (1_000_000 << 32));
-    let high = ((v >> 16) & 0x0000_00ff_0000_00ff).wrapping_mul(1 + (10_000 << 32));
-    (low.wrapping_add(high) >> 32, count)
-}
-
-/// 10^k as integers, k = 0..=8 (the digits [`eight_digits`] reads at once).
-const POW10_U64: [u64; 9] = [
-    1,
-    10,
-    100,
-    1_000,
-    10_000,
-    100_000,
-    1_000_000,
-    10_000_000,
-    100_000_000,
-];
 
 #[cfg(test)]
 mod tests {
