@@ -226,7 +226,7 @@ impl LineReader {
                 Some(k) => {
                     let (v, used) = leading_decimal(rest)?;
                     let v = v * self.scale;
-                    if !(v.abs() <= MAX_ACCELERATION_M_S2) {
+                    if v.abs() > MAX_ACCELERATION_M_S2 {
                         return None;
                     }
                     value[k - 1] = v;
