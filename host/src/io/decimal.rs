@@ -40,8 +40,32 @@ pub fn exact_decimal(cell: &[u8]) -> Option<f64> {
 pub fn leading_decimal(text: &[u8]) -> Option<(f64, usize)> {
     let negative = text.first() == Some(&b'-');
     let start = usize::from(negative);
-    // Wrapping: a number of more than MAX_DIGITS digits is refused after the walk.
-    let mut mantissa = 0u64;
+    let (mut mantissa, mut end) = digit_run(text, start, 0);
+    let mut count = end - start;
+    let mut fraction = 0;
+    if text.get(end) == Some(&b'.') {
+        (mantissa, end) = digit_run(text, end + 1, mantissa);
+        fraction = end - (start + count + 1);
+        count += fraction;
+    }
+    if count == 0 || count > MAX_DIGITS || mantissa > MAX_EXACT {
+        return None;
+    }
+    let value = mantissa as f64 / POW10[fraction];
+    Some((if negative { -value } else { value }, end))
+}
+
+/// The unsigned integer of at most [`MAX_DIGITS`] digits at the start of `text` and the
+/// digits it takes; `None` when `text` does not start with a digit or the integer is
+/// longer.
+pub fn leading_integer(text: &[u8]) -> Option<(u64, usize)> {
+    let (value, end) = digit_run(text, 0, 0);
+    (end > 0 && end <= MAX_DIGITS).then_some((value, end))
+}
+
+/// `mantissa` followed by the digits of `text` from `start` on, and where they end.
+/// Wrapping: callers refuse more than [`MAX_DIGITS`] digits after the walk.
+fn digit_run(text: &[u8], start: usize, mut mantissa: u64) -> (u64, usize) {
     let mut i = start;
     while let Some(d) = text
         .get(i)
@@ -51,44 +75,7 @@ pub fn leading_decimal(text: &[u8]) -> Option<(f64, usize)> {
         mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
         i += 1;
     }
-    let mut count = i - start;
-    let mut fraction = 0;
-    if text.get(i) == Some(&b'.') {
-        i += 1;
-        let first = i;
-        while let Some(d) = text
-            .get(i)
-            .map(|b| b.wrapping_sub(b'0'))
-            .filter(|d| *d <= 9)
-        {
-            mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
-            i += 1;
-        }
-        fraction = i - first;
-        count += fraction;
-    }
-    if count == 0 || count > MAX_DIGITS || mantissa > MAX_EXACT {
-        return None;
-    }
-    let value = mantissa as f64 / POW10[fraction];
-    Some((if negative { -value } else { value }, i))
-}
-
-/// The unsigned integer of at most [`MAX_DIGITS`] digits at the start of `text` and the
-/// digits it takes; `None` when `text` does not start with a digit or the integer is
-/// longer.
-pub fn leading_integer(text: &[u8]) -> Option<(u64, usize)> {
-    let mut value = 0u64;
-    let mut i = 0;
-    while let Some(d) = text
-        .get(i)
-        .map(|b| b.wrapping_sub(b'0'))
-        .filter(|d| *d <= 9)
-    {
-        value = value.wrapping_mul(10).wrapping_add(u64::from(d));
-        i += 1;
-    }
-    (i > 0 && i <= MAX_DIGITS).then_some((value, i))
+    (mantissa, i)
 }
 
 #[cfg(test)]
