@@ -181,10 +181,12 @@ def measure_speed(supine, d, directory, tolerance, supine_tolerance):
     _, row["rust_rigid_s"] = run([supine, "fit", "--dataset", directory, "--case", "rigid",
                                   "--out", rigid] + tolerance_args(supine_tolerance))
     row["rust_rigid_cpu_s"] = run.cpu_s
+    row["rust_rigid_cost"] = final_cost(rigid)
     out, _ = run([sys.executable, os.path.join(HERE, "scipy_fit.py"), "--dataset", directory,
                   "--json", "--case", "rigid"] + tolerance_args(tolerance))
     sp = json.loads(out.stdout)
     row["scipy_rigid_s"], row["scipy_rigid_cpu_s"] = sp["fit_s"], sp["fit_cpu_s"]
+    row["scipy_rigid_cost"] = sp["best_cost"]
     row["speedup"] = row["scipy_rigid_s"] / row["rust_rigid_s"]
     row["cpu_speedup"] = row["scipy_rigid_cpu_s"] / row["rust_rigid_cpu_s"]
     return row
@@ -193,7 +195,11 @@ def measure_speed(supine, d, directory, tolerance, supine_tolerance):
 def speed_summary(rows):
     for r in rows:
         print(f"seed {r['seed']}: load {r['load']:.2f}, supine {r['rust_rigid_s']:.3f} s, "
-              f"SciPy {r['scipy_rigid_s']:.2f} s, {r['speedup']:.1f}x ({r['cpu_speedup']:.1f}x CPU)")
+              f"SciPy {r['scipy_rigid_s']:.2f} s, {r['speedup']:.1f}x ({r['cpu_speedup']:.1f}x CPU), "
+              f"rigid cost {r['rust_rigid_cost']:.6f} vs {r['scipy_rigid_cost']:.6f}")
+    above = [r["seed"] for r in rows
+             if r["rust_rigid_cost"] > r["scipy_rigid_cost"] * (1 + SAME_MINIMUM)]
+    print(f"rigid cost above SciPy's on {len(above)} of {len(rows)}: {above}")
     for name in ("speedup", "cpu_speedup", "load", "rust_rigid_s", "scipy_rigid_s"):
         values = [r[name] for r in rows]
         print(f"{name}: min {min(values):.3f}, median {statistics.median(values):.3f}, "

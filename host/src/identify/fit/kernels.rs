@@ -1,8 +1,8 @@
 //! The fit's two hot loops, the part evaluation (`Objective::evaluate_scope`, with the
 //! block solve inlined into it) and J^T J (`part::gram_dense`), are each compiled twice:
 //! for the x86-64 baseline (SSE2) and with AVX2, and the AVX2 build runs where the CPU
-//! has it. A [`super::block_solve::Lane`] of four f64 is then one register instead of
-//! two, and `round` one instruction instead of a software routine.
+//! has it. A [`super::block_solve::Lane`] of eight f64 is then two registers instead of
+//! four, and `round` one instruction instead of a software routine.
 //!
 //! Both builds give the same bits: the same operations in the same order, only wider. No
 //! FMA is enabled, and Rust never fuses a multiply and an add on its own. The tests of
