@@ -5,7 +5,7 @@
 //! object whose key carries the unit (`"rms_m_s2": {"x": ..}`) or that states it in a
 //! `unit` field (a joint output's `rms` in `mm` or `deg`). As `cli_conventions.rs` does
 //! for flags. (The device's outputs, `replay`, `monitor` and `demo`, need QEMU: their
-//! JSON and CSV go through the same records, checked in `tests/tests`.)
+//! records are built here, and `demo --json` with its files is walked in `tests/tests/demo.rs`.)
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

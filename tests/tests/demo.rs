@@ -4,6 +4,7 @@
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
+use supine_host::schema::names;
 use supine_qemu_tests::{
     firmware, qemu_cmdline, signal_and_wait, supine_binary, wait_for_qemu_child,
 };
@@ -199,6 +200,43 @@ fn supine_demo_writes_a_self_contained_report_whose_summary_matches_its_csv_file
         let name = entry.file_name().to_string_lossy().into_owned();
         assert!(!name.contains("partial"), "{name} left behind");
     }
+}
+
+/// `demo --json` and every CSV file the demo writes follow the output vocabulary, as
+/// `host/tests/output_names.rs` holds every command that runs without QEMU to it.
+#[test]
+fn the_demos_json_and_files_follow_the_naming_rules() {
+    firmware(supine_host::device::firmware::PRODUCT_BINARY);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("demo");
+    let output = Command::new(supine_binary())
+        .args(["demo", "--duration-s", "10", "--json", "--out"])
+        .arg(&out)
+        .output()
+        .expect("supine runs");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    // The steps go to stderr; stdout is the one JSON object.
+    assert!(stderr.contains("[1/7] "), "{stderr}");
+    let json: serde_json::Value =
+        serde_json::from_slice(&output.stdout).expect("stdout is one JSON object");
+    assert!(json.get("report").is_some(), "{json}");
+    let mut problems = names::json_problems(&json, "demo --json");
+    let mut csv_files = 0;
+    for entry in std::fs::read_dir(&out)
+        .expect("the demo's folder")
+        .flatten()
+    {
+        let path = entry.path();
+        if path.extension().is_some_and(|e| e == "csv") {
+            let text = std::fs::read_to_string(&path).expect("a CSV file");
+            let name = path.file_name().unwrap().to_string_lossy().into_owned();
+            problems.extend(names::csv_problems(&text, &name));
+            csv_files += 1;
+        }
+    }
+    assert!(csv_files >= 3, "{csv_files} CSV files");
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
 
 #[test]

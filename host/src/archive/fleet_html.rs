@@ -47,9 +47,41 @@ fn ticks(lo: f64, hi: f64) -> Vec<f64> {
 }
 
 fn date(epoch_s: f64) -> String {
+    utc(epoch_s, "%Y-%m-%d")
+}
+
+fn utc(epoch_s: f64, format: &str) -> String {
     Timestamp::from_second(epoch_s as i64)
-        .map(|t| t.strftime("%Y-%m-%d").to_string())
+        .map(|t| t.strftime(format).to_string())
         .unwrap_or_default()
+}
+
+/// Ticks for a time axis over `[lo, hi]` (Unix seconds), with their labels: at most about
+/// six, at whole multiples of a calendar step (hours, days, weeks) counted from the epoch,
+/// so every label is a distinct round time (a step of 1, 2 or 5 times a power of ten
+/// seconds put several ticks in one day, each labelled with the same date).
+fn time_ticks(lo: f64, hi: f64) -> Vec<(f64, String)> {
+    const HOUR_S: f64 = 3_600.0;
+    const DAY_S: f64 = 86_400.0;
+    let mut steps_s = [1.0, 3.0, 6.0, 12.0]
+        .map(|h| h * HOUR_S)
+        .into_iter()
+        .chain([1.0, 2.0, 7.0, 14.0, 28.0, 91.0, 182.0, 364.0].map(|d| d * DAY_S));
+    let span = hi - lo;
+    let step = steps_s
+        .find(|step| span / step <= 6.0)
+        .unwrap_or_else(|| (span / 6.0 / (364.0 * DAY_S)).ceil() * 364.0 * DAY_S);
+    let format = if step < DAY_S {
+        "%Y-%m-%d %H:%M"
+    } else {
+        "%Y-%m-%d"
+    };
+    let first = (lo / step).ceil() as i64;
+    let last = (hi / step).floor() as i64;
+    (first..=last)
+        .map(|k| k as f64 * step)
+        .map(|t| (t, utc(t, format)))
+        .collect()
 }
 
 /// The page.
@@ -133,7 +165,7 @@ fn timeline(h: &mut String, view: &FleetView) {
             y + 4.0
         );
     }
-    for t in ticks(x0, x1) {
+    for (t, label) in time_ticks(x0, x1) {
         let x = sx(t);
         let _ = write!(
             h,
@@ -141,7 +173,7 @@ fn timeline(h: &mut String, view: &FleetView) {
              <text x=\"{x:.1}\" y=\"{}\" text-anchor=\"middle\">{}</text>",
             ht - bottom,
             ht - bottom + 14.0,
-            date(t)
+            label
         );
     }
     for p in points {
@@ -543,5 +575,33 @@ mod tests {
         let t = ticks(3.0, 47.0);
         assert_eq!(t.first().copied(), Some(10.0));
         assert_eq!(t.last().copied(), Some(40.0));
+    }
+
+    #[test]
+    fn time_ticks_are_distinct_round_times_within_the_range() {
+        // 2026-03-02 09:30 UTC, then spans of a day, a month and three years.
+        let start = 1_772_443_800.0;
+        for (span_s, label_len) in [
+            (86_400.0, 16),
+            (30.0 * 86_400.0, 10),
+            (3.0e3 * 86_400.0, 10),
+        ] {
+            let ticks = time_ticks(start, start + span_s);
+            assert!((2..=7).contains(&ticks.len()), "{ticks:?}");
+            let labels: std::collections::BTreeSet<&String> =
+                ticks.iter().map(|(_, l)| l).collect();
+            assert_eq!(labels.len(), ticks.len(), "{ticks:?}");
+            for (t, label) in &ticks {
+                assert!((start..=start + span_s).contains(t), "{ticks:?}");
+                assert_eq!(label.len(), label_len, "{label}");
+            }
+        }
+        // Days fall on midnight UTC.
+        assert!(
+            time_ticks(start, start + 30.0 * 86_400.0)
+                .iter()
+                .all(|(t, _)| t % 86_400.0 == 0.0)
+        );
+        assert_eq!(time_ticks(start, start + 86_400.0)[0].1, "2026-03-02 12:00");
     }
 }

@@ -15,6 +15,7 @@ use crate::archive::store::{self, Filter};
 use crate::archive::{fhir, fleet_html};
 use crate::commands::report::{MissionArgs, mission_report};
 use crate::io::output::{write_all_atomically, write_atomically};
+use crate::io::wording::count;
 
 /// Arguments of `supine archive`.
 #[derive(Debug, clap::Args)]
@@ -220,9 +221,9 @@ pub fn run_to(args: &Args, out: &mut impl Write) -> Result<()> {
                 print(out, format!("{id}\n"))?;
             }
             eprintln!(
-                "archived mission {id} in {}: {} leg(s), {:.1} s, VDV {:.3} m/s^1.75",
+                "archived mission {id} in {}: {}, {:.1} s, VDV {:.3} m/s^1.75",
                 location.display(),
-                report.legs.len(),
+                count(report.legs.len(), "leg"),
                 report.mission.duration_s,
                 report.mission.vector.vdv_m_s175
             );

@@ -13,6 +13,7 @@ use crate::identify::spectral::DEFAULT_RESOLUTION_HZ;
 use crate::identify::transmissibility::estimate;
 use crate::io::dataset::{Case, Dataset};
 use crate::io::h_csv::{self, rows};
+use crate::io::wording::count;
 
 /// Arguments of `supine transmissibility`.
 #[derive(Debug, clap::Args)]
@@ -71,9 +72,9 @@ pub fn run(args: &Args) -> Result<()> {
         return json_output::print(&TransmissibilitySummary::new(&est, args.out.clone()));
     }
     eprintln!(
-        "wrote {} ({} subject(s), {} frequencies at {:.4} Hz: Hann, {} samples, {} overlap, {} segments)",
+        "wrote {} ({}, {} frequencies at {:.4} Hz: Hann, {} samples, {} overlap, {} segments)",
         args.out.display(),
-        est.subjects.len(),
+        count(est.subjects.len(), "subject"),
         est.freqs_hz.len(),
         est.settings.resolution_hz(est.sample_rate_hz),
         est.settings.segment_len,

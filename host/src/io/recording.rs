@@ -67,8 +67,11 @@ pub const OLD_COLUMNS: [&str; 13] = [
     "pelvis_z",
 ];
 
+/// A naming of the 13 recording columns: [`COLUMNS`] or [`OLD_COLUMNS`].
+type Naming = &'static [&'static str; 13];
+
 /// The namings a recording's header may use: today's, then the one before units.
-const NAMINGS: [&[&str; 13]; 2] = [&COLUMNS, &OLD_COLUMNS];
+const NAMINGS: [Naming; 2] = [&COLUMNS, &OLD_COLUMNS];
 
 /// Whether `header` names the 13 recording columns, in either naming ([`COLUMNS`],
 /// [`OLD_COLUMNS`]).
@@ -102,7 +105,7 @@ pub const PREDICTED_JOINT_COLUMNS: [&str; 10] = [
 
 /// The name of column `c` (0-based) of a file in the prediction layout, the widest, in
 /// `naming` ([`NAMINGS`]).
-fn column_name(naming: &[&'static str; 13], c: usize) -> &'static str {
+fn column_name(naming: Naming, c: usize) -> &'static str {
     match c.checked_sub(naming.len()) {
         None => naming[c],
         Some(j) => PREDICTED_JOINT_COLUMNS.get(j).copied().unwrap_or("(none)"),
@@ -464,6 +467,8 @@ struct RowReader<R: Read> {
     lines: CsvLines<R>,
     path: PathBuf,
     layout: Layout,
+    /// The header's naming, which errors name a cell's column in.
+    naming: Naming,
     previous_s: f64,
 }
 
@@ -471,7 +476,7 @@ impl<R: Read> RowReader<R> {
     /// Reads the header of `source` (in one of the `accepted` layouts).
     fn new(source: R, path: &Path, accepted: &[Layout]) -> Result<Self, RecordingError> {
         let mut lines = CsvLines::new(source);
-        let layout = match lines.next_row().map_err(|e| line_error(path, e))? {
+        let (layout, naming) = match lines.next_row().map_err(|e| line_error(path, e))? {
             Some(header) => check_header(&header, path, accepted)?,
             None => {
                 return Err(RecordingError::Empty {
@@ -483,6 +488,7 @@ impl<R: Read> RowReader<R> {
             lines,
             path: path.to_path_buf(),
             layout,
+            naming,
             previous_s: f64::NEG_INFINITY,
         })
     }
@@ -498,9 +504,9 @@ impl<R: Read> RowReader<R> {
         };
         let line = text.line;
         let columns = self.layout.columns();
-        let row = match plain_row(&text, columns) {
+        let row = match plain_row(&text, columns, self.naming) {
             Some(row) => row,
-            None => split_row(&self.path, text.split(), columns)?,
+            None => split_row(&self.path, text.split(), columns, self.naming)?,
         };
         if row[0] <= self.previous_s {
             return Err(RecordingError::TimeNotIncreasing {
@@ -515,8 +521,14 @@ impl<R: Read> RowReader<R> {
     }
 }
 
-/// A line's 13 numbers, cell by cell, with every check and error of the format.
-fn split_row(path: &Path, cells: Row, columns: usize) -> Result<[f64; 13], RecordingError> {
+/// A line's 13 numbers, cell by cell, with every check and error of the format (naming
+/// each cell's column as the header does).
+fn split_row(
+    path: &Path,
+    cells: Row,
+    columns: usize,
+    naming: Naming,
+) -> Result<[f64; 13], RecordingError> {
     let line = cells.line;
     if cells.len() != columns {
         return Err(RecordingError::CellCount {
@@ -528,8 +540,8 @@ fn split_row(path: &Path, cells: Row, columns: usize) -> Result<[f64; 13], Recor
     }
     let mut row = [0.0f64; 13];
     for (c, cell) in cells.cells().enumerate() {
-        let value = parse_cell(cell, column_name(&COLUMNS, c))
-            .map_err(|e| e.at(path.to_path_buf(), line))?;
+        let value =
+            parse_cell(cell, column_name(naming, c)).map_err(|e| e.at(path.to_path_buf(), line))?;
         if let Some(slot) = row.get_mut(c) {
             *slot = value;
         }
@@ -547,7 +559,7 @@ fn split_row(path: &Path, cells: Row, columns: usize) -> Result<[f64; 13], Recor
 /// (white space around a number, infinity, a missing cell, a number out of range, a first
 /// line's byte order mark) is None, and [`split_row`] reads the line and names what is
 /// wrong.
-fn plain_row(line: &Line, columns: usize) -> Option<[f64; 13]> {
+fn plain_row(line: &Line, columns: usize, naming: Naming) -> Option<[f64; 13]> {
     if line.is_first() {
         return None;
     }
@@ -556,7 +568,7 @@ fn plain_row(line: &Line, columns: usize) -> Option<[f64; 13]> {
     for c in 0..columns {
         let (value, used) = fast_float2::parse_partial::<f64, _>(rest).ok()?;
         let cell = &rest[..used];
-        check_value(value, cell, column_name(&COLUMNS, c)).ok()?;
+        check_value(value, cell, column_name(naming, c)).ok()?;
         if let Some(slot) = row.get_mut(c) {
             *slot = value;
         }
@@ -711,13 +723,13 @@ fn read_layouts(path: &Path, accepted: &[Layout]) -> Result<(Recording, Layout),
     Recording::from_reader(file, path, accepted)
 }
 
-/// Which of the `accepted` layouts the header names (in either naming), or where it first
+/// Which of the `accepted` layouts the header names and in which naming, or where it first
 /// differs from the full header in the naming it follows further.
 fn check_header(
     header: &Row<'_>,
     path: &Path,
     accepted: &[Layout],
-) -> Result<Layout, RecordingError> {
+) -> Result<(Layout, Naming), RecordingError> {
     for layout in accepted {
         let n = layout.columns();
         for naming in NAMINGS {
@@ -727,11 +739,11 @@ fn check_header(
                     .enumerate()
                     .all(|(c, cell)| cell == column_name(naming, c).as_bytes())
             {
-                return Ok(*layout);
+                return Ok((*layout, naming));
             }
         }
     }
-    let agreeing = |naming: &[&str; 13]| {
+    let agreeing = |naming: Naming| {
         (0..header.len().min(naming.len()))
             .take_while(|&i| header.cell(i) == naming[i].as_bytes())
             .count()
@@ -987,8 +999,11 @@ mod tests {
         lines.next_row().unwrap();
         let mut out = Vec::new();
         while let Some(line) = lines.next_line().unwrap() {
-            let plain = plain_row(&line, columns);
-            out.push((plain, split_row(Path::new("r.csv"), line.split(), columns)));
+            let plain = plain_row(&line, columns, &COLUMNS);
+            out.push((
+                plain,
+                split_row(Path::new("r.csv"), line.split(), columns, &COLUMNS),
+            ));
         }
         out
     }
@@ -1082,6 +1097,22 @@ mod tests {
             assert!(
                 whole.contains("line 12") || whole.contains("at least 2"),
                 "{whole}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_bad_cell_is_named_as_the_files_header_names_its_column() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("ride.csv");
+        let bad = ride_text(50).replacen("\r\n0.09,0.009,", "\r\n0.09,x,", 1);
+        let old = bad.replacen(PLATFORM_HEADER_LINE, &OLD_COLUMNS[..4].join(","), 1);
+        for (text, column) in [(bad, "platform_x_m_s2"), (old, "platform_x")] {
+            std::fs::write(&path, text).unwrap();
+            let error = read_input(&path).unwrap_err().to_string();
+            assert!(
+                error.contains(&format!("line 12, column {column}:")),
+                "{error}"
             );
         }
     }
