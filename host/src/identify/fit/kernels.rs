@@ -22,7 +22,12 @@ use nalgebra::{DMatrix, DVector};
 /// sums s0..s3 and s4..s7 are then one register each. The solver forms it once per
 /// accepted step (the gradient) and once per geodesic acceleration.
 pub fn tr_mul_vec(jacobian: &DMatrix<f64>, v: &[f64]) -> DVector<f64> {
-    assert_eq!(jacobian.nrows(), v.len(), "J^T v: J has {} rows", jacobian.nrows());
+    assert_eq!(
+        jacobian.nrows(),
+        v.len(),
+        "J^T v: J has {} rows",
+        jacobian.nrows()
+    );
     #[cfg(target_arch = "x86_64")]
     if avx2() {
         // SAFETY: the CPU has AVX2 (checked just above).
@@ -49,23 +54,28 @@ fn tr_mul_vec_portable(jacobian: &DMatrix<f64>, v: &[f64]) -> DVector<f64> {
     let full = m / 8 * 8;
     DVector::from_iterator(
         jacobian.ncols(),
-        data.chunks_exact(m.max(1)).take(jacobian.ncols()).map(|column| {
-            let (mut low, mut high) = ([0.0f64; 4], [0.0f64; 4]);
-            for (x, y) in column[..full].chunks_exact(8).zip(v[..full].chunks_exact(8)) {
-                for k in 0..4 {
-                    low[k] += x[k] * y[k];
-                    high[k] += x[k + 4] * y[k + 4];
+        data.chunks_exact(m.max(1))
+            .take(jacobian.ncols())
+            .map(|column| {
+                let (mut low, mut high) = ([0.0f64; 4], [0.0f64; 4]);
+                for (x, y) in column[..full]
+                    .chunks_exact(8)
+                    .zip(v[..full].chunks_exact(8))
+                {
+                    for k in 0..4 {
+                        low[k] += x[k] * y[k];
+                        high[k] += x[k + 4] * y[k + 4];
+                    }
                 }
-            }
-            let mut sum = 0.0;
-            for k in 0..4 {
-                sum += low[k] + high[k];
-            }
-            for (x, y) in column[full..].iter().zip(&v[full..]) {
-                sum += x * y;
-            }
-            sum
-        }),
+                let mut sum = 0.0;
+                for k in 0..4 {
+                    sum += low[k] + high[k];
+                }
+                for (x, y) in column[full..].iter().zip(&v[full..]) {
+                    sum += x * y;
+                }
+                sum
+            }),
     )
 }
 
@@ -85,7 +95,11 @@ mod tests {
             let v: Vec<f64> = (0..rows).map(|_| rng.random_range(-1.0..1.0)).collect();
             let expected = jacobian.tr_mul(&DVector::from_column_slice(&v));
             let bits = |x: &DVector<f64>| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
-            assert_eq!(bits(&tr_mul_vec(&jacobian, &v)), bits(&expected), "{rows} rows");
+            assert_eq!(
+                bits(&tr_mul_vec(&jacobian, &v)),
+                bits(&expected),
+                "{rows} rows"
+            );
             assert_eq!(
                 bits(&tr_mul_vec_portable(&jacobian, &v)),
                 bits(&expected),
