@@ -33,6 +33,8 @@ are reported. The `-wide` sets cycle through (spread 0.5, independent), (0.5, co
 0.8) and (0.3, correlated 0.8). Issue 30's choice of the pipeline's rigid minimum was made
 on `selection-pipeline` (3001-3012, as wide), after `report-wide` had been seen; its
 figures come from `report-pipeline` (4001-4024, as wide), run once after it.
+`selection-starts` (5001-5012, as wide) weighs more rigid starts against the pipeline's
+losses (`--starts`, passed to supine's rigid fits).
 
 Pipeline against pipeline is also scored on both cases' data together: m_r ln C_r + m_l
 ln C_l of supine's kept pair less SciPy's pair's (-2 ln of their likelihood ratio, each
@@ -43,7 +45,7 @@ machine after a full pass has recorded the costs.
 
 Usage: fit_robustness.py --set NAME [--set NAME ...] [--only K ...] [--supine BIN]
        [--root DIR] [--tolerance 1e-8] [--supine-tolerance T] [--json OUT.json]
-       [--speed-only]
+       [--speed-only] [--starts N]
 """
 
 import argparse
@@ -67,7 +69,8 @@ NARROW = [(0.15, 0.0), (0.3, 0.0)]
 WIDE = [(0.5, 0.0), (0.5, 0.8), (0.3, 0.8)]
 SETS = {"selection": (1001, 12, NARROW), "report": (2001, 24, NARROW),
         "selection-wide": (1101, 12, WIDE), "report-wide": (2101, 24, WIDE),
-        "selection-pipeline": (3001, 12, WIDE), "report-pipeline": (4001, 24, WIDE)}
+        "selection-pipeline": (3001, 12, WIDE), "report-pipeline": (4001, 24, WIDE),
+        "selection-starts": (5001, 12, WIDE)}
 # Costs this close (relative) are the same minimum up to the rounding of the sum of 3,792
 # squares: counted as equal, not as above.
 SAME_MINIMUM = 1e-12
@@ -130,6 +133,14 @@ def tolerance_args(tolerance):
     return [a for k in "fxg" for a in (f"--{k}tol", str(tolerance))] if tolerance else []
 
 
+# `--starts` of supine's rigid fits (None: its own default).
+RIGID_STARTS = None
+
+
+def rigid_args():
+    return ["--starts", str(RIGID_STARTS)] if RIGID_STARTS else []
+
+
 def measure(supine, d, directory, tolerance, supine_tolerance):
     tol_args = tolerance_args(supine_tolerance)
     scipy = [sys.executable, os.path.join(HERE, "scipy_fit.py"), "--dataset", directory,
@@ -139,7 +150,7 @@ def measure(supine, d, directory, tolerance, supine_tolerance):
     stage = os.path.join(directory, "litter_stage.toml")
     row = dict(d, load=os.getloadavg()[0])
     done, row["rust_rigid_s"] = run([supine, "fit", "--dataset", directory, "--case", "rigid",
-                                     "--out", rigid] + tol_args)
+                                     "--out", rigid] + tol_args + rigid_args())
     row["rust_rigid_cpu_s"] = run.cpu_s
     row["rust_rigid_cost"] = final_cost(rigid)
     stored = fit_table(rigid)["rigid_minima"]
@@ -179,12 +190,15 @@ def measure_speed(supine, d, directory, tolerance, supine_tolerance):
     rigid = os.path.join(directory, "rigid-speed.toml")
     row = dict(d, load=os.getloadavg()[0])
     _, row["rust_rigid_s"] = run([supine, "fit", "--dataset", directory, "--case", "rigid",
-                                  "--out", rigid] + tolerance_args(supine_tolerance))
+                                  "--out", rigid] + tolerance_args(supine_tolerance)
+                                 + rigid_args())
     row["rust_rigid_cpu_s"] = run.cpu_s
+    row["rust_rigid_cost"] = final_cost(rigid)
     out, _ = run([sys.executable, os.path.join(HERE, "scipy_fit.py"), "--dataset", directory,
                   "--json", "--case", "rigid"] + tolerance_args(tolerance))
     sp = json.loads(out.stdout)
     row["scipy_rigid_s"], row["scipy_rigid_cpu_s"] = sp["fit_s"], sp["fit_cpu_s"]
+    row["scipy_rigid_cost"] = sp["best_cost"]
     row["speedup"] = row["scipy_rigid_s"] / row["rust_rigid_s"]
     row["cpu_speedup"] = row["scipy_rigid_cpu_s"] / row["rust_rigid_cpu_s"]
     return row
@@ -193,7 +207,11 @@ def measure_speed(supine, d, directory, tolerance, supine_tolerance):
 def speed_summary(rows):
     for r in rows:
         print(f"seed {r['seed']}: load {r['load']:.2f}, supine {r['rust_rigid_s']:.3f} s, "
-              f"SciPy {r['scipy_rigid_s']:.2f} s, {r['speedup']:.1f}x ({r['cpu_speedup']:.1f}x CPU)")
+              f"SciPy {r['scipy_rigid_s']:.2f} s, {r['speedup']:.1f}x ({r['cpu_speedup']:.1f}x CPU), "
+              f"rigid cost {r['rust_rigid_cost']:.6f} vs {r['scipy_rigid_cost']:.6f}")
+    above = [r["seed"] for r in rows
+             if r["rust_rigid_cost"] > r["scipy_rigid_cost"] * (1 + SAME_MINIMUM)]
+    print(f"rigid cost above SciPy's on {len(above)} of {len(rows)}: {above}")
     for name in ("speedup", "cpu_speedup", "load", "rust_rigid_s", "scipy_rigid_s"):
         values = [r[name] for r in rows]
         print(f"{name}: min {min(values):.3f}, median {statistics.median(values):.3f}, "
@@ -274,11 +292,14 @@ def main():
     ap.add_argument("--root", default=os.path.join(REPO, "target/fit-robustness"))
     ap.add_argument("--tolerance", type=float, default=1e-8, help="SciPy's ftol, xtol, gtol")
     ap.add_argument("--supine-tolerance", type=float, help="supine's (default: its own)")
+    ap.add_argument("--starts", type=int, help="supine's rigid starts (default: its own)")
     ap.add_argument("--json", help="also write the rows here")
     ap.add_argument("--summary", help="only print the table and summary of this --json file")
     ap.add_argument("--speed-only", action="store_true",
                     help="only time the rigid fits (supine's command, SciPy's fit) back to back")
     args = ap.parse_args()
+    global RIGID_STARTS
+    RIGID_STARTS = args.starts
     if args.summary:
         with open(args.summary) as fh:
             summary(json.load(fh))

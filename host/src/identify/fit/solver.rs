@@ -42,6 +42,8 @@
 
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
+use super::kernels::tr_mul_vec;
+
 /// A least-squares problem: residuals and Jacobian at a point.
 pub trait Problem {
     /// Number of residuals m.
@@ -395,7 +397,7 @@ impl<'a> Run<'a> {
     fn iterate(&mut self, progress: &mut dyn FnMut(usize, f64)) -> Termination {
         while self.iterations < self.settings.max_iterations {
             let jtj = self.problem.gram(&self.jac);
-            let g = self.jac.tr_mul(&DVector::from_column_slice(&self.r));
+            let g = tr_mul_vec(&self.jac, &self.r);
             if projected_gradient(&self.x, &g, self.lower, self.upper) < self.settings.gtol {
                 return Termination::Gtol;
             }
@@ -633,12 +635,11 @@ fn geodesic_acceleration(
     problem.evaluate(&x_h, r_h, None).ok()?;
     let jv = jac * velocity;
     let scale = 2.0 / (h * h);
-    let dev = DVector::from_iterator(
-        r.len(),
-        r_h.iter()
-            .zip(r)
-            .zip(jv.iter())
-            .map(|((rh, r0), jv)| scale * (rh - r0 - h * jv)),
-    );
-    Some(jac.tr_mul(&dev))
+    let dev: Vec<f64> = r_h
+        .iter()
+        .zip(r)
+        .zip(jv.iter())
+        .map(|((rh, r0), jv)| scale * (rh - r0 - h * jv))
+        .collect();
+    Some(tr_mul_vec(jac, &dev))
 }
