@@ -82,6 +82,16 @@ fn digit_run(text: &[u8], start: usize, mut mantissa: u64) -> (u64, usize) {
 mod tests {
     use super::*;
 
+    /// A xorshift generator from `seed`: the same cells on every run.
+    fn xorshift(mut seed: u64) -> impl FnMut() -> u64 {
+        move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        }
+    }
+
     fn same(cell: &str) {
         let ours = parse_f64(cell.as_bytes());
         let theirs = fast_float2::parse::<f64, _>(cell).ok();
@@ -136,13 +146,7 @@ mod tests {
             same(cell);
         }
         // Random decimals of the lengths loggers write, and at the fast path's edges.
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut next = xorshift(0x9e37_79b9_7f4a_7c15u64);
         for _ in 0..200_000 {
             let digits = 1 + (next() % 19) as usize;
             let mut cell: String = (0..digits)
@@ -159,18 +163,12 @@ mod tests {
 
     #[test]
     fn a_number_read_where_it_starts_is_the_cell_read_whole() {
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut next = xorshift(0x2545_f491_4f6c_dd1du64);
         let alphabet = b"0123456789.-,;e ";
         for _ in 0..200_000 {
             let len = (next() % 24) as usize;
             let cell: Vec<u8> = (0..len)
-                .map(|_| alphabet[(next() % 12) as usize])
+                .map(|_| alphabet[(next() % alphabet.len() as u64) as usize])
                 .filter(|b| *b != b',' && *b != b';')
                 .collect();
             // A cell, then a delimiter and more: the leading number is the cell's when

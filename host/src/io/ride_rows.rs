@@ -326,6 +326,13 @@ impl LineReader {
     }
 }
 
+/// For each of a line's `width` cells, which of time, x, y, z (`index`: their cells) it is.
+fn roles(index: &[usize; 4], width: usize) -> Vec<Option<usize>> {
+    (0..width)
+        .map(|c| index.iter().position(|&i| i == c))
+        .collect()
+}
+
 /// The cells of a line that holds a quote, unquoted (RFC 4180) by the `csv` crate.
 pub fn unquoted_cells(text: &[u8], delimiter: u8) -> Option<Vec<Vec<u8>>> {
     let mut reader = csv::ReaderBuilder::new()
@@ -388,9 +395,7 @@ impl ForeignRows {
             names: format.columns.names.clone(),
             scale: format.units.to_m_s2(),
             time_unit: format.time_unit,
-            roles: (0..width)
-                .map(|c| index.iter().position(|&i| i == c))
-                .collect(),
+            roles: roles(&index, width),
             what: [
                 format.time_unit.expected().to_string(),
                 accel.clone(),
@@ -734,5 +739,94 @@ impl<F: Fn(&Path) -> Result<(Recording, Layout)>> OpenRide for F {
     fn open_ride(&self, path: &Path) -> Result<RideSource> {
         let (recording, layout) = self(path)?;
         Ok(RideSource::from_recording(recording, layout))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A reader of time, x, y, z in cells 1, 3, 0, 4 of five (cell 2 not read).
+    fn reader(time_unit: TimeUnit, units: AccelUnit, delimiter: u8) -> LineReader {
+        let index = [1, 3, 0, 4];
+        LineReader {
+            delimiter,
+            width: 5,
+            index,
+            names: ["t", "x", "y", "z"].map(String::from),
+            scale: units.to_m_s2(),
+            time_unit,
+            what: ["a time", "x", "y", "z"].map(String::from),
+            roles: roles(&index, 5),
+        }
+    }
+
+    #[test]
+    fn a_line_read_in_one_walk_reads_as_the_general_reader_reads_it() {
+        // Cells of every kind, plain and not, joined into lines of four to six cells.
+        let cells = [
+            "-0.255448",
+            "3599.998",
+            "0",
+            "12",
+            "1.",
+            ".5",
+            "-0.0",
+            "9.80665",
+            "1718030736872718943",
+            "17180307368727189430",
+            "1e3",
+            " 1.5",
+            "1.5 ",
+            "\"2.5\"",
+            "",
+            "inf",
+            "nan",
+            "+5",
+            "1e39",
+            "x",
+            "2024-06-10T14:45:36Z",
+            "12345678901234567890.5",
+        ];
+        let mut seed = 0x853c_49e6_748f_ea9bu64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let mut plain = 0;
+        for k in 0..100_000 {
+            let delimiter = if k % 2 == 0 { b',' } else { b';' };
+            let time_unit = [TimeUnit::S, TimeUnit::Ms, TimeUnit::Ns, TimeUnit::Text][k % 4];
+            let units = if k % 3 == 0 {
+                AccelUnit::G
+            } else {
+                AccelUnit::MS2
+            };
+            let r = reader(time_unit, units, delimiter);
+            let count = 4 + (next() % 3) as usize;
+            let line: Vec<u8> = (0..count)
+                .map(|_| {
+                    // Mostly plain decimals, as a logger writes.
+                    let pick = next() as usize % (3 * cells.len());
+                    cells[if pick < cells.len() { pick } else { pick % 9 }].as_bytes()
+                })
+                .collect::<Vec<_>>()
+                .join(&delimiter);
+            let general = r.read_any(&line);
+            if let Some(fast) = r.read_plain(&line) {
+                plain += 1;
+                assert_eq!(
+                    Ok(format!("{fast:?}")),
+                    general.map(|v| format!("{v:?}")),
+                    "{}",
+                    String::from_utf8_lossy(&line)
+                );
+            }
+            // Whatever path it takes, the reader gives the general reader's value or error.
+            assert_eq!(r.read(&line), r.read_any(&line));
+        }
+        assert!(plain > 5_000, "the one walk read only {plain} lines");
     }
 }
