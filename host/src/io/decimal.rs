@@ -55,7 +55,7 @@ pub fn leading_decimal(text: &[u8]) -> Option<(f64, usize)> {
     Some((if negative { -value } else { value }, end))
 }
 
-/// The unsigned integer of at most [`MAX_DIGITS`] digits at the start of `text` and the
+/// The unsigned integer of at most 19 digits (`MAX_DIGITS`) at the start of `text` and the
 /// digits it takes; `None` when `text` does not start with a digit or the integer is
 /// longer.
 pub fn leading_integer(text: &[u8]) -> Option<(u64, usize)> {
