@@ -41,7 +41,8 @@ Environment:
   SUPINE_QEMU       the QEMU program for --qemu, demo and monitor (default: qemu-system-arm on PATH)
   SUPINE_STATE_DIR  where flash keeps its last update counter (default: $XDG_STATE_HOME/supine,
                     else $HOME/.local/state/supine)
-  TMPDIR            where QEMU runs get their private scratch folders (default: /tmp)";
+  TMPDIR            where QEMU runs get their private scratch folders, and where a ride
+                    keeps the rows it parsed while a command reads it (default: /tmp)";
 
 /// The subcommands of `supine`.
 #[derive(Debug, Subcommand)]

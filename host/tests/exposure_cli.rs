@@ -622,3 +622,48 @@ fn one_sample_of_1e30_gives_finite_values_and_a_saturation_fault() {
     assert!(!text.contains("inf") && !text.contains("NaN"), "{text}");
     assert!(text.contains("fault saturated raised"), "{text}");
 }
+
+/// A logger's rows are parsed once and kept in a scratch file for the passes after
+/// (`ride::scratch_rows`); where none can be made (`TMPDIR` missing), the passes parse the
+/// text again: the same output, byte for byte.
+#[test]
+fn a_ride_read_without_a_scratch_file_gives_the_same_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("jittered.csv");
+    let mut text = format!("{}\n", supine_host::io::recording::PLATFORM_HEADER_LINE);
+    let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+    for k in 0..4000 {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        // 200 Hz with up to +-1 ms of jitter.
+        let jitter_s = ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 2e-3;
+        let t = k as f64 / 200.0 + jitter_s;
+        let z = 9.81 + (2.0 * PI * 4.0 * t).sin();
+        text.push_str(&format!(
+            "{t:.6},{:.6},0,{z:.6}\n",
+            0.3 * (2.0 * PI * 1.5 * t).cos()
+        ));
+    }
+    std::fs::write(&path, text).unwrap();
+    let run = |tmpdir: &Path| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_supine"))
+            .args([
+                "exposure",
+                "--input",
+                s(&path),
+                "--remove-gravity",
+                "--json",
+            ])
+            .env("TMPDIR", tmpdir)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{stderr}");
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let kept = run(dir.path());
+    let missing = run(&dir.path().join("no such folder"));
+    assert!(kept.contains("\"data_quality\""), "{kept}");
+    assert_eq!(missing, kept);
+}
