@@ -15,7 +15,7 @@ use supine_core::weighting::WeightingKind;
 
 use crate::exposure::evaluation_input::{EvaluationInput, check_warmup};
 use crate::exposure::reported_values::{AxisReport, tidy};
-use crate::io::recording::{COLUMNS, Layout, OLD_COLUMNS};
+use crate::io::recording::{COLUMNS, Layout, column_index};
 use crate::io::ride_rows::RideSource;
 use crate::parallel::read_ahead;
 use crate::ride::quality::DataQuality;
@@ -147,22 +147,12 @@ pub fn evaluate_channel(
     })
 }
 
-/// The column index (0-based, in [`COLUMNS`]) of an acceleration column, named as today
-/// (`head_x_m_s2`) or as before units ([`OLD_COLUMNS`], `head_x`); an error that lists the
-/// columns `layout` holds otherwise.
+/// The column index (0-based, in [`COLUMNS`]) of an acceleration column, named in either
+/// naming ([`column_index`]); an error that lists the columns `layout` holds otherwise.
 pub fn channel_index(name: &str, layout: Layout, path: &Path) -> Result<usize> {
-    let columns = match layout {
-        Layout::Full | Layout::Prediction => 1..COLUMNS.len(),
-        Layout::PlatformOnly => 1..4,
-    };
-    let available = &COLUMNS[columns.clone()];
-    let old = &OLD_COLUMNS[columns];
-    match available
-        .iter()
-        .position(|c| *c == name)
-        .or_else(|| old.iter().position(|c| *c == name))
-    {
-        Some(i) => Ok(i + 1),
+    let available = &COLUMNS[1..layout.columns().min(COLUMNS.len())];
+    match column_index(name).filter(|i| (1..=available.len()).contains(i)) {
+        Some(i) => Ok(i),
         None => bail!(
             "{}: line 1: --channel {name}: expected one of the acceleration columns {}",
             path.display(),

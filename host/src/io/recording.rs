@@ -85,6 +85,14 @@ pub fn is_recording_header<S: AsRef<[u8]>>(header: &[S]) -> bool {
     })
 }
 
+/// The index (0-based, in [`COLUMNS`]) of the recording column called `name` in either
+/// naming (`head_x_m_s2`, or `head_x` as before units).
+pub fn column_index(name: &str) -> Option<usize> {
+    NAMINGS
+        .iter()
+        .find_map(|naming| naming.iter().position(|c| *c == name))
+}
+
 /// The joint columns `supine predict` adds after the 13 recording columns: the predicted
 /// neck and lower-back motion (`docs/model.md`, "Joint motion"), translations in mm and
 /// rotations in degrees, in `JointOutput::ALL` order: each output's name and its
