@@ -6,6 +6,8 @@ use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
 use clap::Parser;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 use serde_json::Value;
 use supine_core::alerts::{AlertEvent, Criterion};
 use supine_core::exposure::ExposureState;
@@ -631,13 +633,10 @@ fn a_ride_read_without_a_scratch_file_gives_the_same_output() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("jittered.csv");
     let mut text = format!("{}\n", supine_host::io::recording::PLATFORM_HEADER_LINE);
-    let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+    let mut rng = ChaCha8Rng::seed_from_u64(26);
     for k in 0..4000 {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
         // 200 Hz with up to +-1 ms of jitter.
-        let jitter_s = ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 2e-3;
+        let jitter_s = rng.random_range(-1e-3..1e-3);
         let t = k as f64 / 200.0 + jitter_s;
         let z = 9.81 + (2.0 * PI * 4.0 * t).sin();
         text.push_str(&format!(

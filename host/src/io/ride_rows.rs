@@ -745,6 +745,8 @@ impl<F: Fn(&Path) -> Result<(Recording, Layout)>> OpenRide for F {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
 
     /// A reader of time, x, y, z in cells 1, 3, 0, 4 of five (cell 2 not read).
     fn reader(time_unit: TimeUnit, units: AccelUnit, delimiter: u8) -> LineReader {
@@ -788,13 +790,8 @@ mod tests {
             "2024-06-10T14:45:36Z",
             "12345678901234567890.5",
         ];
-        let mut seed = 0x853c_49e6_748f_ea9bu64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut rng = ChaCha8Rng::seed_from_u64(0x853c_49e6_748f_ea9b);
+        let mut next = move || rng.random::<u64>();
         let mut plain = 0;
         for k in 0..100_000 {
             let delimiter = if k % 2 == 0 { b',' } else { b';' };
