@@ -1,7 +1,8 @@
 //! `supine demo` as a user runs it: the binary, its report and the CSV files the report
 //! was made from; the summary's numbers checked against those files.
 
-use std::process::{Command, Stdio};
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
 use std::time::Duration;
 
 use supine_host::schema::names;
@@ -31,6 +32,17 @@ fn word_after<'a>(text: &'a str, prefix: &str) -> &'a str {
         .unwrap_or("")
 }
 
+/// `supine demo ARGS --out OUT`, run to its end.
+fn demo(args: &[&str], out: &Path) -> Output {
+    Command::new(supine_binary())
+        .arg("demo")
+        .args(args)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .expect("supine runs")
+}
+
 const LEVELS: [&str; 4] = ["normal", "advisory", "warning", "alarm"];
 
 #[test]
@@ -38,11 +50,7 @@ fn supine_demo_writes_a_self_contained_report_whose_summary_matches_its_csv_file
     firmware(supine_host::device::firmware::PRODUCT_BINARY);
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("demo");
-    let output = Command::new(supine_binary())
-        .args(["demo", "--duration-s", "30", "--out"])
-        .arg(&out)
-        .output()
-        .expect("supine runs");
+    let output = demo(&["--duration-s", "30"], &out);
     let stdout = String::from_utf8_lossy(&output.stdout);
     let stderr = String::from_utf8_lossy(&output.stderr);
     println!("stdout:\n{stdout}\nstderr:\n{stderr}");
@@ -209,11 +217,7 @@ fn the_demos_json_and_files_follow_the_naming_rules() {
     firmware(supine_host::device::firmware::PRODUCT_BINARY);
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("demo");
-    let output = Command::new(supine_binary())
-        .args(["demo", "--duration-s", "10", "--json", "--out"])
-        .arg(&out)
-        .output()
-        .expect("supine runs");
+    let output = demo(&["--duration-s", "10", "--json"], &out);
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(output.status.success(), "{stderr}");
     // The steps go to stderr; stdout is the one JSON object.
@@ -243,11 +247,7 @@ fn the_demos_json_and_files_follow_the_naming_rules() {
 fn a_bad_duration_is_one_line_and_writes_nothing() {
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("demo");
-    let output = Command::new(supine_binary())
-        .args(["demo", "--duration-s", "2", "--out"])
-        .arg(&out)
-        .output()
-        .expect("supine runs");
+    let output = demo(&["--duration-s", "2"], &out);
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(!output.status.success());
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
