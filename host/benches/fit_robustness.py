@@ -34,7 +34,16 @@ are reported. The `-wide` sets cycle through (spread 0.5, independent), (0.5, co
 on `selection-pipeline` (3001-3012, as wide), after `report-wide` had been seen; its
 figures come from `report-pipeline` (4001-4024, as wide), run once after it.
 `selection-starts` (5001-5012, as wide) weighs more rigid starts against the pipeline's
-losses (`--starts`, passed to supine's rigid fits).
+losses (`--starts`, passed to supine's rigid fits). The litter-board fit's continued rigid
+search (`--explore-starts`) and its rule (the pairs within the rigid fit's noise) were
+chosen on `selection-starts` and `selection-pipeline` together; their figures come from
+`report-explore` (6001-6024, as wide), run once after.
+
+SciPy's results depend only on the dataset and its tolerance, so each is kept in the
+dataset's folder (`scipy-*.json`, by its arguments and, for a stage fit, the joints file's
+bytes) and read back on later passes; `--scipy-only` runs just SciPy's pipelines, so that
+they can run while supine is being worked on. The speed-up is only meaningful with both
+fits timed back to back: `--speed-only` always runs SciPy anew.
 
 Pipeline against pipeline is also scored on both cases' data together: m_r ln C_r + m_l
 ln C_l of supine's kept pair less SciPy's pair's (-2 ln of their likelihood ratio, each
@@ -45,10 +54,11 @@ machine after a full pass has recorded the costs.
 
 Usage: fit_robustness.py --set NAME [--set NAME ...] [--only K ...] [--supine BIN]
        [--root DIR] [--tolerance 1e-8] [--supine-tolerance T] [--json OUT.json]
-       [--speed-only] [--starts N]
+       [--speed-only] [--scipy-only] [--starts N]
 """
 
 import argparse
+import hashlib
 import json
 import math
 import os
@@ -70,7 +80,7 @@ WIDE = [(0.5, 0.0), (0.5, 0.8), (0.3, 0.8)]
 SETS = {"selection": (1001, 12, NARROW), "report": (2001, 24, NARROW),
         "selection-wide": (1101, 12, WIDE), "report-wide": (2101, 24, WIDE),
         "selection-pipeline": (3001, 12, WIDE), "report-pipeline": (4001, 24, WIDE),
-        "selection-starts": (5001, 12, WIDE)}
+        "selection-starts": (5001, 12, WIDE), "selection-explore": (6001, 24, WIDE), "report-explore": (7001, 24, WIDE)}
 # Costs this close (relative) are the same minimum up to the rounding of the sum of 3,792
 # squares: counted as equal, not as above.
 SAME_MINIMUM = 1e-12
@@ -141,10 +151,34 @@ def rigid_args():
     return ["--starts", str(RIGID_STARTS)] if RIGID_STARTS else []
 
 
+def scipy_cmd(directory, tolerance):
+    return [sys.executable, os.path.join(HERE, "scipy_fit.py"), "--dataset", directory,
+            "--json"] + tolerance_args(tolerance)
+
+
+def scipy_once(directory, tolerance, args, key):
+    """SciPy's JSON for `args`, run once per dataset and key: its costs depend only on the
+    dataset, its tolerance and `key` (the joints file's bytes, for a stage fit), so they
+    are kept in the dataset's folder (`scipy-*.json`) and read back on the next pass."""
+    digest = hashlib.sha256(json.dumps([args, tolerance]).encode() + key).hexdigest()[:16]
+    path = os.path.join(directory, f"scipy-{digest}.json")
+    if os.path.exists(path):
+        with open(path) as fh:
+            return json.load(fh), True
+    out, _ = run(scipy_cmd(directory, tolerance) + args)
+    result = json.loads(out.stdout)
+    with open(path + ".part", "w") as fh:
+        json.dump(result, fh)
+    os.replace(path + ".part", path)
+    return result, False
+
+
+def scipy_pipeline(directory, tolerance):
+    return scipy_once(directory, tolerance, ["--case", "pipeline"], b"")
+
+
 def measure(supine, d, directory, tolerance, supine_tolerance):
     tol_args = tolerance_args(supine_tolerance)
-    scipy = [sys.executable, os.path.join(HERE, "scipy_fit.py"), "--dataset", directory,
-             "--json"] + tolerance_args(tolerance)
     rigid = os.path.join(directory, "rigid.toml")
     litter = os.path.join(directory, "litter.toml")
     stage = os.path.join(directory, "litter_stage.toml")
@@ -159,8 +193,7 @@ def measure(supine, d, directory, tolerance, supine_tolerance):
     row["rust_rigid_budget"] = stored["cost_budget"]
     split = re.search(r"reading and spectra ([0-9.]+) s, solver ([0-9.]+) s", done.stderr)
     row["rust_spectra_s"], row["rust_solver_s"] = float(split[1]), float(split[2])
-    out, row["scipy_total_s"] = run(scipy + ["--case", "pipeline"])
-    sp = json.loads(out.stdout)
+    sp, row["scipy_from_earlier_pass"] = scipy_pipeline(directory, tolerance)
     row["scipy_rigid_s"], row["scipy_rigid_cost"] = sp["fit_s"], sp["best_cost"]
     row["scipy_rigid_cpu_s"] = sp["fit_cpu_s"]
     row["scipy_litter_s"] = sp["litter"]["fit_s"]
@@ -178,8 +211,11 @@ def measure(supine, d, directory, tolerance, supine_tolerance):
     run([supine, "fit", "--dataset", directory, "--case", "litter", "--no-explore",
          "--joints", rigid, "--out", stage] + tol_args)
     row["rust_stage_litter_cost"] = final_cost(stage)
-    out, _ = run(scipy + ["--case", "litter", "--joints", rigid])
-    row["scipy_stage_litter_cost"] = json.loads(out.stdout)["best_cost"]
+    with open(rigid, "rb") as fh:
+        joints = fh.read()
+    stage_scipy, _ = scipy_once(directory, tolerance, ["--case", "litter", "--joints", rigid],
+                                joints)
+    row["scipy_stage_litter_cost"] = stage_scipy["best_cost"]
     row["speedup"] = row["scipy_rigid_s"] / row["rust_rigid_s"]
     row["cpu_speedup"] = row["scipy_rigid_cpu_s"] / row["rust_rigid_cpu_s"]
     return row
@@ -194,8 +230,7 @@ def measure_speed(supine, d, directory, tolerance, supine_tolerance):
                                  + rigid_args())
     row["rust_rigid_cpu_s"] = run.cpu_s
     row["rust_rigid_cost"] = final_cost(rigid)
-    out, _ = run([sys.executable, os.path.join(HERE, "scipy_fit.py"), "--dataset", directory,
-                  "--json", "--case", "rigid"] + tolerance_args(tolerance))
+    out, _ = run(scipy_cmd(directory, tolerance) + ["--case", "rigid"])
     sp = json.loads(out.stdout)
     row["scipy_rigid_s"], row["scipy_rigid_cpu_s"] = sp["fit_s"], sp["fit_cpu_s"]
     row["scipy_rigid_cost"] = sp["best_cost"]
@@ -295,6 +330,8 @@ def main():
     ap.add_argument("--starts", type=int, help="supine's rigid starts (default: its own)")
     ap.add_argument("--json", help="also write the rows here")
     ap.add_argument("--summary", help="only print the table and summary of this --json file")
+    ap.add_argument("--scipy-only", action="store_true",
+                    help="only run SciPy's pipelines (kept for the next pass), no supine fit")
     ap.add_argument("--speed-only", action="store_true",
                     help="only time the rigid fits (supine's command, SciPy's fit) back to back")
     args = ap.parse_args()
@@ -311,6 +348,11 @@ def main():
     for d in datasets:
         directory = os.path.join(args.root, f"seed{d['seed']}")
         synth(args.supine, d, directory)
+        if args.scipy_only:
+            _, earlier = scipy_pipeline(directory, args.tolerance)
+            print(f"seed {d['seed']}: SciPy's pipeline {'kept' if earlier else 'run'}",
+                  file=sys.stderr)
+            continue
         if args.speed_only:
             rows.append(measure_speed(args.supine, d, directory, args.tolerance,
                                       args.supine_tolerance))
@@ -330,6 +372,8 @@ def main():
             # After every dataset, so that an interrupted run keeps what it measured.
             with open(args.json, "w") as fh:
                 json.dump(rows, fh, indent=1)
+    if args.scipy_only:
+        return
     if args.speed_only:
         speed_summary(rows)
         return

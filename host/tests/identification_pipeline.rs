@@ -6,7 +6,8 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use supine_core::model::{ModelParams, ParamId, Subject, SystemMatrices, Transmissibility};
 use supine_host::identify::fit::explore::litter_over_minima;
-use supine_host::identify::fit::minima::{RigidMinima, RigidMinimum};
+use supine_host::identify::fit::minima::{RigidMinima, RigidMinimum, same_minimum};
+use supine_host::identify::fit::more_minima::{MoreStarts, with_more_starts};
 use supine_host::identify::fit::objective::Target;
 use supine_host::identify::fit::solver::DampingScale;
 use supine_host::identify::fit::{self, FitSettings};
@@ -349,6 +350,12 @@ fn exploring_never_ends_above_the_kept_rigid_minimum_and_is_the_same_on_any_thre
             exploration.rigid_cost,
             minima.rigid_cost + exploration.rigid_cost_above_kept
         );
+        // Only pairs the rigid data cannot tell from the rigid fit are kept.
+        assert!(
+            exploration.rigid_cost_above_kept <= minima.cost_budget,
+            "{}",
+            exploration.markdown()
+        );
         // The kept options' litter-board costs add up to the fit's (parts independent).
         let kept: f64 = exploration
             .options
@@ -374,4 +381,100 @@ fn exploring_never_ends_above_the_kept_rigid_minimum_and_is_the_same_on_any_thre
         ));
     }
     assert_eq!(costs[0], costs[1]);
+}
+
+/// The litter-board fit's continued rigid search: every stored minimum stays an option;
+/// each new one comes from a random start after the rigid fit's own, is no other's repeat,
+/// and rises by its rigid cost above the kept one's, evaluated here; the search is the same
+/// bits on one thread or three; and a rigid fit of other data is refused, not explored.
+#[test]
+fn more_rigid_starts_add_distinct_minima_that_rise_by_their_own_rigid_cost() {
+    let mut found = Vec::new();
+    for threads in [1, 3] {
+        let (setup, rigid, stored, _, subject) = rigid_fit(2, threads);
+        let settings = FitSettings {
+            threads,
+            ..FitSettings::default()
+        };
+        let more = MoreStarts {
+            rigid_starts: setup.starts.len(),
+            seed: settings.seed,
+            more: 8,
+        };
+        let target = setup.objective.target.clone();
+        let all = with_more_starts(
+            target,
+            subject,
+            &rigid.params,
+            &stored,
+            more,
+            &settings,
+            &|_, _, _| {},
+        )
+        .unwrap();
+        for m in &stored.minima {
+            assert!(
+                all.minima.contains(m),
+                "stored {} of {} lost",
+                m.start,
+                m.part
+            );
+        }
+        let new: Vec<&RigidMinimum> = all
+            .minima
+            .iter()
+            .filter(|m| !stored.minima.contains(m))
+            .collect();
+        assert!(!new.is_empty(), "8 more starts found no other minimum");
+        let objective = &setup.objective;
+        let kept_cost = objective.cost(&objective.theta(&rigid.params)).unwrap();
+        // The rigid fit's random starts are numbered 1 to starts - 2 (after the paper's two).
+        let own_random = setup.starts.len() - 2;
+        for m in &new {
+            let k: usize = m.start.strip_prefix("random ").unwrap().parse().unwrap();
+            assert!(
+                (own_random + 1..=own_random + 8).contains(&k),
+                "{}",
+                m.start
+            );
+            let mut p = rigid.params;
+            m.apply(&mut p);
+            let cost = objective.cost(&objective.theta(&p)).unwrap();
+            assert!(
+                (m.cost_above_kept - (cost - kept_cost)).abs() <= 1e-9 * kept_cost,
+                "{}: {} against {}",
+                m.start,
+                m.cost_above_kept,
+                cost - kept_cost
+            );
+        }
+        let ln = |m: &RigidMinimum| m.values.iter().map(|(_, v)| v.ln()).collect::<Vec<_>>();
+        for (i, a) in all.minima.iter().enumerate() {
+            for b in &all.minima[i + 1..] {
+                assert!(
+                    a.part != b.part || !same_minimum(&ln(a), &ln(b)),
+                    "{} {}",
+                    a.start,
+                    b.start
+                );
+            }
+        }
+        found.push(all);
+
+        // Another dataset's rigid data: the stored cost is not this data's.
+        let (other, _, other_subject) = targets(5);
+        let e = with_more_starts(
+            other,
+            other_subject,
+            &rigid.params,
+            &stored,
+            more,
+            &settings,
+            &|_, _, _| {},
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("--explore-starts 0"), "{e}");
+    }
+    assert_eq!(found[0], found[1]);
 }

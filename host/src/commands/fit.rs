@@ -47,6 +47,10 @@ pub struct Args {
     /// other minima (`[fit.rigid_minima]`, docs/model.md#the-pipeline-over-the-rigid-fits-minima).
     #[arg(long)]
     pub no_explore: bool,
+    /// Litter board, exploring: continue the rigid fit's random starts by this many on the
+    /// dataset's rigid recordings, for more of its minima (0: only those it stored).
+    #[arg(long, default_value_t = workflow::EXPLORE_STARTS)]
+    pub explore_starts: usize,
     /// Stop when an accepted step lowers the cost by less than this fraction (1e-6, docs/model.md#solver-and-tolerances).
     #[arg(long, default_value_t = DEFAULT_TOLERANCE)]
     pub ftol: f64,
@@ -123,6 +127,7 @@ fn request(args: &Args) -> Result<FitRequest> {
             polish: !args.no_polish,
         },
         explore: !args.no_explore,
+        explore_starts: args.explore_starts,
     })
 }
 

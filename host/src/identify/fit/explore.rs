@@ -3,9 +3,11 @@
 //!
 //! Each part's litter-board cost depends only on that part's rigid parameters (its joints
 //! and the contacts that bound it), so every part's options are fitted once: the kept
-//! rigid minimum and each stored alternative. Rank r fits, in one litter-board fit, every
-//! part's r-th option. The pipeline then keeps, over every combination of the parts'
-//! options, the one under which the rigid and the litter-board data together are likeliest
+//! rigid minimum and each alternative (stored by the rigid fit, or found by continuing its
+//! search, [`super::more_minima`]). Rank r fits, in one litter-board fit, every part's r-th
+//! option. The pipeline then keeps, over every combination of the parts' options whose
+//! rigid cost is within the rigid fit's noise of its own (which its data cannot tell from
+//! it), the one under which the rigid and the litter-board data together are likeliest
 //! (the joints are the same person's in both cases): the lowest m_r ln C_r + m_l ln C_l,
 //! each case's cost C over its m residuals with its own unknown noise variance (the kept
 //! rigid minimum on a tie), and refits it as a whole. Every fit is the deterministic
@@ -23,9 +25,9 @@ use super::{FitResult, FitSettings, Progress, Setup, litter_setup, run};
 pub const FIT_KEY: &str = "rigid_minima_explored";
 /// The label of the kept rigid minimum among a part's options.
 pub const KEPT: &str = "kept rigid fit";
-/// Most combinations of the parts' options compared (MOST_PER_PART + 1 per part over 3
-/// parts is 125).
-const MOST_COMBINATIONS: usize = 4096;
+/// Most combinations of the parts' options compared (MOST_EXPLORED_PER_PART + 1 per part
+/// over 3 parts is 35,937).
+const MOST_COMBINATIONS: usize = 1 << 16;
 
 /// One option of one part: a rigid minimum and the litter-board cost it leads to.
 #[derive(Clone, Debug, PartialEq)]
@@ -146,8 +148,8 @@ pub fn litter_over_minima(
         .sum();
     let litter_residuals = first.1.solution.residuals.len();
 
-    // Every combination; the likeliest on both cases' data, the first (the kept rigid
-    // minimum's) on a tie.
+    // Every combination within the rigid fit's noise; the likeliest on both cases' data,
+    // the first (the kept rigid minimum's, rise 0) on a tie.
     let above =
         |k: usize, c: usize| parts[k].1[c].map_or(0.0, |i| minima.minima[i].cost_above_kept);
     let mut best: Option<(f64, Vec<usize>)> = None;
@@ -168,6 +170,9 @@ pub fn litter_over_minima(
                 .enumerate()
                 .map(|(k, &c)| litter_costs[k][c])
                 .sum::<f64>();
+        if rise > minima.cost_budget {
+            continue;
+        }
         let score = neg_log_likelihood(minima.residuals, minima.rigid_cost + rise)
             + neg_log_likelihood(litter_residuals, litter);
         if best.as_ref().is_none_or(|(b, _)| score < *b) {
@@ -229,7 +234,7 @@ impl Exploration {
     pub fn markdown(&self) -> String {
         use std::fmt::Write as _;
         let mut s = format!(
-            "\nThe rigid fit's other minima were each given to the litter-board fit, part by part; the pair kept (*) is the one under which the rigid and litter-board data together are likeliest (lowest m ln C summed over both cases). Its rigid cost {:.6} is {:.6} above the rigid fit's, {} the rigid fit's noise ({:.6}: 2 x rise / s^2 below chi-square(1, 95 %) = 3.84).\n\n| part | rigid minimum from | rigid cost above the kept | litter-board cost of the part |\n|---|---|---|---|\n",
+            "\nThe rigid fit's other minima were each given to the litter-board fit, part by part; of the pairs whose rigid cost is within the rigid fit's noise of its own, the one kept (*) is the one under which the rigid and litter-board data together are likeliest (lowest m ln C summed over both cases). Its rigid cost {:.6} is {:.6} above the rigid fit's, {} the rigid fit's noise ({:.6}: 2 x rise / s^2 below chi-square(1, 95 %) = 3.84).\n\n| part | rigid minimum from | rigid cost above the kept | litter-board cost of the part |\n|---|---|---|---|\n",
             self.rigid_cost,
             self.rigid_cost_above_kept,
             if self.rigid_cost_above_kept <= self.cost_budget {

@@ -26,8 +26,20 @@ pub const FIT_KEY: &str = "rigid_minima";
 /// Most minima kept per part besides the kept one (the lowest): bounds the litter-board
 /// fit's work and the file's size whatever `--starts` is.
 pub const MOST_PER_PART: usize = 4;
+/// Most minima per part besides the kept one once the litter-board fit has continued the
+/// rigid search ([`super::more_minima`]): each costs a litter-board fit only when it is
+/// its part's r-th option for a new r, and 33 options over 3 parts are 35,937
+/// combinations, each a sum.
+pub const MOST_EXPLORED_PER_PART: usize = 32;
 /// Two minima of a part whose every ln p differs by less than this are one minimum.
 pub const SAME_MINIMUM_LN: f64 = 1e-3;
+
+/// Whether two minima of a part (ln p of its parameters, in the same order) are one.
+pub fn same_minimum(a: &[f64], b: &[f64]) -> bool {
+    a.iter()
+        .zip(b)
+        .all(|(x, y)| (x - y).abs() < SAME_MINIMUM_LN)
+}
 
 /// One part's minimum from another start.
 #[derive(Clone, Debug, PartialEq)]
@@ -111,11 +123,7 @@ impl RigidMinima {
             for i in order {
                 let above = part.starts[i].final_cost - kept_cost;
                 let x = &part.minima[i];
-                let repeat = listed.iter().any(|y| {
-                    x.iter()
-                        .zip(y.iter())
-                        .all(|(a, b)| (a - b).abs() < SAME_MINIMUM_LN)
-                });
+                let repeat = listed.iter().any(|y| same_minimum(x, y));
                 let abandoned = part.starts[i].termination == Termination::Abandoned;
                 if abandoned || repeat || of_part.len() == MOST_PER_PART {
                     continue;

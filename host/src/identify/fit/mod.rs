@@ -41,6 +41,7 @@ pub mod determination;
 pub mod explore;
 pub mod kernels;
 pub mod minima;
+pub mod more_minima;
 pub mod multistart;
 pub mod objective;
 pub mod part;

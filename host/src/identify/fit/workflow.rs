@@ -10,6 +10,7 @@ use anyhow::{Result, anyhow, bail};
 
 use super::explore::{self, Exploration};
 use super::minima::{self, RigidMinima};
+use super::more_minima::{self, MoreStarts};
 use super::objective::{COMPONENTS, Target};
 use super::uncertainty::{self, StoredUncertainty};
 use super::{Determination, FitResult, FitSettings, Identifiability, Progress, Setup, report};
@@ -37,9 +38,15 @@ pub struct FitRequest {
     /// Starts, seed and solver settings.
     pub settings: FitSettings,
     /// Litter board: also fit on the rigid fit's other minima (`[fit.rigid_minima]`) and
-    /// keep the pair likeliest on both cases' data.
+    /// keep, within the rigid fit's noise, the pair likeliest on both cases' data.
     pub explore: bool,
+    /// Litter board, exploring: the rigid fit's random starts continued by this many on
+    /// the dataset's rigid recordings, for more minima ([`more_minima`]).
+    pub explore_starts: usize,
 }
+
+/// The default of [`FitRequest::explore_starts`] (docs/model.md#the-pipeline-over-the-rigid-fits-minima).
+pub const EXPLORE_STARTS: usize = 32;
 
 /// A finished fit with everything the files and the summary are made from.
 #[derive(Clone, Debug)]
@@ -97,10 +104,57 @@ fn target(estimate: &CaseEstimate) -> Target {
     }
 }
 
+/// The rigid fit's starts and seed, from its `[fit]` table.
+fn rigid_search(rigid: &ParamFile, more: usize) -> Option<MoreStarts> {
+    let fit = rigid.fit.as_ref()?;
+    let whole = |key: &str| fit.get(key)?.as_integer().filter(|&v| v >= 0);
+    Some(MoreStarts {
+        rigid_starts: usize::try_from(whole("starts")?).ok()?,
+        seed: u64::try_from(whole("seed")?).ok()?,
+        more,
+    })
+}
+
+/// The rigid fit's minima for the litter-board fit to explore: the stored ones, and those
+/// of `--explore-starts` more rigid starts on the dataset's rigid recordings.
+fn minima_to_explore(
+    request: &FitRequest,
+    dataset: &Dataset,
+    rigid: &ParamFile,
+    stored: RigidMinima,
+    progress: Progress,
+) -> Result<RigidMinima> {
+    let search = rigid_search(rigid, request.explore_starts).filter(|m| m.more > 0);
+    let Some(search) = search else {
+        return Ok(stored);
+    };
+    let estimate = measure(
+        &FitRequest {
+            case: Case::Rigid,
+            ..request.clone()
+        },
+        dataset,
+    )?;
+    more_minima::with_more_starts(
+        target(&estimate),
+        estimate.mean_subject(),
+        &rigid.params,
+        &stored,
+        search,
+        &request.settings,
+        progress,
+    )
+    .map_err(|e| {
+        let path = request.joints.as_deref().unwrap_or(Path::new("--joints"));
+        anyhow!("{}: {e}", path.display())
+    })
+}
+
 /// The case's problem, solved: the rigid fit, or the litter-board fit on the rigid fit's
 /// joints (and, with `explore` and stored minima, on each of the rigid fit's other minima).
 fn solve(
     request: &FitRequest,
+    dataset: &Dataset,
     estimate: &CaseEstimate,
     joints: Option<&ParamFile>,
     progress: Progress,
@@ -118,6 +172,7 @@ fn solve(
     })?;
     match stored.filter(|_| request.explore) {
         Some(stored) => {
+            let stored = minima_to_explore(request, dataset, rigid, stored, progress)?;
             let (setup, result, exploration) = explore::litter_over_minima(
                 &target(estimate),
                 subject,
@@ -144,7 +199,8 @@ pub fn fit_dataset(request: &FitRequest, progress: Progress) -> Result<DatasetFi
     let estimate = measure(request, &dataset)?;
     let spectra_s = started.elapsed().as_secs_f64();
     let solver_started = Instant::now();
-    let (setup, result, exploration) = solve(request, &estimate, joints.as_ref(), progress)?;
+    let (setup, result, exploration) =
+        solve(request, &dataset, &estimate, joints.as_ref(), progress)?;
     let solver_s = solver_started.elapsed().as_secs_f64();
     let identifiability = super::identifiability(&setup, &result);
     let errors = super::component_errors(
