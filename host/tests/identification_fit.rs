@@ -232,11 +232,42 @@ fn the_pipeline_fits_synthetic_data_at_least_as_well_as_the_truths_geometric_mea
     ];
     args.extend_from_slice(&common);
     supine(&args).unwrap();
-    let litter_params = params_file::load(&litter).unwrap().params;
-    assert_eq!(litter_params.joints, fitted.params.joints);
+    // On the rigid fit's own minimum alone: its joints kept, its contacts the bounds.
+    let alone = dir.path().join("litter_alone.toml");
+    let mut args = vec![
+        "fit",
+        "--case",
+        "litter",
+        "--joints",
+        path(&rigid),
+        "--no-explore",
+        "--starts",
+        "2",
+        "--out",
+        path(&alone),
+    ];
+    args.extend_from_slice(&common);
+    supine(&args).unwrap();
+    let alone = params_file::load(&alone).unwrap();
+    assert_eq!(alone.params.joints, fitted.params.joints);
     for id in ParamId::ALL.into_iter().filter(|id| id.is_contact()) {
-        assert!(litter_params.get(id) <= fitted.params.get(id) * (1.0 + 1e-9));
+        assert!(alone.params.get(id) <= fitted.params.get(id) * (1.0 + 1e-9));
     }
+    // The pipeline (the rigid fit's stored minima and those of its continued search):
+    // a pair within the rigid fit's noise, at least as likely on both cases' data as the
+    // rigid fit's own minimum with its litter-board fit.
+    let explored = params_file::load(&litter).unwrap().fit.unwrap();
+    let pair = explored["rigid_minima_explored"].as_table().unwrap();
+    let pair_rigid_cost = pair["rigid_cost"].as_float().unwrap();
+    assert!(pair_rigid_cost <= cost + pair["cost_budget"].as_float().unwrap());
+    let residuals = 24.0 * explored["frequencies"].as_integer().unwrap() as f64;
+    let both = |rigid: f64, litter: f64| residuals * (rigid.ln() + litter.ln());
+    let alone_cost = alone.fit.unwrap()["final_cost"].as_float().unwrap();
+    let litter_cost = explored["final_cost"].as_float().unwrap();
+    assert!(
+        both(pair_rigid_cost, litter_cost) <= both(cost, alone_cost) + 1e-6,
+        "pair ({pair_rigid_cost}, {litter_cost}) against the rigid fit's ({cost}, {alone_cost})"
+    );
 
     // Predict and validate the held-out subject.
     let pred = dir.path().join("pred.csv");
