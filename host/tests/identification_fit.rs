@@ -218,36 +218,19 @@ fn the_pipeline_fits_synthetic_data_at_least_as_well_as_the_truths_geometric_mea
         "fit cost {cost} above the truth's geometric mean {reference_cost}"
     );
 
+    // The litter-board fit on the rigid fit, with `extra` arguments, into `out`.
+    let litter_fit = |extra: &[&str], out: &Path| {
+        let mut args = vec!["fit", "--case", "litter", "--joints", path(&rigid)];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["--starts", "2", "--out", path(out)]);
+        args.extend_from_slice(&common);
+        supine(&args).unwrap();
+    };
     let litter = dir.path().join("litter.toml");
-    let mut args = vec![
-        "fit",
-        "--case",
-        "litter",
-        "--joints",
-        path(&rigid),
-        "--starts",
-        "2",
-        "--out",
-        path(&litter),
-    ];
-    args.extend_from_slice(&common);
-    supine(&args).unwrap();
+    litter_fit(&[], &litter);
     // On the rigid fit's own minimum alone: its joints kept, its contacts the bounds.
     let alone = dir.path().join("litter_alone.toml");
-    let mut args = vec![
-        "fit",
-        "--case",
-        "litter",
-        "--joints",
-        path(&rigid),
-        "--no-explore",
-        "--starts",
-        "2",
-        "--out",
-        path(&alone),
-    ];
-    args.extend_from_slice(&common);
-    supine(&args).unwrap();
+    litter_fit(&["--no-explore"], &alone);
     let alone = params_file::load(&alone).unwrap();
     assert_eq!(alone.params.joints, fitted.params.joints);
     for id in ParamId::ALL.into_iter().filter(|id| id.is_contact()) {
