@@ -164,15 +164,15 @@ pub fn litter_over_minima(
             })
             .collect();
         let rise: f64 = choice.iter().enumerate().map(|(k, &c)| above(k, c)).sum();
+        if rise > minima.cost_budget {
+            continue;
+        }
         let litter: f64 = unexplored
             + choice
                 .iter()
                 .enumerate()
                 .map(|(k, &c)| litter_costs[k][c])
                 .sum::<f64>();
-        if rise > minima.cost_budget {
-            continue;
-        }
         let score = neg_log_likelihood(minima.residuals, minima.rigid_cost + rise)
             + neg_log_likelihood(litter_residuals, litter);
         if best.as_ref().is_none_or(|(b, _)| score < *b) {

@@ -82,17 +82,22 @@ pub fn with_more_starts(
             .filter(|m| m.part == part.name)
             .cloned()
             .collect();
-        let ln_of =
-            |m: &RigidMinimum| -> Vec<f64> { m.values.iter().map(|(_, v)| v.ln()).collect() };
-        let kept_part: Vec<f64> = part.free.iter().map(|&j| kept_theta[j]).collect();
+        // ln p of every minimum of the part listed so far: the kept one, then the options.
+        let mut known: Vec<Vec<f64>> =
+            std::iter::once(part.free.iter().map(|&j| kept_theta[j]).collect())
+                .chain(
+                    of_part
+                        .iter()
+                        .map(|m| m.values.iter().map(|(_, v)| v.ln()).collect()),
+                )
+                .collect();
         for (i, x) in part.minima.iter().enumerate() {
             let start = &setup.starts[i];
             let converged = part.starts[i].termination != Termination::Abandoned;
-            let known =
-                same_minimum(x, &kept_part) || of_part.iter().any(|m| same_minimum(x, &ln_of(m)));
-            if start.anchor || !converged || known {
+            if start.anchor || !converged || known.iter().any(|y| same_minimum(x, y)) {
                 continue;
             }
+            known.push(x.clone());
             let mut theta = kept_theta.clone();
             for (&j, &t) in part.free.iter().zip(x) {
                 theta[j] = t;

@@ -50,6 +50,15 @@ struct Scratch {
     projected: Vec<Projected>,
 }
 
+impl Scratch {
+    fn new() -> Self {
+        Self {
+            lanes: LaneSystem::new(),
+            projected: Vec::new(),
+        }
+    }
+}
+
 thread_local! {
     /// This thread's [`Scratch`], taken for an evaluation and put back after it.
     static SCRATCH: std::cell::Cell<Option<Box<Scratch>>> = const { std::cell::Cell::new(None) };
@@ -469,7 +478,8 @@ impl Objective {
     }
 
     /// [`Objective::evaluate_scope_portable`] with AVX2 where the CPU has it (see
-    /// [`kernels`]): the same bits either way.
+    /// [`kernels`]): the same bits either way. The evaluation works in this thread's
+    /// [`Scratch`], taken here and put back after it.
     fn evaluate_scope(
         &self,
         theta: &[f64],
@@ -477,12 +487,19 @@ impl Objective {
         residuals: &mut [f64],
         jacobian: Option<&mut DMatrix<f64>>,
     ) -> Result<(), String> {
+        let mut scratch = SCRATCH.take().unwrap_or_else(|| Box::new(Scratch::new()));
         #[cfg(target_arch = "x86_64")]
-        if kernels::avx2() {
+        let evaluated = if kernels::avx2() {
             // SAFETY: the CPU has AVX2 (checked just above).
-            return unsafe { self.evaluate_scope_avx2(theta, scope, residuals, jacobian) };
-        }
-        self.evaluate_scope_portable(theta, scope, residuals, jacobian)
+            unsafe { self.evaluate_scope_avx2(theta, scope, residuals, jacobian, &mut scratch) }
+        } else {
+            self.evaluate_scope_portable(theta, scope, residuals, jacobian, &mut scratch)
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let evaluated =
+            self.evaluate_scope_portable(theta, scope, residuals, jacobian, &mut scratch);
+        SCRATCH.set(Some(scratch));
+        evaluated
     }
 
     /// [`Objective::evaluate_scope_portable`] compiled with AVX2.
@@ -497,37 +514,18 @@ impl Objective {
         scope: Scope,
         residuals: &mut [f64],
         jacobian: Option<&mut DMatrix<f64>>,
+        scratch: &mut Scratch,
     ) -> Result<(), String> {
-        self.evaluate_scope_portable(theta, scope, residuals, jacobian)
+        self.evaluate_scope_portable(theta, scope, residuals, jacobian, scratch)
     }
 
-    /// The evaluation itself, inlined into both callers above so that each compiles it
-    /// (and the block solve it inlines) for its own instruction set.
-    #[inline(always)]
-    fn evaluate_scope_portable(
-        &self,
-        theta: &[f64],
-        scope: Scope,
-        residuals: &mut [f64],
-        jacobian: Option<&mut DMatrix<f64>>,
-    ) -> Result<(), String> {
-        let mut scratch = SCRATCH.take().unwrap_or_else(|| {
-            Box::new(Scratch {
-                lanes: LaneSystem::new(),
-                projected: Vec::new(),
-            })
-        });
-        let evaluated = self.evaluate_into(theta, scope, residuals, jacobian, &mut scratch);
-        SCRATCH.set(Some(scratch));
-        evaluated
-    }
-
-    /// [`Objective::evaluate_scope_portable`]'s work, in `scratch`'s arrays.
+    /// The evaluation itself, in `scratch`'s arrays, inlined into both callers above so
+    /// that each compiles it (and the block solve it inlines) for its own instruction set.
     // The block's system is filled entry by entry from several arrays at once: index
     // loops say that most plainly.
     #[allow(clippy::needless_range_loop)]
     #[inline(always)]
-    fn evaluate_into(
+    fn evaluate_scope_portable(
         &self,
         theta: &[f64],
         scope: Scope,
@@ -868,11 +866,23 @@ mod tests {
                 let mut j_portable = DMatrix::zeros(rows, cols);
                 let mut j_avx2 = DMatrix::zeros(rows, cols);
                 objective
-                    .evaluate_scope_portable(&theta, scope, &mut r_portable, Some(&mut j_portable))
+                    .evaluate_scope_portable(
+                        &theta,
+                        scope,
+                        &mut r_portable,
+                        Some(&mut j_portable),
+                        &mut Scratch::new(),
+                    )
                     .unwrap();
                 // SAFETY: the CPU has AVX2 (checked above).
                 unsafe {
-                    objective.evaluate_scope_avx2(&theta, scope, &mut r_avx2, Some(&mut j_avx2))
+                    objective.evaluate_scope_avx2(
+                        &theta,
+                        scope,
+                        &mut r_avx2,
+                        Some(&mut j_avx2),
+                        &mut Scratch::new(),
+                    )
                 }
                 .unwrap();
                 assert_eq!(bits(&r_portable), bits(&r_avx2), "trial {trial}: residuals");

@@ -83,11 +83,11 @@ fn load_joints(request: &FitRequest) -> Result<Option<ParamFile>> {
     }
 }
 
-/// Reads the case's recordings and estimates the measured H over the fitted band.
-fn measure(request: &FitRequest, dataset: &Dataset) -> Result<CaseEstimate> {
+/// Reads `case`'s recordings and estimates the measured H over the fitted band.
+fn measure(request: &FitRequest, case: Case, dataset: &Dataset) -> Result<CaseEstimate> {
     estimate(
         dataset,
-        request.case,
+        case,
         None,
         &request.exclude,
         request.resolution_hz,
@@ -128,13 +128,7 @@ fn minima_to_explore(
     let Some(search) = search else {
         return Ok(stored);
     };
-    let estimate = measure(
-        &FitRequest {
-            case: Case::Rigid,
-            ..request.clone()
-        },
-        dataset,
-    )?;
+    let estimate = measure(request, Case::Rigid, dataset)?;
     more_minima::with_more_starts(
         target(&estimate),
         estimate.mean_subject(),
@@ -196,7 +190,7 @@ pub fn fit_dataset(request: &FitRequest, progress: Progress) -> Result<DatasetFi
     let started = Instant::now();
     let dataset = Dataset::load(&request.dataset)?;
     let joints = load_joints(request)?;
-    let estimate = measure(request, &dataset)?;
+    let estimate = measure(request, request.case, &dataset)?;
     let spectra_s = started.elapsed().as_secs_f64();
     let solver_started = Instant::now();
     let (setup, result, exploration) =
