@@ -6,11 +6,10 @@
 //! rigid minimum and each alternative (stored by the rigid fit, or found by continuing its
 //! search, [`super::more_minima`]). Rank r fits, in one litter-board fit, every part's r-th
 //! option. The pipeline then keeps, over every combination of the parts' options whose
-//! rigid cost is within the rigid fit's noise of its own (which its data cannot tell from
-//! it), the one under which the rigid and the litter-board data together are likeliest
-//! (the joints are the same person's in both cases): the lowest m_r ln C_r + m_l ln C_l,
-//! each case's cost C over its m residuals with its own unknown noise variance (the kept
-//! rigid minimum on a tie), and refits it as a whole. Every fit is the deterministic
+//! rigid cost is within the rigid fit's 95 % confidence region (which its data cannot
+//! tell from its own minimum), the one with the lowest litter-board cost: the rigid data
+//! have no say among them, the litter-board data decide (the lower rigid cost on a tie),
+//! and refits it as a whole. Every fit is the deterministic
 //! [`super::run`], so the choice and the result are the same bits whatever the number of
 //! threads (docs/model.md#the-pipeline-over-the-rigid-fits-minima).
 
@@ -67,11 +66,6 @@ fn part_cost(result: &FitResult, name: &str) -> Option<f64> {
             .as_ref()
             .map_or(part.starts[part.best].final_cost, |p| p.final_cost),
     )
-}
-
-/// -2 ln L of a case up to a constant, its noise variance unknown: m ln C.
-fn neg_log_likelihood(residuals: usize, cost: f64) -> f64 {
-    residuals as f64 * cost.max(f64::MIN_POSITIVE).ln()
 }
 
 /// The litter-board fit on `rigid` and on each of its other `minima`: the setup and result
@@ -146,13 +140,12 @@ pub fn litter_over_minima(
         .filter(|p| !parts.iter().any(|(n, _)| *n == p.name))
         .filter_map(|p| part_cost(&first.1, &p.name))
         .sum();
-    let litter_residuals = first.1.solution.residuals.len();
 
-    // Every combination within the rigid fit's noise; the likeliest on both cases' data,
-    // the first (the kept rigid minimum's, rise 0) on a tie.
+    // Every combination within the rigid fit's confidence region; the lowest litter-board
+    // cost, the lower rise on a tie (the first, the kept rigid minimum's, on a full tie).
     let above =
         |k: usize, c: usize| parts[k].1[c].map_or(0.0, |i| minima.minima[i].cost_above_kept);
-    let mut best: Option<(f64, Vec<usize>)> = None;
+    let mut best: Option<((f64, f64), Vec<usize>)> = None;
     for index in 0..count {
         let mut rest = index;
         let choice: Vec<usize> = parts
@@ -173,8 +166,7 @@ pub fn litter_over_minima(
                 .enumerate()
                 .map(|(k, &c)| litter_costs[k][c])
                 .sum::<f64>();
-        let score = neg_log_likelihood(minima.residuals, minima.rigid_cost + rise)
-            + neg_log_likelihood(litter_residuals, litter);
+        let score = (litter, rise);
         if best.as_ref().is_none_or(|(b, _)| score < *b) {
             best = Some((score, choice));
         }
@@ -234,7 +226,7 @@ impl Exploration {
     pub fn markdown(&self) -> String {
         use std::fmt::Write as _;
         let mut s = format!(
-            "\nThe rigid fit's other minima were each given to the litter-board fit, part by part; of the pairs whose rigid cost is within the rigid fit's noise of its own, the one kept (*) is the one under which the rigid and litter-board data together are likeliest (lowest m ln C summed over both cases). Its rigid cost {:.6} is {:.6} above the rigid fit's, {} the rigid fit's noise ({:.6}: 2 x rise / s^2 below chi-square(1, 95 %) = 3.84).\n\n| part | rigid minimum from | rigid cost above the kept | litter-board cost of the part |\n|---|---|---|---|\n",
+            "\nThe rigid fit's other minima were each given to the litter-board fit, part by part; of the pairs whose rigid cost is within the rigid fit's 95 % confidence region (which its data cannot tell from its own minimum), the one kept (*) has the lowest litter-board cost. Its rigid cost {:.6} is {:.6} above the rigid fit's, {} the region ({:.6}: 2 x rise / s^2 below chi-square(p, 95 %), p the parameters that move the cost).\n\n| part | rigid minimum from | rigid cost above the kept | litter-board cost of the part |\n|---|---|---|---|\n",
             self.rigid_cost,
             self.rigid_cost_above_kept,
             if self.rigid_cost_above_kept <= self.cost_budget {

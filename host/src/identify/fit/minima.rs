@@ -8,19 +8,21 @@
 //! (not abandoned far above the others) is kept, at most [`MOST_PER_PART`] besides the
 //! lowest, with its rise over the kept one; the litter-board fit weighs that rise against
 //! what it gains on its own data
-//! (docs/model.md#the-pipeline-over-the-rigid-fits-minima). The rigid fit's noise budget
-//! (a rise of 0.5 chi-square(1, 95 %) s^2, s^2 = 2 cost / (m - n)) is stored beside them,
-//! to say which of them its own data cannot tell from the kept one.
+//! (docs/model.md#the-pipeline-over-the-rigid-fits-minima). The rigid fit's 95 %
+//! confidence region in cost (a rise below 0.5 chi-square(p, 95 %) s^2, p the parameters
+//! that move the cost, s^2 = 2 cost / (m - n)) is stored beside them, to say which of them
+//! its own data cannot tell from the kept one.
 
 use anyhow::{Result, anyhow};
+use statrs::distribution::{ChiSquared, ContinuousCDF as _};
 use supine_core::model::{ModelParams, ParamId};
 
 use super::solver::Termination;
 use super::uncertainty::parse_id;
 use super::{FitResult, Setup};
 
-/// chi-square quantile of 1 degree of freedom at 95 %.
-pub const CHI2_1_95: f64 = 3.841_458_820_694_124;
+/// Confidence of the region of minima the rigid data cannot tell apart.
+pub const CONFIDENCE: f64 = 0.95;
 /// The `[fit]` table's key of the stored minima.
 pub const FIT_KEY: &str = "rigid_minima";
 /// Most minima kept per part besides the kept one (the lowest): bounds the litter-board
@@ -72,16 +74,22 @@ pub struct RigidMinima {
     pub residuals: usize,
     /// s^2 = 2 cost / (m - n) of the rigid fit.
     pub residual_variance: f64,
-    /// The rigid fit's noise: a rise of the rigid cost below 0.5 chi2(1, 95 %) s^2 its
-    /// data cannot tell from the kept minimum.
+    /// The rigid fit's 95 % confidence region in cost: a rise of the rigid cost below
+    /// 0.5 chi2(p, 95 %) s^2 (p the parameters that move the cost), which its data cannot
+    /// tell from the kept minimum.
     pub cost_budget: f64,
     /// The other converged minima, by part, then by rising cost.
     pub minima: Vec<RigidMinimum>,
 }
 
-/// The cost budget of a fit with residual variance `s2`.
-pub fn cost_budget(s2: f64) -> f64 {
-    0.5 * CHI2_1_95 * s2
+/// The cost budget of a fit with residual variance `s2` and `parameters` parameters that
+/// move its cost: the likelihood-ratio joint confidence region of all of them at
+/// [`CONFIDENCE`], -2 ln L rising by less than chi2(p, 95 %), i.e. the cost by
+/// 0.5 chi2(p, 95 %) s^2 (Bates & Watts 1988, section 6.1). A minimum within it is one the
+/// data cannot reject in favour of the kept one: every parameter may differ between two
+/// minima, so the region is the joint one, not one parameter's.
+pub fn cost_budget(s2: f64, parameters: usize) -> f64 {
+    ChiSquared::new(parameters.max(1) as f64).map_or(0.0, |c| 0.5 * c.inverse_cdf(CONFIDENCE) * s2)
 }
 
 fn float(t: &toml::Table, key: &str, at: &str) -> Result<f64> {
@@ -105,7 +113,8 @@ impl RigidMinima {
         let m = result.solution.residuals.len();
         let n = setup.objective.free.len();
         let residual_variance = 2.0 * result.solution.cost / m.saturating_sub(n).max(1) as f64;
-        let cost_budget = cost_budget(residual_variance);
+        let moving: usize = result.parts.iter().map(|p| p.free.len()).sum();
+        let cost_budget = cost_budget(residual_variance, moving);
         let mut minima = Vec::new();
         for part in &result.parts {
             let kept_cost = part

@@ -233,7 +233,7 @@ impl DatasetFit {
                 .filter(|x| x.cost_above_kept <= m.cost_budget)
                 .count();
             s.push_str(&format!(
-                "\n{} other converged minima of the parts are kept in [fit.rigid_minima] for the litter-board fit to explore, {within} of them within this fit's noise (rigid cost at most {:.6} above it: 2 x rise / s^2 below chi-square(1, 95 %) = 3.84).\n",
+                "\n{} other converged minima of the parts are kept in [fit.rigid_minima] for the litter-board fit to explore, {within} of them within this fit's 95 % confidence region (rigid cost at most {:.6} above it: 2 x rise / s^2 below chi-square(p, 95 %), p the parameters that move the cost).\n",
                 m.minima.len(),
                 m.cost_budget
             ));
