@@ -237,18 +237,26 @@ fn the_pipeline_fits_synthetic_data_at_least_as_well_as_the_truths_geometric_mea
         assert!(alone.params.get(id) <= fitted.params.get(id) * (1.0 + 1e-9));
     }
     // The pipeline (the rigid fit's stored minima and those of its continued search):
-    // a pair within the rigid fit's 95 % confidence region, its litter-board cost at or
-    // below that of the rigid fit's own minimum (one of the pairs it chose among).
-    let explored = params_file::load(&litter).unwrap().fit.unwrap();
-    let pair = explored["rigid_minima_explored"].as_table().unwrap();
-    let pair_rigid_cost = pair["rigid_cost"].as_float().unwrap();
-    assert!(pair_rigid_cost <= cost + pair["cost_budget"].as_float().unwrap());
+    // its litter-board cost at or below that of the rigid fit's own minimum (one of the
+    // pairs it chose among); with --within-region, also a pair within the rigid fit's
+    // 95 % confidence region.
     let alone_cost = alone.fit.unwrap()["final_cost"].as_float().unwrap();
-    let litter_cost = explored["final_cost"].as_float().unwrap();
-    assert!(
-        litter_cost <= alone_cost * (1.0 + 1e-9),
-        "pair ({pair_rigid_cost}, {litter_cost}) against the rigid fit's ({cost}, {alone_cost})"
-    );
+    let within = dir.path().join("litter_within.toml");
+    litter_fit(&["--within-region"], &within);
+    for (file, region_only) in [(&litter, false), (&within, true)] {
+        let explored = params_file::load(file).unwrap().fit.unwrap();
+        let pair = explored["rigid_minima_explored"].as_table().unwrap();
+        assert_eq!(pair["within_region"].as_bool(), Some(region_only));
+        let pair_rigid_cost = pair["rigid_cost"].as_float().unwrap();
+        let litter_cost = explored["final_cost"].as_float().unwrap();
+        assert!(
+            litter_cost <= alone_cost * (1.0 + 1e-9),
+            "pair ({pair_rigid_cost}, {litter_cost}) against the rigid fit's ({cost}, {alone_cost})"
+        );
+        if region_only {
+            assert!(pair_rigid_cost <= cost + pair["cost_budget"].as_float().unwrap());
+        }
+    }
 
     // Predict and validate the held-out subject.
     let pred = dir.path().join("pred.csv");

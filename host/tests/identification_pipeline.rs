@@ -5,7 +5,7 @@ use std::path::Path;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use supine_core::model::{ModelParams, ParamId, Subject, SystemMatrices, Transmissibility};
-use supine_host::identify::fit::explore::litter_over_minima;
+use supine_host::identify::fit::explore::{Region, litter_over_minima};
 use supine_host::identify::fit::minima::{RigidMinima, RigidMinimum, same_minimum};
 use supine_host::identify::fit::more_minima::{MoreStarts, with_more_starts};
 use supine_host::identify::fit::objective::Target;
@@ -167,7 +167,7 @@ fn of_two_rigid_minima_of_near_equal_cost_the_pipeline_keeps_the_better_litter_b
             minima: vec![other],
         };
         let (_, result, exploration) =
-            litter_over_minima(&litter_t, subject, &kept, &minima, &settings, &|_, _, _| {})
+            litter_over_minima(&litter_t, subject, &kept, &minima, Region::Any, &settings, &|_, _, _| {})
                 .unwrap();
         assert_eq!(
             result.solution.cost.to_bits(),
@@ -314,7 +314,10 @@ fn a_malformed_rigid_minima_table_is_refused_naming_the_entry_and_key() {
 #[test]
 fn exploring_never_ends_above_the_kept_rigid_minimum_and_is_the_same_on_any_thread_count() {
     let mut costs = Vec::new();
-    for threads in [1, 3] {
+    for (threads, region) in [1, 3]
+        .into_iter()
+        .flat_map(|t| [(t, Region::Any), (t, Region::Within)])
+    {
         let (_, rigid, minima, litter_t, subject) = rigid_fit(3, threads);
         let settings = FitSettings {
             threads,
@@ -325,6 +328,7 @@ fn exploring_never_ends_above_the_kept_rigid_minimum_and_is_the_same_on_any_thre
             subject,
             &rigid.params,
             &minima,
+            region,
             &settings,
             &|_, _, _| {},
         )
@@ -338,8 +342,12 @@ fn exploring_never_ends_above_the_kept_rigid_minimum_and_is_the_same_on_any_thre
             explored.solution.cost,
             alone.solution.cost
         );
-        // No other choice of one listed option per part within the region has a lower
-        // litter-board cost (every combination, enumerated here from the listing).
+        // No other choice of one listed option per part (within the region if asked) has
+        // a lower litter-board cost (every combination, enumerated here from the listing).
+        let most_rise = match region {
+            Region::Any => f64::INFINITY,
+            Region::Within => minima.cost_budget,
+        };
         let mut by_part: Vec<Vec<&fit::explore::PartOption>> = Vec::new();
         for o in &exploration.options {
             match by_part.iter_mut().find(|p| p[0].part == o.part) {
@@ -357,7 +365,7 @@ fn exploring_never_ends_above_the_kept_rigid_minimum_and_is_the_same_on_any_thre
         let mut combination = vec![0; by_part.len()];
         'all: loop {
             let chosen = || combination.iter().zip(&by_part).map(|(&c, p)| p[c]);
-            if chosen().map(|o| o.rigid_cost_above_kept).sum::<f64>() <= minima.cost_budget {
+            if chosen().map(|o| o.rigid_cost_above_kept).sum::<f64>() <= most_rise {
                 lowest = lowest.min(chosen().map(|o| o.litter_cost).sum());
             }
             for (c, p) in combination.iter_mut().zip(&by_part) {
@@ -374,9 +382,9 @@ fn exploring_never_ends_above_the_kept_rigid_minimum_and_is_the_same_on_any_thre
             exploration.rigid_cost,
             minima.rigid_cost + exploration.rigid_cost_above_kept
         );
-        // Only pairs the rigid data cannot tell from the rigid fit are kept.
+        // Asked to, only pairs the rigid data cannot tell from the rigid fit are kept.
         assert!(
-            exploration.rigid_cost_above_kept <= minima.cost_budget,
+            exploration.rigid_cost_above_kept <= most_rise,
             "{}",
             exploration.markdown()
         );
@@ -404,7 +412,9 @@ fn exploring_never_ends_above_the_kept_rigid_minimum_and_is_the_same_on_any_thre
             exploration,
         ));
     }
-    assert_eq!(costs[0], costs[1]);
+    // Each region the same bits on one thread or three.
+    assert_eq!(costs[0], costs[2]);
+    assert_eq!(costs[1], costs[3]);
 }
 
 /// The litter-board fit's continued rigid search: every stored minimum stays an option;

@@ -8,6 +8,7 @@ use crate::commands::json_output::{self, JsonFlag};
 use crate::commands::values;
 use crate::identify::fit::solver::{DEFAULT_TOLERANCE, SolverSettings};
 use crate::identify::fit::workflow::{self, FitRequest};
+use crate::identify::fit::explore::Region;
 use crate::identify::fit::{Determination, FitSettings};
 use crate::identify::identify_records::FitSummary;
 use crate::identify::spectral::DEFAULT_RESOLUTION_HZ;
@@ -51,6 +52,11 @@ pub struct Args {
     /// dataset's rigid recordings, for more of its minima (0: only those it stored).
     #[arg(long, default_value_t = workflow::EXPLORE_STARTS)]
     pub explore_starts: usize,
+    /// Litter board, exploring: keep only a pair whose rigid cost is within the rigid fit's
+    /// 95 % confidence region (its data cannot tell it from the rigid fit), not the lowest
+    /// litter-board cost over every rigid minimum.
+    #[arg(long)]
+    pub within_region: bool,
     /// Stop when an accepted step lowers the cost by less than this fraction (1e-6, docs/model.md#solver-and-tolerances).
     #[arg(long, default_value_t = DEFAULT_TOLERANCE)]
     pub ftol: f64,
@@ -128,6 +134,11 @@ fn request(args: &Args) -> Result<FitRequest> {
         },
         explore: !args.no_explore,
         explore_starts: args.explore_starts,
+        region: if args.within_region {
+            Region::Within
+        } else {
+            Region::Any
+        },
     })
 }
 

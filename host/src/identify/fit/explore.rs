@@ -5,11 +5,13 @@
 //! and the contacts that bound it), so every part's options are fitted once: the kept
 //! rigid minimum and each alternative (stored by the rigid fit, or found by continuing its
 //! search, [`super::more_minima`]). Rank r fits, in one litter-board fit, every part's r-th
-//! option. The pipeline then keeps, over every combination of the parts' options whose
-//! rigid cost is within the rigid fit's 95 % confidence region (which its data cannot
-//! tell from its own minimum), the one with the lowest litter-board cost: the rigid data
-//! have no say among them, the litter-board data decide (the lower rigid cost on a tie),
-//! and refits it as a whole. Every fit is the deterministic
+//! option. The pipeline then keeps, over every combination of the parts' options, the
+//! one with the lowest litter-board cost (the lower rigid cost on a tie), and refits it as
+//! a whole: every option is a minimum of the rigid problem, as the joints of a two-stage
+//! pipeline are (SciPy's own is one of them), and the litter-board data choose among
+//! them. With [`Region::Within`] only the combinations within the rigid fit's 95 %
+//! confidence region (which its data cannot tell from its own minimum) are compared.
+//! Every fit is the deterministic
 //! [`super::run`], so the choice and the result are the same bits whatever the number of
 //! threads (docs/model.md#the-pipeline-over-the-rigid-fits-minima).
 
@@ -27,6 +29,15 @@ pub const KEPT: &str = "kept rigid fit";
 /// Most combinations of the parts' options compared (MOST_EXPLORED_PER_PART + 1 per part
 /// over 3 parts is 35,937).
 const MOST_COMBINATIONS: usize = 1 << 16;
+
+/// Which rigid minima the pipeline may keep.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Region {
+    /// Every converged minimum of the rigid problem.
+    Any,
+    /// Only those within the rigid fit's 95 % confidence region.
+    Within,
+}
 
 /// One option of one part: a rigid minimum and the litter-board cost it leads to.
 #[derive(Clone, Debug, PartialEq)]
@@ -46,8 +57,11 @@ pub struct PartOption {
 /// What the exploration compared and what it kept.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Exploration {
-    /// The rigid fit's noise: the rise of its cost its data cannot tell from its minimum.
+    /// The rigid fit's 95 % confidence region: the rise of its cost its data cannot tell
+    /// from its minimum.
     pub cost_budget: f64,
+    /// Which minima the pipeline could keep.
+    pub region: Region,
     /// Every part's options, by part.
     pub options: Vec<PartOption>,
     /// The rigid parameters of the kept pair (the joints and the contacts' bounds).
@@ -75,6 +89,7 @@ pub fn litter_over_minima(
     subject: Subject,
     rigid: &ModelParams,
     minima: &RigidMinima,
+    region: Region,
     settings: &FitSettings,
     progress: Progress,
 ) -> Result<(Setup, FitResult, Exploration)> {
@@ -141,8 +156,13 @@ pub fn litter_over_minima(
         .filter_map(|p| part_cost(&first.1, &p.name))
         .sum();
 
-    // Every combination within the rigid fit's confidence region; the lowest litter-board
-    // cost, the lower rise on a tie (the first, the kept rigid minimum's, on a full tie).
+    // Every combination (within the rigid fit's confidence region if asked); the lowest
+    // litter-board cost, the lower rise on a tie (the first, the kept rigid minimum's, on
+    // a full tie).
+    let most_rise = match region {
+        Region::Any => f64::INFINITY,
+        Region::Within => minima.cost_budget,
+    };
     let above =
         |k: usize, c: usize| parts[k].1[c].map_or(0.0, |i| minima.minima[i].cost_above_kept);
     let mut best: Option<((f64, f64), Vec<usize>)> = None;
@@ -157,7 +177,7 @@ pub fn litter_over_minima(
             })
             .collect();
         let rise: f64 = choice.iter().enumerate().map(|(k, &c)| above(k, c)).sum();
-        if rise > minima.cost_budget {
+        if rise > most_rise {
             continue;
         }
         let litter: f64 = unexplored
@@ -213,6 +233,7 @@ pub fn litter_over_minima(
         result,
         Exploration {
             cost_budget: minima.cost_budget,
+            region,
             options,
             rigid: rigid_kept,
             rigid_cost: minima.rigid_cost + rigid_cost_above_kept,
@@ -226,7 +247,11 @@ impl Exploration {
     pub fn markdown(&self) -> String {
         use std::fmt::Write as _;
         let mut s = format!(
-            "\nThe rigid fit's other minima were each given to the litter-board fit, part by part; of the pairs whose rigid cost is within the rigid fit's 95 % confidence region (which its data cannot tell from its own minimum), the one kept (*) has the lowest litter-board cost. Its rigid cost {:.6} is {:.6} above the rigid fit's, {} the region ({:.6}: 2 x rise / s^2 below chi-square(p, 95 %), p the parameters that move the cost).\n\n| part | rigid minimum from | rigid cost above the kept | litter-board cost of the part |\n|---|---|---|---|\n",
+            "\nThe rigid fit's other minima were each given to the litter-board fit, part by part; of the pairs {}, the one kept (*) has the lowest litter-board cost. Its rigid cost {:.6} is {:.6} above the rigid fit's, {} the rigid fit's 95 % confidence region ({:.6}: 2 x rise / s^2 below chi-square(p, 95 %), p the parameters that move the cost).\n\n| part | rigid minimum from | rigid cost above the kept | litter-board cost of the part |\n|---|---|---|---|\n",
+            match self.region {
+                Region::Any => "over every converged rigid minimum",
+                Region::Within => "within the rigid fit's 95 % confidence region (--within-region)",
+            },
             self.rigid_cost,
             self.rigid_cost_above_kept,
             if self.rigid_cost_above_kept <= self.cost_budget {
@@ -251,6 +276,10 @@ impl Exploration {
     pub fn to_toml(&self) -> toml::Table {
         let mut t = toml::Table::new();
         t.insert("cost_budget".into(), self.cost_budget.into());
+        t.insert(
+            "within_region".into(),
+            (self.region == Region::Within).into(),
+        );
         t.insert("rigid_cost".into(), self.rigid_cost.into());
         t.insert(
             "rigid_cost_above_kept".into(),

@@ -38,8 +38,10 @@ pub struct FitRequest {
     /// Starts, seed and solver settings.
     pub settings: FitSettings,
     /// Litter board: also fit on the rigid fit's other minima (`[fit.rigid_minima]`) and
-    /// keep, within the rigid fit's noise, the pair likeliest on both cases' data.
+    /// keep the pair with the lowest litter-board cost.
     pub explore: bool,
+    /// Litter board, exploring: which rigid minima the kept pair may have.
+    pub region: explore::Region,
     /// Litter board, exploring: the rigid fit's random starts continued by this many on
     /// the dataset's rigid recordings, for more minima ([`more_minima`]).
     pub explore_starts: usize,
@@ -172,6 +174,7 @@ fn solve(
                 subject,
                 &rigid.params,
                 &stored,
+                request.region,
                 settings,
                 progress,
             )?;
