@@ -19,6 +19,7 @@ mod identification_jacobian;
 mod identification_pipeline;
 mod identification_recovery;
 mod identification_robustness;
+mod identification_screen;
 mod identification_spectral;
 mod identification_uncertainty;
 mod install;

@@ -166,9 +166,16 @@ fn of_two_rigid_minima_of_near_equal_cost_the_pipeline_keeps_the_better_litter_b
             cost_budget: budget,
             minima: vec![other],
         };
-        let (_, result, exploration) =
-            litter_over_minima(&litter_t, subject, &kept, &minima, Region::Any, &settings, &|_, _, _| {})
-                .unwrap();
+        let (_, result, exploration) = litter_over_minima(
+            &litter_t,
+            subject,
+            &kept,
+            &minima,
+            Region::Any,
+            &settings,
+            &|_, _, _| {},
+        )
+        .unwrap();
         assert_eq!(
             result.solution.cost.to_bits(),
             litter_b.to_bits(),

@@ -32,6 +32,7 @@ use super::block_solve::{
 };
 #[cfg(target_arch = "x86_64")]
 use super::kernels;
+use super::lane_atan2::lane_atan2;
 use crate::identify::geomean::wrap_pi;
 
 /// Number of fitted components.
@@ -679,11 +680,12 @@ impl Objective {
                     let g_abs = lane_sqrt(g_norm_sqr);
                     let h_abs = lane_sqrt(h_norm_sqr);
                     let h_conj_g = sum.mul(&g.conj());
+                    let phase = lane_atan2(&h_conj_g.im, &h_conj_g.re);
                     for l in 0..count {
                         let r = (first + l) * per_freq + slot_of[c];
                         residuals[r] = (h_abs[l] - g_abs[l]) / g_abs[l];
                         // wrap(arg h - arg g) = arg(h conj(g)), in (-pi, pi].
-                        residuals[r + 1] = wrap_pi(h_conj_g.im[l].atan2(h_conj_g.re[l])) / PI;
+                        residuals[r + 1] = wrap_pi(phase[l]) / PI;
                     }
                     if want_w {
                         // d r_mag = Re(dh conj(h) / (|h| |g|)), d r_phase = Im(dh / (pi h)):
