@@ -19,7 +19,6 @@ mod identification_jacobian;
 mod identification_pipeline;
 mod identification_recovery;
 mod identification_robustness;
-mod identification_screen;
 mod identification_spectral;
 mod identification_uncertainty;
 mod install;

@@ -9,7 +9,7 @@ use crate::commands::values;
 use crate::identify::fit::explore::Region;
 use crate::identify::fit::solver::{DEFAULT_TOLERANCE, SolverSettings};
 use crate::identify::fit::workflow::{self, FitRequest};
-use crate::identify::fit::{self, Determination, FitSettings, Screen};
+use crate::identify::fit::{Determination, FitSettings};
 use crate::identify::identify_records::FitSummary;
 use crate::identify::spectral::DEFAULT_RESOLUTION_HZ;
 use crate::io::dataset::Case;
@@ -34,18 +34,10 @@ pub struct Args {
     /// Seed of the random starts.
     #[arg(long, default_value_t = values::DEFAULT_SEED)]
     pub seed: u64,
-    /// Number of starts (rigid, 16: the paper's values with either damping, then random
-    /// ones; litter board, 5: the rigid fit's contacts, the paper's values, then random
-    /// ones).
-    #[arg(long)]
-    pub starts: Option<usize>,
-    /// Iterations every random start runs before the screen keeps the lowest of each part
-    /// (--screen-continued) to run on to their minima (0: every start to its minimum).
-    #[arg(long, default_value_t = fit::SCREEN.iterations)]
-    pub screen_iterations: usize,
-    /// Random starts of each part the screen lets run on to their minima.
-    #[arg(long, default_value_t = fit::SCREEN.continued)]
-    pub screen_continued: usize,
+    /// Number of starts (rigid: the paper's values with either damping, then random ones;
+    /// litter board: the rigid fit's contacts, the paper's values, then random ones).
+    #[arg(long, default_value_t = FitSettings::default().starts)]
+    pub starts: usize,
     /// Threads the starts run on (0: one per core). The result does not depend on it.
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
@@ -128,10 +120,7 @@ fn request(args: &Args) -> Result<FitRequest> {
         exclude: values::comma_list("--exclude", &args.exclude)?,
         resolution_hz: args.resolution_hz,
         settings: FitSettings {
-            starts: args.starts.unwrap_or(match args.case {
-                Case::Rigid => fit::RIGID_STARTS,
-                Case::Litter => fit::LITTER_STARTS,
-            }),
+            starts: args.starts,
             seed: args.seed,
             solver: SolverSettings {
                 ftol: args.ftol,
@@ -142,10 +131,6 @@ fn request(args: &Args) -> Result<FitRequest> {
             },
             threads: args.threads,
             polish: !args.no_polish,
-            screen: (args.screen_iterations > 0).then_some(Screen {
-                iterations: args.screen_iterations,
-                continued: args.screen_continued,
-            }),
         },
         explore: !args.no_explore,
         explore_starts: args.explore_starts,

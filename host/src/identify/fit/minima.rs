@@ -17,6 +17,7 @@ use anyhow::{Result, anyhow};
 use statrs::distribution::{ChiSquared, ContinuousCDF as _};
 use supine_core::model::{ModelParams, ParamId};
 
+use super::solver::Termination;
 use super::uncertainty::parse_id;
 use super::{FitResult, Setup};
 
@@ -132,7 +133,7 @@ impl RigidMinima {
                 let above = part.starts[i].final_cost - kept_cost;
                 let x = &part.minima[i];
                 let repeat = listed.iter().any(|y| same_minimum(x, y));
-                let abandoned = !part.starts[i].termination.at_minimum();
+                let abandoned = part.starts[i].termination == Termination::Abandoned;
                 if abandoned || repeat || of_part.len() == MOST_PER_PART {
                     continue;
                 }

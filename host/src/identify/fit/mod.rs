@@ -113,34 +113,7 @@ pub struct FitSettings {
     pub threads: usize,
     /// Refine the best start's minimum ([`polish_settings`]).
     pub polish: bool,
-    /// Screen the starts that are not anchors before running them on ([`Screen`]); None
-    /// runs every start to its minimum.
-    pub screen: Option<Screen>,
 }
-
-/// The multi-start fit's screen: each part's starts that are not anchors first run
-/// `iterations` iterations; only the `continued` lowest of the part then run on to their
-/// minima (docs/model.md#unknowns-bounds-and-starts). Why: most random starts end in
-/// minima far above the best, and where a start ends is mostly visible early, so many
-/// starts cost little more than a few run to the end. Without effect on a part with at
-/// most `continued` such starts.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Screen {
-    /// Iterations every start runs before the screen.
-    pub iterations: usize,
-    /// Starts of each part run on after it.
-    pub continued: usize,
-}
-
-/// The rigid fit's screen (docs/model.md#unknowns-bounds-and-starts).
-pub const SCREEN: Screen = Screen {
-    iterations: 20,
-    continued: 2,
-};
-/// The rigid fit's starts: the paper's values with either damping and 14 random ones.
-pub const RIGID_STARTS: usize = 16;
-/// The litter-board fit's starts.
-pub const LITTER_STARTS: usize = 5;
 
 impl Default for FitSettings {
     fn default() -> Self {
@@ -150,7 +123,6 @@ impl Default for FitSettings {
             solver: SolverSettings::default(),
             threads: 0,
             polish: true,
-            screen: Some(SCREEN),
         }
     }
 }

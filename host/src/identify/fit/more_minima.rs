@@ -15,6 +15,7 @@ use supine_core::model::{ModelParams, Subject};
 
 use super::minima::{MOST_EXPLORED_PER_PART, RigidMinima, RigidMinimum, same_minimum};
 use super::objective::Target;
+use super::solver::Termination;
 use super::{FitSettings, Progress, rigid_setup, run};
 
 /// Relative difference allowed between the rigid file's cost and its parameters' cost on
@@ -53,8 +54,6 @@ pub fn with_more_starts(
         starts: more.rigid_starts + more.more,
         seed: more.seed,
         polish: false,
-        // Every start to its own minimum: the point is the minima, not only the lowest.
-        screen: None,
         ..*settings
     };
     let mut setup = rigid_setup(target, subject, &search)?;
@@ -94,7 +93,7 @@ pub fn with_more_starts(
                 .collect();
         for (i, x) in part.minima.iter().enumerate() {
             let start = &setup.starts[i];
-            let converged = part.starts[i].termination.at_minimum();
+            let converged = part.starts[i].termination != Termination::Abandoned;
             if start.anchor || !converged || known.iter().any(|y| same_minimum(x, y)) {
                 continue;
             }

@@ -10,7 +10,7 @@ use super::part::PartProblem;
 use crate::parallel::on_pool;
 
 use super::solver::{self, DampingScale, Solution, SolverSettings, Termination};
-use super::{FitSettings, Screen, Setup};
+use super::{FitSettings, Setup};
 
 /// How much tighter the polish's ftol, xtol and gtol are than the fit's.
 pub const POLISH_TIGHTENING: f64 = 1e-4;
@@ -102,29 +102,16 @@ fn solve_from(
     solver_settings: &SolverSettings,
     progress: Progress,
 ) -> Result<(StartOutcome, Solution)> {
-    let x0 = problem.restrict(&setup.starts[index].theta);
-    solve_on(setup, problem, index, &x0, 0, solver_settings, progress)
-}
-
-/// Solves part `part` of start `index` from `x0`, `done` iterations already behind it.
-fn solve_on(
-    setup: &Setup,
-    problem: &PartProblem,
-    index: usize,
-    x0: &[f64],
-    done: usize,
-    solver_settings: &SolverSettings,
-    progress: Progress,
-) -> Result<(StartOutcome, Solution)> {
     let start = &setup.starts[index];
+    let x0 = problem.restrict(&start.theta);
     let started = std::time::Instant::now();
     let solution = solver::solve(
         problem,
-        x0,
+        &x0,
         &problem.restrict(&setup.lower),
         &problem.restrict(&setup.upper),
         solver_settings,
-        &mut |iteration, cost| progress(index, done + iteration, cost),
+        &mut |iteration, cost| progress(index, iteration, cost),
     )
     .map_err(|e| anyhow!("start {}: {e}", start.label))?;
     let initial_cost = solution.initial_cost;
@@ -158,14 +145,8 @@ fn take_error(run: &mut Option<RunResult>) -> Option<anyhow::Error> {
 struct PartRuns {
     /// Per start (in the starts' order): its run, once finished.
     runs: Vec<Option<RunResult>>,
-    /// Per start that is screened: its run up to the screen, once finished.
-    screens: Vec<Option<RunResult>>,
-    /// The anchors' lowest cost, once they have all finished well.
-    best_anchor: f64,
     /// Whether the other starts were released.
     others_released: bool,
-    /// Whether the screen has chosen which starts run on.
-    screened: bool,
     /// Whether the polish was released.
     polish_released: bool,
     /// The polish of the part's kept minimum, once finished.
@@ -213,10 +194,7 @@ impl<'a> Schedule<'a> {
             .iter()
             .map(|_| PartRuns {
                 runs: (0..setup.starts.len()).map(|_| None).collect(),
-                screens: (0..setup.starts.len()).map(|_| None).collect(),
-                best_anchor: f64::INFINITY,
                 others_released: false,
-                screened: false,
                 polish_released: false,
                 polished: None,
             })
@@ -235,16 +213,10 @@ impl<'a> Schedule<'a> {
         on_pool(self.settings.threads, || {
             rayon::scope(|scope| {
                 for k in 0..self.problems.len() {
-                    let (anchors, others): (Vec<usize>, Vec<usize>) =
-                        (0..self.setup.starts.len()).partition(|&i| self.setup.starts[i].anchor);
-                    for &index in &anchors {
+                    let anchors =
+                        (0..self.setup.starts.len()).filter(|&i| self.setup.starts[i].anchor);
+                    for index in anchors {
                         self.start(scope, k, index, f64::INFINITY);
-                    }
-                    // The screen needs no anchor: it runs beside them.
-                    if let Some(screen) = self.screen(others.len()) {
-                        for index in others {
-                            self.start_screened(scope, k, index, screen);
-                        }
                     }
                     // A setup without anchors releases its other starts at once.
                     self.release(scope, k, &mut self.lock()[k]);
@@ -285,140 +257,8 @@ impl<'a> Schedule<'a> {
         });
     }
 
-    /// The screen of this fit's part with `others` starts that are not anchors, if any.
-    fn screen(&self, others: usize) -> Option<Screen> {
-        self.settings
-            .screen
-            .filter(|s| others > s.continued && s.iterations < self.settings.solver.max_iterations)
-    }
-
-    /// Runs part `k` from start `index` up to the screen's iterations (beside the anchors,
-    /// not against them), then lets the screen choose once every screened start of the
-    /// part and its anchors have finished.
-    fn start_screened<'s>(
-        &'s self,
-        scope: &rayon::Scope<'s>,
-        k: usize,
-        index: usize,
-        screen: Screen,
-    ) {
-        scope.spawn(move |scope| {
-            let solver_settings = SolverSettings {
-                damping: self.setup.starts[index].damping,
-                max_iterations: screen.iterations,
-                ..self.settings.solver
-            };
-            let run = solve_from(
-                self.setup,
-                &self.problems[k],
-                index,
-                &solver_settings,
-                self.progress,
-            );
-            let mut parts = self.lock();
-            let part = &mut parts[k];
-            part.screens[index] = Some(run);
-            self.after_screen(scope, k, part, screen);
-        });
-    }
-
-    /// Once every screened start of part `k` has run up to the screen and its anchors
-    /// have finished: its `continued`
-    /// lowest (the earlier start on a tie) that have not ended already run on from where
-    /// they are; the others end there, those still going as [`Termination::Screened`].
-    fn after_screen<'s>(
-        &'s self,
-        scope: &rayon::Scope<'s>,
-        k: usize,
-        part: &mut PartRuns,
-        screen: Screen,
-    ) {
-        let screened: Vec<usize> = (0..part.runs.len())
-            .filter(|&i| !self.setup.starts[i].anchor)
-            .collect();
-        let waiting = screened.iter().any(|&i| part.screens[i].is_none());
-        if part.screened || !part.others_released || waiting {
-            return;
-        }
-        part.screened = true;
-        let mut ranked: Vec<(usize, f64)> = Vec::new();
-        for &i in &screened {
-            match part.screens[i].take() {
-                Some(Ok((outcome, solution))) => {
-                    ranked.push((i, solution.cost));
-                    part.screens[i] = Some(Ok((outcome, solution)));
-                }
-                other => part.runs[i] = other,
-            }
-        }
-        ranked.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
-        for (rank, &(i, _)) in ranked.iter().enumerate() {
-            let Some(Ok((outcome, mut solution))) = part.screens[i].take() else {
-                continue;
-            };
-            let going = solution.termination == Termination::MaxIterations;
-            if going && rank < screen.continued {
-                self.run_on(scope, k, i, part.best_anchor, (outcome, solution));
-            } else {
-                let mut outcome = outcome;
-                if going {
-                    outcome.termination = Termination::Screened;
-                    solution.termination = Termination::Screened;
-                }
-                part.runs[i] = Some(Ok((outcome, solution)));
-            }
-        }
-        self.release(scope, k, part);
-    }
-
-    /// Runs part `k` of start `index` on from its screened `solution` to its minimum; the
-    /// outcome counts both runs.
-    fn run_on<'s>(
-        &'s self,
-        scope: &rayon::Scope<'s>,
-        k: usize,
-        index: usize,
-        best_anchor: f64,
-        (screened, solution): (StartOutcome, Solution),
-    ) {
-        scope.spawn(move |scope| {
-            let solver_settings = SolverSettings {
-                damping: self.setup.starts[index].damping,
-                best_elsewhere: self.settings.solver.best_elsewhere.min(best_anchor),
-                max_iterations: self.settings.solver.max_iterations - screened.iterations,
-                ..self.settings.solver
-            };
-            let run = solve_on(
-                self.setup,
-                &self.problems[k],
-                index,
-                &solution.x,
-                screened.iterations,
-                &solver_settings,
-                self.progress,
-            )
-            .map(|(on, solution)| {
-                let outcome = StartOutcome {
-                    label: on.label,
-                    initial_cost: screened.initial_cost,
-                    final_cost: on.final_cost,
-                    iterations: screened.iterations + on.iterations,
-                    evaluations: screened.evaluations + on.evaluations,
-                    termination: on.termination,
-                    seconds: screened.seconds + on.seconds,
-                };
-                (outcome, solution)
-            });
-            let mut parts = self.lock();
-            let part = &mut parts[k];
-            part.runs[index] = Some(run);
-            self.release(scope, k, part);
-        });
-    }
-
     /// Releases part `k`'s other starts once its anchors have all finished well (against
-    /// their lowest cost; screened first if the fit screens), and its polish once every
-    /// start has; each once.
+    /// their lowest cost), and its polish once every start has; each once.
     fn release<'s>(&'s self, scope: &rayon::Scope<'s>, k: usize, part: &mut PartRuns) {
         let is_anchor = |i: &usize| self.setup.starts[*i].anchor;
         let anchor_costs: Option<Vec<f64>> = (0..part.runs.len())
@@ -431,16 +271,8 @@ impl<'a> Schedule<'a> {
         if let (false, Some(costs)) = (part.others_released, anchor_costs) {
             part.others_released = true;
             let best_anchor = costs.into_iter().fold(f64::INFINITY, f64::min);
-            part.best_anchor = best_anchor;
-            let others: Vec<usize> = (0..part.runs.len()).filter(|i| !is_anchor(i)).collect();
-            match self.screen(others.len()) {
-                // Screened since the start: the screen now knows the anchors' best.
-                Some(screen) => self.after_screen(scope, k, part, screen),
-                None => {
-                    for index in others {
-                        self.start(scope, k, index, best_anchor);
-                    }
-                }
+            for index in (0..part.runs.len()).filter(|i| !is_anchor(i)) {
+                self.start(scope, k, index, best_anchor);
             }
         }
         // `kept` is Some once every start has finished well.

@@ -171,9 +171,6 @@ pub enum Termination {
     MaxIterations,
     /// The cost stagnated above `abandon_above`.
     Abandoned,
-    /// A multi-start fit's screen left it behind: after the screen's iterations its cost
-    /// was not among the lowest of its part, so it was not run on to a minimum.
-    Screened,
 }
 
 impl Termination {
@@ -186,13 +183,7 @@ impl Termination {
             Termination::Stalled => "no step reduces the cost",
             Termination::MaxIterations => "iteration limit",
             Termination::Abandoned => "stagnated far above the best start",
-            Termination::Screened => "left behind by the screen",
         }
-    }
-
-    /// Whether the run ended at a minimum of its own (not given up on, not left behind).
-    pub const fn at_minimum(self) -> bool {
-        !matches!(self, Termination::Abandoned | Termination::Screened)
     }
 }
 
