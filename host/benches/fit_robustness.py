@@ -35,11 +35,15 @@ on `selection-pipeline` (3001-3012, as wide), after `report-wide` had been seen;
 figures come from `report-pipeline` (4001-4024, as wide), run once after it.
 `selection-starts` (5001-5012, as wide) weighs more rigid starts against the pipeline's
 losses (`--starts`, passed to supine's rigid fits). The litter-board fit's continued rigid
-search (`--explore-starts`) and its rule (the pairs within the rigid fit's noise) were
-chosen on `selection-starts`, `selection-pipeline` and `selection-explore` (6001-6024, as
-wide; first run as a report set, then used to choose); their figures come from
-`report-explore` (7001-7024, as wide), run once after. `report-confirm` (8001-8024) is
-still unseen.
+search (`--explore-starts`) was chosen on `selection-starts`, `selection-pipeline` and
+`selection-explore` (6001-6024, as wide; first run as a report set, then used to choose),
+and reported on `report-explore` (7001-7024, as wide). Its rule, the lowest litter-board
+cost over every rigid minimum found (not only those within the rigid fit's 95 %
+confidence region, `--within-region`), was chosen on the 44 of those selection datasets
+whose fits list every option (docs/model.md#the-pipeline-over-the-rigid-fits-minima);
+`report-confirm` (8001-8024) was then run with the region's rule, `report-minima`
+(9001-9024) with a screen of the rigid fit's starts since withdrawn, and `report-final`
+(10001-10024, as wide) once with the code as it is: BENCHMARKS.md's figures.
 
 SciPy's results depend only on the dataset and its tolerance, so each is kept in the
 dataset's folder (`scipy-*.json`, by its arguments and, for a stage fit, the joints file's
@@ -322,7 +326,7 @@ def summary(rows):
             for r in rows]
     spread(f"pipeline on both cases' data: m ln C_r + m ln C_l, supine's pair less SciPy's "
            f"({sum(v > 0 for v in both)} above 0)", both, lambda v: f"{v:+.1f}")
-    spread("pipeline: the kept pair's rigid rise / the rigid fit's noise budget",
+    spread("pipeline: the kept pair's rigid rise / the rigid fit's 95 % confidence region",
            [(r["rust_pair_rigid_cost"] - r["rust_rigid_cost"]) / r["rust_rigid_budget"]
             for r in rows], lambda v: f"{v:.2f}")
     for name, ours, theirs in (
