@@ -247,10 +247,13 @@ impl Exploration {
     pub fn markdown(&self) -> String {
         use std::fmt::Write as _;
         let mut s = format!(
-            "\nThe rigid fit's other minima were each given to the litter-board fit, part by part; of the pairs {}, the one kept (*) has the lowest litter-board cost. Its rigid cost {:.6} is {:.6} above the rigid fit's, {} the rigid fit's 95 % confidence region ({:.6}: 2 x rise / s^2 below chi-square(p, 95 %), p the parameters that move the cost).\n\n| part | rigid minimum from | rigid cost above the kept | litter-board cost of the part |\n|---|---|---|---|\n",
+            "\nThe rigid fit's other minima were each given to the litter-board fit, part by part; {}, the one kept (*) has the lowest litter-board cost. Its rigid cost {:.6} is {:.6} above the rigid fit's, {} the rigid fit's 95 % confidence region ({:.6}: 2 x rise / s^2 below chi-square(p, 95 %), p the parameters that move the cost).\n\n| part | rigid minimum from | rigid cost above the kept | litter-board cost of the part |\n|---|---|---|---|\n",
             match self.region {
-                Region::Any => "over every converged rigid minimum",
-                Region::Within => "within the rigid fit's 95 % confidence region (--within-region)",
+                Region::Any =>
+                    "of every pair of a converged rigid minimum and its litter-board fit",
+                Region::Within => {
+                    "of the pairs within the rigid fit's 95 % confidence region (--within-region)"
+                }
             },
             self.rigid_cost,
             self.rigid_cost_above_kept,
