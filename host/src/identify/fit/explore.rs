@@ -18,7 +18,7 @@
 use anyhow::{Result, bail};
 use supine_core::model::{ModelParams, Subject};
 
-use super::minima::RigidMinima;
+use super::minima::{self, RigidMinima};
 use super::objective::Target;
 use super::{FitResult, FitSettings, Progress, Setup, litter_setup, run};
 
@@ -247,7 +247,7 @@ impl Exploration {
     pub fn markdown(&self) -> String {
         use std::fmt::Write as _;
         let mut s = format!(
-            "\nThe rigid fit's other minima were each given to the litter-board fit, part by part; {}, the one kept (*) has the lowest litter-board cost. Its rigid cost {:.6} is {:.6} above the rigid fit's, {} the rigid fit's 95 % confidence region ({:.6}: 2 x rise / s^2 below chi-square(p, 95 %), p the parameters that move the cost).\n\n| part | rigid minimum from | rigid cost above the kept | litter-board cost of the part |\n|---|---|---|---|\n",
+            "\nThe rigid fit's other minima were each given to the litter-board fit, part by part; {}, the one kept (*) has the lowest litter-board cost. Its rigid cost {:.6} is {:.6} above the rigid fit's, {} the rigid fit's 95 % confidence region ({:.6}: {}).\n\n| part | rigid minimum from | rigid cost above the kept | litter-board cost of the part |\n|---|---|---|---|\n",
             match self.region {
                 Region::Any =>
                     "of every pair of a converged rigid minimum and its litter-board fit",
@@ -262,7 +262,8 @@ impl Exploration {
             } else {
                 "beyond"
             },
-            self.cost_budget
+            self.cost_budget,
+            minima::REGION_RULE
         );
         for o in &self.options {
             let mark = if o.kept { " *" } else { "" };

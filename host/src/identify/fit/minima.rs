@@ -17,12 +17,14 @@ use anyhow::{Result, anyhow};
 use statrs::distribution::{ChiSquared, ContinuousCDF as _};
 use supine_core::model::{ModelParams, ParamId};
 
-use super::solver::Termination;
 use super::uncertainty::parse_id;
-use super::{FitResult, Setup};
+use super::{FitResult, PartOutcome, Setup};
 
 /// Confidence of the region of minima the rigid data cannot tell apart.
 pub const CONFIDENCE: f64 = 0.95;
+/// The region's bound as the reports state it.
+pub const REGION_RULE: &str =
+    "2 x rise / s^2 below chi-square(p, 95 %), p the parameters that move the cost";
 /// The `[fit]` table's key of the stored minima.
 pub const FIT_KEY: &str = "rigid_minima";
 /// Most minima kept per part besides the kept one (the lowest): bounds the litter-board
@@ -57,6 +59,28 @@ pub struct RigidMinimum {
 }
 
 impl RigidMinimum {
+    /// The minimum `x` (ln p) that `start` reached on `part` of a fit over the unknowns
+    /// `free`, `cost_above_kept` above the kept one.
+    pub fn of_part(
+        part: &PartOutcome,
+        start: &str,
+        cost_above_kept: f64,
+        free: &[ParamId],
+        x: &[f64],
+    ) -> Self {
+        Self {
+            part: part.name.clone(),
+            start: start.to_string(),
+            cost_above_kept,
+            values: part
+                .free
+                .iter()
+                .zip(x)
+                .map(|(&j, t)| (free[j], t.exp()))
+                .collect(),
+        }
+    }
+
     /// `params` with this part's parameters replaced by this minimum's.
     pub fn apply(&self, params: &mut ModelParams) {
         for &(id, v) in &self.values {
@@ -133,22 +157,18 @@ impl RigidMinima {
                 let above = part.starts[i].final_cost - kept_cost;
                 let x = &part.minima[i];
                 let repeat = listed.iter().any(|y| same_minimum(x, y));
-                let abandoned = part.starts[i].termination == Termination::Abandoned;
+                let abandoned = !part.starts[i].termination.at_minimum();
                 if abandoned || repeat || of_part.len() == MOST_PER_PART {
                     continue;
                 }
                 listed.push(x);
-                of_part.push(RigidMinimum {
-                    part: part.name.clone(),
-                    start: setup.starts[i].label.clone(),
-                    cost_above_kept: above.max(0.0),
-                    values: part
-                        .free
-                        .iter()
-                        .zip(x)
-                        .map(|(&j, t)| (setup.objective.free[j], t.exp()))
-                        .collect(),
-                });
+                of_part.push(RigidMinimum::of_part(
+                    part,
+                    &setup.starts[i].label,
+                    above.max(0.0),
+                    &setup.objective.free,
+                    x,
+                ));
             }
             minima.extend(of_part);
         }

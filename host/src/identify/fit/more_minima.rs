@@ -15,7 +15,6 @@ use supine_core::model::{ModelParams, Subject};
 
 use super::minima::{MOST_EXPLORED_PER_PART, RigidMinima, RigidMinimum, same_minimum};
 use super::objective::Target;
-use super::solver::Termination;
 use super::{FitSettings, Progress, rigid_setup, run};
 
 /// Relative difference allowed between the rigid file's cost and its parameters' cost on
@@ -93,7 +92,7 @@ pub fn with_more_starts(
                 .collect();
         for (i, x) in part.minima.iter().enumerate() {
             let start = &setup.starts[i];
-            let converged = part.starts[i].termination != Termination::Abandoned;
+            let converged = part.starts[i].termination.at_minimum();
             if start.anchor || !converged || known.iter().any(|y| same_minimum(x, y)) {
                 continue;
             }
@@ -103,17 +102,13 @@ pub fn with_more_starts(
                 theta[j] = t;
             }
             let cost = objective.cost(&theta).map_err(|e| anyhow!("{e}"))?;
-            of_part.push(RigidMinimum {
-                part: part.name.clone(),
-                start: start.label.clone(),
-                cost_above_kept: cost - kept_cost,
-                values: part
-                    .free
-                    .iter()
-                    .zip(x)
-                    .map(|(&j, t)| (objective.free[j], t.exp()))
-                    .collect(),
-            });
+            of_part.push(RigidMinimum::of_part(
+                part,
+                &start.label,
+                cost - kept_cost,
+                &objective.free,
+                x,
+            ));
         }
         of_part.sort_by(|a, b| a.cost_above_kept.total_cmp(&b.cost_above_kept));
         of_part.truncate(MOST_EXPLORED_PER_PART);

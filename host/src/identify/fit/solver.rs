@@ -185,6 +185,11 @@ impl Termination {
             Termination::Abandoned => "stagnated far above the best start",
         }
     }
+
+    /// Whether the run ended at a minimum of its own (not given up on far above another).
+    pub const fn at_minimum(self) -> bool {
+        !matches!(self, Termination::Abandoned)
+    }
 }
 
 /// The solver's result.

@@ -236,9 +236,10 @@ impl DatasetFit {
                 .filter(|x| x.cost_above_kept <= m.cost_budget)
                 .count();
             s.push_str(&format!(
-                "\n{} other converged minima of the parts are kept in [fit.rigid_minima] for the litter-board fit to explore, {within} of them within this fit's 95 % confidence region (rigid cost at most {:.6} above it: 2 x rise / s^2 below chi-square(p, 95 %), p the parameters that move the cost).\n",
+                "\n{} other converged minima of the parts are kept in [fit.rigid_minima] for the litter-board fit to explore, {within} of them within this fit's 95 % confidence region (rigid cost at most {:.6} above it: {}).\n",
                 m.minima.len(),
-                m.cost_budget
+                m.cost_budget,
+                minima::REGION_RULE
             ));
         }
         if let Some(e) = &self.exploration {
