@@ -155,10 +155,11 @@ pub fn run(args: &Args) -> Result<()> {
     let bar = progress_spinner();
     // Starts run in parallel: the message shows whichever reported last.
     let fitted = workflow::fit_dataset(&request, &|start, iteration, cost| {
-        bar.set_message(format!(
-            "start {}/{total}, iteration {iteration}, cost {cost:.6}",
-            start + 1
-        ));
+        let run = match start < total {
+            true => format!("start {}/{total}", start + 1),
+            false => format!("probe {}", start - total + 1),
+        };
+        bar.set_message(format!("{run}, iteration {iteration}, cost {cost:.6}"));
         bar.tick();
     });
     bar.finish_and_clear();

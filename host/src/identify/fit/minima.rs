@@ -164,7 +164,7 @@ impl RigidMinima {
                 listed.push(x);
                 of_part.push(RigidMinimum::of_part(
                     part,
-                    &setup.starts[i].label,
+                    &part.starts[i].label,
                     above.max(0.0),
                     &setup.objective.free,
                     x,

@@ -27,6 +27,13 @@
 //!   (part, start) runs are spread over `threads` threads, each released as soon as its
 //!   own part allows (`multistart`'s `Schedule`); a run's path never depends on another's
 //!   timing.
+//! - Probes (rigid case): from each part's lowest minimum over the starts, one more run
+//!   per joint stiffness of the part, that stiffness moved to its lower bound (the spring
+//!   taken out); the part keeps the lowest minimum of its starts and probes. Why: the
+//!   rigid problem has basins where a joint's spring is all but absent, which random
+//!   starts in ln p seldom reach (they would have to walk some ten e-folds down a flat
+//!   valley), and which can be far lower (docs/model.md#probes-at-the-bounds). Each probe
+//!   runs against its part's lowest cost, as the other starts against the anchors'.
 //! - Polish: each part's kept minimum is refined with Marquardt's damping and tolerances
 //!   10^4 times tighter ([`polish_settings`]): along the weakly determined directions the
 //!   cost keeps falling slowly long after a step's relative reduction is below ftol.
@@ -196,6 +203,9 @@ pub struct Setup {
     pub upper: Vec<f64>,
     /// The starting points.
     pub starts: Vec<Start>,
+    /// The unknowns whose lower bound is probed from each part's lowest minimum over the
+    /// starts (indices into `objective.free`; see the module documentation).
+    pub probes: Vec<usize>,
 }
 
 fn normal(sd: f64) -> Result<Normal<f64>> {
@@ -234,12 +244,16 @@ pub fn rigid_setup(target: Target, subject: Subject, settings: &FitSettings) -> 
     }
     starts.truncate(settings.starts.max(1));
     clamp_starts(&mut starts, &lower, &upper);
+    let probes = (0..free.len())
+        .filter(|&j| free[j].is_stiffness() && !free[j].is_contact())
+        .collect();
     Ok(Setup {
         case: Case::Rigid,
         objective: Objective::new(base, free, target),
         lower,
         upper,
         starts,
+        probes,
     })
 }
 
@@ -299,6 +313,7 @@ pub fn litter_setup(
         lower,
         upper,
         starts,
+        probes: Vec::new(),
     })
 }
 

@@ -56,6 +56,8 @@ pub fn with_more_starts(
         ..*settings
     };
     let mut setup = rigid_setup(target, subject, &search)?;
+    // The search is for its starts' minima; the rigid fit's probes ran with it.
+    setup.probes.clear();
     let rigid_starts = more.rigid_starts;
     let mut index = 0;
     setup.starts.retain(|s| {

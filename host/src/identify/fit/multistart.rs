@@ -1,6 +1,7 @@
 //! Running the solver on every part of a [`Setup`] from every start, spread over threads
-//! (each part's anchors, then its other starts against its best anchor cost), each part's
-//! lowest minimum kept and polished, the parts joined. See the `fit` module for why.
+//! (each part's anchors, then its other starts against its best anchor cost, then its
+//! probes from the lowest of those), each part's lowest minimum kept and polished, the
+//! parts joined. See the `fit` module for why.
 
 use anyhow::{Result, anyhow, bail};
 use nalgebra::DMatrix;
@@ -11,6 +12,10 @@ use crate::parallel::on_pool;
 
 use super::solver::{self, DampingScale, Solution, SolverSettings, Termination};
 use super::{FitSettings, Setup};
+
+/// The damping of the probes' runs: Marquardt's, as the probes start far along one axis
+/// of ln p and Marquardt's scaling of the step is invariant to the parameters' scales.
+const PROBE_DAMPING: DampingScale = DampingScale::Marquardt;
 
 /// How much tighter the polish's ftol, xtol and gtol are than the fit's.
 pub const POLISH_TIGHTENING: f64 = 1e-4;
@@ -57,12 +62,13 @@ pub struct PartOutcome {
     pub params: usize,
     /// Its free parameters: indices into the fit's unknowns.
     pub free: Vec<usize>,
-    /// Every start on this part, in the starts' order.
+    /// Every start on this part, in the starts' order, then its probes (their labels
+    /// name the parameter moved to its bound).
     pub starts: Vec<StartOutcome>,
-    /// Every start's minimum of this part (ln p of `free`), in the starts' order: the
-    /// other minima the litter-board fit may explore ([`super::minima`]).
+    /// Every start's and probe's minimum of this part (ln p of `free`), in the same order:
+    /// the other minima the litter-board fit may explore ([`super::minima`]).
     pub minima: Vec<Vec<f64>>,
-    /// Index of the start whose minimum of this part was kept.
+    /// Index (in `starts`) of the start or probe whose minimum of this part was kept.
     pub best: usize,
     /// The polish of that minimum, if any.
     pub polish: Option<StartOutcome>,
@@ -94,29 +100,41 @@ pub struct FitResult {
 /// that runs the start.
 pub type Progress<'a> = &'a (dyn Fn(usize, usize, f64) + Sync);
 
-/// Solves part `part` from start `index` with `solver_settings`.
+/// Where one run of a part begins.
+struct RunStart {
+    /// Its label in the report.
+    label: String,
+    /// The part's parameters (ln p) it starts from.
+    x0: Vec<f64>,
+    /// The index its progress is reported under: the start's, or past the starts for a
+    /// probe.
+    progress_index: usize,
+}
+
+/// Solves `problem` (a part of `setup`) from `from` with `solver_settings`.
 fn solve_from(
     setup: &Setup,
     problem: &PartProblem,
-    index: usize,
+    from: &RunStart,
     solver_settings: &SolverSettings,
     progress: Progress,
 ) -> Result<(StartOutcome, Solution)> {
-    let start = &setup.starts[index];
-    let x0 = problem.restrict(&start.theta);
     let started = std::time::Instant::now();
     let solution = solver::solve(
         problem,
-        &x0,
+        &from.x0,
         &problem.restrict(&setup.lower),
         &problem.restrict(&setup.upper),
         solver_settings,
-        &mut |iteration, cost| progress(index, iteration, cost),
+        &mut |iteration, cost| progress(from.progress_index, iteration, cost),
     )
-    .map_err(|e| anyhow!("start {}: {e}", start.label))?;
+    .map_err(|e| match from.progress_index < setup.starts.len() {
+        true => anyhow!("start {}: {e}", from.label),
+        false => anyhow!("{}: {e}", from.label),
+    })?;
     let initial_cost = solution.initial_cost;
     let outcome = StartOutcome {
-        label: start.label.clone(),
+        label: from.label.clone(),
         initial_cost,
         final_cost: solution.cost,
         iterations: solution.iterations,
@@ -145,27 +163,78 @@ fn take_error(run: &mut Option<RunResult>) -> Option<anyhow::Error> {
 struct PartRuns {
     /// Per start (in the starts' order): its run, once finished.
     runs: Vec<Option<RunResult>>,
+    /// Per probe, once released: its run, once finished.
+    probes: Vec<Option<RunResult>>,
     /// Whether the other starts were released.
     others_released: bool,
+    /// Whether the probes were released.
+    probes_released: bool,
     /// Whether the polish was released.
     polish_released: bool,
     /// The polish of the part's kept minimum, once finished.
     polished: Option<RunResult>,
 }
 
-impl PartRuns {
-    /// The start whose minimum the part keeps: the lowest cost, the first start on a tie.
-    /// None unless every run has finished without error.
-    fn kept(&self) -> Option<(usize, &Solution)> {
-        let mut kept: Option<(usize, &Solution)> = None;
-        for (index, run) in self.runs.iter().enumerate() {
-            let (_, solution) = run.as_ref()?.as_ref().ok()?;
-            if kept.is_none_or(|(_, b)| solution.cost < b.cost) {
-                kept = Some((index, solution));
-            }
+/// The lowest of `runs` (its index, outcome and solution, the first on a tie); None
+/// unless every run has finished without error.
+fn lowest<'r>(
+    runs: impl Iterator<Item = &'r Option<RunResult>>,
+) -> Option<(usize, &'r StartOutcome, &'r Solution)> {
+    let mut kept: Option<(usize, &StartOutcome, &Solution)> = None;
+    for (index, run) in runs.enumerate() {
+        let (outcome, solution) = run.as_ref()?.as_ref().ok()?;
+        if kept.is_none_or(|(_, _, b)| solution.cost < b.cost) {
+            kept = Some((index, outcome, solution));
         }
-        kept
     }
+    kept
+}
+
+impl PartRuns {
+    /// The start whose minimum the probes start from: the lowest cost over the starts.
+    /// None unless every start has finished without error.
+    fn best_start(&self) -> Option<(usize, &StartOutcome, &Solution)> {
+        lowest(self.runs.iter())
+    }
+
+    /// The minimum the part keeps: the lowest over its starts and then its probes (an
+    /// index past the starts is a probe's). None unless every one has finished without
+    /// error.
+    fn kept(&self) -> Option<(usize, &StartOutcome, &Solution)> {
+        if !self.probes_released {
+            return None;
+        }
+        lowest(self.runs.iter().chain(&self.probes))
+    }
+
+    /// Every run in the order of [`PartOutcome::starts`]: the starts', then the probes'.
+    fn all_mut(&mut self) -> impl Iterator<Item = &mut Option<RunResult>> {
+        self.runs.iter_mut().chain(&mut self.probes)
+    }
+}
+
+/// The probes of a part from its best start's minimum `x` (ln p of the part's
+/// parameters): per unknown of [`Setup::probes`] in the part and not already at its lower
+/// bound, where the run begins (`x` with that unknown at its lower bound), labelled.
+fn probe_starts(setup: &Setup, problem: &PartProblem, x: &[f64]) -> Vec<RunStart> {
+    let mut probes = Vec::new();
+    for &unknown in &setup.probes {
+        let Some(position) = problem.position(unknown) else {
+            continue;
+        };
+        let bound = setup.lower[unknown];
+        if x[position] <= bound {
+            continue;
+        }
+        let mut x0 = x.to_vec();
+        x0[position] = bound;
+        probes.push(RunStart {
+            label: format!("probe: {} at its lower bound", setup.objective.free[unknown]),
+            x0,
+            progress_index: setup.starts.len() + probes.len(),
+        });
+    }
+    probes
 }
 
 /// Every part's runs, scheduled by what each needs rather than in rounds: a part's other
@@ -194,7 +263,9 @@ impl<'a> Schedule<'a> {
             .iter()
             .map(|_| PartRuns {
                 runs: (0..setup.starts.len()).map(|_| None).collect(),
+                probes: Vec::new(),
                 others_released: false,
+                probes_released: false,
                 polish_released: false,
                 polished: None,
             })
@@ -237,28 +308,52 @@ impl<'a> Schedule<'a> {
     /// Solves part `k` from start `index` on the pool, abandoned when it stagnates far
     /// above `best_elsewhere`; then releases what its end allows.
     fn start<'s>(&'s self, scope: &rayon::Scope<'s>, k: usize, index: usize, best_elsewhere: f64) {
+        let start = &self.setup.starts[index];
+        let from = RunStart {
+            label: start.label.clone(),
+            x0: self.problems[k].restrict(&start.theta),
+            progress_index: index,
+        };
+        self.spawn(scope, k, from, start.damping, best_elsewhere, move |part, run| {
+            part.runs[index] = Some(run);
+        });
+    }
+
+    /// Solves part `k` from `from` with `damping` on the pool, abandoned when it
+    /// stagnates far above `best_elsewhere`; stores the run with `store`, then releases
+    /// what its end allows.
+    fn spawn<'s>(
+        &'s self,
+        scope: &rayon::Scope<'s>,
+        k: usize,
+        from: RunStart,
+        damping: DampingScale,
+        best_elsewhere: f64,
+        store: impl FnOnce(&mut PartRuns, RunResult) + Send + 's,
+    ) {
         scope.spawn(move |scope| {
             let solver_settings = SolverSettings {
-                damping: self.setup.starts[index].damping,
+                damping,
                 best_elsewhere: self.settings.solver.best_elsewhere.min(best_elsewhere),
                 ..self.settings.solver
             };
             let run = solve_from(
                 self.setup,
                 &self.problems[k],
-                index,
+                &from,
                 &solver_settings,
                 self.progress,
             );
             let mut parts = self.lock();
             let part = &mut parts[k];
-            part.runs[index] = Some(run);
+            store(part, run);
             self.release(scope, k, part);
         });
     }
 
     /// Releases part `k`'s other starts once its anchors have all finished well (against
-    /// their lowest cost), and its polish once every start has; each once.
+    /// their lowest cost), its probes once every start has (against the starts' lowest
+    /// cost), and its polish once every probe has; each once.
     fn release<'s>(&'s self, scope: &rayon::Scope<'s>, k: usize, part: &mut PartRuns) {
         let is_anchor = |i: &usize| self.setup.starts[*i].anchor;
         let anchor_costs: Option<Vec<f64>> = (0..part.runs.len())
@@ -275,17 +370,33 @@ impl<'a> Schedule<'a> {
                 self.start(scope, k, index, best_anchor);
             }
         }
-        // `kept` is Some once every start has finished well.
+        // `best_start` is Some once every start has finished well.
+        if !part.probes_released {
+            let best = part.best_start().map(|(_, _, best)| {
+                let probes = probe_starts(self.setup, &self.problems[k], &best.x);
+                (probes, best.cost)
+            });
+            if let Some((probes, best_cost)) = best {
+                part.probes_released = true;
+                part.probes = probes.iter().map(|_| None).collect();
+                for (p, from) in probes.into_iter().enumerate() {
+                    self.spawn(scope, k, from, PROBE_DAMPING, best_cost, move |part, run| {
+                        part.probes[p] = Some(run);
+                    });
+                }
+            }
+        }
+        // `kept` is Some once every start and probe has finished well.
         if !part.polish_released && self.settings.polish {
-            if let Some((index, solution)) = part.kept().map(|(i, s)| (i, s.clone())) {
+            let kept = part.kept().map(|(_, o, s)| (o.label.clone(), s.clone()));
+            if let Some((label, solution)) = kept {
                 part.polish_released = true;
-                let label = &self.setup.starts[index].label;
                 scope.spawn(move |_| {
                     let polished = polish(
                         self.setup,
                         self.settings,
                         &self.problems[k],
-                        label,
+                        &label,
                         solution,
                     );
                     self.lock()[k].polished = Some(polished);
@@ -402,6 +513,13 @@ pub fn run(setup: &Setup, settings: &FitSettings, progress: Progress) -> Result<
         }
     }
     for part in &mut runs {
+        for probe in &mut part.probes {
+            if let Some(e) = take_error(probe) {
+                return Err(e);
+            }
+        }
+    }
+    for part in &mut runs {
         if let Some(e) = take_error(&mut part.polished) {
             return Err(e);
         }
@@ -415,11 +533,11 @@ pub fn run(setup: &Setup, settings: &FitSettings, progress: Progress) -> Result<
     for (k, part) in runs.iter_mut().enumerate() {
         let (index, solution) = part
             .kept()
-            .map(|(index, solution)| (index, solution.clone()))
-            .ok_or_else(|| anyhow!("part {}: a start did not finish", parts[k].name))?;
+            .map(|(index, _, solution)| (index, solution.clone()))
+            .ok_or_else(|| anyhow!("part {}: a start or probe did not finish", parts[k].name))?;
         kept.push((index, solution));
         polished.push(part.polished.take().and_then(Result::ok));
-        for run in &mut part.runs {
+        for run in part.all_mut() {
             if let Some(Ok((outcome, solution))) = run.take() {
                 outcomes[k].push(outcome);
                 minima[k].push(solution.x);

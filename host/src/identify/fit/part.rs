@@ -32,6 +32,11 @@ impl<'a> PartProblem<'a> {
         self.part.params.iter().map(|&p| full[p]).collect()
     }
 
+    /// The position of unknown `unknown` among the part's parameters, if it is one of them.
+    pub fn position(&self, unknown: usize) -> Option<usize> {
+        self.part.params.iter().position(|&p| p == unknown)
+    }
+
     /// Writes the part's entries `x` into the full vector `full`.
     pub fn scatter(&self, x: &[f64], full: &mut [f64]) {
         for (&p, &v) in self.part.params.iter().zip(x) {

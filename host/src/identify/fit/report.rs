@@ -82,7 +82,7 @@ pub fn summary(
     }
     let _ = writeln!(
         s,
-        "\nEach part (a subsystem: its parameters move only its own components) is solved on its own from every start, and each part keeps its lowest minimum (*). Final cost of each part (iterations):\n"
+        "\nEach part (a subsystem: its parameters move only its own components) is solved on its own from every start, then from its lowest minimum with each of its joint stiffnesses at its lower bound in turn (the probes), and each part keeps its lowest minimum (*). Final cost of each part (iterations):\n"
     );
     let mut header = String::from("| start |");
     for part in &result.parts {
@@ -97,6 +97,21 @@ pub fn summary(
             let _ = write!(row, " {:.6}{mark} ({}) |", o.final_cost, o.iterations);
         }
         let _ = writeln!(s, "{row}");
+    }
+    // The probes: each moves one part's parameter, so it has a cost on that part only.
+    for (k, part) in result.parts.iter().enumerate() {
+        for (i, o) in part.starts.iter().enumerate().skip(result.starts.len()) {
+            let mut row = format!("| {} |", o.label);
+            for other in 0..result.parts.len() {
+                if other == k {
+                    let mark = if part.best == i { "*" } else { "" };
+                    let _ = write!(row, " {:.6}{mark} ({}) |", o.final_cost, o.iterations);
+                } else {
+                    row.push_str(" - |");
+                }
+            }
+            let _ = writeln!(s, "{row}");
+        }
     }
     if result.parts.iter().any(|p| p.polish.is_some()) {
         let mut row = String::from("| polish |");
