@@ -90,7 +90,8 @@ SETS = {"selection": (1001, 12, NARROW), "report": (2001, 24, NARROW),
         "selection-starts": (5001, 12, WIDE), "selection-explore": (6001, 24, WIDE),
         "report-explore": (7001, 24, WIDE), "report-confirm": (8001, 24, WIDE),
         "report-minima": (9001, 24, WIDE), "report-final": (10001, 24, WIDE),
-        "report-probes": (11001, 24, WIDE), "report-probes-2": (12001, 24, WIDE)}
+        "report-probes": (11001, 24, WIDE), "report-probes-2": (12001, 24, WIDE),
+        "report-probes-final": (13001, 24, WIDE), "report-probes-final-2": (14001, 24, WIDE)}
 # Costs this close (relative) are the same minimum up to the rounding of the sum of 3,792
 # squares: counted as equal, not as above.
 SAME_MINIMUM = 1e-12

@@ -453,3 +453,74 @@ fn a_fit_writes_the_report_and_the_parameter_file_together() {
     assert!(report.join("components.svg").is_file());
     assert!(report.join("summary.md").is_file());
 }
+
+/// A model whose head-torso vertical spring is absent (at its lower bound, 1 N/m), fitted
+/// from a start with that spring at its upper bound: the start's run ends in another
+/// minimum, and the probe that takes the spring out (docs/model.md#probes-at-the-bounds)
+/// finds the truth; without the probes the fit stays in the start's minimum.
+#[test]
+fn a_probe_finds_the_minimum_where_a_joint_spring_is_absent() {
+    let spring = ParamId::ALL
+        .into_iter()
+        .find(|id| id.to_string() == "joints.head_torso.translational.stiffness_n_per_m.z")
+        .unwrap();
+    let mut truth = truth();
+    truth.set(spring, fit::STIFFNESS_BOUNDS.0);
+    // No polish: the probes alone are tested.
+    let settings = FitSettings {
+        starts: 1,
+        polish: false,
+        ..FitSettings::default()
+    };
+    let mut setup = fit::rigid_setup(exact_target(&truth), truth.subject, &settings).unwrap();
+    let mut start = truth;
+    start.set(spring, fit::STIFFNESS_BOUNDS.1);
+    setup.starts = vec![fit::Start::new(
+        "spring at its upper bound",
+        setup.objective.theta(&start),
+        DampingScale::Levenberg,
+    )];
+    let with_probes = fit::run(&setup, &settings, &|_, _, _| {}).unwrap();
+    let mut without = setup.clone();
+    without.probes.clear();
+    let without_probes = fit::run(&without, &settings, &|_, _, _| {}).unwrap();
+    assert!(
+        without_probes.solution.cost > 1.0,
+        "the start's own run reached the truth: {}",
+        without_probes.solution.cost
+    );
+    assert!(
+        with_probes.solution.cost < 1e-10,
+        "cost {}",
+        with_probes.solution.cost
+    );
+    // The vertical part keeps a probe's minimum; every probe of it starts from the start's
+    // minimum with one joint stiffness of the part at its lower bound.
+    let vertical = with_probes
+        .parts
+        .iter()
+        .find(|p| p.name == "vertical")
+        .unwrap();
+    assert!(vertical.best >= setup.starts.len(), "{:?}", vertical.starts);
+    let probed: Vec<&str> = vertical.starts[setup.starts.len()..]
+        .iter()
+        .map(|o| o.label.as_str())
+        .collect();
+    for label in &probed {
+        assert!(
+            label.starts_with("probe: joints.") && label.contains(".stiffness_n"),
+            "{label}"
+        );
+    }
+    assert!(probed.contains(
+        &"probe: joints.head_torso.translational.stiffness_n_per_m.z at its lower bound"
+    ));
+    assert!(
+        vertical.starts[vertical.best].final_cost
+            <= vertical
+                .starts
+                .iter()
+                .map(|o| o.final_cost)
+                .fold(f64::INFINITY, f64::min)
+    );
+}

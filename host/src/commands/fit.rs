@@ -9,7 +9,7 @@ use crate::commands::values;
 use crate::identify::fit::explore::Region;
 use crate::identify::fit::solver::{DEFAULT_TOLERANCE, SolverSettings};
 use crate::identify::fit::workflow::{self, FitRequest};
-use crate::identify::fit::{Determination, FitSettings};
+use crate::identify::fit::{self, Determination, FitSettings};
 use crate::identify::identify_records::FitSummary;
 use crate::identify::spectral::DEFAULT_RESOLUTION_HZ;
 use crate::io::dataset::Case;
@@ -34,10 +34,11 @@ pub struct Args {
     /// Seed of the random starts.
     #[arg(long, default_value_t = values::DEFAULT_SEED)]
     pub seed: u64,
-    /// Number of starts (rigid: the paper's values with either damping, then random ones;
-    /// litter board: the rigid fit's contacts, the paper's values, then random ones).
-    #[arg(long, default_value_t = FitSettings::default().starts)]
-    pub starts: usize,
+    /// Number of starts (rigid: the paper's values with either damping, then random ones,
+    /// default 4; litter board: the rigid fit's contacts, the paper's values, then random
+    /// ones, default 5).
+    #[arg(long)]
+    pub starts: Option<usize>,
     /// Threads the starts run on (0: one per core). The result does not depend on it.
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
@@ -120,7 +121,7 @@ fn request(args: &Args) -> Result<FitRequest> {
         exclude: values::comma_list("--exclude", &args.exclude)?,
         resolution_hz: args.resolution_hz,
         settings: FitSettings {
-            starts: args.starts,
+            starts: args.starts.unwrap_or(fit::default_starts(args.case)),
             seed: args.seed,
             solver: SolverSettings {
                 ftol: args.ftol,

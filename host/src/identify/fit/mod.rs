@@ -122,10 +122,27 @@ pub struct FitSettings {
     pub polish: bool,
 }
 
+/// The rigid fit's starts by default: the paper's values with either damping and two
+/// random ones, then the probes (docs/model.md#probes-at-the-bounds: with the probes,
+/// four starts cost what five did without them).
+pub const RIGID_STARTS: usize = 4;
+
+/// The litter-board fit's starts by default: the rigid fit's contacts, the paper's
+/// litter-board contacts with either damping, and two random ones.
+pub const LITTER_STARTS: usize = 5;
+
+/// The default number of starts of `case`.
+pub const fn default_starts(case: Case) -> usize {
+    match case {
+        Case::Rigid => RIGID_STARTS,
+        Case::Litter => LITTER_STARTS,
+    }
+}
+
 impl Default for FitSettings {
     fn default() -> Self {
         Self {
-            starts: 5,
+            starts: LITTER_STARTS,
             seed: 1,
             solver: SolverSettings::default(),
             threads: 0,
