@@ -43,7 +43,13 @@ confidence region, `--within-region`), was chosen on the 44 of those selection d
 whose fits list every option (docs/model.md#the-pipeline-over-the-rigid-fits-minima);
 `report-confirm` (8001-8024) was then run with the region's rule, `report-minima`
 (9001-9024) with a screen of the rigid fit's starts since withdrawn, and `report-final`
-(10001-10024, as wide) once with the code as it is: BENCHMARKS.md's figures.
+(10001-10024, as wide) once with the code of that time. The rigid fit's probes at the
+bounds and its four starts were chosen on the same selection datasets
+(docs/model.md#probes-at-the-bounds); `report-probes` and `report-probes-2` (11001-12024,
+as wide) were then run with five starts and the probes (12022 ended above SciPy, and the
+speed-up fell to 47x, which is why four starts), and `report-probes-final` and
+`report-probes-final-2` (13001-14024, as wide) once with the code as it is:
+BENCHMARKS.md's figures.
 
 SciPy's results depend only on the dataset and its tolerance, so each is kept in the
 dataset's folder (`scipy-*.json`, by its arguments and, for a stage fit, the joints file's

@@ -128,9 +128,12 @@ fn solve_from(
         solver_settings,
         &mut |iteration, cost| progress(from.progress_index, iteration, cost),
     )
-    .map_err(|e| match from.progress_index < setup.starts.len() {
-        true => anyhow!("start {}: {e}", from.label),
-        false => anyhow!("{}: {e}", from.label),
+    .map_err(|e| {
+        if from.progress_index < setup.starts.len() {
+            anyhow!("start {}: {e}", from.label)
+        } else {
+            anyhow!("{}: {e}", from.label)
+        }
     })?;
     let initial_cost = solution.initial_cost;
     let outcome = StartOutcome {
@@ -229,7 +232,10 @@ fn probe_starts(setup: &Setup, problem: &PartProblem, x: &[f64]) -> Vec<RunStart
         let mut x0 = x.to_vec();
         x0[position] = bound;
         probes.push(RunStart {
-            label: format!("probe: {} at its lower bound", setup.objective.free[unknown]),
+            label: format!(
+                "probe: {} at its lower bound",
+                setup.objective.free[unknown]
+            ),
             x0,
             progress_index: setup.starts.len() + probes.len(),
         });
@@ -239,8 +245,9 @@ fn probe_starts(setup: &Setup, problem: &PartProblem, x: &[f64]) -> Vec<RunStart
 
 /// Every part's runs, scheduled by what each needs rather than in rounds: a part's other
 /// starts are released as soon as its own anchors have finished (they run against the
-/// anchors' best cost, [`SolverSettings::best_elsewhere`]), and its polish as soon as all
-/// its starts have, so no thread waits for another part. Every run's inputs are fixed
+/// anchors' best cost, [`SolverSettings::best_elsewhere`]), its probes as soon as all its
+/// starts have (against their best cost), and its polish as soon as all its probes have,
+/// so no thread waits for another part. Every run's inputs are fixed
 /// before it is released, so the results never depend on the threads' timing. A failed
 /// run releases nothing that needs it; the others still run, so which runs fail does not
 /// depend on the timing either.
@@ -314,9 +321,16 @@ impl<'a> Schedule<'a> {
             x0: self.problems[k].restrict(&start.theta),
             progress_index: index,
         };
-        self.spawn(scope, k, from, start.damping, best_elsewhere, move |part, run| {
-            part.runs[index] = Some(run);
-        });
+        self.spawn(
+            scope,
+            k,
+            from,
+            start.damping,
+            best_elsewhere,
+            move |part, run| {
+                part.runs[index] = Some(run);
+            },
+        );
     }
 
     /// Solves part `k` from `from` with `damping` on the pool, abandoned when it
@@ -380,9 +394,16 @@ impl<'a> Schedule<'a> {
                 part.probes_released = true;
                 part.probes = probes.iter().map(|_| None).collect();
                 for (p, from) in probes.into_iter().enumerate() {
-                    self.spawn(scope, k, from, PROBE_DAMPING, best_cost, move |part, run| {
-                        part.probes[p] = Some(run);
-                    });
+                    self.spawn(
+                        scope,
+                        k,
+                        from,
+                        PROBE_DAMPING,
+                        best_cost,
+                        move |part, run| {
+                            part.probes[p] = Some(run);
+                        },
+                    );
                 }
             }
         }
