@@ -460,10 +460,7 @@ fn a_fit_writes_the_report_and_the_parameter_file_together() {
 /// finds the truth; without the probes the fit stays in the start's minimum.
 #[test]
 fn a_probe_finds_the_minimum_where_a_joint_spring_is_absent() {
-    let spring = ParamId::ALL
-        .into_iter()
-        .find(|id| id.to_string() == "joints.head_torso.translational.stiffness_n_per_m.z")
-        .unwrap();
+    let spring = crate::common::param("joints.head_torso.translational.stiffness_n_per_m.z");
     let mut truth = truth();
     truth.set(spring, fit::STIFFNESS_BOUNDS.0);
     // No polish: the probes alone are tested.

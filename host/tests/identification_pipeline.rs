@@ -118,10 +118,7 @@ fn litter_cost(target: &Target, subject: Subject, rigid: &ModelParams, s: &FitSe
 /// better pair.
 #[test]
 fn of_two_rigid_minima_of_near_equal_cost_the_pipeline_keeps_the_better_litter_board_fit() {
-    let id = ParamId::ALL
-        .into_iter()
-        .find(|p| p.to_string() == "contacts.pelvis.damping_n_s_per_m.z")
-        .unwrap();
+    let id = crate::common::param("contacts.pelvis.damping_n_s_per_m.z");
     let (rigid_t, litter_t, subject) = targets_with(1, |p| p.set(id, 30.0));
     let settings = FitSettings::default();
     let setup = fit::rigid_setup(rigid_t, subject, &settings).unwrap();

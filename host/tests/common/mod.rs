@@ -41,6 +41,14 @@ pub fn report_json(mission: MissionArgs, out: &Path) -> Value {
     serde_json::from_slice(&text).unwrap()
 }
 
+/// The parameter whose file key is `key` (e.g. `contacts.pelvis.damping_n_s_per_m.z`).
+pub fn param(key: &str) -> ParamId {
+    ParamId::ALL
+        .into_iter()
+        .find(|p| p.to_string() == key)
+        .unwrap_or_else(|| panic!("no parameter {key}"))
+}
+
 /// A truth away from the paper's values: every parameter the paper's rigid value times a
 /// factor in 0.88..1.12, so that starting a fit at the paper's values is not starting at
 /// the answer.
