@@ -156,9 +156,10 @@ pub fn run(args: &Args) -> Result<()> {
     let bar = progress_spinner();
     // Starts run in parallel: the message shows whichever reported last.
     let fitted = workflow::fit_dataset(&request, &|start, iteration, cost| {
-        let run = match start < total {
-            true => format!("start {}/{total}", start + 1),
-            false => format!("probe {}", start - total + 1),
+        let run = if start < total {
+            format!("start {}/{total}", start + 1)
+        } else {
+            format!("probe {}", start - total + 1)
         };
         bar.set_message(format!("{run}, iteration {iteration}, cost {cost:.6}"));
         bar.tick();

@@ -80,9 +80,14 @@ pub fn summary(
             p.termination.describe()
         );
     }
+    let probes = if setup.probes.is_empty() {
+        ""
+    } else {
+        ", then from its lowest minimum with each of its joint stiffnesses at its lower bound in turn (the probes)"
+    };
     let _ = writeln!(
         s,
-        "\nEach part (a subsystem: its parameters move only its own components) is solved on its own from every start, then from its lowest minimum with each of its joint stiffnesses at its lower bound in turn (the probes), and each part keeps its lowest minimum (*). Final cost of each part (iterations):\n"
+        "\nEach part (a subsystem: its parameters move only its own components) is solved on its own from every start{probes}, and each part keeps its lowest minimum (*). Final cost of each part (iterations):\n"
     );
     let mut header = String::from("| start |");
     for part in &result.parts {
